@@ -1,0 +1,30 @@
+"""pythonfmu slave of a hacgear spur pair (FMI 2.0 co-simulation).
+
+Thin on purpose: all behaviour (variables, checks, stepping the compiled kernel) is in the installed
+package, :class:`hacgear_core.fmu.HacgearSlave` with :class:`hacgear_core.fmu.SpurPairAdapter`.
+``build_fmu.py`` copies this file into each FMU under the unique module name ``hacgear_<system>``.
+Idler chains, planetary sets and helical pairs add a file like this one naming their ``KIND``.
+"""
+import json
+import os
+
+from pythonfmu import Fmi2Slave  # noqa: F401  (pythonfmu's class finder needs it in this module)
+
+try:
+    from hacgear_core.fmu import HacgearSlave
+except ImportError as _exc:  # the importer's Python lacks hacgear: say what to install
+    _here = os.path.dirname(os.path.abspath(__file__))
+    try:
+        with open(os.path.join(_here, "hacgear_fmu.json"), encoding="utf-8") as _f:
+            _req = json.load(_f).get("requirements", {})
+    except (OSError, ValueError):
+        _req = {"hacgear": ""}
+    raise ImportError(
+        "this hacgear FMU runs its model in the importer's Python and needs the packages "
+        + ", ".join(f"{k}{v}" for k, v in _req.items()) + f" ({_exc})") from _exc
+
+
+class SpurPairSlave(HacgearSlave):
+    """Spur pair: constant-speed experiment (mode 0) or drivetrain coupling (mode 1)."""
+
+    KIND = "spur_pair"

@@ -36,8 +36,9 @@ __all__ = [
 
 @dataclass(frozen=True)
 class SyntheticMeshTable:
-    """Same attribute names as ``hacgear_core.tables.MeshTable`` (tables contract); used when that
-    module is not available.  ``synthetic`` is True so outputs can be labelled."""
+    """Same attribute names as ``hacgear_core.tables.MeshTable`` (tables contract); used only when
+    that module is not importable.  Tables built here carry ``solver = "synthetic ..."`` (MeshTable)
+    or ``synthetic = True`` so outputs can be labelled."""
 
     name: str
     gear_names: tuple[str, str]
@@ -55,19 +56,20 @@ class SyntheticMeshTable:
     peak_pressure_Pa: np.ndarray
     strain: dict = field(default_factory=dict)
     synthetic: bool = True
+    solver: str = "synthetic"
 
 
 def _make_table(**kw):
     """Build the contract's MeshTable if ``hacgear_core.tables`` provides a compatible one, else the
     local :class:`SyntheticMeshTable`."""
-    try:  # pragma: no cover - depends on the tables helper's progress
+    try:
         from hacgear_core.tables import MeshTable  # type: ignore
-
-        fields = dict(kw)
-        fields.pop("synthetic", None)
-        return MeshTable(**fields)
-    except Exception:
+    except ImportError:  # pragma: no cover - tables module not available
         return SyntheticMeshTable(**kw)
+    fields = dict(kw)
+    fields.pop("synthetic", None)
+    fields["solver"] = "synthetic (hacgear_core.dynamics.synthetic, not a contact solution)"
+    return MeshTable(**fields)
 
 
 def _invert_rows(force, x0, dx, loads):
@@ -210,24 +212,29 @@ def linear_fdf_table(
     n_positions: int = 256,
     n_deflections: int = 64,
     name: str = "linear",
+    contact_loss: bool = False,
 ):
     """Linear FDF ``F = k (x - e(tau))`` with ``e = offset_mean + offset_amplitude sin(2 pi tau)``.
 
     With ``offset_mean_m`` well below zero the force is positive on the whole deflection grid
     [0, ``x_max_m``] (no contact loss), so the dynamics are exactly linear with constant stiffness
     and a harmonic displacement excitation: closed-form natural frequency and forced response.
+    With ``contact_loss=True`` the force is ``k max(0, x - e(tau))`` (NLMD = e): the classical
+    piecewise-linear (softening) gear oscillator with harmonic transmission-error excitation.
     """
     pos = np.arange(n_positions) / n_positions
     xd = np.linspace(0.0, x_max_m, n_deflections)
     e = offset_mean_m + offset_amplitude_m * np.sin(2 * np.pi * pos)
     force = stiffness_N_per_m * (xd[None, :] - e[:, None])
-    if np.any(force < 0):
+    if contact_loss:
+        force = np.maximum(force, 0.0)
+    elif np.any(force < 0):
         raise ValueError("linear_fdf_table: force would be clipped; lower offset_mean_m")
     z = np.zeros((n_positions, n_deflections, 1))
     return _make_table(
         name=name, gear_names=("gear1", "gear2"), teeth=tuple(teeth), base_radius_m=tuple(base_radius_m),
         position=pos, deflection_m=xd, force_N=np.ascontiguousarray(force),
-        no_load_deflection_m=np.maximum(e, 0.0) * 0.0, load_N=np.array([0.0]),
+        no_load_deflection_m=np.maximum(e, 0.0) if contact_loss else np.zeros(n_positions), load_N=np.array([0.0]),
         static_deflection_m=np.zeros((n_positions, 1)), tooth_offsets=np.array([0]), tooth_load_N=force[:, :, None],
         contact_roll_deg=z + np.nan, peak_pressure_Pa=np.zeros_like(force), strain={}, synthetic=True,
     )

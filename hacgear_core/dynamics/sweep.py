@@ -1,0 +1,390 @@
+"""Speed sweeps of the steady-state response, jump detection, resumable HDF5 output, parallel runs.
+
+A sweep visits mesh frequencies in order; each speed starts from the previous speed's steady state
+(at mesh position 0), so a softening region shows both branches.  ``direction``:
+
+``up``    ascending frequencies, starting from static equilibrium at the lowest;
+``down``  descending, starting from static equilibrium at the highest;
+``both``  the two branches above (independent, so they can run in parallel).
+
+Results file (HDF5, one row per finished speed, flushed after each row)::
+
+    /sweeps/<run_id>/                 attrs: spec (JSON), params (JSON), table_name, synthetic_table
+    /sweeps/<run_id>/<branch>/        branch = "up" | "down"
+        mesh_frequency_Hz (k,)  state (k, 2n)  converged (k,)  period_cycles (k,)  cycles_run (k,)
+        <metric> (k,)  for every name in METRIC_NAMES
+
+``run_id`` hashes everything the numbers depend on (table arrays, parameters, force law, torque,
+frequency grid, direction, steady-state options).  Each branch is written to its own part file
+``<out>.parts/<run_id>_<branch>.h5`` while it runs (so branches in different processes never share a
+file) and copied into ``out`` when complete.  A killed sweep re-run with the same arguments reads
+the finished rows and continues from the last stored state: rows already written are not
+recomputed, and the continuation is bit-identical because the next speed starts from the stored
+float64 state.
+"""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import os
+from concurrent.futures import Executor
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from hacgear_core.dynamics.spur import SpurPairParameters, SpurPairSystem
+from hacgear_core.dynamics.steady import METRIC_NAMES, SteadyStateOptions, steady_state
+from hacgear_core.errors import ModelError
+
+__all__ = [
+    "SweepSpec",
+    "BranchResult",
+    "SweepResult",
+    "Jump",
+    "parse_fm",
+    "run_sweep",
+    "run_sweeps",
+    "detect_jumps",
+    "read_sweep",
+]
+
+DIRECTIONS = ("up", "down", "both")
+
+
+def parse_fm(text: str) -> np.ndarray:
+    """``START:STOP:N`` [Hz] -> N equally spaced mesh frequencies (CLI helper)."""
+    try:
+        a, b, n = text.split(":")
+        a, b, n = float(a), float(b), int(n)
+    except ValueError:
+        raise ModelError(f"--fm must be START:STOP:N (Hz, Hz, count), got {text!r}") from None
+    if not (math.isfinite(a) and math.isfinite(b) and 0 < a and 0 < b and n >= 1):
+        raise ModelError(f"--fm START and STOP [Hz] must be > 0 and N >= 1, got {text!r}")
+    return np.linspace(a, b, n) if n > 1 else np.array([a])
+
+
+@dataclass(frozen=True)
+class SweepSpec:
+    """One sweep: system (parameters + table + force law), torque, frequencies, direction."""
+
+    params: SpurPairParameters
+    table: object
+    mesh_frequencies_Hz: tuple
+    direction: str = "both"
+    force_law: str = "hac"
+    torque_Nm: float | None = None
+    options: SteadyStateOptions = field(default_factory=SteadyStateOptions)
+    label: str = ""
+
+    def __post_init__(self) -> None:
+        f = np.asarray(self.mesh_frequencies_Hz, dtype=float)
+        if f.ndim != 1 or f.size < 1 or not np.all(np.isfinite(f)) or np.any(f <= 0):
+            raise ModelError("mesh_frequencies_Hz [Hz] must be a non-empty list of finite values > 0")
+        object.__setattr__(self, "mesh_frequencies_Hz", tuple(float(v) for v in np.sort(f)))
+        if self.direction not in DIRECTIONS:
+            raise ModelError(f"direction must be one of {DIRECTIONS}, got {self.direction!r}")
+        if self.torque_Nm is not None:
+            object.__setattr__(self, "params", self.params.replace(torque_Nm=float(self.torque_Nm)))
+            object.__setattr__(self, "torque_Nm", None)
+
+    @property
+    def branches(self) -> tuple[str, ...]:
+        return ("up", "down") if self.direction == "both" else (self.direction,)
+
+    def frequencies(self, branch: str) -> np.ndarray:
+        f = np.asarray(self.mesh_frequencies_Hz)
+        return f if branch == "up" else f[::-1]
+
+    def run_id(self) -> str:
+        h = hashlib.sha256()
+        h.update(np.ascontiguousarray(np.asarray(self.table.force_N, dtype=np.float64)).tobytes())
+        h.update(np.asarray(self.table.deflection_m, dtype=np.float64).tobytes())
+        h.update(json.dumps(self._describe(), sort_keys=True).encode())
+        return h.hexdigest()[:16]
+
+    def _describe(self) -> dict:
+        p = dataclasses.asdict(self.params)
+        return {"params": {k: [repr(x) for x in v] if isinstance(v, tuple) else repr(v) for k, v in p.items()},
+                "force_law": self.force_law, "fm": [repr(v) for v in self.mesh_frequencies_Hz],
+                "direction": self.direction, "options": dataclasses.asdict(self.options)}
+
+
+@dataclass
+class BranchResult:
+    """One branch of a sweep: ``mesh_frequency_Hz`` (k,) in sweep order, metric arrays, flags."""
+
+    branch: str
+    mesh_frequency_Hz: np.ndarray
+    metrics: dict
+    converged: np.ndarray
+    period_cycles: np.ndarray
+    cycles_run: np.ndarray
+    state: np.ndarray
+    recomputed: int = 0
+
+
+@dataclass
+class Jump:
+    """A jump of the RMS mesh deflection between two adjacent speeds of a branch."""
+
+    kind: str  # "jump-up" (value rises along the sweep) or "jump-down" (falls)
+    branch: str
+    frequency_Hz: float  # midpoint of the interval
+    interval_Hz: tuple  # (lower, upper) adjacent speeds of the branch [Hz]
+    rms_before_m: float
+    rms_after_m: float
+    confirmed: bool  # both branches exist and differ at the start of the interval (hysteresis)
+
+
+@dataclass
+class SweepResult:
+    spec: SweepSpec
+    run_id: str
+    branches: dict
+    jumps: list
+
+    def to_json(self) -> dict:
+        out = {"run_id": self.run_id, "torque_Nm": self.spec.params.torque_Nm, "force_law": self.spec.force_law,
+               "direction": self.spec.direction, "branches": {}, "jumps": [dataclasses.asdict(j) for j in self.jumps]}
+        for b, r in self.branches.items():
+            d = {"mesh_frequency_Hz": r.mesh_frequency_Hz.tolist(), "converged": r.converged.astype(bool).tolist(),
+                 "period_cycles": r.period_cycles.tolist(), "cycles_run": r.cycles_run.tolist()}
+            for m in METRIC_NAMES:
+                d[m] = [None if not math.isfinite(v) else v for v in r.metrics[m].tolist()]
+            out["branches"][b] = d
+        return out
+
+
+# ------------------------------------------------------------------------------ HDF5 rows
+def _open_part(path: Path, n2: int, spec: SweepSpec, branch: str):
+    import h5py
+
+    f = h5py.File(path, "a")
+    if "mesh_frequency_Hz" not in f:
+        f.attrs["branch"] = branch
+        f.attrs["spec"] = json.dumps(spec._describe(), sort_keys=True)
+        for name in ("mesh_frequency_Hz", "converged", "period_cycles", "cycles_run") + METRIC_NAMES:
+            dt = "i8" if name in ("converged", "period_cycles", "cycles_run") else "f8"
+            f.create_dataset(name, shape=(0,), maxshape=(None,), dtype=dt, chunks=(64,))
+        f.create_dataset("state", shape=(0, n2), maxshape=(None, n2), dtype="f8", chunks=(64, n2))
+    elif f.attrs.get("spec") != json.dumps(spec._describe(), sort_keys=True):
+        f.close()
+        raise ModelError(f"{path} belongs to another sweep (spec differs); remove it to start afresh")
+    return f
+
+
+def _append_row(f, fm, res) -> None:
+    k = f["mesh_frequency_Hz"].shape[0]
+    for name in f.keys():
+        f[name].resize(k + 1, axis=0)
+    f["mesh_frequency_Hz"][k] = fm
+    f["converged"][k] = int(res.converged)
+    f["period_cycles"][k] = res.period_cycles
+    f["cycles_run"][k] = res.cycles_run
+    for m in METRIC_NAMES:
+        f[m][k] = res.metrics[m]
+    f["state"][k] = res.state
+    f.flush()
+
+
+def _branch_from_group(g, branch: str, recomputed: int = 0) -> BranchResult:
+    return BranchResult(
+        branch=branch, mesh_frequency_Hz=g["mesh_frequency_Hz"][...], converged=g["converged"][...].astype(bool),
+        period_cycles=g["period_cycles"][...], cycles_run=g["cycles_run"][...], state=g["state"][...],
+        metrics={m: g[m][...] for m in METRIC_NAMES}, recomputed=recomputed,
+    )
+
+
+def _run_branch(spec: SweepSpec, branch: str, part: str | None, progress: bool, position: int = 0) -> BranchResult:
+    """Compute one branch (in this process), appending rows to ``part`` if given."""
+    system = SpurPairSystem(spec.params, spec.table, spec.force_law)
+    fms = spec.frequencies(branch)
+    n2 = 2 * system.n
+    f = None
+    done = 0
+    state = None
+    if part is not None:
+        Path(part).parent.mkdir(parents=True, exist_ok=True)
+        f = _open_part(Path(part), n2, spec, branch)
+        done = f["mesh_frequency_Hz"].shape[0]
+        if done:
+            if not np.array_equal(f["mesh_frequency_Hz"][...], fms[:done]):
+                f.close()
+                raise ModelError(f"{part}: stored frequencies differ from this sweep's; remove it to start afresh")
+            state = f["state"][done - 1].copy()
+    bar = None
+    try:
+        if progress:
+            from tqdm import tqdm
+
+            bar = tqdm(total=len(fms), initial=done, desc=f"{spec.label or 'sweep'} {branch}", unit="speed",
+                       position=position, leave=True)
+        rows = []
+        for i in range(done, len(fms)):
+            res = steady_state(system, fms[i], state, spec.options)
+            state = res.state
+            if f is not None:
+                _append_row(f, fms[i], res)
+            else:
+                rows.append((fms[i], res))
+            if bar is not None:
+                bar.update(1)
+                bar.set_postfix(fm=f"{fms[i]:.0f}Hz", rms=f"{res.metrics['rms_deflection_m'] * 1e6:.2f}um")
+        if f is not None:
+            return _branch_from_group(f, branch, recomputed=len(fms) - done)
+        return BranchResult(
+            branch=branch, mesh_frequency_Hz=np.array([r[0] for r in rows]),
+            metrics={m: np.array([r[1].metrics[m] for r in rows]) for m in METRIC_NAMES},
+            converged=np.array([r[1].converged for r in rows]), period_cycles=np.array([r[1].period_cycles for r in rows]),
+            cycles_run=np.array([r[1].cycles_run for r in rows]), state=np.array([r[1].state for r in rows]),
+            recomputed=len(rows),
+        )
+    finally:
+        if bar is not None:
+            bar.close()
+        if f is not None:
+            f.close()
+
+
+def _task(args):
+    spec, branch, part, progress, position = args
+    return _run_branch(spec, branch, part, progress, position)
+
+
+def _copy_into(out: Path, run_id: str, spec: SweepSpec, branch: str, part: Path) -> None:
+    import h5py
+
+    with h5py.File(out, "a") as fo, h5py.File(part, "r") as fp:
+        g = fo.require_group("sweeps").require_group(run_id)
+        g.attrs["spec"] = json.dumps(spec._describe(), sort_keys=True)
+        g.attrs["label"] = spec.label
+        g.attrs["table_name"] = str(getattr(spec.table, "name", ""))
+        g.attrs["synthetic_table"] = bool(_is_synthetic(spec.table))
+        if branch in g:
+            del g[branch]
+        fp.copy(fp["/"], g, name=branch)
+
+
+def _is_synthetic(table) -> bool:
+    return bool(getattr(table, "synthetic", False)) or "synthetic" in str(getattr(table, "solver", ""))
+
+
+def _complete_branch(out: Path, run_id: str, spec: SweepSpec, branch: str) -> BranchResult | None:
+    import h5py
+
+    if not out.exists():
+        return None
+    with h5py.File(out, "r") as f:
+        path = f"sweeps/{run_id}/{branch}"
+        if path in f and f[path]["mesh_frequency_Hz"].shape[0] == len(spec.mesh_frequencies_Hz):
+            return _branch_from_group(f[path], branch)
+    return None
+
+
+def run_sweeps(specs, *, out: str | Path | None = None, executor: Executor | None = None,
+               progress: bool = True) -> list[SweepResult]:
+    """Run several sweeps (e.g. several torques or models), their branches as independent tasks.
+
+    Parameters
+    ----------
+    specs : sequence of SweepSpec
+    out : path, optional
+        HDF5 results file (incremental and resumable, see module docstring); None: in memory only.
+    executor : concurrent.futures.Executor, optional
+        Runs the branch tasks (process pools need picklable tables, which the contract's are);
+        None: serially in this process.
+    progress : bool
+        tqdm progress bars.
+    """
+    specs = list(specs)
+    outp = Path(out) if out is not None else None
+    tasks, keys, results = [], [], {}
+    for si, spec in enumerate(specs):
+        rid = spec.run_id()
+        for b in spec.branches:
+            if outp is not None:
+                done = _complete_branch(outp, rid, spec, b)
+                if done is not None:
+                    done.recomputed = 0
+                    results[(si, b)] = done
+                    continue
+            part = None if outp is None else str(outp.parent / f"{outp.name}.parts" / f"{rid}_{b}.h5")
+            tasks.append((spec, b, part, progress, len(tasks)))
+            keys.append((si, b))
+    if executor is None:
+        outs = [_task(t) for t in tasks]
+    else:
+        outs = list(executor.map(_task, tasks))
+    for key, t, r in zip(keys, tasks, outs):
+        results[key] = r
+        if outp is not None:
+            spec, b, part = t[0], t[1], Path(t[2])
+            _copy_into(outp, spec.run_id(), spec, b, part)
+            part.unlink()
+            try:
+                part.parent.rmdir()
+            except OSError:
+                pass
+    final = []
+    for si, spec in enumerate(specs):
+        br = {b: results[(si, b)] for b in spec.branches}
+        final.append(SweepResult(spec, spec.run_id(), br, detect_jumps(br)))
+    return final
+
+
+def run_sweep(spec: SweepSpec, *, out=None, executor: Executor | None = None, progress: bool = True) -> SweepResult:
+    """Run one sweep (see :func:`run_sweeps`)."""
+    return run_sweeps([spec], out=out, executor=executor, progress=progress)[0]
+
+
+def detect_jumps(branches: dict, threshold: float = 0.3, metric: str = "rms_deflection_m") -> list[Jump]:
+    """Jumps of ``metric`` between adjacent speeds of each branch.
+
+    A jump is a change by more than ``threshold`` (relative to the larger value) between two
+    adjacent speeds; ``jump-up`` when the value rises in the branch's sweep direction,
+    ``jump-down`` when it falls.  For a softening system the up-sweep jumps up at the upper end of
+    the multi-valued region and the down-sweep jumps down at its lower end.  A jump is
+    ``confirmed`` when the other branch exists, differs by more than ``threshold`` at the speed
+    where the jump starts and agrees within ``threshold / 3`` at the speed where it ends: the
+    response has jumped onto the other branch (hysteresis), not merely crossed the steep flank of a
+    peak on a coarse grid or a short subharmonic window.
+    """
+    other = {}
+    for b, r in branches.items():
+        other[b] = dict(zip(np.round(r.mesh_frequency_Hz, 9), r.metrics[metric]))
+
+    def rel(a, b):
+        return abs(a - b) / max(abs(a), abs(b), 1e-30)
+
+    jumps = []
+    for b, r in branches.items():
+        f, v = r.mesh_frequency_Hz, r.metrics[metric]
+        ob = other.get("down" if b == "up" else "up")
+        for i in range(len(f) - 1):
+            a0, a1 = float(v[i]), float(v[i + 1])
+            if not (math.isfinite(a0) and math.isfinite(a1)) or rel(a0, a1) <= threshold:
+                continue
+            kind = "jump-up" if a1 > a0 else "jump-down"
+            confirmed = False
+            if ob is not None:
+                o0 = ob.get(round(float(f[i]), 9))
+                o1 = ob.get(round(float(f[i + 1]), 9))
+                if o0 is not None and o1 is not None:
+                    confirmed = rel(o0, a0) > threshold and rel(o1, a1) < threshold / 3
+            lo, hi = sorted((float(f[i]), float(f[i + 1])))
+            jumps.append(Jump(kind, b, 0.5 * (lo + hi), (lo, hi), a0, a1, bool(confirmed)))
+    return jumps
+
+
+def read_sweep(out: str | Path, run_id: str | None = None) -> dict:
+    """Read a results file: {run_id: {branch: BranchResult}} (or one run's branches)."""
+    import h5py
+
+    res = {}
+    with h5py.File(out, "r") as f:
+        for rid, g in f.get("sweeps", {}).items():
+            res[rid] = {b: _branch_from_group(g[b], b) for b in g.keys()}
+    return res if run_id is None else res[run_id]

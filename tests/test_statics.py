@@ -1,0 +1,371 @@
+"""Statics grid: the analytical reference solver against closed forms, the grid rules, and the runner
+(serial, process pool, Dask, SIGKILL + resume)."""
+from __future__ import annotations
+
+import math
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+from types import SimpleNamespace
+
+import h5py
+import numpy as np
+import pytest
+
+from hacgear_core.errors import ModelError, SolverError, TableError
+from hacgear_core.statics import (
+    AnalyticFactory,
+    AnalyticPairSolver,
+    MeshStaticSolver,
+    StaticSolution,
+    compute_statics,
+    deflection_grid,
+    describe_solver,
+    load_grid,
+    nominal_mesh_forces,
+    run_statics,
+)
+
+REPO = Path(__file__).resolve().parent.parent
+MODEL = REPO / "models" / "spur_28t_asym" / "model.toml"
+F_NOM = 300.0 / (0.07 * math.cos(math.radians(25.0)))  # 300 N m on the 28-tooth pinion, 25 deg flank
+
+
+@pytest.fixture(scope="module")
+def solver() -> AnalyticPairSolver:
+    return AnalyticPairSolver.spur_28t()
+
+
+# ----------------------------------------------------------------------------------------------
+# analytical reference solver
+# ----------------------------------------------------------------------------------------------
+def test_follows_protocol(solver):
+    assert isinstance(solver, MeshStaticSolver)
+    info = describe_solver(solver)
+    assert info.tooth_offsets == (-2, -1, 0, 1, 2)
+    assert info.gauge_names == ("pinion/SG25", "wheel/SG25", "wheel/SG20")
+    assert solver.contact_ratio == pytest.approx(1.45, abs=0.01)  # Table 3.3, 25 deg side
+
+
+def test_single_pair_at_pitch_point_closed_form(solver):
+    # p = 0: only pair 0 at the pitch point (middle of the symmetric path, no relief): x = c0 F + F/k0 + C_h F^(2/3)
+    for F in (100.0, F_NOM, 3 * F_NOM):
+        sol = solver.solve_load(0.0, F)
+        expect = (solver.blank_compliance_m_per_N * F + F / solver.pair_stiffness_N_per_m
+                  + solver.hertz_compliance_m_per_N23 * F ** (2 / 3))
+        assert sol.success
+        assert sol.mesh_deflection_m == pytest.approx(expect, rel=1e-10)
+        np.testing.assert_allclose(sol.tooth_load_N, [0, 0, F, 0, 0], atol=1e-9 * F)
+        # Hertz line contact: p_max = 2F/(pi a b) and a^2 = 4 F R / (pi b E*)
+        rho = solver.base_radius_m[0] * math.tan(solver._alpha)
+        e_star = solver.youngs_modulus_Pa / (2 * (1 - solver.poisson_ratio ** 2))
+        a = math.sqrt(4 * F * (rho / 2) / (math.pi * solver.face_width_m * e_star))
+        assert sol.half_width_m[2] == pytest.approx(a, rel=1e-12)
+        assert sol.peak_pressure_Pa[2] == pytest.approx(2 * F / (math.pi * a * solver.face_width_m), rel=1e-12)
+        assert sol.contact_roll_deg[2] == pytest.approx(math.degrees(math.tan(solver._alpha)), rel=1e-12)
+        assert np.all(np.isnan(sol.contact_roll_deg[[0, 1, 3, 4]]))
+
+
+def test_mesh_stiffness_order_of_magnitude(solver):
+    sol = solver.solve_load(0.0, F_NOM)
+    k = F_NOM / sol.mesh_deflection_m
+    assert 1.4e8 < k < 1.8e8  # single pair ~1.6e8 N/m (DESIGN.md)
+
+
+@pytest.mark.parametrize("p", [0.0, 0.13, 0.31, 0.5, 0.62, 0.97])
+def test_load_and_deflection_control_are_inverse(solver, p):
+    for F in (50.0, F_NOM, 3 * F_NOM):
+        s1 = solver.solve_load(p, F)
+        s2 = solver.solve_deflection(p, s1.mesh_deflection_m)
+        assert s2.mesh_force_N == pytest.approx(F, rel=1e-9)
+        np.testing.assert_allclose(s2.tooth_load_N, s1.tooth_load_N, rtol=1e-7, atol=1e-7 * F)
+        assert s2.tooth_load_N.sum() == pytest.approx(s2.mesh_force_N, rel=1e-12)
+        hub = s2.hub_reaction
+        assert hub["pinion"][2] == pytest.approx(-s2.mesh_force_N * solver.base_radius_m[0], rel=1e-12)
+        assert hub["pinion"][1] == pytest.approx(-hub["wheel"][1])
+
+
+def test_periodic_with_offset_shift(solver):
+    for p in (0.1, 0.45, 0.8):
+        a = solver.solve_deflection(p, 40e-6)
+        b = solver.solve_deflection(p + 1.0, 40e-6)
+        assert b.mesh_force_N == pytest.approx(a.mesh_force_N, rel=1e-12)
+        np.testing.assert_allclose(b.tooth_load_N[1:], a.tooth_load_N[:-1], rtol=1e-10, atol=1e-9)
+        assert solver.no_load_deflection(p + 1.0) == pytest.approx(solver.no_load_deflection(p), abs=1e-18)
+
+
+def test_nlmd_is_tip_relief(solver):
+    plain = AnalyticPairSolver.spur_28t(tip_relief_m=(0.0, 0.0))
+    ps = np.linspace(0, 1, 41)
+    assert all(plain.no_load_deflection(p) == 0.0 for p in ps)
+    nl = np.array([solver.no_load_deflection(p) for p in ps])
+    assert nl.min() == 0.0 and nl.max() > 5e-6
+    # at p = 0.5 the two pairs sit symmetrically at s = ±pb/2: gap = relief of one tip at that roll distance
+    s = 0.5 * solver._pb
+    rho_a = solver._L[0] + s
+    u = (rho_a - solver._rho_relief[0]) / (solver._rho_tip[0] - solver._rho_relief[0])
+    assert solver.no_load_deflection(0.5) == pytest.approx(47e-6 * u ** 2, rel=1e-12)
+
+
+def test_double_contact_region_widens_with_load(solver):
+    ps = np.arange(200) / 200
+    counts = []
+    for F in (0.2 * F_NOM, F_NOM, 3 * F_NOM):
+        n2 = sum(np.count_nonzero(solver.solve_load(p, F).tooth_load_N > 1e-6 * F) >= 2 for p in ps)
+        counts.append(n2 / ps.size)
+    assert counts[0] < counts[1] < counts[2]
+    plain = AnalyticPairSolver.spur_28t(tip_relief_m=(0.0, 0.0), overrun_gap_curvature_per_m=1e6)
+    n2 = sum(np.count_nonzero(plain.solve_load(p, 10.0).tooth_load_N > 1e-6) >= 2 for p in ps) / ps.size
+    assert n2 == pytest.approx(plain.contact_ratio - 1, abs=0.011)  # unmodified, light load: ICR - 1
+
+
+def test_force_monotone_in_deflection(solver):
+    xs = np.linspace(-5e-6, 150e-6, 120)
+    for p in (0.0, 0.3, 0.5, 0.77):
+        f = np.array([solver.solve_deflection(p, x).mesh_force_N for x in xs])
+        assert np.all(np.diff(f) >= 0)
+        assert np.all(f[xs <= solver.no_load_deflection(p)] == 0)
+
+
+def test_bad_parameters_name_the_field():
+    with pytest.raises(ModelError, match="center_distance_m"):
+        AnalyticPairSolver.spur_28t(center_distance_m=0.1)
+    with pytest.raises(ModelError, match="stiffness_drop"):
+        AnalyticPairSolver.spur_28t(stiffness_drop=0.9)
+    with pytest.raises(ModelError, match="base_radius_m"):
+        AnalyticPairSolver.spur_28t(teeth=(28, 29))
+    sol = AnalyticPairSolver.spur_28t().solve_load(0.2, -1.0)
+    assert not sol.success and "mesh force" in sol.message
+
+
+def test_from_model_matches_preset():
+    from hacgear_core.model import load_model
+
+    a = AnalyticPairSolver.from_model(load_model(MODEL), "m12")
+    b = AnalyticPairSolver.spur_28t()
+    assert a.contact_ratio == pytest.approx(b.contact_ratio, rel=1e-12)
+    assert a.solve_load(0.37, F_NOM).mesh_deflection_m == pytest.approx(b.solve_load(0.37, F_NOM).mesh_deflection_m,
+                                                                        rel=1e-12)
+    assert set(a.gauge_names) == {"pinion/SG25", "pinion/SG20", "wheel/SG25", "wheel/SG20"}
+
+
+# ----------------------------------------------------------------------------------------------
+# grid rules
+# ----------------------------------------------------------------------------------------------
+def test_deflection_grid_rule():
+    nl = np.array([2e-6, 0.0, 5e-6])
+    sd = np.array([[2e-6, 30e-6], [0.0, 40e-6], [5e-6, 35e-6]])
+    g = deflection_grid(nl, sd, 10, margin=0.5)
+    dx = g[1] - g[0]
+    np.testing.assert_allclose(np.diff(g), dx, rtol=1e-12)
+    assert g[0] < nl.min() and g[1] == pytest.approx(0.0, abs=1e-18)
+    assert g[-1] == pytest.approx(40e-6 * 1.5)
+    g2 = deflection_grid(nl - 1e-6, sd, 10, margin=0.0)  # a negative NLMD moves the base below zero
+    assert g2[1] == pytest.approx(-1e-6) and g2[-1] == pytest.approx(40e-6)
+    with pytest.raises(ModelError, match="deflections"):
+        deflection_grid(nl, sd, 3)
+    with pytest.raises(SolverError, match="NaN"):
+        deflection_grid(nl, sd * np.nan, 10)
+
+
+def test_load_grid_and_nominal_forces():
+    np.testing.assert_allclose(load_grid(300.0, 4), [0, 100, 200, 300])
+    with pytest.raises(ModelError, match="loads"):
+        load_grid(1.0, 1)
+    M = SimpleNamespace
+    chain = M(operating=M(torque_Nm=100.0, torque_gear="a"), planetary=None,
+              meshes=[M(name="m1", gear_a="a", gear_b="b"), M(name="m2", gear_a="b", gear_b="c")])
+    f = nominal_mesh_forces(chain, {"m1": (0.02, 0.03), "m2": (0.025, 0.04)})
+    assert f["m1"] == pytest.approx(100 / 0.02)
+    assert f["m2"] == pytest.approx(f["m1"] * 0.03 / 0.025)  # torque balance of the idler b
+    planet = M(operating=M(torque_Nm=90.0, torque_gear="sun"), planetary=M(planet_count=3),
+               meshes=[M(name="sp", gear_a="sun", gear_b="p"), M(name="rp", gear_a="ring", gear_b="p")])
+    f = nominal_mesh_forces(planet, {"sp": (0.03, 0.02), "rp": (0.1, 0.02)})
+    assert f["sp"] == pytest.approx(1000.0) and f["rp"] == pytest.approx(1000.0)
+
+
+# ----------------------------------------------------------------------------------------------
+# runner
+# ----------------------------------------------------------------------------------------------
+def _loads(n: int = 6) -> dict:
+    return {"m12": load_grid(3 * F_NOM, n)}
+
+
+def _datasets(path: Path) -> tuple[dict, dict]:
+    data, attrs = {}, {}
+    with h5py.File(path, "r") as f:
+        attrs["/"] = {k: v for k, v in f.attrs.items() if k != "created"}
+
+        def visit(name, obj):
+            attrs[name] = dict(obj.attrs)
+            if isinstance(obj, h5py.Dataset):
+                data[name] = obj[()]
+        f.visititems(visit)
+    return data, attrs
+
+
+def _assert_same_file(a: Path, b: Path) -> None:
+    da, aa = _datasets(a)
+    db, ab = _datasets(b)
+    assert sorted(da) == sorted(db)
+    for k in da:
+        assert da[k].dtype == db[k].dtype and da[k].shape == db[k].shape, k
+        np.testing.assert_array_equal(da[k], db[k], err_msg=k)
+    assert sorted(aa) == sorted(ab)
+    for k in aa:
+        assert sorted(aa[k]) == sorted(ab[k]), k
+        for n in aa[k]:
+            np.testing.assert_array_equal(aa[k][n], ab[k][n], err_msg=f"{k}@{n}")
+
+
+@pytest.fixture(scope="module")
+def serial_run(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("serial") / "tables.h5"
+    rep = run_statics({"m12": AnalyticFactory()}, out, n_positions=12, n_deflections=16, loads_N=_loads(),
+                      workers=1, progress=False, model_sha256="abc")
+    assert rep.success and rep.tasks_computed == 24 and rep.tasks_resumed == 0
+    assert rep.meshes["m12"]["fdf_max_decrease_N"] == 0.0
+    assert not out.with_name("tables.h5.partial").exists()
+    return out
+
+
+def test_process_pool_equals_serial(serial_run, tmp_path):
+    out = tmp_path / "t.h5"
+    run_statics({"m12": AnalyticFactory()}, out, n_positions=12, n_deflections=16, loads_N=_loads(), workers=2,
+                progress=True, model_sha256="abc")
+    _assert_same_file(serial_run, out)
+
+
+def test_dask_cluster_executor_equals_serial(serial_run, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None) as cl, \
+            distributed.Client(cl) as client:
+        out = tmp_path / "t.h5"
+        rep = run_statics({"m12": AnalyticFactory()}, out, n_positions=12, n_deflections=16, loads_N=_loads(),
+                          executor=client.get_executor(), progress=False, model_sha256="abc")
+        assert rep.tasks_computed == 24
+    _assert_same_file(serial_run, out)
+
+
+def test_resume_complete_partial_and_mismatch(serial_run, tmp_path):
+    out = tmp_path / "t.h5"
+    partial = tmp_path / "t.h5.partial"
+    shutil.copy(serial_run, partial)
+    with h5py.File(partial, "r+") as f:  # pretend positions 3..11 of phase 2 never finished
+        f["meshes/m12/done_deflections"][3:] = 0
+        f["meshes/m12/force_N"][3:] = np.nan
+    rep = run_statics({"m12": AnalyticFactory()}, out, n_positions=12, n_deflections=16, loads_N=_loads(),
+                      workers=1, progress=False, model_sha256="abc", resume=True)
+    assert (rep.tasks_computed, rep.tasks_resumed) == (9, 15)
+    _assert_same_file(serial_run, out)
+    shutil.copy(serial_run, partial)
+    with pytest.raises(TableError, match="cannot resume.*load_N"):
+        run_statics({"m12": AnalyticFactory()}, out, n_positions=12, n_deflections=16, loads_N=_loads(7),
+                    workers=1, progress=False, model_sha256="abc", resume=True)
+    with pytest.raises(TableError, match="model_sha256"):
+        run_statics({"m12": AnalyticFactory()}, out, n_positions=12, n_deflections=16, loads_N=_loads(),
+                    workers=1, progress=False, model_sha256="other", resume=True)
+
+
+class _FailingFactory:
+    """Solver that fails at one position (a non-converged contact solve)."""
+
+    def __call__(self):
+        return _Failing()
+
+
+class _Failing(AnalyticPairSolver):
+    def __init__(self):
+        super().__init__(**{k: getattr(AnalyticPairSolver.spur_28t(), k) for k in AnalyticPairSolver.__dataclass_fields__})
+
+    def solve_deflection(self, position, x):
+        if abs(position - 0.5) < 1e-9:
+            return StaticSolution(False, "did not converge", 99, position, math.nan, x, *([np.full(5, np.nan)] * 4))
+        return super().solve_deflection(position, x)
+
+
+def test_solver_failure_is_reported_and_resumable(tmp_path):
+    out = tmp_path / "t.h5"
+    with pytest.raises(SolverError, match=r"position 0\.5 \(index 4\).*did not converge"):
+        run_statics({"m12": _FailingFactory()}, out, n_positions=8, n_deflections=10, loads_N=_loads(4),
+                    workers=1, progress=False)
+    assert not out.exists()
+    with h5py.File(out.with_name("t.h5.partial"), "r") as f:
+        assert f["meshes/m12/done_loads"][()].all()
+        assert f["meshes/m12/done_deflections"][:4].all()
+
+
+def test_cli_without_contact_solver_says_so(tmp_path, capsys):
+    try:
+        import hacgear_core.contact  # noqa: F401
+        pytest.skip("the contact solver exists now")
+    except ImportError:
+        pass
+    from hacgear_core.cli import main
+
+    shutil.copy(MODEL, tmp_path / "model.toml")
+    assert main(["statics", str(tmp_path / "model.toml")]) == 2
+    err = capsys.readouterr().err
+    assert "make_mesh_solver" in err and "--solver analytic" in err and "Traceback" not in err
+
+
+def test_cli_refuses_small_torque_factor(tmp_path):
+    shutil.copy(MODEL, tmp_path / "model.toml")
+    with pytest.raises(ModelError, match="max_torque_factor"):
+        compute_statics(tmp_path / "model.toml", solver="analytic", max_torque_factor=2.0, workers=1, progress=False)
+
+
+def test_sigkill_midway_then_resume_equals_uninterrupted(tmp_path):
+    """A real `hacgear statics` process is SIGKILLed in the middle of phase 2; `--resume` must compute
+    exactly the positions not flagged done, and the result must equal an uninterrupted run."""
+    model = tmp_path / "model.toml"
+    shutil.copy(MODEL, model)
+    grid = ["--positions", "64", "--loads", "16", "--deflections", "96"]
+    ref = compute_statics(model, tmp_path / "ref.h5", positions=64, loads=16, deflections=96, solver="analytic",
+                          workers=1, progress=False)
+    assert ref.tasks_computed == 128
+    out = tmp_path / "tables.h5"
+    partial = tmp_path / "tables.h5.partial"
+    cmd = [sys.executable, "-c", "import sys; from hacgear_core.cli import main; sys.exit(main())", "statics", str(model), "--solver", "analytic",
+           "--workers", "2", "--no-progress", *grid]
+    proc = subprocess.Popen(cmd, cwd=tmp_path, start_new_session=True, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE)
+    done_at_kill = None
+    t0 = time.monotonic()
+    try:
+        while time.monotonic() - t0 < 120 and proc.poll() is None:
+            time.sleep(0.02)
+            if not partial.exists():
+                continue
+            try:
+                with h5py.File(partial, "r", locking=False) as f:
+                    n2 = int(f["meshes/m12/done_deflections"][()].sum())
+            except (OSError, KeyError):
+                continue
+            if n2 >= 12:
+                os.killpg(proc.pid, signal.SIGKILL)
+                break
+    finally:
+        if proc.poll() is None:
+            try:
+                os.killpg(proc.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+        proc.wait(timeout=30)
+    assert proc.returncode == -signal.SIGKILL, proc.stderr.read().decode()
+    assert partial.exists() and not out.exists()
+    with h5py.File(partial, "r") as f:
+        done_at_kill = int(f["meshes/m12/done_loads"][()].sum() + f["meshes/m12/done_deflections"][()].sum())
+    assert 64 + 12 <= done_at_kill < 128
+    res = subprocess.run(cmd + ["--resume", "--json"], cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr
+    import json
+
+    rep = json.loads(res.stdout)
+    assert rep["tasks_resumed"] == done_at_kill
+    assert rep["tasks_computed"] == 128 - done_at_kill
+    _assert_same_file(tmp_path / "ref.h5", out)

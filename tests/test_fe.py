@@ -1,0 +1,385 @@
+"""Tests of the finite-element far field (hacgear_core.fe) and the analytical near field
+(hacgear_core.nearfield): closed forms, convergence, equilibrium, cyclic symmetry."""
+from __future__ import annotations
+
+import os
+import sys
+import time
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, os.path.dirname(__file__))
+from _fe_synthetic_gear import SyntheticGear  # noqa: E402
+
+from hacgear_core.errors import GeometryError, ModelError  # noqa: E402
+from hacgear_core.fe import (ElasticMaterial, FlankCompliance, Gauge, GearFE, MeshOptions, PlaneFE,  # noqa: E402
+                             build_gear_fe, gear_compliance, mesh_gear, rotation)
+from hacgear_core.nearfield import (effective_modulus, halfspace_approach_hertz,  # noqa: E402
+                                    halfspace_approach_point, halfspace_strip_kernel, hertz_line_contact)
+
+E, NU = 2.0e11, 0.3
+MAT = ElasticMaterial(E, NU)
+COARSE = MeshOptions(flank_size_m=0.6e-3, fillet_size_m=0.6e-3, body_size_m=3e-3)
+
+
+@pytest.fixture(scope="module")
+def gear():
+    return SyntheticGear()
+
+
+@pytest.fixture(scope="module")
+def gear_fe(gear):
+    return build_gear_fe(gear, MAT, COARSE)
+
+
+@pytest.fixture(scope="module")
+def flank(gear, gear_fe):
+    gauges = [Gauge("root_drive", "drive", 36.6e-3), Gauge("root_coast", "coast", 36.6e-3)]
+    return gear_compliance(gear, MAT, "drive", options=COARSE, fe=gear_fe, gauges=gauges, cache=False)
+
+
+# ----------------------------------------------------------------------------- near field closed forms
+def test_hertz_closed_form_matches_discrete_halfspace_contact():
+    """Two cylinders pressed together, solved as a discretised elastic half-space contact
+    with the strip kernel: peak pressure and half-width within 1% of Hertz."""
+    R1, R2, w = 20e-3, 30e-3, 2.0e5
+    hz = hertz_line_contact(w, R1, R2, E, NU)
+    a = hz.half_width_m
+    n = 500
+    x = np.linspace(-1.4 * a, 1.4 * a, n)
+    h = 0.5 * (x[1] - x[0])
+    K = 2 * halfspace_strip_kernel(x, x, h, E, NU)          # both bodies, same material
+    g0 = x**2 / (2 * hz.effective_radius_m)
+    active = np.abs(x) < 0.5 * a
+    for _ in range(100):
+        idx = np.flatnonzero(active)
+        m = idx.size
+        A = np.zeros((m + 1, m + 1))
+        A[:m, :m] = K[np.ix_(idx, idx)]
+        A[:m, m] = -1.0
+        A[m, :m] = 2 * h
+        sol = np.linalg.solve(A, np.r_[-g0[idx], w])
+        p = np.zeros(n)
+        p[idx] = sol[:m]
+        gap = K @ p + g0 - sol[m]
+        new = (p > 0) | (gap < 0)
+        new[idx[p[idx] <= 0]] = False
+        if np.array_equal(new, active):
+            break
+        active = new
+    assert np.all(p >= 0) and np.all(gap[~active] >= -1e-12)
+    inner = np.flatnonzero(p > 0)[3:-3]
+    B, A0 = np.polyfit(x[inner] ** 2, p[inner] ** 2, 1)       # p^2 = p0^2 (1 - x^2/a^2)
+    p0_num, a_num = np.sqrt(A0), np.sqrt(-A0 / B)
+    assert abs(p0_num / hz.peak_pressure_Pa - 1) < 0.01
+    assert abs(a_num / a - 1) < 0.01
+    assert abs(p.max() / hz.peak_pressure_Pa - 1) < 0.01
+    # consistency of the closed forms
+    assert np.isclose(hz.peak_pressure_Pa, 2 * w / (np.pi * a))
+    assert np.isclose(hz.effective_modulus_Pa, effective_modulus(E, NU, E, NU))
+    assert np.isclose(effective_modulus(E, NU, E, NU, "strain"), E / (2 * (1 - NU**2)))
+
+
+@pytest.mark.parametrize("plane", ["stress", "strain"])
+def test_hertz_depth_approach_equals_superposed_point_loads(plane):
+    """The Hertz depth approach (closed form) equals the superposition of the Flamant
+    point-load approach over the Hertz pressure, at small and large d/a."""
+    w, a = 1.0e5, 0.2e-3
+    hz_p0 = 2 * w / (np.pi * a)
+    n = 40000
+    xi = (np.arange(n) + 0.5) / n * 2 * a - a
+    p = hz_p0 * np.sqrt(1 - (xi / a) ** 2)
+    dx = 2 * a / n
+    for d in (0.1e-3, 1e-3, 10e-3):
+        num = np.sum(p * dx * halfspace_approach_point(1.0, xi, d, E, NU, plane))
+        ref = float(halfspace_approach_hertz(w, a, d, E, NU, plane))
+        assert abs(num / ref - 1) < 2e-3, (d, num, ref)
+    # d >> a: the textbook logarithmic form (difference O(a^2/d^2))
+    d = 10e-3
+    Ep = E if plane == "stress" else E / (1 - NU**2)
+    nuq = NU if plane == "stress" else NU / (1 - NU)
+    approx = 2 * w / (np.pi * Ep) * (np.log(2 * d / a) - nuq / 2)
+    assert abs(float(halfspace_approach_hertz(w, a, d, E, NU, plane)) / approx - 1) < 2e-4
+
+
+def test_nearfield_input_errors():
+    with pytest.raises(ModelError, match="load_per_width_N_m"):
+        hertz_line_contact(-1.0, 0.02, 0.02, E, NU)
+    with pytest.raises(ModelError, match="combined curvature"):
+        hertz_line_contact(1.0, 0.02, -0.02, E, NU)
+    with pytest.raises(ModelError, match="poisson_ratio"):
+        halfspace_approach_hertz(1.0, 1e-4, 1e-3, E, 0.6)
+    with pytest.raises(ModelError, match="plane"):
+        effective_modulus(E, NU, E, NU, "axisymmetric")
+
+
+def test_resolved_fe_hertz_block_matches_halfspace_approach():
+    """A large block loaded by a Hertz pressure, meshed finely under the load: the FE
+    approach between surface centre and depth d matches the closed form within 1%."""
+    import gmsh
+
+    W, D, a, w = 60e-3, 30e-3, 0.2e-3, 1.0e5
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        geo = gmsh.model.geo
+        pts = [geo.addPoint(x, y, 0) for x, y in ((-W / 2, -D), (W / 2, -D), (W / 2, 0), (0, 0), (-W / 2, 0))]
+        lines = [geo.addLine(pts[i], pts[(i + 1) % 5]) for i in range(5)]
+        geo.addPlaneSurface([geo.addCurveLoop(lines)])
+        geo.synchronize()
+        f = gmsh.model.mesh.field
+        fd = f.add("Distance")
+        f.setNumbers(fd, "PointsList", [pts[3]])
+        ft = f.add("MathEval")
+        f.setString(ft, "F", f"min({a / 12} + 0.12*F{fd}, 2e-3)")
+        f.setAsBackgroundMesh(ft)
+        for opt in ("Mesh.MeshSizeExtendFromBoundary", "Mesh.MeshSizeFromPoints", "Mesh.MeshSizeFromCurvature"):
+            gmsh.option.setNumber(opt, 0)
+        gmsh.model.mesh.generate(2)
+        tags, xyz, _ = gmsh.model.mesh.getNodes()
+        _, en = gmsh.model.mesh.getElementsByType(2)
+    finally:
+        gmsh.finalize()
+    lut = np.zeros(int(tags.max()) + 1, int)
+    lut[tags.astype(int)] = np.arange(len(tags))
+    P = xyz.reshape(-1, 3)[:, :2]
+    T = lut[en.astype(int).reshape(-1, 3)]
+    used = np.unique(T)
+    remap = np.zeros(len(P), int)
+    remap[used] = np.arange(len(used))
+    fe = PlaneFE(P[used], remap[T], MAT, lambda x0, x1: (np.abs(x0[:, 1] + D) < 1e-12) & (np.abs(x1[:, 1] + D) < 1e-12))
+    nq = 2000
+    xq = (np.arange(nq) + 0.5) / nq * 2 * a - a
+    pq = 2 * w / (np.pi * a) * np.sqrt(1 - (xq / a) ** 2) * (2 * a / nq)
+    F = fe.point_loads(np.stack([xq, np.zeros(nq)], 1), np.stack([np.zeros(nq), -pq], 1)).sum(axis=1)
+    U = fe.solve(F)
+    for d in (0.5e-3, 1.5e-3):
+        Op = fe.displacement_operator(np.array([[0.0, 0.0], [0.0, -d]]))
+        uy = (Op @ U)[1::2]
+        fe_approach = uy[1] - uy[0]
+        ref = float(halfspace_approach_hertz(w, a, d, E, NU))
+        assert abs(fe_approach / ref - 1) < 0.01, (d, fe_approach, ref)
+
+
+# ----------------------------------------------------------------------------- plane FE basics
+def _cantilever(nx, ny, L=0.1, c=5e-3, P=1.0e4):
+    from skfem import MeshTri
+
+    m = MeshTri.init_tensor(np.linspace(0, L, nx + 1), np.linspace(-c, c, ny + 1))
+    I = 2 * c**3 / 3
+    G = E / (2 * (1 + NU))
+
+    def exact(x, y):   # Timoshenko & Goodier: end load P at x = 0, built in at x = L
+        u = (-P * x**2 * y / (2 * E * I) - NU * P * y**3 / (6 * E * I) + P * y**3 / (6 * I * G)
+             + (P * L**2 / (2 * E * I) - P * c**2 / (2 * I * G)) * y)
+        v = NU * P * x * y**2 / (2 * E * I) + P * x**3 / (6 * E * I) - P * L**2 * x / (2 * E * I) + P * L**3 / (3 * E * I)
+        return u, v
+
+    fe = PlaneFE(m.p.T, m.t.T, MAT, lambda x0, x1: (np.abs(x0[:, 0] - L) < 1e-12) & (np.abs(x1[:, 0] - L) < 1e-12))
+    ux, uy = exact(*fe.dof_locations)
+    Ufix = np.where(fe.dof_component == 0, ux, uy)
+    # parabolic shear traction on x = 0, 3-point Gauss per edge
+    yk = np.linspace(-c, c, ny + 1)
+    gp, gw = np.polynomial.legendre.leggauss(3)
+    ys = (0.5 * (yk[1:] + yk[:-1])[:, None] + 0.5 * np.diff(yk)[:, None] * gp).ravel()
+    ws = (0.5 * np.diff(yk)[:, None] * gw).ravel()
+    ty = P / (2 * I) * (c**2 - ys**2) * ws
+    F = fe.point_loads(np.stack([np.zeros_like(ys), ys], 1), np.stack([np.zeros_like(ys), ty], 1)).sum(axis=1)
+    U = fe.solve(F, U_fixed=Ufix)
+    tip = (fe.displacement_operator(np.array([[0.0, 0.0]])) @ U)[1]
+    return tip, P * L**3 / (3 * E * I), fe, U
+
+
+def test_cantilever_tip_deflection_and_p2_convergence():
+    """Plane-stress cantilever strip against the exact elasticity (Timoshenko & Goodier)
+    solution, whose tip deflection is P L^3/(3 E I); the P2 error falls fast with h."""
+    errs = []
+    for nx, ny in ((10, 1), (20, 2), (40, 4)):
+        tip, ref, fe, U = _cantilever(nx, ny)
+        errs.append(abs(tip / ref - 1))
+    assert errs[-1] < 1e-3
+    assert errs[1] < errs[0] / 3 and errs[2] < errs[1] / 3
+    # Timoshenko beam theory (shear-corrected) with the same built-in end is within 2%
+    L, c = 0.1, 5e-3
+    G = E / (2 * (1 + NU))
+    timo = 1.0e4 * L**3 / (3 * E * 2 * c**3 / 3) + 1.0e4 * L / (5 / 6 * G * 2 * c)
+    assert abs(tip / timo - 1) < 0.02
+
+
+def test_surface_strain_operator_on_cantilever():
+    """Bending strain at the top surface of the cantilever: eps_xx = -P x c/(E I)."""
+    L, c, P = 0.1, 5e-3, 1.0e4
+    I = 2 * c**3 / 3
+    x = np.array([0.31 * L, 0.63 * L])
+    errs = []
+    for nx, ny in ((20, 2), (40, 4), (80, 8)):
+        tip, ref, fe, U = _cantilever(nx, ny)
+        S = fe.strain_operator(np.stack([x, np.full(2, c)], 1), np.array([[1.0, 0.0], [-1.0, 0.0]])) @ U
+        errs.append(np.abs(S / (-P * x * c / (E * I)) - 1).max())
+    assert errs[-1] < 2e-3
+    assert errs[2] < errs[1] < errs[0]
+
+
+# ----------------------------------------------------------------------------- gear model
+def test_gear_mesh_is_cyclic_and_conforming(gear, gear_fe):
+    gm = gear_fe.gear_mesh
+    assert gm.t.shape[0] == gear.z * gm.n_sector_triangles
+    # rotating the node set by one pitch maps it onto itself
+    from scipy.spatial import cKDTree
+
+    Pr = gm.p @ rotation(2 * np.pi / gear.z).T
+    dist, _ = cKDTree(gm.p).query(Pr)
+    assert dist.max() < 1e-9
+    # conforming: every interior edge is shared by exactly two triangles, boundary = outline + bore
+    d = gm.p[gm.t]
+    area2 = (d[:, 1, 0] - d[:, 0, 0]) * (d[:, 2, 1] - d[:, 0, 1]) - (d[:, 2, 0] - d[:, 0, 0]) * (d[:, 1, 1] - d[:, 0, 1])
+    assert np.all(area2 > 0)
+    bf = gear_fe.mesh.boundary_facets()
+    r = np.hypot(*gear_fe.mesh.p[:, gear_fe.mesh.facets[:, bf]].mean(axis=1))
+    assert np.all((r > gear.root_radius_m - 1e-5) | (np.abs(r - gear.bore_radius_m) < 1e-4))
+
+
+def test_hub_reactions_balance_unit_loads(gear, gear_fe, flank):
+    """Force and moment on the hub equal the applied unit loads (equilibrium)."""
+    F_applied = -flank.normal
+    M_applied = flank.xy_m[:, 0] * F_applied[:, 1] - flank.xy_m[:, 1] * F_applied[:, 0]
+    np.testing.assert_allclose(flank.hub_force_per_N_m[:, :2], F_applied, atol=1e-8)
+    # (load points on the true flank are snapped onto the mesh polygon: ~1 um, hence rtol 1e-4)
+    np.testing.assert_allclose(flank.hub_force_per_N_m[:, 2], M_applied, rtol=1e-4)
+    # a load on tooth 4 gives the rotated hub force
+    k, i = 4, 7
+    R = rotation(2 * np.pi * k / gear.z)
+    F = gear_fe.point_loads((flank.xy_m[i] @ R.T)[None], (-flank.normal[i] @ R.T)[None])
+    H = gear_fe.hub_force(gear_fe.solve(F), F)[0]
+    np.testing.assert_allclose(H, flank.hub_force(k, flank.s_m[i]), atol=1e-9)
+
+
+def test_cyclic_symmetry_direct_load_on_tooth_3(gear, gear_fe, flank):
+    """Load applied directly on tooth 3, response read on teeth 2..6 equals the tooth-0
+    influence at offsets -1..3 (rotated), displacements and gauge strains."""
+    z, m = gear.z, 3
+    R = rotation(2 * np.pi * m / z)
+    i = flank.n_samples // 2
+    F = gear_fe.point_loads((flank.xy_m[i] @ R.T)[None], (-flank.normal[i] @ R.T)[None])
+    U = gear_fe.solve(F)[:, 0]
+    read = flank.xy_m - flank.depth_m[:, None] * flank.normal
+    for k in range(m - 1, m + 4):
+        Rk = rotation(2 * np.pi * k / z)
+        D = (gear_fe.displacement_operator(read @ Rk.T) @ U).reshape(-1, 2)
+        c_direct = np.einsum("jc,jc->j", D, -flank.normal @ Rk.T)
+        np.testing.assert_allclose(c_direct, flank.far_field_m2_N[(k - m) % z, i], rtol=1e-6,
+                                   atol=1e-9 * flank.far_field_m2_N[0, i, i])
+        q = (flank.gauge_xy_m[0] - 2e-6 * np.array([flank.gauge_tangent[0, 1], -flank.gauge_tangent[0, 0]])) @ Rk.T
+        s_direct = gear_fe.strain_operator(q[None], (flank.gauge_tangent[0] @ Rk.T)[None]) @ U
+        assert np.isclose(s_direct[0], flank.strain(0, k - m, flank.s_m[i]), rtol=1e-3,
+                          atol=1e-3 * abs(flank.strain_per_N_m[0, 0, i]))
+
+
+def test_flank_compliance_physics(gear, flank):
+    """Own-tooth compliance grows towards the tip, neighbours couple less than the tooth
+    itself, and the loaded-side root is in tension (opposite side in compression)."""
+    C = flank.far_field_m2_N
+    diag = np.array([C[0, i, i] for i in range(flank.n_samples)])
+    inv = np.flatnonzero(flank.region == 2)
+    assert np.all(np.diff(diag[inv]) < 0)                 # s grows towards the root: stiffer
+    assert np.all(C[1][np.ix_(inv, inv)] < C[0][np.ix_(inv, inv)])
+    assert np.all(C[-1][np.ix_(inv, inv)] < C[0][np.ix_(inv, inv)])
+    mid = inv[len(inv) // 2]
+    assert 0.05 < C[1, mid, mid] / C[0, mid, mid] < 0.6
+    assert np.all(flank.strain_per_N_m[0, 0, inv] > 0)    # drive root, load on drive flank
+    assert np.all(flank.strain_per_N_m[1, 0, inv] < 0)    # coast root
+    # gauge lies on the requested radius on the correct side
+    assert np.isclose(np.hypot(*flank.gauge_xy_m[0]), 36.6e-3, rtol=1e-4)
+    assert flank.gauge_xy_m[0, 1] > 0 > flank.gauge_xy_m[1, 1]
+
+
+def test_interpolation_reproduces_samples_and_is_linear(flank):
+    s = flank.s_m
+    assert np.isclose(flank.far_field(2, s[4], s[9]), flank.far_field_m2_N[2, 4, 9])
+    mid = 0.5 * (s[4] + s[5])
+    assert np.isclose(flank.far_field(0, mid, mid),
+                      0.25 * flank.far_field_m2_N[0, 4:6, 4:6].sum())
+    # mutual near-field term on the same tooth decays with distance and is absent on others
+    c0 = flank.compliance(0, s[4], s[12])
+    assert c0 != flank.far_field(0, s[4], s[12])
+    assert flank.compliance(1, s[4], s[12]) == flank.far_field(1, s[4], s[12])
+    M = flank.matrix()
+    assert np.isclose(M[0, 4, 12], c0) and np.isclose(M[0, 4, 4], flank.far_field_m2_N[0, 4, 4])
+    with pytest.raises(GeometryError, match="profile coordinate"):
+        flank.far_field(0, s[-1] + 1e-3, s[0])
+
+
+def test_nearfield_corrected_compliance_independent_of_depth(gear, gear_fe):
+    """Far field read at depth d plus the half-space term does not depend on d (within 1%)."""
+    w = 1.0e5
+    vals, vals_far = [], []
+    for d in (0.5e-3, 1.0e-3, 1.5e-3):
+        fc = gear_compliance(gear, MAT, "drive", options=COARSE, fe=gear_fe, depth_m=d, cache=False)
+        s = 0.5 * (fc.s_m[0] + fc.s_m[-1])
+        R = float(np.interp(s, fc.s_m, fc.curvature_radius_m))
+        a = hertz_line_contact(w, R, R, E, NU).half_width_m
+        vals.append(fc.far_field(0, s, s) + fc.self_approach(w, a, s) / w)
+        vals_far.append(fc.far_field(0, s, s))      # the uncorrected far field does depend on d
+    assert max(vals) / min(vals) - 1 < 0.01
+    assert max(vals_far) / min(vals_far) - 1 > 0.02
+
+
+def _corrected(fc, w=1.0e5):
+    out = []
+    for s in (fc.s_m[3], 0.5 * (fc.s_m[0] + fc.s_m[-1]), fc.s_m[-6]):
+        R = float(np.interp(s, fc.s_m, fc.curvature_radius_m))
+        a = hertz_line_contact(w, R, R, E, NU).half_width_m
+        out.append(float(fc.far_field(0, s, s) + fc.self_approach(w, a, s) / w))
+    return np.array(out)
+
+
+def test_mesh_refinement_changes_flank_compliance_below_1_percent(gear):
+    """Halving every element size twice changes the near-field-corrected compliance at
+    flank points (tip side, pitch region, root side) by less than 1%."""
+    base = COARSE
+    vals = [_corrected(gear_compliance(gear, MAT, "drive", options=base.refined(f), cache=False,
+                                       depth_m=1.0e-3)) for f in (1, 2, 4)]
+    assert np.all(np.abs(vals[1] / vals[0] - 1) < 0.01)
+    assert np.all(np.abs(vals[2] / vals[1] - 1) < 0.01)
+    assert np.all(np.abs(vals[2] / vals[0] - 1) < 0.01)
+    assert np.all(np.abs(vals[2] / vals[1] - 1) < np.abs(vals[1] / vals[0] - 1) + 1e-4)
+
+
+def test_cache_roundtrip(gear, tmp_path, monkeypatch):
+    monkeypatch.setenv("HACGEAR_CACHE_DIR", str(tmp_path))
+    opts = MeshOptions(flank_size_m=1.0e-3, fillet_size_m=1.0e-3, body_size_m=4e-3)
+    a = gear_compliance(gear, MAT, "coast", options=opts, gauges=[Gauge("g", "coast", 36.6e-3)])
+    files = list((tmp_path / "fe").glob("flank_*.npz"))
+    assert len(files) == 1
+    t0 = time.perf_counter()
+    b = gear_compliance(gear, MAT, "coast", options=opts, gauges=[Gauge("g", "coast", 36.6e-3)])
+    assert time.perf_counter() - t0 < 1.0
+    np.testing.assert_array_equal(a.far_field_m2_N, b.far_field_m2_N)
+    np.testing.assert_array_equal(a.strain_per_N_m, b.strain_per_N_m)
+    assert b.gauge_names == ("g",) and b.info["cache_key"] == a.info["cache_key"]
+    # another material is another cache entry with stiffer results
+    c = gear_compliance(gear, ElasticMaterial(2 * E, NU), "coast", options=opts, gauges=[Gauge("g", "coast", 36.6e-3)])
+    assert len(list((tmp_path / "fe").glob("flank_*.npz"))) == 2
+    np.testing.assert_allclose(c.far_field_m2_N, a.far_field_m2_N / 2, rtol=1e-6)
+    assert isinstance(FlankCompliance.load(files[0]), FlankCompliance)
+
+
+def test_input_validation(gear):
+    with pytest.raises(ModelError, match="youngs_modulus_Pa"):
+        ElasticMaterial(-1.0, 0.3)
+    with pytest.raises(ModelError, match="poisson_ratio"):
+        ElasticMaterial(2e11, 0.5)
+    with pytest.raises(ModelError, match="flank_size_m"):
+        MeshOptions(flank_size_m=0.0)
+    with pytest.raises(ModelError, match="side"):
+        gear_compliance(gear, MAT, "left")
+    with pytest.raises(ModelError, match="depth_m"):
+        gear_compliance(gear, MAT, "drive", depth_m=1.0)
+    with pytest.raises(ModelError, match="Gauge.side"):
+        Gauge("x", "up", 0.03)
+    with pytest.raises(GeometryError, match="radius_m"):
+        gear_compliance(gear, MAT, "drive", options=COARSE, gauges=[Gauge("x", "drive", 0.5)], cache=False)
+    bad = SyntheticGear(bore_radius_m=40e-3)
+    with pytest.raises(GeometryError, match="bore_radius_m"):
+        mesh_gear(bad, COARSE)

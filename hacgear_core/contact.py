@@ -1,0 +1,1026 @@
+"""Static contact of one gear mesh: kinematics, initial separations, complementarity solve.
+
+For a mesh position (fraction of a mesh cycle) the two gears are placed kinematically (rigid,
+conjugate involute motion), every tooth pair of a window around the reference pair is examined
+for its closest approach, and the contact problem
+
+    g_i = g0_i - lambda_i x + sum_j C_ij F_j  >= 0,   F_i >= 0,   F_i g_i = 0
+
+is solved either for a given mesh deflection ``x`` (deflection control → mesh force
+``W = sum lambda_i F_i``) or for a given mesh force ``W`` (load control → ``x``).
+
+Quantities
+----------
+* **Candidates.**  One candidate contact per tooth pair and face slice: the point of the two
+  loaded flanks (involute + tip edge, with tip relief) that closes first under a rigid mesh
+  deflection (smallest ``g0/lambda``).  Both flanks are sampled densely and each sample of one
+  flank is projected orthogonally onto the other flank's polyline; samples whose foot falls off
+  the mating flank are discarded.  This finds involute contacts on the line of action *and*
+  tip-edge contacts off the line of action (premature contact before the SAP / after the EAP,
+  dissertation Figs. 2.5-2.6).
+* **Mesh deflection** ``x = r_b1 θ1 + r_b2 θ2`` of the rigid hubs.  The static solve holds the
+  hub of ``gear_b`` and turns the hub of ``gear_a`` (the driver) by ``θ1 = x / r_b1``: a
+  candidate with contact normal ``n`` at point ``c`` closes by ``lambda x`` with
+  ``lambda = ((ẑ × (c - O_a)) · n) / r_b1`` (= 1 on the line of action, ``h/r_b1`` at a tip
+  edge).  The mesh force is the generalized force conjugate to ``x``: ``W = sum lambda_i F_i
+  = T_a / r_b1`` (driver torque over its loaded base radius), so ``W x`` is the work.
+* **Initial separation** ``g0`` along the contact normal includes tip relief (profile, via the
+  geometry's ``modification_m``) and lead crowning of both gears (per slice).
+* **Compliance** ``C = C_a + C_b``: finite-element far field of each whole gear
+  (:mod:`hacgear_core.fe`, hub held, all teeth: cross-tooth coupling) plus the analytical
+  near field (:mod:`hacgear_core.nearfield`): the mutual term between distinct points on one
+  tooth, and for every loaded contact the Hertz half-space approach of both bodies, which
+  depends on the load (``~ w ln(1/w)``).  The latter is handled by a fixed-point iteration on
+  the secant compliance (converges in a few iterations; exact at the fixed point).
+* **Face width.**  The face is cut into ``face_slices`` slices of equal width.  Default
+  ``face_coupling="slices"``: the thin-slice model (each slice an independent plane-stress gear
+  of the slice width, as in ISO 6336-1 / Weber-Banaschek load-distribution practice); the
+  alternative ``"rigid"`` couples the far field uniformly over the face (the 2D gear acts
+  over the whole width) and keeps only the near field per slice.  The truth lies in between;
+  ``docs/static_contact.md`` reports both.
+
+The complementarity problem is a strictly convex quadratic programme (``C`` symmetric positive
+definite); :func:`solve_contact_lcp` solves it exactly with a primal active-set method (finite
+termination, warm starts across loads at one position).
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field, replace
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+from hacgear_core.errors import GeometryError, ModelError, SolverError
+from hacgear_core.nearfield import halfspace_strip_kernel, hertz_line_contact
+
+__all__ = [
+    "LCPResult",
+    "solve_contact_lcp",
+    "StripContact",
+    "solve_strip_contact",
+    "ContactOptions",
+    "PositionSetup",
+    "ContactState",
+    "MeshContactSolver",
+    "make_mesh_solver",
+    "mesh_stiffness_curve",
+    "StiffnessCurve",
+]
+
+
+# =============================================================================================
+# Complementarity solver
+# =============================================================================================
+@dataclass(frozen=True)
+class LCPResult:
+    """Solution of one contact complementarity problem.
+
+    Attributes
+    ----------
+    success : bool
+    message : str
+    iterations : int
+        Active-set changes.
+    force_N : ndarray (n,)
+        Candidate loads ``F >= 0`` [N].
+    gap_m : ndarray (n,)
+        Loaded separations ``g = g0 - lambda x + C F >= 0`` [m] (0 where loaded).
+    mesh_deflection_m : float
+        ``x`` [m] (given under deflection control).
+    mesh_force_N : float
+        ``W = lambda . F`` [N] (given under load control).
+    active : ndarray (n,) bool
+        Loaded candidates.
+    """
+
+    success: bool
+    message: str
+    iterations: int
+    force_N: np.ndarray
+    gap_m: np.ndarray
+    mesh_deflection_m: float
+    mesh_force_N: float
+    active: np.ndarray
+
+
+def solve_contact_lcp(C: np.ndarray, g0: np.ndarray, lam: np.ndarray, *, mesh_deflection_m: float | None = None,
+                      mesh_force_N: float | None = None, warm_start: np.ndarray | None = None,
+                      tol_m: float = 1e-13, max_iter: int | None = None) -> LCPResult:
+    """Solve the contact complementarity problem by a primal active-set method.
+
+    Find ``F >= 0`` with ``g = g0 - lam x + C F >= 0`` and ``F . g = 0`` — the KKT conditions of
+    ``min ½ FᵀCF + (g0 - lam x)ᵀF`` over ``F >= 0`` (deflection control, ``x`` given) or of
+    ``min ½ FᵀCF + g0ᵀF`` over ``F >= 0, lamᵀF = W`` (load control; ``x`` is the multiplier).
+
+    Parameters
+    ----------
+    C : ndarray (n, n)
+        Symmetric positive definite compliance [m/N].
+    g0 : ndarray (n,)
+        Initial separations [m] (``inf``: never in contact).
+    lam : ndarray (n,)
+        Rigid approach per unit mesh deflection [-] (> 0).
+    mesh_deflection_m, mesh_force_N : float
+        Exactly one: deflection control (``x`` [m]) or load control (``W`` [N] >= 0).
+    warm_start : ndarray (n,), optional
+        Previous loads [N]; their support seeds the active set (scaled to ``W`` under load control).
+    tol_m : float
+        Gap tolerance [m] of the optimality test.
+    max_iter : int, optional
+        Default ``20 n + 50``.
+
+    Returns
+    -------
+    LCPResult
+    """
+    C = np.asarray(C, dtype=float)
+    g0 = np.asarray(g0, dtype=float)
+    lam = np.asarray(lam, dtype=float)
+    n = g0.size
+    if C.shape != (n, n) or lam.shape != (n,):
+        raise SolverError(f"solve_contact_lcp: shapes C {C.shape}, g0 {g0.shape}, lam {lam.shape} do not match")
+    if (mesh_deflection_m is None) == (mesh_force_N is None):
+        raise SolverError("solve_contact_lcp: give exactly one of mesh_deflection_m [m] or mesh_force_N [N]")
+    load_control = mesh_force_N is not None
+    finite = np.isfinite(g0)
+    if max_iter is None:
+        max_iter = 20 * n + 50
+    if np.any(lam[finite] <= 0):
+        raise SolverError("solve_contact_lcp: lam must be > 0 for every finite-gap candidate")
+    F = np.zeros(n)
+    if load_control:
+        W = float(mesh_force_N)
+        if not (math.isfinite(W) and W >= 0):
+            raise SolverError(f"mesh_force_N must be finite and >= 0 N, got {mesh_force_N!r}")
+        if not np.any(finite):
+            return LCPResult(False, "no candidate contact can close", 0, F, g0.copy(), math.nan, W,
+                             np.zeros(n, bool))
+        ratio = np.where(finite, g0 / np.where(finite, lam, 1.0), np.inf)
+        if W == 0.0:
+            x0 = float(ratio.min())
+            return LCPResult(True, "zero load: no-load mesh deflection", 0, F, g0 - lam * x0, x0, 0.0,
+                             np.zeros(n, bool))
+        if warm_start is not None and np.sum(lam * np.clip(warm_start, 0, None)) > 0:
+            Fw = np.where(finite, np.clip(np.asarray(warm_start, float), 0, None), 0.0)
+            F = Fw * (W / float(lam @ Fw))
+        else:
+            j = int(np.argmin(ratio))
+            F[j] = W / lam[j]
+        P = F > 0
+        x = float(ratio.min())
+    else:
+        x = float(mesh_deflection_m)
+        if not math.isfinite(x):
+            raise SolverError(f"mesh_deflection_m must be finite, got {mesh_deflection_m!r}")
+        q = np.where(finite, g0 - lam * x, np.inf)
+        P = np.zeros(n, bool)
+        if warm_start is not None:
+            P = (np.asarray(warm_start) > 0) & finite
+        W = 0.0
+    g0f = np.where(finite, g0, 0.0)
+    it = 0
+    while it < max_iter:
+        it += 1
+        idx = np.flatnonzero(P)
+        # --- equality-constrained subproblem on the free set
+        if load_control:
+            m = idx.size
+            K = np.zeros((m + 1, m + 1))
+            K[:m, :m] = C[np.ix_(idx, idx)]
+            K[:m, m] = -lam[idx]
+            K[m, :m] = lam[idx]
+            rhs = np.concatenate([-g0f[idx], [W]])
+            try:
+                sol = np.linalg.solve(K, rhs)
+            except np.linalg.LinAlgError:
+                return LCPResult(False, "singular active-set system", it, F, g0.copy(), math.nan, W, P)
+            Fp, x_new = sol[:m], float(sol[m])
+        else:
+            if idx.size:
+                try:
+                    Fp = np.linalg.solve(C[np.ix_(idx, idx)], -q[idx])
+                except np.linalg.LinAlgError:
+                    return LCPResult(False, "singular active-set system", it, F, g0.copy(), x, math.nan, P)
+            else:
+                Fp = np.zeros(0)
+            x_new = x
+        neg = Fp < 0
+        if np.any(neg):
+            # step towards the subproblem solution until the first load reaches zero
+            Fi = F[idx]
+            d = Fp - Fi
+            with np.errstate(divide="ignore", invalid="ignore"):
+                steps = np.where(neg, Fi / (Fi - Fp), np.inf)
+            a = float(np.clip(steps.min(), 0.0, 1.0))
+            F[idx] = Fi + a * d
+            block = idx[neg & (steps <= a * (1 + 1e-12) + 1e-300)]
+            F[block] = 0.0
+            P[block] = False
+            F[F < 0] = 0.0
+            continue
+        F[idx] = Fp
+        x = x_new
+        gap = np.where(finite, g0f - lam * x + C @ F, np.inf)
+        gap_free = np.where(P, np.inf, gap)
+        j = int(np.argmin(gap_free))
+        if gap_free[j] >= -tol_m:
+            gap[P] = 0.0
+            W_out = float(lam @ F) if not load_control else W
+            return LCPResult(True, "converged", it, F.copy(), gap, float(x), W_out, P.copy())
+        P[j] = True
+    return LCPResult(False, f"active-set iteration limit ({max_iter}) reached", it, F, g0.copy(), float(x),
+                     float(lam @ F), P)
+
+
+# =============================================================================================
+# Discretized Hertz check: two elastic cylinders pressed together (strip pressure elements)
+# =============================================================================================
+@dataclass(frozen=True)
+class StripContact:
+    """Discrete line contact of two cylinders (validation of the contact solve against Hertz).
+
+    Attributes: ``x_m`` (n,) strip centres, ``pressure_Pa`` (n,), ``peak_pressure_Pa``,
+    ``half_width_m`` (edge of the loaded zone, interpolated), ``approach_m``, ``lcp`` (LCPResult).
+    """
+
+    x_m: np.ndarray
+    pressure_Pa: np.ndarray
+    peak_pressure_Pa: float
+    half_width_m: float
+    approach_m: float
+    lcp: LCPResult
+
+
+def solve_strip_contact(load_per_width_N_m: float, R1_m: float, R2_m: float, youngs_modulus_Pa: float,
+                        poisson_ratio: float, *, n_strips: int = 201, span_m: float | None = None,
+                        plane: str = "stress") -> StripContact:
+    """Contact of two cylinders by the same complementarity solver, with the elastic half-space
+    discretized into uniform pressure strips (:func:`hacgear_core.nearfield.halfspace_strip_kernel`).
+
+    The load per width ``w`` [N/m] is prescribed (load control: ``lambda = strip width``), the
+    separation is ``x²/(2R)``; the result converges to the Hertz closed form as strips shrink.
+    ``span_m`` defaults to 3 Hertz half-widths.
+    """
+    if not (load_per_width_N_m > 0 and math.isfinite(load_per_width_N_m)):
+        raise ModelError(f"load_per_width_N_m must be finite and > 0 N/m, got {load_per_width_N_m!r}")
+    if n_strips < 5:
+        raise ModelError(f"n_strips must be >= 5, got {n_strips!r}")
+    h = hertz_line_contact(load_per_width_N_m, R1_m, R2_m, youngs_modulus_Pa, poisson_ratio, plane=plane)
+    span = 3.0 * h.half_width_m if span_m is None else float(span_m)
+    x = np.linspace(-span / 2, span / 2, n_strips)
+    dx = x[1] - x[0]
+    # both bodies: same kernel (same material) → compliance doubles; unknowns are strip forces dx*p
+    K = 2.0 * halfspace_strip_kernel(x, x, 0.5 * dx, youngs_modulus_Pa, poisson_ratio, plane) / dx
+    # the 2D half-space kernel is defined up to a constant: shift it so C is positive definite
+    # (a constant adds the same rigid offset to every gap, absorbed by the approach x)
+    K = K - K.min() + 1e-3 * abs(K.max() - K.min())
+    g0 = x * x / (2.0 * h.effective_radius_m)
+    lam = np.ones(n_strips)
+    res = solve_contact_lcp(K, g0, lam, mesh_force_N=load_per_width_N_m)
+    p = res.force_N / dx
+    loaded = np.flatnonzero(p > 0)
+    # edge of the loaded zone: fit of the Hertz ellipse p² = p0²(1 - x²/a²) to the loaded strips
+    A = np.stack([np.ones(loaded.size), -x[loaded] ** 2], axis=1)
+    coef, *_ = np.linalg.lstsq(A, p[loaded] ** 2, rcond=None)
+    p0 = math.sqrt(max(coef[0], 0.0))
+    a = math.sqrt(coef[0] / coef[1]) if coef[1] > 0 else math.nan
+    return StripContact(x, p, p0, a, res.mesh_deflection_m, res)
+
+
+# =============================================================================================
+# Options and geometry helpers
+# =============================================================================================
+@dataclass(frozen=True)
+class ContactOptions:
+    """Options of the static contact solver.
+
+    Parameters
+    ----------
+    face_slices : int
+        Slices across the face width (1..200).
+    face_coupling : {"slices", "rigid"}
+        Far-field coupling across the face (see the module docstring).
+    pair_window : int
+        Tooth pairs examined on each side of the pair nearest the pitch point (>= 1); reported
+        offsets are ``-pair_window..pair_window``.
+    n_profile : int
+        Samples per flank for the gap computation (100..5000).
+    corner_radius_m : float
+        Edge radius used for the Hertz curvature at a sharp tip corner (tip_edge_radius = 0) [m].
+    fixed_point_tol : float
+        Relative change of the loads that ends the near-field fixed-point iteration.
+    max_fixed_point : int
+        Iteration limit of that loop.
+    """
+
+    face_slices: int = 5
+    face_coupling: str = "slices"
+    pair_window: int = 2
+    n_profile: int = 600
+    corner_radius_m: float = 0.1e-3
+    fixed_point_tol: float = 1e-7
+    max_fixed_point: int = 30
+
+    def __post_init__(self):
+        if not (isinstance(self.face_slices, (int, np.integer)) and 1 <= self.face_slices <= 200):
+            raise ModelError(f"face_slices must be an integer in [1, 200], got {self.face_slices!r}")
+        if self.face_coupling not in ("slices", "rigid"):
+            raise ModelError(f"face_coupling must be 'slices' or 'rigid', got {self.face_coupling!r}")
+        if not (isinstance(self.pair_window, (int, np.integer)) and 1 <= self.pair_window <= 10):
+            raise ModelError(f"pair_window must be an integer in [1, 10], got {self.pair_window!r}")
+        if not (isinstance(self.n_profile, (int, np.integer)) and 100 <= self.n_profile <= 5000):
+            raise ModelError(f"n_profile must be an integer in [100, 5000], got {self.n_profile!r}")
+        if not (1e-6 <= self.corner_radius_m <= 1e-2):
+            raise ModelError(f"corner_radius_m must be in [1e-6, 1e-2] m, got {self.corner_radius_m!r}")
+        if not (0 < self.fixed_point_tol < 1e-2):
+            raise ModelError(f"fixed_point_tol must be in (0, 1e-2), got {self.fixed_point_tol!r}")
+        if not (1 <= self.max_fixed_point <= 1000):
+            raise ModelError(f"max_fixed_point must be in [1, 1000], got {self.max_fixed_point!r}")
+
+
+def _rot(a: float) -> np.ndarray:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, -s], [s, c]])
+
+
+@dataclass(frozen=True)
+class _Flank:
+    """Loaded flank of tooth 0 in the gear's canonical frame (loaded flank on the CCW side)."""
+
+    xy: np.ndarray          # (n,2) modified profile (relief removed), root -> tip
+    xy0: np.ndarray         # (n,2) unmodified
+    normal: np.ndarray      # (n,2) outward
+    s: np.ndarray           # (n,) arc length from the tip [m]
+    radius: np.ndarray      # (n,)
+    region: np.ndarray      # (n,)
+    curvature: np.ndarray   # (n,) signed radius of curvature [m] (nan where unknown)
+    contact: np.ndarray     # (n,) bool: may touch the mating flank as a point (involute, tip)
+    s_min: float            # range of the finite-element samples
+    s_max: float
+
+
+def _canonical_flank(gg: Any, side: str, n: int, corner_radius_m: float, s_range: tuple[float, float]) -> _Flank:
+    prof = gg.flank(side, n)
+    xy0 = np.asarray(prof.xy, dtype=float)
+    nrm = np.asarray(prof.normal, dtype=float)
+    mod = np.asarray(getattr(prof, "modification_m", np.zeros(len(xy0))), dtype=float)
+    mod = np.where(np.isfinite(mod), mod, 0.0)
+    if side == "coast":  # mirror about the tooth centreline: the loaded flank becomes the CCW side
+        xy0 = xy0 * [1.0, -1.0]
+        nrm = nrm * [1.0, -1.0]
+    region = np.asarray(prof.region).astype(int)
+    curv = np.asarray(prof.curvature_radius_m, dtype=float).copy()
+    tip = region == 3
+    corner = np.zeros(len(xy0), bool)
+    if not np.any(tip):
+        corner[-1] = True   # sharp tip corner: the last profile point
+    bad = ~np.isfinite(curv) | (curv == 0) | corner
+    curv[bad & (tip | corner)] = corner_radius_m
+    xy = xy0 - mod[:, None] * nrm
+    contact = (region == 2) | (region == 3) | corner
+    return _Flank(xy=xy, xy0=xy0, normal=nrm, s=np.asarray(prof.s, float), radius=np.hypot(xy0[:, 0], xy0[:, 1]),
+                  region=region, curvature=curv, contact=contact, s_min=s_range[0], s_max=s_range[1])
+
+
+def _project(P: np.ndarray, Q: np.ndarray, NQ: np.ndarray):
+    """Closest point on the polyline ``Q`` for each point ``P``.
+
+    Returns (signed distance along the interpolated normal of Q, segment index, parameter,
+    valid (foot not beyond either end of Q), interpolated unit normal)."""
+    A = Q[:-1]
+    D = Q[1:] - A
+    L2 = np.einsum("ij,ij->i", D, D)
+    rel = P[:, None, :] - A[None, :, :]
+    t = np.einsum("pij,ij->pi", rel, D) / L2
+    tc = np.clip(t, 0.0, 1.0)
+    diff = rel - tc[..., None] * D[None]
+    d2 = np.einsum("pij,pij->pi", diff, diff)
+    j = np.argmin(d2, axis=1)
+    r = np.arange(len(P))
+    tj = t[r, j]
+    valid = ~(((j == 0) & (tj < 0)) | ((j == len(Q) - 2) & (tj > 1)))
+    tjc = tc[r, j]
+    nq = NQ[j] * (1 - tjc)[:, None] + NQ[j + 1] * tjc[:, None]
+    nq /= np.linalg.norm(nq, axis=1, keepdims=True)
+    gap = np.einsum("pi,pi->p", diff[r, j], nq)
+    return gap, j, tjc, valid, nq
+
+
+def _interp_seg(arr: np.ndarray, j: np.ndarray, t: np.ndarray) -> np.ndarray:
+    if arr.ndim == 1:
+        return arr[j] * (1 - t) + arr[j + 1] * t
+    return arr[j] * (1 - t)[:, None] + arr[j + 1] * t[:, None]
+
+
+@dataclass(frozen=True)
+class PositionSetup:
+    """Everything that depends on the mesh position only (reused for all loads there).
+
+    ``n`` candidates = pairs × slices, ordered pair-major.  Arrays (n,) unless noted.
+    """
+
+    position: float
+    pairs: np.ndarray            # (Np,) pair numbers (offset from the reference pair)
+    g0: np.ndarray               # initial separation [m] (inf: pair cannot touch)
+    lam: np.ndarray              # rigid approach per unit mesh deflection [-]
+    C_lin: np.ndarray            # (n,n) linear compliance [m/N] (far field + mutual near field)
+    pair_index: np.ndarray       # (n,) index into pairs
+    slice_index: np.ndarray      # (n,)
+    slice_width_m: float
+    s_a: np.ndarray              # (Np,) profile coordinate on gear_a's flank [m]
+    s_b: np.ndarray              # (Np,)
+    roll_b_rad: np.ndarray       # (Np,) roll angle of the contact on gear_b's flank
+    R_a: np.ndarray              # (Np,) radii of curvature at the contact [m]
+    R_b: np.ndarray
+    point: np.ndarray            # (Np,2) contact point (global canonical frame)
+    normal: np.ndarray           # (Np,2) contact normal, from gear_a into gear_b
+    tooth_a: np.ndarray          # (Np,) tooth index of gear_a (its own frame, actual numbering)
+    tooth_b: np.ndarray
+    phi: tuple[float, float]     # rotation of the gear frames (canonical) [rad]
+    tip_contact: np.ndarray      # (Np,) bool: the contact is at a tip edge (off the involute pair)
+
+
+@dataclass(frozen=True)
+class ContactState:
+    """A solved contact state with everything per candidate (see :class:`PositionSetup`)."""
+
+    setup: PositionSetup
+    lcp: LCPResult
+    force_N: np.ndarray          # (n,)
+    line_load_N_m: np.ndarray    # (n,)
+    half_width_m: np.ndarray     # (n,)
+    peak_pressure_Pa: np.ndarray  # (n,)
+    mesh_force_N: float
+    mesh_deflection_m: float
+    fixed_point_iterations: int
+    success: bool
+    message: str
+
+
+# =============================================================================================
+# The mesh solver
+# =============================================================================================
+class MeshContactSolver:
+    """Static contact solver of one external spur mesh (follows ``statics.MeshStaticSolver``).
+
+    Parameters
+    ----------
+    mesh_name : str
+    gear_names : (str, str)
+        ``gear_a`` (driver), ``gear_b`` (driven).
+    geometry : (GearGeometry, GearGeometry)
+        Objects following the geometry API (``flank``, ``z``, ``base_radius_m``...).
+    flanks : (str, str)
+        Loaded flank of each gear ("drive" | "coast"); must be equal for an external mesh.
+    center_distance_m : float
+    compliance : (FlankCompliance, FlankCompliance)
+        Finite-element influence coefficients of each gear's loaded flank (per unit width).
+    face_width_m : float
+        Width in contact [m].
+    crowning : (callable, callable)
+        ``z_axial_m -> crowning depth [m]`` of each gear (0 at the face centre).
+    materials : ((E, nu), (E, nu))
+    gauges : sequence of (gear index 0|1, gauge index in that gear's compliance, public name)
+    options : ContactOptions
+    """
+
+    def __init__(self, *, mesh_name: str, gear_names: tuple[str, str], geometry: tuple[Any, Any],
+                 flanks: tuple[str, str], center_distance_m: float, compliance: tuple[Any, Any],
+                 face_width_m: float, crowning: tuple[Callable, Callable],
+                 materials: tuple[tuple[float, float], tuple[float, float]],
+                 gauges: Sequence[tuple[int, int, str]] = (), options: ContactOptions = ContactOptions(),
+                 plane: str = "stress", description: str = ""):
+        for side in flanks:
+            if side not in ("drive", "coast"):
+                raise ModelError(f"flank must be 'drive' or 'coast', got {side!r}")
+        if flanks[0] != flanks[1]:
+            raise SolverError(f"mesh '{mesh_name}': an external mesh loads the same-named flank on both gears "
+                              f"(both turn their loaded flank forward); got flank_a={flanks[0]!r}, "
+                              f"flank_b={flanks[1]!r}")
+        if any(bool(getattr(g, "internal", False)) for g in geometry):
+            raise SolverError(f"mesh '{mesh_name}': internal (ring) meshes are not supported by the contact solver yet")
+        if not (face_width_m > 0):
+            raise ModelError(f"face_width_m must be > 0 m, got {face_width_m!r}")
+        self.mesh_name = mesh_name
+        self.gear_names = tuple(gear_names)
+        self.teeth = (int(geometry[0].z), int(geometry[1].z))
+        self.flanks = tuple(flanks)
+        self.base_radius_m = (float(geometry[0].base_radius_m[flanks[0]]), float(geometry[1].base_radius_m[flanks[1]]))
+        self.center_distance_m = float(center_distance_m)
+        self.options = options
+        self.face_width_m = float(face_width_m)
+        self.materials = materials
+        self.plane = plane
+        self.compliance = tuple(compliance)
+        self.description = description or f"FE/near-field static contact solver, mesh {mesh_name}"
+        self._mirror = flanks[0] == "coast"
+        W = options.pair_window
+        self.tooth_offsets = np.arange(-W, W + 1)
+        self.gauges = tuple(gauges)
+        self.gauge_names = tuple(name for _, _, name in gauges)
+        self._flank = tuple(
+            _canonical_flank(gg, side, options.n_profile, options.corner_radius_m,
+                             (float(fc.s_m[0]), float(fc.s_m[-1])))
+            for gg, side, fc in zip(geometry, flanks, compliance))
+        n = options.face_slices
+        b = self.face_width_m
+        self.slice_width_m = b / n
+        self.slice_z_m = -b / 2 + (np.arange(n) + 0.5) * b / n
+        self.crowning_slices_m = np.asarray([[float(c(zz)) for zz in self.slice_z_m] for c in crowning])
+        self._kinematics()
+        self._setup_cache: dict[float, PositionSetup] = {}
+
+    # -------------------------------------------------------------------- kinematics
+    def _kinematics(self) -> None:
+        """Frame angles at position 0: pitch-point contact of the reference pair (tooth 0 / tooth 0)."""
+        rb_a, rb_b = self.base_radius_m
+        C = self.center_distance_m
+        if C <= rb_a + rb_b:
+            raise GeometryError(f"center_distance_m = {C:.6g} m must exceed r_b1 + r_b2 = {rb_a + rb_b:.6g} m")
+        rw_a = C * rb_a / (rb_a + rb_b)
+        rw_b = C - rw_a
+        self.operating_pitch_radius_m = (rw_a, rw_b)
+
+        def polar_at(fl: _Flank, r: float) -> float:
+            inv = fl.region == 2
+            rr = fl.radius[inv]
+            ang = np.arctan2(fl.xy0[inv, 1], fl.xy0[inv, 0])
+            o = np.argsort(rr)
+            if not (rr.min() <= r <= rr.max()):
+                raise GeometryError(f"operating pitch radius {r:.6g} m lies outside the involute "
+                                    f"({rr.min():.6g}..{rr.max():.6g} m)")
+            return float(np.interp(r, rr[o], ang[o]))
+
+        self._phi0 = (-polar_at(self._flank[0], rw_a), math.pi - polar_at(self._flank[1], rw_b))
+
+    def frame_angles(self, position: float) -> tuple[float, float]:
+        """Rotation angles [rad] of the canonical frames of gear_a (CCW) and gear_b (CW) at ``position``."""
+        za, zb = self.teeth
+        return (self._phi0[0] + 2 * math.pi * position / za, self._phi0[1] - 2 * math.pi * position / zb)
+
+    def _place(self, gear: int, tooth: int, phi: float):
+        """Global points/normals of the canonical loaded flank of ``tooth`` (canonical numbering)."""
+        fl = self._flank[gear]
+        R = _rot(phi + 2 * math.pi * tooth / self.teeth[gear])
+        O = np.array([0.0, 0.0]) if gear == 0 else np.array([self.center_distance_m, 0.0])
+        return fl.xy @ R.T + O, fl.normal @ R.T, O
+
+    def _pair_geometry(self, pair: int, phi: tuple[float, float]):
+        """Closest approach of pair ``pair`` (gear_a tooth -pair, gear_b tooth +pair)."""
+        fa, fb = self._flank
+        Pa, Na, Oa = self._place(0, -pair, phi[0])
+        Pb, Nb, Ob = self._place(1, pair, phi[1])
+        rb_a = self.base_radius_m[0]
+        best = None
+        # samples of a's flank onto b's flank polyline, and b's onto a's
+        for src, (P, Psrc_fl, Q, NQ, Qfl) in enumerate(((Pa, fa, Pb, Nb, fb), (Pb, fb, Pa, Na, fa))):
+            cand = np.flatnonzero(Psrc_fl.contact)
+            if cand.size == 0:
+                continue
+            gap, j, t, valid, nq = _project(P[cand], Q, NQ)
+            foot = Q[j] * (1 - t)[:, None] + Q[j + 1] * t[:, None]
+            # contact normal from a into b: b's inward normal (= -n_b) or a's outward normal
+            nrm = -nq if src == 0 else nq
+            cpt = 0.5 * (P[cand] + foot)
+            rel = cpt - Oa
+            lam = (-rel[:, 1] * nrm[:, 0] + rel[:, 0] * nrm[:, 1]) / rb_a
+            ok = valid & (lam > 0.05) & (gap > -0.25 * Qfl.s.max())
+            # foot must land where the mating flank can carry a point contact (not the root land)
+            ok &= Qfl.region[j] >= 1
+            if not np.any(ok):
+                continue
+            ratio = np.where(ok, gap / np.where(ok, lam, 1.0), np.inf)
+            k = int(np.argmin(ratio))
+            if best is None or ratio[k] < best[0]:
+                i_src = cand[k]
+                best = (ratio[k], src, i_src, j[k], t[k], gap[k], lam[k], cpt[k], nrm[k])
+        if best is None:
+            return None
+        _, src, i_src, j, t, gap, lam, cpt, nrm = best
+        if src == 0:   # a's sample i_src, b's foot (j, t)
+            sa, Ra = fa.s[i_src], fa.curvature[i_src]
+            sb = fb.s[j] * (1 - t) + fb.s[j + 1] * t
+            Rb = fb.curvature[j] * (1 - t) + fb.curvature[j + 1] * t
+            tip = bool(fa.region[i_src] == 3 or i_src == len(fa.s) - 1)
+            pb = Pb[j] * (1 - t) + Pb[j + 1] * t
+        else:
+            sb, Rb = fb.s[i_src], fb.curvature[i_src]
+            sa = fa.s[j] * (1 - t) + fa.s[j + 1] * t
+            Ra = fa.curvature[j] * (1 - t) + fa.curvature[j + 1] * t
+            tip = bool(fb.region[i_src] == 3 or i_src == len(fb.s) - 1)
+            pb = Pb[i_src]
+        rb_b = self.base_radius_m[1]
+        r_b = float(np.hypot(*(pb - Ob)))
+        roll_b = math.sqrt(max(r_b * r_b / (rb_b * rb_b) - 1.0, 0.0))
+        return dict(gap=float(gap), lam=float(lam), s_a=float(sa), s_b=float(sb), R_a=float(Ra), R_b=float(Rb),
+                    point=cpt, normal=nrm, roll_b=roll_b, tip=tip)
+
+    def _actual_tooth(self, gear: int, canonical: int) -> int:
+        z = self.teeth[gear]
+        return (-canonical if self._mirror else canonical) % z
+
+    # -------------------------------------------------------------------- set-up per position
+    def setup(self, position: float) -> PositionSetup:
+        """Kinematics, gaps and linear compliance at ``position`` (cached per position)."""
+        position = float(position)
+        if not math.isfinite(position):
+            raise SolverError(f"position must be finite (mesh cycles), got {position!r}")
+        key = round(position, 12)
+        hit = self._setup_cache.get(key)
+        if hit is not None:
+            return hit
+        phi = self.frame_angles(position)
+        W = self.options.pair_window
+        centre = int(round(position))
+        pairs = np.arange(centre - W - 1, centre + W + 2)
+        geo = [self._pair_geometry(int(p), phi) for p in pairs]
+        ns = self.options.face_slices
+        npair = len(pairs)
+        gap_pair = np.array([g["gap"] if g else np.inf for g in geo])
+        lam_pair = np.array([g["lam"] if g else 1.0 for g in geo])
+        get = lambda k, d=np.nan: np.array([g[k] if g else d for g in geo], dtype=float)  # noqa: E731
+        s_a, s_b = get("s_a"), get("s_b")
+        fa, fb = self._flank
+        s_a = np.clip(np.nan_to_num(s_a, nan=fa.s_min), fa.s_min, fa.s_max)
+        s_b = np.clip(np.nan_to_num(s_b, nan=fb.s_min), fb.s_min, fb.s_max)
+        pair_index = np.repeat(np.arange(npair), ns)
+        slice_index = np.tile(np.arange(ns), npair)
+        crown = self.crowning_slices_m.sum(axis=0)          # both gears, per slice
+        g0 = gap_pair[pair_index] + crown[slice_index]
+        lam = lam_pair[pair_index]
+        tooth_a = np.array([self._actual_tooth(0, -int(p)) for p in pairs])
+        tooth_b = np.array([self._actual_tooth(1, int(p)) for p in pairs])
+        # pair-level 2D compliance (per unit width) [m^2/N]
+        Cp = np.zeros((npair, npair))
+        for g, (fc, teeth, s) in enumerate(((self.compliance[0], tooth_a, s_a), (self.compliance[1], tooth_b, s_b))):
+            z = self.teeth[g]
+            dk = (teeth[:, None] - teeth[None, :]) % z          # response tooth - load tooth
+            for k in np.unique(dk):
+                m = dk == k
+                ii, jj = np.nonzero(m)
+                Cp[ii, jj] += fc.compliance(int(k), s[jj], s[ii])
+        Cp = 0.5 * (Cp + Cp.T)
+        b, bs = self.face_width_m, self.slice_width_m
+        same_slice = slice_index[:, None] == slice_index[None, :]
+        Cfull = Cp[np.ix_(pair_index, pair_index)]
+        if self.options.face_coupling == "slices":
+            C_lin = np.where(same_slice, Cfull / bs, 0.0)
+        else:
+            C_lin = Cfull / b
+        out = PositionSetup(
+            position=position, pairs=pairs, g0=g0, lam=lam, C_lin=C_lin, pair_index=pair_index,
+            slice_index=slice_index, slice_width_m=bs, s_a=s_a, s_b=s_b, roll_b_rad=get("roll_b"),
+            R_a=get("R_a", 1.0), R_b=get("R_b", 1.0),
+            point=np.array([g["point"] if g else [np.nan, np.nan] for g in geo]),
+            normal=np.array([g["normal"] if g else [np.nan, np.nan] for g in geo]),
+            tooth_a=tooth_a, tooth_b=tooth_b, phi=phi,
+            tip_contact=np.array([bool(g["tip"]) if g else False for g in geo]))
+        if len(self._setup_cache) > 256:
+            self._setup_cache.clear()
+        self._setup_cache[key] = out
+        return out
+
+    # -------------------------------------------------------------------- near field
+    def _hertz(self, setup: PositionSetup, w: np.ndarray):
+        """Half-width and peak pressure per candidate for line loads ``w`` [N/m]."""
+        (Ea, nua), (Eb, nub) = self.materials
+        Ra = setup.R_a[setup.pair_index]
+        Rb = setup.R_b[setup.pair_index]
+        k = np.where(Ra > 0, 1 / Ra, 0) + np.where(Rb > 0, 1 / Rb, 0) + np.where(Ra < 0, 1 / Ra, 0) \
+            + np.where(Rb < 0, 1 / Rb, 0)
+        k = np.maximum(k, 1e-6)
+        R = 1.0 / k
+        Es = hertz_line_contact(1.0, 1.0, 1.0, Ea, nua, Eb, nub, plane=self.plane).effective_modulus_Pa
+        w = np.maximum(w, 0.0)
+        a = np.sqrt(4.0 * w * R / (math.pi * Es))
+        p0 = np.sqrt(w * Es / (math.pi * R))
+        return a, p0
+
+    def _near_compliance(self, setup: PositionSetup, w_eval: np.ndarray) -> np.ndarray:
+        """Secant near-field compliance [m/N] of each candidate (both bodies) at line load ``w_eval``."""
+        a, _ = self._hertz(setup, w_eval)
+        pi = setup.pair_index
+        da = self.compliance[0].self_approach(w_eval, a, setup.s_a[pi])
+        db = self.compliance[1].self_approach(w_eval, a, setup.s_b[pi])
+        return (da + db) / w_eval / setup.slice_width_m
+
+    # -------------------------------------------------------------------- solves
+    def _solve(self, setup: PositionSetup, *, force: float | None = None, deflection: float | None = None,
+               warm: np.ndarray | None = None) -> ContactState:
+        n = setup.g0.size
+        bs = setup.slice_width_m
+        finite = np.isfinite(setup.g0)
+        # initial line load estimate for the near field: nominal share of the load
+        if warm is not None and np.any(warm > 0):
+            F = np.asarray(warm, float).copy()
+        else:
+            F = np.zeros(n)
+        total_iter = 0
+        res = None
+        msg = "converged"
+        ok = True
+        for it in range(1, self.options.max_fixed_point + 1):
+            w = F / bs
+            w_ref = max(float(w.max()), 1.0)
+            w_eval = np.where(w > 1e-3 * w_ref, w, w_ref)
+            C = setup.C_lin + np.diag(self._near_compliance(setup, w_eval))
+            res = solve_contact_lcp(C, setup.g0, setup.lam, mesh_force_N=force, mesh_deflection_m=deflection,
+                                    warm_start=F if np.any(F > 0) else None)
+            total_iter += res.iterations
+            if not res.success:
+                ok, msg = False, res.message
+                break
+            Fn = res.force_N
+            change = float(np.max(np.abs(Fn - F))) / max(float(Fn.max()), 1e-30)
+            F = Fn
+            if change < self.options.fixed_point_tol or not np.any(Fn > 0):
+                break
+        else:
+            ok, msg = False, f"near-field fixed point did not converge in {self.options.max_fixed_point} iterations"
+        w = F / bs
+        a, p0 = self._hertz(setup, w)
+        a = np.where(F > 0, a, 0.0)
+        p0 = np.where(F > 0, p0, 0.0)
+        return ContactState(setup=setup, lcp=res, force_N=F, line_load_N_m=w, half_width_m=a, peak_pressure_Pa=p0,
+                            mesh_force_N=float(res.mesh_force_N), mesh_deflection_m=float(res.mesh_deflection_m),
+                            fixed_point_iterations=it, success=ok and res.success,
+                            message=msg if ok else msg)
+
+    def no_load_deflection(self, position: float) -> float:
+        """No-load mesh deflection [m] at ``position``: smallest rigid deflection that closes a gap."""
+        s = self.setup(position)
+        fin = np.isfinite(s.g0)
+        if not np.any(fin):
+            raise SolverError(f"mesh '{self.mesh_name}': no tooth pair can touch at position {position}")
+        return float(np.min(s.g0[fin] / s.lam[fin]))
+
+    def state_load(self, position: float, mesh_force_N: float, warm: np.ndarray | None = None) -> ContactState:
+        """Load-controlled solve (mesh force [N] >= 0) → :class:`ContactState`."""
+        W = float(mesh_force_N)
+        if not (math.isfinite(W) and W >= 0):
+            raise SolverError(f"mesh_force_N must be finite and >= 0 N, got {mesh_force_N!r}")
+        return self._solve(self.setup(position), force=W, warm=warm)
+
+    def state_deflection(self, position: float, mesh_deflection_m: float,
+                         warm: np.ndarray | None = None) -> ContactState:
+        """Deflection-controlled solve (mesh deflection [m]) → :class:`ContactState`."""
+        x = float(mesh_deflection_m)
+        if not math.isfinite(x):
+            raise SolverError(f"mesh_deflection_m must be finite, got {mesh_deflection_m!r}")
+        return self._solve(self.setup(position), deflection=x, warm=warm)
+
+    # -------------------------------------------------------------------- outputs
+    def pair_results(self, st: ContactState) -> dict[str, np.ndarray]:
+        """Per-pair quantities of a state for the pairs of ``setup.pairs``: load [N], roll angle on
+        gear_b [rad] (NaN unloaded), profile coordinates [m], max half-width [m], max pressure [Pa]."""
+        s = st.setup
+        npair = len(s.pairs)
+        load = np.bincount(s.pair_index, weights=st.force_N, minlength=npair)
+        hw = np.zeros(npair)
+        pp = np.zeros(npair)
+        np.maximum.at(hw, s.pair_index, st.half_width_m)
+        np.maximum.at(pp, s.pair_index, st.peak_pressure_Pa)
+        loaded = load > 0
+        return dict(load_N=load, roll_b_rad=np.where(loaded, s.roll_b_rad, np.nan),
+                    s_a_m=np.where(loaded, s.s_a, np.nan), s_b_m=np.where(loaded, s.s_b, np.nan),
+                    half_width_m=hw, peak_pressure_Pa=pp, tip_contact=s.tip_contact & loaded)
+
+    def strains(self, st: ContactState, offsets: Sequence[int] | None = None) -> dict[str, np.ndarray]:
+        """Gauge strains [-] on the teeth of pair offsets ``offsets`` (default ``tooth_offsets``,
+        relative to the reference pair), at the face centre."""
+        s = st.setup
+        offs = np.asarray(self.tooth_offsets if offsets is None else offsets, dtype=int)
+        out = {}
+        loaded = np.flatnonzero(st.force_N > 0)
+        ns = self.options.face_slices
+        for gear, gi, name in self.gauges:
+            fc = self.compliance[gear]
+            z = self.teeth[gear]
+            tooth_load = (s.tooth_a if gear == 0 else s.tooth_b)[s.pair_index[loaded]]
+            s_load = (s.s_a if gear == 0 else s.s_b)[s.pair_index[loaded]]
+            resp = np.array([self._actual_tooth(gear, -int(k) if gear == 0 else int(k)) for k in offs])
+            eps = np.zeros((len(offs), ns))
+            for col, j in enumerate(loaded):
+                k = (resp - tooth_load[col]) % z
+                e = np.array([fc.strain(gi, int(kk), s_load[col]) for kk in k])
+                eps[:, s.slice_index[j]] += e * st.force_N[j]
+            if self.options.face_coupling == "slices":
+                eps /= s.slice_width_m
+                # gauge at the face centre: interpolate between slice centres
+                val = np.array([np.interp(0.0, self.slice_z_m, row) for row in eps])
+            else:
+                val = eps.sum(axis=1) / self.face_width_m
+            out[name] = val
+        return out
+
+    def hub_reactions(self, st: ContactState) -> dict[str, np.ndarray]:
+        """Generalized mesh force on each gear ``[Fx N, Fy N, Mz N m]`` (global frame: gear_a at the origin,
+        gear_b at ``(C, 0)``, driver turning counter-clockwise), from the finite-element reactions."""
+        s = st.setup
+        out = {}
+        loaded = np.flatnonzero(st.force_N > 0)
+        for gear in (0, 1):
+            fc = self.compliance[gear]
+            tot = np.zeros(3)
+            for j in loaded:
+                p = s.pair_index[j]
+                tooth = (s.tooth_a if gear == 0 else s.tooth_b)[p]
+                sl = (s.s_a if gear == 0 else s.s_b)[p]
+                h = np.asarray(fc.hub_force(int(tooth), sl), dtype=float).copy()
+                if self._mirror:   # actual gear frame -> canonical gear frame
+                    h[1] *= -1
+                    h[2] *= -1
+                R = _rot(s.phi[gear])
+                h[:2] = R @ h[:2]
+                tot += h * st.force_N[j] / s.slice_width_m * s.slice_width_m
+            out[self.gear_names[gear]] = tot
+        return out
+
+    def to_solution(self, st: ContactState):
+        """:class:`hacgear_core.statics.StaticSolution` of a state (per tooth offset)."""
+        from hacgear_core.statics import StaticSolution
+
+        pr = self.pair_results(st)
+        s = st.setup
+        offs = self.tooth_offsets
+        nw = len(offs)
+        load = np.zeros(nw)
+        roll = np.full(nw, np.nan)
+        hw = np.zeros(nw)
+        pp = np.zeros(nw)
+        for i, p in enumerate(s.pairs):
+            k = np.flatnonzero(offs == p)
+            if k.size:
+                load[k] = pr["load_N"][i]
+                roll[k] = np.degrees(pr["roll_b_rad"][i])
+                hw[k] = pr["half_width_m"][i]
+                pp[k] = pr["peak_pressure_Pa"][i]
+        # offsets of the report are relative to the reference pair; strains on those teeth
+        strain = self.strains(st, offs)
+        hub = self.hub_reactions(st)
+        return StaticSolution(success=bool(st.success), message=st.message,
+                              iterations=int(st.lcp.iterations if st.lcp else 0) + st.fixed_point_iterations,
+                              position=float(s.position), mesh_force_N=float(st.mesh_force_N),
+                              mesh_deflection_m=float(st.mesh_deflection_m), tooth_load_N=load,
+                              contact_roll_deg=roll, half_width_m=hw, peak_pressure_Pa=pp, strain=strain,
+                              hub_reaction=hub)
+
+    def solve_load(self, position: float, mesh_force_N: float):
+        """Load control: mesh force [N] → :class:`~hacgear_core.statics.StaticSolution`."""
+        return self.to_solution(self.state_load(position, mesh_force_N))
+
+    def solve_deflection(self, position: float, mesh_deflection_m: float):
+        """Deflection control: mesh deflection [m] → :class:`~hacgear_core.statics.StaticSolution`."""
+        return self.to_solution(self.state_deflection(position, mesh_deflection_m))
+
+    def solve_position(self, position: float, loads_N, deflections_m):
+        """Batch at one position (set-up and warm starts reused): load-controlled solutions for
+        ``loads_N`` and deflection-controlled ones for ``deflections_m``."""
+        loads = np.asarray(loads_N, dtype=float).ravel()
+        defl = np.asarray(deflections_m, dtype=float).ravel()
+        self.setup(position)
+        out_l, out_d = [], []
+        warm = None
+        for W in loads:
+            st = self.state_load(position, W, warm=warm)
+            if st.success and np.any(st.force_N > 0):
+                warm = st.force_N
+            out_l.append(self.to_solution(st))
+        warm = None
+        for x in defl:
+            st = self.state_deflection(position, x, warm=warm)
+            if st.success and np.any(st.force_N > 0):
+                warm = st.force_N
+            out_d.append(self.to_solution(st))
+        return out_l, out_d
+
+    # pickling: drop the set-up cache
+    def __getstate__(self):
+        d = self.__dict__.copy()
+        d["_setup_cache"] = {}
+        return d
+
+
+# =============================================================================================
+# Mesh stiffness over a mesh cycle
+# =============================================================================================
+@dataclass(frozen=True)
+class StiffnessCurve:
+    """Static transmission error and mesh stiffness over one mesh cycle at one mesh force.
+
+    ``mesh_cycle`` (n,), ``ste_m`` (n,) static mesh deflection [m], ``no_load_deflection_m`` (n,),
+    ``local_slope_stiffness_N_per_m`` (n,) ``dW/dx`` at the load, ``mean_mesh_stiffness_N_per_m``
+    (mean of the local slope), ``secant_mesh_stiffness_N_per_m`` (``W / mean(x)``), ``mesh_force_N``.
+    """
+
+    mesh_cycle: np.ndarray
+    ste_m: np.ndarray
+    no_load_deflection_m: np.ndarray
+    local_slope_stiffness_N_per_m: np.ndarray
+    mean_mesh_stiffness_N_per_m: float
+    secant_mesh_stiffness_N_per_m: float
+    mesh_force_N: float
+    tooth_load_N: np.ndarray
+    seconds: float
+
+
+def mesh_stiffness_curve(solver: MeshContactSolver, mesh_force_N: float, positions: int = 64,
+                         rel_step: float = 0.02) -> StiffnessCurve:
+    """Static transmission error and mesh stiffness over one mesh cycle.
+
+    The local-slope stiffness at each position is the central difference ``dW/dx`` from two
+    load-controlled solves at ``W (1 ± rel_step)``.
+    """
+    if not (isinstance(positions, (int, np.integer)) and 2 <= positions <= 4096):
+        raise ModelError(f"positions must be an integer in [2, 4096], got {positions!r}")
+    W = float(mesh_force_N)
+    if not (math.isfinite(W) and W > 0):
+        raise ModelError(f"mesh force must be finite and > 0 N, got {mesh_force_N!r}")
+    t0 = time.perf_counter()
+    pos = np.arange(positions) / positions
+    x = np.zeros(positions)
+    x0 = np.zeros(positions)
+    k = np.zeros(positions)
+    loads = np.zeros((positions, len(solver.tooth_offsets)))
+    for i, p in enumerate(pos):
+        st = solver.state_load(p, W)
+        if not st.success:
+            raise SolverError(f"contact solve failed at position {p:.4f}: {st.message}")
+        lo = solver.state_load(p, W * (1 - rel_step), warm=st.force_N)
+        hi = solver.state_load(p, W * (1 + rel_step), warm=st.force_N)
+        x[i] = st.mesh_deflection_m
+        x0[i] = solver.no_load_deflection(p)
+        k[i] = 2 * rel_step * W / (hi.mesh_deflection_m - lo.mesh_deflection_m)
+        pr = solver.pair_results(st)
+        for j, pp in enumerate(st.setup.pairs):
+            m = np.flatnonzero(solver.tooth_offsets == pp)
+            if m.size:
+                loads[i, m] = pr["load_N"][j]
+    return StiffnessCurve(mesh_cycle=pos, ste_m=x, no_load_deflection_m=x0, local_slope_stiffness_N_per_m=k,
+                          mean_mesh_stiffness_N_per_m=float(k.mean()),
+                          secant_mesh_stiffness_N_per_m=float(W / x.mean()), mesh_force_N=W, tooth_load_N=loads,
+                          seconds=time.perf_counter() - t0)
+
+
+# =============================================================================================
+# Model → solver
+# =============================================================================================
+def make_mesh_solver(model: Any, mesh_name: str, *, options: ContactOptions | None = None,
+                     fe_options: Any = None, plane: str = "stress", cache: bool = True) -> MeshContactSolver:
+    """Build the static contact solver of mesh ``mesh_name`` of ``model`` (a :class:`~hacgear_core.model.Model`,
+    or a path / system name).  Finite-element influence coefficients come from
+    :func:`hacgear_core.fe.gear_compliance` (cached on disk), so rebuilding in a worker is cheap.
+
+    ``options`` default: ``ContactOptions(face_slices=model.statics.face_slices)``.
+    """
+    from hacgear_core import fe as fe_mod
+    from hacgear_core.geometry import gear_geometry, mesh_geometry
+    from hacgear_core.model import Model, load_model
+
+    if not isinstance(model, Model):
+        model = load_model(model)
+    meshes = {m.name: m for m in model.meshes}
+    if mesh_name not in meshes:
+        raise ModelError(f"unknown mesh {mesh_name!r}; the model has: {', '.join(meshes) or '(none)'}")
+    mesh = meshes[mesh_name]
+    gears = {g.name: g for g in model.gears}
+    ga, gb = gears[mesh.gear_a], gears[mesh.gear_b]
+    if ga.is_helical or gb.is_helical:
+        raise SolverError(f"mesh '{mesh_name}': helical meshes are not supported by the contact solver yet")
+    if options is None:
+        options = ContactOptions(face_slices=model.statics.face_slices)
+    mg = mesh_geometry(model, mesh_name)
+    ggs = (gear_geometry(ga), gear_geometry(gb))
+    kw = {} if fe_options is None else {"options": fe_options}
+    comps, gauges = [], []
+    for gi, (g, gg, side) in enumerate(((ga, ggs[0], mesh.flank_a), (gb, ggs[1], mesh.flank_b))):
+        fg = tuple(fe_mod.Gauge(x.name, x.flank, x.radius_m) for x in g.gauges)
+        mat = fe_mod.ElasticMaterial(g.material.youngs_modulus_Pa, g.material.poisson_ratio, plane)
+        comps.append(fe_mod.gear_compliance(gg, mat, side, gauges=fg, cache=cache, **kw))
+        gauges += [(gi, k, f"{g.name}/{x.name}") for k, x in enumerate(g.gauges)]
+    # overlapping face width (axial positions of both gears)
+    lo = max(ga.axial_position_m - ga.face_width_m / 2, gb.axial_position_m - gb.face_width_m / 2)
+    hi = min(ga.axial_position_m + ga.face_width_m / 2, gb.axial_position_m + gb.face_width_m / 2)
+    if hi <= lo:
+        raise ModelError(f"mesh '{mesh_name}': the face widths of {ga.name} and {gb.name} do not overlap axially")
+    zc = 0.5 * (lo + hi)
+
+    def crown(gear, gg):
+        fn = getattr(gg, "crowning_m", None)
+        off = zc - gear.axial_position_m
+        if fn is not None:
+            return lambda zz: float(np.asarray(fn(np.asarray(zz + off)), dtype=float))
+        c, b = gear.lead_crowning_m, gear.face_width_m
+        return lambda zz: c * (2 * (zz + off) / b) ** 2
+
+    return MeshContactSolver(
+        mesh_name=mesh_name, gear_names=(ga.name, gb.name), geometry=ggs, flanks=(mesh.flank_a, mesh.flank_b),
+        center_distance_m=float(mg.center_distance_m), compliance=tuple(comps), face_width_m=hi - lo,
+        crowning=(crown(ga, ggs[0]), crown(gb, ggs[1])),
+        materials=((ga.material.youngs_modulus_Pa, ga.material.poisson_ratio),
+                   (gb.material.youngs_modulus_Pa, gb.material.poisson_ratio)),
+        gauges=gauges, options=options, plane=plane,
+        description=f"FE far field + Hertz near field, {options.face_slices} slices ({options.face_coupling}), "
+                    f"mesh {mesh_name} of {model.name}")

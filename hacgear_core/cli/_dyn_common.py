@@ -1,0 +1,33 @@
+"""Options shared by the dynamics subcommands (sweep, modes, simulate)."""
+from __future__ import annotations
+
+import argparse
+
+__all__ = ["add_model_options", "inputs_from_args"]
+
+MODEL_HELP = ("model file models/<system>/model.toml (or its folder) with its tables.h5; a tables.h5 path; "
+              "or synthetic:28t[,tip_relief_um=..,contact_ratio=..,stiffness_MN_per_m=..,variation=..,"
+              "bearing_MN_per_m=..] for the synthetic demonstration table (not a contact solution)")
+
+
+def add_model_options(p: argparse.ArgumentParser, torque_required: bool = True) -> None:
+    p.add_argument("model", help=MODEL_HELP)
+    p.add_argument("--torque", type=float, required=torque_required, default=None,
+                   help="torque on gear 1 (driver) [N*m]")
+    p.add_argument("--mesh", default=None, help="mesh name (default: the first mesh)")
+    p.add_argument("--bearing-stiffness", type=float, default=None,
+                   help="override both translational bearing stiffnesses along the line of action [N/m] "
+                        "(inf: rigid, purely rotational model)")
+    p.add_argument("--damping-ratio", type=float, default=None,
+                   help="override the modal damping ratio [-] (default: model [damping] modal_damping_ratio)")
+    p.add_argument("--force-law", choices=("hac", "ste", "average_slope", "local_slope"), default="hac",
+                   help="hac: force-deflection table (default); ste / average_slope / local_slope: the "
+                        "conventional models of dissertation Eqs. 3.6-3.8 built from the same table")
+    p.add_argument("--json", action="store_true", help="print results as JSON (SI, unit in key names)")
+
+
+def inputs_from_args(args: argparse.Namespace):
+    from hacgear_core.dynamics.source import load_inputs
+
+    return load_inputs(args.model, mesh=args.mesh, torque_Nm=args.torque,
+                       bearing_stiffness_N_per_m=args.bearing_stiffness, damping_ratio=args.damping_ratio)

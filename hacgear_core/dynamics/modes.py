@@ -11,7 +11,7 @@ Impulse test (dissertation Section 3.6.1)
     rotation); an angular-velocity impulse on gear 1 (and a translational one when translations
     exist) starts a free vibration of small amplitude (1 % of the static deflection), integrated
     with the same kernel and force law (undamped).  The natural frequencies are the peaks of the
-    Hann-windowed, zero-padded spectrum of the mesh deflection and translations.  This is done at a
+    Blackman-windowed, zero-padded spectrum of the mesh deflection and translations.  This is done at a
     single- and at a double-tooth-contact position (middle of the longest run of positions with one
     resp. two loaded pairs at the static load; from ``tooth_load_N`` when the table has it, else
     from the local slope: below/above the cycle mean), and the frequencies are combined with the
@@ -162,7 +162,7 @@ def _free_vibration_peaks(system: SpurPairSystem, tau: float, periods: int = 400
         if nm in sy.dof_names:
             y = rs[:, sy.dof_names.index(nm)]
             sigs.append(y - y.mean())
-    win = np.hanning(nsteps)
+    win = np.blackman(nsteps)  # side lobes -58 dB: below the peak threshold
     nfft = 1 << int(math.ceil(math.log2(8 * nsteps)))
     spec = np.zeros(nfft // 2 + 1)
     for sg in sigs:
@@ -176,13 +176,17 @@ def _free_vibration_peaks(system: SpurPairSystem, tau: float, periods: int = 400
         if spec[i] > thr and spec[i] >= spec[i - 1] and spec[i] > spec[i + 1] and freqs[i] > 0.2 * f_lo:
             y0, y1, y2 = np.log(spec[i - 1:i + 2] + 1e-300)
             d = 0.5 * (y0 - y2) / (y0 - 2 * y1 + y2)
-            peaks.append(freqs[i] + d * (freqs[1] - freqs[0]))
-    # merge side lobes: keep the strongest peak within 3 % of each other
-    peaks = np.array(sorted(peaks))
+            peaks.append((freqs[i] + d * (freqs[1] - freqs[0]), spec[i]))
+    # merge peaks closer than 3 %: keep the strongest
     out = []
-    for p in peaks:
-        if not out or p > out[-1] * 1.03:
-            out.append(p)
+    for fpk, amp in sorted(peaks):
+        if out and fpk <= out[-1][0] * 1.03:
+            if amp > out[-1][1]:
+                out[-1] = (fpk, amp)
+        else:
+            out.append((fpk, amp))
+    out = sorted(out, key=lambda t: -t[1])[:n]
+    out = [f for f, _ in sorted(out)]
     return np.array(out[: n])
 
 

@@ -207,36 +207,32 @@ def linear_fdf_table(
     teeth: tuple[int, int] = (28, 28),
     base_radius_m: tuple[float, float] = (0.0634, 0.0634),
     offset_amplitude_m: float = 0.0,
-    offset_mean_m: float = -100e-6,
+    offset_mean_m: float = 0.0,
     x_max_m: float = 400e-6,
     n_positions: int = 256,
     n_deflections: int = 64,
     name: str = "linear",
-    contact_loss: bool = False,
 ):
-    """Linear FDF ``F = k (x - e(tau))`` with ``e = offset_mean + offset_amplitude sin(2 pi tau)``.
+    """Constant-stiffness FDF ``F = k max(0, x - e(tau))``, ``e = offset_mean + offset_amplitude
+    sin(2 pi tau)`` on the deflection grid [0, ``x_max_m``].
 
-    With ``offset_mean_m`` well below zero the force is positive on the whole deflection grid
-    [0, ``x_max_m``] (no contact loss), so the dynamics are exactly linear with constant stiffness
-    and a harmonic displacement excitation: closed-form natural frequency and forced response.
-    With ``contact_loss=True`` the force is ``k max(0, x - e(tau))`` (NLMD = e): the classical
-    piecewise-linear (softening) gear oscillator with harmonic transmission-error excitation.
+    While the deflection stays above ``max e`` the dynamics are exactly linear with constant
+    stiffness and a harmonic displacement (transmission-error) excitation: closed-form natural
+    frequency and forced response.  Larger vibrations lose contact (``F = 0`` below ``e``, the
+    NLMD): the classical piecewise-linear, softening gear oscillator.
     """
     pos = np.arange(n_positions) / n_positions
     xd = np.linspace(0.0, x_max_m, n_deflections)
     e = offset_mean_m + offset_amplitude_m * np.sin(2 * np.pi * pos)
-    force = stiffness_N_per_m * (xd[None, :] - e[:, None])
-    if contact_loss:
-        force = np.maximum(force, 0.0)
-    elif np.any(force < 0):
-        raise ValueError("linear_fdf_table: force would be clipped; lower offset_mean_m")
+    force = np.maximum(stiffness_N_per_m * (xd[None, :] - e[:, None]), 0.0)
     z = np.zeros((n_positions, n_deflections, 1))
     return _make_table(
         name=name, gear_names=("gear1", "gear2"), teeth=tuple(teeth), base_radius_m=tuple(base_radius_m),
         position=pos, deflection_m=xd, force_N=np.ascontiguousarray(force),
-        no_load_deflection_m=np.maximum(e, 0.0) if contact_loss else np.zeros(n_positions), load_N=np.array([0.0]),
-        static_deflection_m=np.zeros((n_positions, 1)), tooth_offsets=np.array([0]), tooth_load_N=force[:, :, None],
-        contact_roll_deg=z + np.nan, peak_pressure_Pa=np.zeros_like(force), strain={}, synthetic=True,
+        no_load_deflection_m=np.maximum(e, 0.0), load_N=np.array([0.0]),
+        static_deflection_m=np.maximum(e, 0.0)[:, None], tooth_offsets=np.array([0]),
+        tooth_load_N=force[:, :, None], contact_roll_deg=z + np.nan, peak_pressure_Pa=np.zeros_like(force),
+        strain={}, synthetic=True,
     )
 
 

@@ -563,8 +563,8 @@ class GearGeometry:
             parts_X.append(r_f * np.sin(th))
             parts_Y.append(r_f * np.cos(th))
             sgn = -1.0 if self.internal else 1.0
-            parts_nX.append(-sgn * np.sin(th))
-            parts_nY.append(-sgn * np.cos(th))
+            parts_nX.append(sgn * np.sin(th))
+            parts_nY.append(sgn * np.cos(th))
             parts_reg.append(np.full(counts[0], REGION_ROOT_LAND))
             parts_u.append(np.full(counts[0], np.nan))
             parts_rc.append(np.full(counts[0], sgn * r_f))
@@ -876,8 +876,10 @@ def gear_geometry(gear: Any, *, shaper_teeth: int | None = None) -> GearGeometry
         inertia_kgm2=0.0, diametral_inertia_kgm2=0.0, blank_mass_kg=0.0, blank_inertia_kgm2=0.0, teeth_area_m2=0.0,
         shaper_teeth=z0, warnings=(), density_kg_per_m3=rho_mat, _form=form, _flanks=flanks)
     # mass properties from the polygon of the whole boundary
-    bnd = gg.gear_boundary(60)
-    area, j = _polygon_area_j(bnd.xy)
+    # one tooth sector (origin + one pitch of boundary), times z
+    sector = np.vstack([[0.0, 0.0], gg.tooth_boundary(240).xy])
+    area, j = _polygon_area_j(sector)
+    area, j = z * area, z * j
     if not internal:
         teeth_area = area - math.pi * r_f ** 2
         a_tot = area - math.pi * r_bore ** 2

@@ -1,0 +1,565 @@
+"""Tests of hacgear_core.geometry against closed forms and the dissertation's numbers."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from hacgear_core.errors import GeometryError, ModelError
+from hacgear_core.geometry import (
+    REGION_FILLET, REGION_INVOLUTE, REGION_ROOT_LAND, REGION_TIP_ROUNDING, SIDES, fillet_root_curvature_radius_rack,
+    fillet_root_curvature_radius_shaper, gear_geometry, involute_function, mesh_geometry, model_geometry,
+    zero_backlash_center_distance,
+)
+from hacgear_core.model import Flank, Gear, Material, load_model
+
+STEEL = Material("steel", 7850.0, 2.0e11, 0.3)
+
+
+def make_gear(name="g", z=28, m=5e-3, da=None, df=None, s=None, a_d=20.0, a_c=None, rho=None, b=0.015, bore=0.04,
+              internal=False, relief=(0.0, 0.0, "none"), relief_c=None, helix=0.0, crown=0.0, edge=0.0, **kw):
+    a_c = a_d if a_c is None else a_c
+    r = 0.5 * m * z
+    if da is None:
+        da = 2 * (r + m) if not internal else 2 * (r - m)
+    if df is None:
+        df = 2 * (r - 1.25 * m) if not internal else 2 * (r + 1.25 * m)
+    s = math.pi * m / 2 if s is None else s
+    rho = 0.25 * m if rho is None else rho
+    rel_c = relief if relief_c is None else relief_c
+    fl = {"drive": Flank(math.radians(a_d), relief[0], math.radians(relief[1]), relief[2]),
+          "coast": Flank(math.radians(a_c), rel_c[0], math.radians(rel_c[1]), rel_c[2])}
+    return Gear(name=name, teeth=z, module_m=m, tip_diameter_m=da, root_diameter_m=df, tooth_thickness_m=s,
+                hob_tip_radius_m=rho, face_width_m=b, bore_diameter_m=bore, material=STEEL, flanks=fl,
+                internal=internal, helix_angle_rad=math.radians(helix), lead_crowning_m=crown, tip_edge_radius_m=edge,
+                **kw)
+
+
+def polar(xy, side):
+    """Local clockwise polar angle of a flank point (drive: +atan2(y, x), coast: -atan2(y, x))."""
+    ang = np.arctan2(xy[..., 1], xy[..., 0])
+    return ang if side == "drive" else -ang
+
+
+@pytest.fixture(scope="module")
+def asym28():
+    return load_model("spur_28t_asym")
+
+
+@pytest.fixture(scope="module")
+def gg28(asym28):
+    return gear_geometry(asym28.gear("pinion"))
+
+
+@pytest.fixture(scope="module")
+def ring():
+    return gear_geometry(load_model("planetary_65_55_175").gear("ring"))
+
+
+# ---------------------------------------------------------------------------------------------
+# Involute, base circle, thickness
+# ---------------------------------------------------------------------------------------------
+def test_base_radii_28_tooth(gg28):
+    assert gg28.base_radius_m["drive"] == pytest.approx(0.070 * math.cos(math.radians(25)), rel=1e-14)
+    assert gg28.base_radius_m["coast"] == pytest.approx(0.070 * math.cos(math.radians(20)), rel=1e-14)
+    assert gg28.pitch_radius_m == pytest.approx(0.070)
+    # one rack cuts both flanks: s = m (pi/2 + x (tan a_d + tan a_c))
+    x = gg28.profile_shift["drive"]
+    assert x == gg28.profile_shift["coast"]
+    assert 5e-3 * (math.pi / 2 + x * (math.tan(math.radians(25)) + math.tan(math.radians(20)))) == pytest.approx(
+        7.64e-3, rel=1e-12)
+    # hob addendum from root diameter and shift
+    assert gg28.hob_addendum_m == pytest.approx(0.070 + x * 5e-3 - 0.0632, rel=1e-12)
+
+
+@pytest.mark.parametrize("which", ["gg28", "ring"])
+def test_involute_polar_equation(which, request):
+    gg = request.getfixturevalue(which)
+    for side in SIDES:
+        u = np.linspace(gg.form_roll_rad[side], gg.involute_end_roll_rad[side], 50)
+        xy, nrm, rc = gg.involute_point(side, u)
+        R = np.hypot(xy[:, 0], xy[:, 1])
+        rb = gg.base_radius_m[side]
+        np.testing.assert_allclose(R, rb * np.sqrt(1 + u * u), rtol=1e-13)
+        a = gg.pressure_angle_rad[side]
+        a_r = np.arccos(rb / R)
+        psi = 0.5 * (7.64e-3 if which == "gg28" else 2e-3) / gg.pitch_radius_m
+        sign = -1.0 if gg.internal else 1.0
+        expected = psi + sign * (involute_function(a) - involute_function(a_r))
+        np.testing.assert_allclose(polar(xy, side), expected, atol=1e-13)
+        # normal: unit, perpendicular to the curve, pointing out of the material (away from the tooth centre line)
+        np.testing.assert_allclose(np.hypot(nrm[:, 0], nrm[:, 1]), 1.0, rtol=1e-13)
+        h = 1e-7
+        d = (gg.involute_point(side, u + h)[0] - gg.involute_point(side, u - h)[0]) / (2 * h)
+        np.testing.assert_allclose(np.sum(d * nrm, axis=1) / np.hypot(d[:, 0], d[:, 1]), 0.0, atol=1e-7)
+        tang_dir = np.array([0.0, 1.0]) if side == "drive" else np.array([0.0, -1.0])
+        # moving along +normal increases the local polar angle (leaves the tooth)
+        assert np.all(polar(xy + 1e-6 * nrm, side) > polar(xy, side))
+        # curvature radius r_b u, convex for external, concave for internal
+        np.testing.assert_allclose(rc, sign * rb * u, rtol=1e-13)
+        del tang_dir
+
+
+def test_flank_profile_involute_points_and_thickness(gg28):
+    for side in SIDES:
+        f = gg28.flank(side, 300)
+        assert f.xy.shape == (300, 2) and f.region.shape == (300,)
+        inv = f.region == REGION_INVOLUTE
+        # with relief the points move inward along the normal by modification_m: undo and check the polar equation
+        xy0 = f.xy[inv] + f.modification_m[inv][:, None] * f.normal[inv]
+        R = np.hypot(xy0[:, 0], xy0[:, 1])
+        rb = gg28.base_radius_m[side]
+        a = gg28.pressure_angle_rad[side]
+        exp = 7.64e-3 / 0.14 + involute_function(a) - involute_function(np.arccos(rb / R))
+        np.testing.assert_allclose(polar(xy0, side), exp, atol=1e-12)
+        # s runs from the tip: 0 at the last point, decreasing monotonically
+        assert f.s[-1] == 0 and np.all(np.diff(f.s) < 0)
+        # regions are ordered root land -> fillet -> involute
+        assert list(dict.fromkeys(f.region.tolist())) == [REGION_ROOT_LAND, REGION_FILLET, REGION_INVOLUTE]
+    # circular tooth thickness on the reference circle from the profile points
+    th = 0.0
+    for side in SIDES:
+        f = gg28.flank(side, 3000)
+        inv = f.region == REGION_INVOLUTE
+        th += np.interp(0.070, f.radius[inv], polar(f.xy[inv], side))
+    assert 0.070 * th == pytest.approx(7.64e-3, rel=1e-7)
+
+
+def test_internal_gear_thickness_and_material_outside(ring):
+    th = 0.0
+    for side in SIDES:
+        f = ring.flank(side, 3000)
+        inv = f.region == REGION_INVOLUTE
+        order = np.argsort(f.radius[inv])
+        th += np.interp(ring.pitch_radius_m, f.radius[inv][order], polar(f.xy[inv], side)[order])
+        # ordered root (large radius) to tip (small radius)
+        assert f.radius[0] > f.radius[-1]
+        assert f.radius[0] == pytest.approx(ring.root_radius_m)
+        assert f.radius[-1] == pytest.approx(ring.tip_radius_m, abs=2e-5)
+        # outward normals of the root land point to the centre (material outside)
+        land = f.region == REGION_ROOT_LAND
+        np.testing.assert_allclose(np.sum(f.normal[land] * f.xy[land], axis=1) / f.radius[land], -1.0, atol=1e-12)
+    assert ring.pitch_radius_m * th == pytest.approx(2e-3, rel=1e-7)
+    # ring tooth thickness s = m (pi/2 - 2 x tan a)  (x > 0: tool moved away from the axis)
+    x = ring.profile_shift["drive"]
+    assert 1.609e-3 * (math.pi / 2 - 2 * x * math.tan(math.radians(15.97))) == pytest.approx(2e-3, rel=1e-12)
+    # ring tooth gets thicker towards its root
+    assert ring.thickness_at_radius_m(0.142) > ring.thickness_at_radius_m(0.140)
+
+
+def test_symmetric_vs_asymmetric():
+    sym = gear_geometry(make_gear(a_d=20, a_c=20, s=7.64e-3, da=0.1499, df=0.1264, rho=0.4e-3))
+    fd, fc = sym.flank("drive", 200), sym.flank("coast", 200)
+    np.testing.assert_allclose(fd.xy[:, 0], fc.xy[:, 0], atol=1e-15)
+    np.testing.assert_allclose(fd.xy[:, 1], -fc.xy[:, 1], atol=1e-15)
+    asym = gear_geometry(make_gear(a_d=25, a_c=20, s=7.64e-3, da=0.1499, df=0.1264, rho=0.4e-3))
+    assert asym.base_radius_m["drive"] < asym.base_radius_m["coast"]
+    # the 25 deg flank has a smaller base circle: at the tip it is further from the centre line than if it were 20
+    th_d = asym.flank("drive", 200)
+    th_c = asym.flank("coast", 200)
+    assert polar(th_d.xy[-1], "drive") < polar(th_c.xy[-1], "coast")  # steeper 25 deg flank: thinner tip half
+    # the symmetric 20/20 coast flank equals the asymmetric gear's 20 deg coast flank except for the shift
+    x_sym = sym.profile_shift["drive"]
+    x_asym = asym.profile_shift["drive"]
+    assert x_sym == pytest.approx((7.64e-3 / 5e-3 - math.pi / 2) / (2 * math.tan(math.radians(20))))
+    assert x_asym == pytest.approx((7.64e-3 / 5e-3 - math.pi / 2) / (math.tan(math.radians(25)) +
+                                                                      math.tan(math.radians(20))))
+
+
+# ---------------------------------------------------------------------------------------------
+# Fillet
+# ---------------------------------------------------------------------------------------------
+def _rack_centre_path(gg, side, phi):
+    """Independent rack tip-circle centre path in the gear frame (drive side)."""
+    r = gg.pitch_radius_m
+    a = r - gg.root_radius_m - gg.hob_tip_radius_m
+    al = gg.pressure_angle_rad[side]
+    b = r * (7.64e-3 / (2 * r)) + a * math.tan(al) + gg.hob_tip_radius_m / math.cos(al)
+    X, Y = b + r * phi, np.full_like(phi, r - a)
+    c, s = np.cos(phi), np.sin(phi)
+    Xg, Yg = c * X - s * Y, s * X + c * Y
+    return np.stack([Yg, Xg if side == "drive" else -Xg], axis=1)
+
+
+def test_fillet_is_envelope_of_the_hob_tip_circle(gg28):
+    """Every fillet point is at distance rho from the tool tip-circle centre path (and never closer)."""
+    rho = gg28.hob_tip_radius_m
+    phi = np.linspace(-0.4, 0.1, 200001)
+    for side in SIDES:
+        f = gg28.flank(side, 200)
+        pts = f.xy[f.region == REGION_FILLET]
+        path = _rack_centre_path(gg28, side, phi)
+        for p in pts[::3]:
+            d = np.hypot(path[:, 0] - p[0], path[:, 1] - p[1]).min()
+            assert d == pytest.approx(rho, abs=2e-9)
+        # involute points are never closer than rho either (the tool does not gouge the flank)
+        inv = f.xy[f.region == REGION_INVOLUTE]
+        for p in inv[:20]:
+            assert np.hypot(path[:, 0] - p[0], path[:, 1] - p[1]).min() >= rho - 1e-9
+
+
+def test_fillet_tangent_to_involute_and_root(gg28):
+    for side in SIDES:
+        f = gg28.flank(side, 400)
+        j = np.flatnonzero(f.region == REGION_INVOLUTE)[0]
+        # junction: the first involute point is the fillet end; normals of the neighbours agree
+        assert f.radius[j] == pytest.approx(gg28.form_radius_m[side], rel=1e-12)
+        # the fillet end is where the curve is tangent: compare the normals of the two curves at the junction
+        fil_end = gg28._fillet_local(gg28._flanks[side], np.array([gg28._flanks[side].phi_end]))
+        n_fil = gg28._to_gear(side, fil_end[1][0], fil_end[1][1])[0]
+        u = gg28.form_roll_rad[side]
+        xy_i, n_i, _ = gg28.involute_point(side, u)
+        p_fil = gg28._to_gear(side, fil_end[0][0], fil_end[0][1])[0]
+        np.testing.assert_allclose(p_fil, xy_i, atol=1e-12)
+        np.testing.assert_allclose(n_fil, n_i, atol=1e-9)
+        # bottom: the fillet starts on the root circle with a radial normal (tangent to the root circle)
+        k = np.flatnonzero(f.region == REGION_FILLET)[0]
+        assert f.radius[k] == pytest.approx(gg28.root_radius_m, rel=1e-13)
+        np.testing.assert_allclose(np.sum(f.normal[k] * f.xy[k]) / f.radius[k], 1.0, atol=1e-12)
+        assert not gg28.undercut[side]
+
+
+def _three_point_radius(p0, p1, p2):
+    a, b, c = np.linalg.norm(p1 - p0), np.linalg.norm(p2 - p1), np.linalg.norm(p2 - p0)
+    area2 = abs((p1[0] - p0[0]) * (p2[1] - p0[1]) - (p1[1] - p0[1]) * (p2[0] - p0[0]))
+    return a * b * c / (2 * area2)
+
+
+def test_fillet_root_curvature_closed_form_rack(gg28):
+    """At the root point the fillet's curvature radius is rho + a^2/(r + a), not rho
+    (a = r - r_f - rho: depth of the hob tip-circle centre below the rolling line)."""
+    r, rf, rho = gg28.pitch_radius_m, gg28.root_radius_m, gg28.hob_tip_radius_m
+    a = r - rf - rho
+    exact = rho + a * a / (r + a)
+    assert fillet_root_curvature_radius_rack(r, rf, rho) == pytest.approx(exact)
+    assert exact > 2 * rho  # 0.936 mm vs 0.4 mm: the hob radius is NOT the root curvature radius
+    for side in SIDES:
+        fl = gg28._flanks[side]
+        f = gg28.flank(side, 200)
+        k = np.flatnonzero(f.region == REGION_FILLET)[0]
+        assert f.curvature_radius_m[k] == pytest.approx(-exact, rel=1e-9)  # concave
+        # independent: circle through three points of the fillet curve around the bottom
+        h = 1e-4
+        pts = gg28._fillet_local(fl, np.array([fl.phi_start - h, fl.phi_start, fl.phi_start + h]))[0].T
+        assert _three_point_radius(*pts) == pytest.approx(exact, rel=1e-6)
+    # the curvature radius tends to rho only when the tip-circle centre is on the rolling line (a -> 0)
+    assert fillet_root_curvature_radius_rack(r, r - rho, rho) == pytest.approx(rho)
+
+
+def test_fillet_root_curvature_closed_form_shaper(ring):
+    rho = ring.hob_tip_radius_m
+    for side in SIDES:
+        fl = ring._flanks[side]
+        t = fl.tool
+        exact = fillet_root_curvature_radius_shaper(t.r_w, ring.z, ring.shaper_teeth, ring.root_radius_m, rho)
+        f = ring.flank(side, 200)
+        k = np.flatnonzero(f.region == REGION_FILLET)[0]
+        assert f.curvature_radius_m[k] == pytest.approx(-exact, rel=1e-9)
+        h = 3e-5
+        pts = ring._fillet_local(fl, np.array([fl.phi_start - h, fl.phi_start, fl.phi_start + h]))[0].T
+        assert _three_point_radius(*pts) == pytest.approx(exact, rel=1e-6)
+        assert f.radius[k] == pytest.approx(ring.root_radius_m, rel=1e-12)
+        # tangent continuity at the fillet/involute junction of the ring
+        fil_end = ring._fillet_local(fl, np.array([fl.phi_end]))
+        n_fil = ring._to_gear(side, fil_end[1][0], fil_end[1][1])[0]
+        xy_i, n_i, _ = ring.involute_point(side, ring.form_roll_rad[side])
+        np.testing.assert_allclose(ring._to_gear(side, fil_end[0][0], fil_end[0][1])[0], xy_i, atol=1e-11)
+        np.testing.assert_allclose(n_fil, n_i, atol=1e-8)
+
+
+def test_undercut_detected_and_form_point_on_involute():
+    gg = gear_geometry(make_gear(z=10, m=5e-3, bore=0.0))  # x = 0, 20 deg: z_min = 17
+    assert gg.undercut["drive"] and gg.undercut["coast"]
+    assert any("undercut" in w for w in gg.warnings)
+    # the junction lies on the involute, above the base circle, and below the rack-flank limit
+    for side in SIDES:
+        rf = gg.form_radius_m[side]
+        rb = gg.base_radius_m[side]
+        assert rb < rf < gg.pitch_radius_m
+        f = gg.flank(side, 300)
+        j = np.flatnonzero(f.region == REGION_INVOLUTE)[0]
+        assert f.radius[j] == pytest.approx(rf, rel=1e-9)
+    no = gear_geometry(make_gear(z=28))
+    assert not no.undercut["drive"]
+
+
+# ---------------------------------------------------------------------------------------------
+# Modifications
+# ---------------------------------------------------------------------------------------------
+def test_tip_relief_equals_model_value_at_tip(gg28):
+    for side, c, start in (("drive", 47e-6, 28.54), ("coast", 52e-6, 22.9)):
+        u_tip = gg28.tip_roll_rad[side]
+        u0 = math.radians(start)
+        assert gg28.relief_m(side, u_tip) == pytest.approx(c, rel=1e-12)
+        assert gg28.relief_m(side, u0) == 0.0
+        assert gg28.relief_m(side, u0 - 0.05) == 0.0
+        # parabolic: a quarter of the tip value half way
+        assert gg28.relief_m(side, 0.5 * (u0 + u_tip)) == pytest.approx(0.25 * c, rel=1e-12)
+        f = gg28.flank(side, 200)
+        assert f.modification_m[-1] == pytest.approx(c, rel=1e-12)
+        # the modified tip corner lies c inside the true involute along the normal
+        xy_t, n_t, _ = gg28.involute_point(side, u_tip)
+        assert np.dot(xy_t - f.xy[-1], n_t) == pytest.approx(c, rel=1e-9)
+    lin = gear_geometry(make_gear(relief=(10e-6, 20.9, "linear")))
+    u_tip = lin.tip_roll_rad["drive"]
+    u0 = math.radians(20.9)
+    assert lin.relief_m("drive", u_tip) == pytest.approx(10e-6)
+    assert lin.relief_m("drive", 0.5 * (u0 + u_tip)) == pytest.approx(5e-6)
+
+
+def test_tip_relief_internal_gear_grows_towards_smaller_roll(ring):
+    u_tip, u0 = ring.tip_roll_rad["drive"], math.radians(16.0)
+    assert u_tip < u0
+    assert ring.relief_m("drive", u_tip) == pytest.approx(15e-6)
+    assert ring.relief_m("drive", u0 + 0.01) == 0.0
+    assert 0 < ring.relief_m("drive", 0.5 * (u0 + u_tip)) < 15e-6
+
+
+def test_lead_crowning(gg28):
+    b = gg28.face_width_m
+    assert gg28.crowning_m(0.0) == 0.0
+    np.testing.assert_allclose(gg28.crowning_m(np.array([-b / 2, b / 2])), 15e-6, rtol=1e-12)
+    assert gg28.crowning_m(b / 4) == pytest.approx(15e-6 / 4)
+
+
+def test_tip_edge_rounding():
+    sharp = gear_geometry(make_gear())
+    rnd = gear_geometry(make_gear(edge=0.5e-3))
+    f = rnd.flank("drive", 200)
+    e = f.region == REGION_TIP_ROUNDING
+    assert e.sum() >= 4
+    np.testing.assert_allclose(f.curvature_radius_m[e], 0.5e-3)
+    assert f.radius[-1] == pytest.approx(rnd.tip_radius_m, rel=1e-12)
+    # arc of radius 0.5 mm: all its points at the same distance from one centre
+    pts = f.xy[e]
+    c = pts - 0.5e-3 * f.normal[e]
+    np.testing.assert_allclose(c - c[0], 0.0, atol=1e-12)
+    assert rnd.involute_end_roll_rad["drive"] < sharp.involute_end_roll_rad["drive"]
+    # contact ratio drops with the rounding (the involute ends lower)
+    assert rnd.tip_thickness_m == sharp.tip_thickness_m
+
+
+# ---------------------------------------------------------------------------------------------
+# Mesh: centre distance, contact ratios, roll angles
+# ---------------------------------------------------------------------------------------------
+def _closed_form_eps(ra1, rb1, ra2, rb2, a, pb, internal=False):
+    if not internal:
+        aw = math.acos((rb1 + rb2) / a)
+        return (math.sqrt(ra1 ** 2 - rb1 ** 2) + math.sqrt(ra2 ** 2 - rb2 ** 2) - a * math.sin(aw)) / pb
+    aw = math.acos((rb2 - rb1) / a)
+    return (math.sqrt(ra1 ** 2 - rb1 ** 2) - math.sqrt(ra2 ** 2 - rb2 ** 2) + a * math.sin(aw)) / pb
+
+
+def test_contact_ratio_28_tooth_dissertation(asym28):
+    mg = mesh_geometry(asym28)
+    assert mg.center_distance_m == pytest.approx(0.140)
+    assert mg.contact_ratio == pytest.approx(1.45, abs=0.02)  # 25 deg flank, loaded
+    assert mg.contact_ratio_coast == pytest.approx(1.63, abs=0.02)  # 20 deg flank
+    ra = 0.14990 / 2
+    for side, eps in (("drive", mg.contact_ratio), ("coast", mg.contact_ratio_coast)):
+        rb = 0.070 * math.cos(math.radians(25 if side == "drive" else 20))
+        assert eps == pytest.approx(_closed_form_eps(ra, rb, ra, rb, 0.14, 2 * math.pi * rb / 28), rel=1e-12)
+    # roll angles (deg of tan(alpha)) on the loaded flank: closed forms
+    rb = 0.070 * math.cos(math.radians(25))
+    pb = 2 * math.pi * rb / 28
+    l_tip = math.sqrt(ra ** 2 - rb ** 2)
+    l_sap = 0.14 * math.sin(math.acos(2 * rb / 0.14)) - l_tip
+    exp = {"SAP": l_sap, "LPSTC": l_tip - pb, "HPSTC": l_sap + pb, "EAP": l_tip}
+    for g in ("pinion", "wheel"):
+        for k, v in exp.items():
+            assert mg.roll_angle_deg[g][k] == pytest.approx(math.degrees(v / rb), rel=1e-12)
+    # the relief start roll angles lie in the single-tooth-contact zone (the design intent)
+    assert mg.roll_angle_deg["pinion"]["LPSTC"] < 28.54 < mg.roll_angle_deg["pinion"]["HPSTC"]
+
+
+def test_contact_ratio_50_tooth_tables():
+    mg = mesh_geometry(load_model("spur_50t_icr137"))
+    assert mg.contact_ratio == pytest.approx(1.37, abs=0.03)
+    # Table 3.2 states 1.8; its diameters give 1.773 at the 150 mm centre distance (reported, not 1.8)
+    mg18 = mesh_geometry(load_model("spur_50t_icr18"))
+    rb = 0.075 * math.cos(math.radians(20))
+    assert mg18.contact_ratio == pytest.approx(_closed_form_eps(0.07803, rb, 0.07804, rb, 0.15, 2 * math.pi * rb / 50),
+                                               rel=1e-12)
+    assert 1.76 < mg18.contact_ratio < 1.78
+
+
+def test_internal_mesh_contact_ratio_closed_form():
+    model = load_model("planetary_65_55_175")
+    mg = mesh_geometry(model, "ring_planet")
+    assert mg.internal
+    ring, planet = model.gear("ring"), model.gear("planet")
+    rbr = ring.reference_radius_m * math.cos(ring.flanks["drive"].pressure_angle_rad)
+    rbp = planet.reference_radius_m * math.cos(planet.flanks["coast"].pressure_angle_rad)
+    exp = _closed_form_eps(planet.tip_diameter_m / 2, rbp, ring.tip_diameter_m / 2, rbr, mg.center_distance_m,
+                           2 * math.pi * rbp / 55, internal=True)
+    assert mg.contact_ratio == pytest.approx(exp, rel=1e-12)
+    # ring: root at large radius -> SAP has the largest roll angle
+    r = mg.roll_angle_deg["ring"]
+    assert r["SAP"] > r["EAP"]
+
+
+def test_zero_backlash_center_distance_closed_form():
+    g1 = gear_geometry(make_gear(z=20, s=math.pi * 5e-3 / 2))
+    g2 = gear_geometry(make_gear(z=37, s=math.pi * 5e-3 / 2))
+    assert zero_backlash_center_distance(g1._form, g2._form) == pytest.approx(0.5 * 5e-3 * 57, rel=1e-12)
+    # shifted: inv a_w = inv a + 2 tan a (x1 + x2)/(z1 + z2)
+    s1 = 5e-3 * (math.pi / 2 + 2 * 0.3 * math.tan(math.radians(20)))
+    s2 = 5e-3 * (math.pi / 2 - 2 * 0.1 * math.tan(math.radians(20)))
+    h1 = gear_geometry(make_gear(z=20, s=s1, da=0.1 + 2 * 1.3 * 5e-3, df=0.1 - 2 * 0.95 * 5e-3))
+    h2 = gear_geometry(make_gear(z=37, s=s2))
+    al = math.radians(20)
+    target = involute_function(al) + 2 * math.tan(al) * 0.2 / 57
+    aw = brent_inv(target)
+    assert zero_backlash_center_distance(h1._form, h2._form) == pytest.approx(0.5 * 5e-3 * 57 * math.cos(al) /
+                                                                             math.cos(aw), rel=1e-11)
+    # internal: inv a_w = inv a + 2 tan a (x2 - x1)/(z2 - z1) with x2 the ring shift (KHK sign convention)
+    ringg = gear_geometry(make_gear(z=80, s=5e-3 * (math.pi / 2 - 2 * 0.2 * math.tan(al)), internal=True, bore=0.45))
+    pin = gear_geometry(make_gear(z=20))
+    aw = brent_inv(involute_function(al) + 2 * math.tan(al) * 0.2 / 60)
+    assert zero_backlash_center_distance(pin._form, ringg._form) == pytest.approx(
+        0.5 * 5e-3 * 60 * math.cos(al) / math.cos(aw), rel=1e-11)
+
+
+def brent_inv(target):
+    from scipy.optimize import brentq
+    return brentq(lambda a: involute_function(a) - target, 1e-6, 1.2, xtol=1e-16)
+
+
+def test_center_distance_derived_when_absent():
+    import dataclasses
+    model = load_model("spur_28t_asym")
+    mesh = dataclasses.replace(model.meshes[0], center_distance_m=None)
+    m2 = dataclasses.replace(model, meshes=(mesh,))
+    mg = mesh_geometry(m2)
+    assert mg.center_distance_source == "zero backlash"
+    assert mg.backlash_m == pytest.approx(0.0, abs=1e-12)
+    assert mg.center_distance_m < 0.140  # negative shift: thinner teeth close up
+
+
+def test_helical_face_contact_ratio_and_lead():
+    model = load_model("helical_28_33")
+    mg = mesh_geometry(model)
+    # overlap of [1 +- 5] and [-1 +- 8] mm = [-4, 6] mm
+    assert mg.face_width_overlap_m == pytest.approx(0.010)
+    assert mg.face_contact_ratio == pytest.approx(0.010 * math.tan(math.radians(15)) / (math.pi * 5e-3), rel=1e-12)
+    assert mg.total_contact_ratio == pytest.approx(mg.contact_ratio + mg.face_contact_ratio)
+    gg = gear_geometry(model.gear("pinion"))
+    assert gg.lead_m == pytest.approx(2 * math.pi * 0.070 / math.tan(math.radians(15)))
+    assert gg.section_rotation_rad(0.005) == pytest.approx(0.005 * math.tan(math.radians(15)) / 0.070)
+
+
+# ---------------------------------------------------------------------------------------------
+# Errors and warnings
+# ---------------------------------------------------------------------------------------------
+def test_pointed_tip_is_an_error_thin_tip_a_warning():
+    with pytest.raises(GeometryError, match="pointed"):
+        gear_geometry(make_gear(z=12, da=0.5 * 5e-3 * 12 * 2 + 2 * 1.9 * 5e-3))
+    thin = gear_geometry(make_gear(z=28, da=0.14 + 2 * 1.52 * 5e-3, df=0.14 - 2 * 1.25 * 5e-3))
+    assert 0 < thin.tip_thickness_m < 0.2 * 5e-3
+    assert any("thin tip" in w for w in thin.warnings)
+
+
+def test_interference_and_low_contact_ratio_are_errors():
+    from hacgear_core.model import Mesh, Model, Damping, Operating, StaticsGrid
+    def pair(g1, g2, cd=None):
+        return Model(name="t", kind="spur_pair", title="", source="", gears=(g1, g2),
+                     meshes=(Mesh("m", g1.name, g2.name, "drive", "drive", cd),), damping=Damping(),
+                     operating=Operating(10.0, g1.name), statics=StaticsGrid())
+    # undercut pinion (z=10) with a large wheel: the wheel tip reaches below the pinion's form circle
+    p = make_gear("p", z=10, bore=0.0)
+    w = make_gear("w", z=60, bore=0.0)
+    with pytest.raises(GeometryError, match="interference"):
+        mesh_geometry(pair(p, w))
+    mg = mesh_geometry(pair(p, w), strict=False)
+    assert any("interference" in x for x in mg.warnings)
+    # short teeth: contact ratio < 1
+    a = make_gear("a", z=20, da=0.1 + 2 * 0.4e-3 * 5, df=0.1 - 2 * 1.25 * 5e-3, bore=0.0)
+    b = make_gear("b", z=20, da=0.1 + 2 * 0.4e-3 * 5, df=0.1 - 2 * 1.25 * 5e-3, bore=0.0)
+    with pytest.raises(GeometryError, match="contact ratio"):
+        mesh_geometry(pair(a, b))
+    # teeth overlapping (centre distance below zero backlash)
+    c = make_gear("c", z=20, bore=0.0)
+    d = make_gear("d", z=20, bore=0.0)
+    with pytest.raises(GeometryError, match="negative backlash"):
+        mesh_geometry(pair(c, d, cd=0.0995))
+
+
+def test_bad_side_and_n():
+    gg = gear_geometry(make_gear())
+    with pytest.raises(ModelError, match="drive \\| coast"):
+        gg.flank("left")
+    with pytest.raises(ModelError, match="n = 3"):
+        gg.flank("drive", 3)
+
+
+# ---------------------------------------------------------------------------------------------
+# Boundaries and mass properties
+# ---------------------------------------------------------------------------------------------
+def test_tooth_and_gear_boundary(gg28, ring):
+    for gg in (gg28, ring):
+        tb = gg.tooth_boundary(60)
+        ang = np.unwrap(np.arctan2(tb.xy[:, 1], tb.xy[:, 0]))
+        assert ang[0] == pytest.approx(-math.pi / gg.z, abs=1e-12)
+        assert ang[-1] == pytest.approx(math.pi / gg.z, abs=1e-12)
+        assert np.hypot(*tb.xy[0]) == pytest.approx(np.hypot(*tb.xy[-1]), rel=1e-12)
+        gb = gg.gear_boundary(60)
+        assert len(gb.xy) == gg.z * (len(tb.xy) - 1)
+        # closed, counter-clockwise (positive signed area)
+        x, y = gb.xy[:, 0], gb.xy[:, 1]
+        assert 0.5 * np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y) > 0
+        assert set(np.unique(gb.tooth)) == set(range(gg.z))
+
+
+def _teeth_area_polar(gg, n=4000):
+    """Independent teeth area and polar moment: z * sum over both flanks of the Stieltjes integrals
+    int theta d(R^2/2) and int theta d(R^4/4) along the flank curve from the root circle to the tip."""
+    area = j = 0.0
+    for side in SIDES:
+        f = gg.flank(side, n)
+        k = f.region != REGION_ROOT_LAND
+        rad, th = f.radius[k], polar(f.xy[k], side)
+        thm = 0.5 * (th[1:] + th[:-1])
+        sgn = -1.0 if gg.internal else 1.0  # internal: the flank runs from large to small radius
+        area += sgn * np.sum(thm * np.diff(rad ** 2 / 2))
+        j += sgn * np.sum(thm * np.diff(rad ** 4 / 4))
+        # tip land: the corner angle times the annulus slice is already covered by theta at the tip
+    return gg.z * area, gg.z * j
+
+
+def test_mass_and_inertia_against_annulus_plus_teeth(gg28, ring):
+    rho_b = 7850.0 * 0.015
+    a_t, j_t = _teeth_area_polar(gg28)
+    assert gg28.teeth_area_m2 == pytest.approx(a_t, rel=1e-5)
+    rf, ri = 0.0632, 0.020
+    m_exp = rho_b * (math.pi * (rf ** 2 - ri ** 2) + a_t)
+    i_exp = rho_b * (0.5 * math.pi * (rf ** 4 - ri ** 4) + j_t)
+    assert gg28.mass_kg == pytest.approx(m_exp, rel=1e-5)
+    assert gg28.inertia_kgm2 == pytest.approx(i_exp, rel=1e-5)
+    assert gg28.diametral_inertia_kgm2 == pytest.approx(0.5 * gg28.inertia_kgm2 + gg28.mass_kg * 0.015 ** 2 / 12)
+    # teeth area is between the involute-only estimate bounds: a fraction of the tooth annulus
+    ann = math.pi * (0.07495 ** 2 - rf ** 2)
+    assert 0.4 * ann < gg28.teeth_area_m2 < 0.7 * ann
+    # internal gear: rim annulus between root circle and outer rim plus the teeth inside
+    a_t, j_t = _teeth_area_polar(ring)
+    rho_b = 7595.0 * 0.010
+    ro, rf = 0.155, 0.144
+    assert ring.mass_kg == pytest.approx(rho_b * (math.pi * (ro ** 2 - rf ** 2) + a_t), rel=1e-5)
+    assert ring.inertia_kgm2 == pytest.approx(rho_b * (0.5 * math.pi * (ro ** 4 - rf ** 4) + j_t), rel=1e-5)
+
+
+def test_mass_override(asym28):
+    model = load_model("planetary_65_55_175")
+    sun = gear_geometry(model.gear("sun"))
+    assert sun.mass_kg == 1.8 and sun.inertia_kgm2 == pytest.approx(2.1e-3)
+    assert sun.blank_mass_kg != sun.mass_kg
+
+
+def test_all_six_models_build():
+    for name in ("spur_28t_asym", "spur_50t_icr137", "spur_50t_icr18", "idler_28_33_39", "planetary_65_55_175",
+                 "helical_28_33"):
+        gears, meshes = model_geometry(load_model(name))
+        for mg in meshes.values():
+            assert mg.contact_ratio > 1
+            for g, d in mg.roll_angle_deg.items():
+                assert set(d) == {"SAP", "LPSTC", "HPSTC", "EAP"}

@@ -1,0 +1,151 @@
+"""``hacgear info MODEL [--json]``: derived geometry of every gear and mesh.
+
+Per mesh: centre distance, base radii, operating pressure angles, contact ratios (loaded and
+unloaded flank, face and total), base pitch, roll angles of SAP/LPSTC/HPSTC/EAP per gear (loaded
+flank, degrees of tan(pressure angle)); per gear: profile shift, tool addendum, form and tip
+radii, tip thickness, mass and inertias.  Warnings are printed after the tables (stderr for text,
+a ``warnings`` list in JSON).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from typing import Any
+
+__all__ = ["register", "run", "info_dict"]
+
+
+def register(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "info", help="derived geometry: centre distance, base radii, contact ratios, roll angles, masses",
+        description="Derived gear geometry of a model (models/<system>/model.toml, its folder or a system name). "
+                    "Text: tables with units. --json: SI values, unit in the key name.")
+    p.add_argument("model", help="model file, folder or system name")
+    p.add_argument("--json", action="store_true", help="print JSON (SI units, unit in the key name)")
+    p.add_argument("--lenient", action="store_true",
+                   help="report interference / contact ratio < 1 as warnings instead of errors")
+    p.set_defaults(func=run)
+
+
+def _clean(v: Any) -> Any:
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    if isinstance(v, dict):
+        return {k: _clean(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_clean(x) for x in v]
+    return v
+
+
+def info_dict(model: Any, *, strict: bool = True) -> dict:
+    """Everything ``hacgear info --json`` prints, as a dict (SI; NaN -> None)."""
+    from hacgear_core.geometry import SIDES, model_geometry
+
+    gears, meshes = model_geometry(model, strict=strict)
+    out: dict = {"model": model.name, "kind": model.kind, "gears": {}, "meshes": {}, "warnings": []}
+    for g in gears.values():
+        out["gears"][g.name] = {
+            "teeth": g.z, "module_m": g.module_m, "internal": g.internal,
+            "reference_radius_m": g.pitch_radius_m, "tip_radius_m": g.tip_radius_m, "root_radius_m": g.root_radius_m,
+            "pressure_angle_deg": {s: math.degrees(g.pressure_angle_rad[s]) for s in SIDES},
+            "base_radius_m": dict(g.base_radius_m), "profile_shift": g.profile_shift["drive"],
+            "tool_addendum_m": g.hob_addendum_m, "tool_addendum_coefficient": g.hob_addendum_m / g.module_m,
+            "tip_addendum_coefficient": g.tip_addendum_m / g.module_m,
+            "form_radius_m": dict(g.form_radius_m),
+            "tip_roll_angle_deg": {s: math.degrees(g.tip_roll_rad[s]) for s in SIDES},
+            "undercut": dict(g.undercut), "tip_thickness_m": g.tip_thickness_m,
+            "fillet_root_curvature_radius_m": dict(g.fillet_root_curvature_radius_m),
+            "helix_angle_deg": math.degrees(g.helix_angle_rad), "lead_m": g.lead_m,
+            "face_width_m": g.face_width_m, "bore_radius_m": g.bore_radius_m,
+            "mass_kg": g.mass_kg, "inertia_kgm2": g.inertia_kgm2, "diametral_inertia_kgm2": g.diametral_inertia_kgm2,
+            "blank_mass_kg": g.blank_mass_kg, "blank_inertia_kgm2": g.blank_inertia_kgm2,
+            "mass_source": "model" if model.gear(g.name).mass_kg is not None else "blank",
+            "inertia_source": "model" if model.gear(g.name).inertia_kgm2 is not None else "blank",
+            "shaper_teeth": g.shaper_teeth,
+        }
+    for mg in meshes.values():
+        out["meshes"][mg.name] = {
+            "gear_a": mg.gear_a, "gear_b": mg.gear_b, "flank_a": mg.flank_a, "flank_b": mg.flank_b,
+            "internal": mg.internal, "center_distance_m": mg.center_distance_m,
+            "center_distance_source": mg.center_distance_source,
+            "zero_backlash_center_distance_m": mg.zero_backlash_center_distance_m, "backlash_m": mg.backlash_m,
+            "gear_ratio": mg.gear_ratio, "base_radius_m": dict(mg.base_radius_m),
+            "base_radius_coast_m": dict(mg.base_radius_coast_m),
+            "operating_pitch_radius_m": dict(mg.operating_pitch_radius_m),
+            "operating_pressure_angle_deg": math.degrees(mg.operating_pressure_angle_rad),
+            "operating_pressure_angle_coast_deg": math.degrees(mg.operating_pressure_angle_coast_rad),
+            "base_pitch_m": mg.base_pitch_m, "contact_ratio": mg.contact_ratio,
+            "contact_ratio_coast": mg.contact_ratio_coast, "face_contact_ratio": mg.face_contact_ratio,
+            "total_contact_ratio": mg.total_contact_ratio, "path_of_contact_m": mg.line_of_action_length_m,
+            "roll_angle_deg": {k: {g: mg.roll_angle_deg[g][k] for g in mg.roll_angle_deg}
+                               for k in ("SAP", "LPSTC", "HPSTC", "EAP")},
+            "roll_angle_coast_deg": {k: {g: mg.roll_angle_coast_deg[g].get(k, math.nan)
+                                         for g in mg.roll_angle_coast_deg}
+                                     for k in ("SAP", "LPSTC", "HPSTC", "EAP")},
+            "tip_clearance_m": dict(mg.tip_clearance_m),
+        }
+    warns: list[str] = []
+    for g in gears.values():
+        warns += [w for w in g.warnings if w not in warns]
+    for mg in meshes.values():
+        warns += [w for w in mg.warnings if w not in warns]
+    out["warnings"] = warns
+    return _clean(out)
+
+
+def _f(v: Any, fmt: str) -> str:
+    return "-" if v is None else format(v, fmt)
+
+
+def _text(d: dict) -> str:
+    lines = [f"model {d['model']} ({d['kind']})", "", "Gears"]
+    hdr = (f"  {'gear':<10}{'z':>5}{'m [mm]':>8}{'int':>5}{'d_a [mm]':>10}{'d_f [mm]':>10}{'x [-]':>9}"
+           f"{'h_a0/m':>8}{'s_a [mm]':>9}{'d_b drive/coast [mm]':>22}{'d_Ff drive/coast [mm]':>23}"
+           f"{'mass [kg]':>11}{'J [kg m^2]':>13}")
+    lines.append(hdr)
+    for n, g in d["gears"].items():
+        lines.append(
+            f"  {n:<10}{g['teeth']:>5}{g['module_m'] * 1e3:>8.3f}{('yes' if g['internal'] else 'no'):>5}"
+            f"{2e3 * g['tip_radius_m']:>10.3f}{2e3 * g['root_radius_m']:>10.3f}{g['profile_shift']:>9.4f}"
+            f"{g['tool_addendum_coefficient']:>8.3f}{g['tip_thickness_m'] * 1e3:>9.3f}"
+            f"{2e3 * g['base_radius_m']['drive']:>11.3f}/{2e3 * g['base_radius_m']['coast']:<10.3f}"
+            f"{2e3 * g['form_radius_m']['drive']:>12.3f}/{2e3 * g['form_radius_m']['coast']:<10.3f}"
+            f"{g['mass_kg']:>11.4f}{g['inertia_kgm2']:>13.4e}"
+            + ("" if g["mass_source"] == "blank" and g["inertia_source"] == "blank" else "  (model override)"))
+    lines += ["", "Meshes"]
+    for n, m in d["meshes"].items():
+        ga, gb = m["gear_a"], m["gear_b"]
+        lines.append(f"  {n}: {ga} ({m['flank_a']}) -> {gb} ({m['flank_b']}){'  internal' if m['internal'] else ''}")
+        lines.append(f"    centre distance        {m['center_distance_m'] * 1e3:10.4f} mm ({m['center_distance_source']}; "
+                     f"zero backlash {m['zero_backlash_center_distance_m'] * 1e3:.4f} mm, backlash "
+                     f"{m['backlash_m'] * 1e6:.1f} um)")
+        lines.append(f"    base radius            {ga}: {m['base_radius_m'][ga] * 1e3:.4f} mm, "
+                     f"{gb}: {m['base_radius_m'][gb] * 1e3:.4f} mm (loaded flanks)")
+        lines.append(f"    operating press. angle {m['operating_pressure_angle_deg']:10.4f} deg loaded, "
+                     f"{_f(m['operating_pressure_angle_coast_deg'], '.4f')} deg unloaded")
+        lines.append(f"    base pitch             {m['base_pitch_m'] * 1e3:10.4f} mm")
+        lines.append(f"    contact ratio          {m['contact_ratio']:10.4f} loaded, "
+                     f"{_f(m['contact_ratio_coast'], '.4f')} unloaded flank, face {m['face_contact_ratio']:.4f}, "
+                     f"total {m['total_contact_ratio']:.4f}")
+        lines.append(f"    roll angles [deg]      {'SAP':>8}{'LPSTC':>9}{'HPSTC':>9}{'EAP':>9}   (loaded flank)")
+        for g in (ga, gb):
+            r = m["roll_angle_deg"]
+            lines.append(f"      {g:<20} " + "".join(f"{_f(r[k][g], '9.3f'):>9}" for k in ("SAP", "LPSTC", "HPSTC", "EAP")))
+        lines.append("    tip clearance          " + ", ".join(f"{g}: {v * 1e3:.4f} mm" for g, v in m["tip_clearance_m"].items()))
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    from hacgear_core.model import load_model
+
+    model = load_model(args.model)
+    d = info_dict(model, strict=not args.lenient)
+    if args.json:
+        print(json.dumps(d, indent=2, allow_nan=False))
+    else:
+        print(_text(d))
+        for w in d["warnings"]:
+            print(f"warning: {w}", file=sys.stderr)
+    return 0

@@ -53,7 +53,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from hacgear_core.errors import GeometryError, ModelError, SolverError
-from hacgear_core.nearfield import halfspace_strip_kernel, hertz_line_contact
+from hacgear_core.nearfield import halfspace_approach_hertz, halfspace_strip_kernel, hertz_line_contact
 
 __all__ = [
     "LCPResult",
@@ -67,6 +67,9 @@ __all__ = [
     "make_mesh_solver",
     "mesh_stiffness_curve",
     "StiffnessCurve",
+    "model_variant",
+    "RootStrainScan",
+    "root_strain_scan",
 ]
 
 
@@ -316,11 +319,11 @@ class ContactOptions:
     """
 
     face_slices: int = 5
-    face_coupling: str = "slices"
+    face_coupling: str = "rigid"
     pair_window: int = 2
     n_profile: int = 600
     corner_radius_m: float = 0.1e-3
-    fixed_point_tol: float = 1e-7
+    fixed_point_tol: float = 1e-6
     max_fixed_point: int = 30
 
     def __post_init__(self):
@@ -384,28 +387,41 @@ def _canonical_flank(gg: Any, side: str, n: int, corner_radius_m: float, s_range
                   region=region, curvature=curv, contact=contact, s_min=s_range[0], s_max=s_range[1])
 
 
-def _project(P: np.ndarray, Q: np.ndarray, NQ: np.ndarray):
+def _project(P: np.ndarray, Q: np.ndarray, NQ: np.ndarray, tree: Any = None):
     """Closest point on the polyline ``Q`` for each point ``P``.
 
-    Returns (signed distance along the interpolated normal of Q, segment index, parameter,
-    valid (foot not beyond either end of Q), interpolated unit normal)."""
-    A = Q[:-1]
-    D = Q[1:] - A
-    L2 = np.einsum("ij,ij->i", D, D)
-    rel = P[:, None, :] - A[None, :, :]
-    t = np.einsum("pij,ij->pi", rel, D) / L2
+    The nearest vertex of ``Q`` (KD-tree) selects the two adjacent segments; the orthogonal foot on
+    the nearer one is taken.  Returns (signed distance along the interpolated normal of Q,
+    segment index, parameter in [0, 1], valid (foot not beyond either end of Q), unit normal)."""
+    from scipy.spatial import cKDTree
+
+    if tree is None:
+        tree = cKDTree(Q)
+    _, v = tree.query(P)
+    m = len(Q) - 1
+    best_d2 = np.full(len(P), np.inf)
+    best_j = np.zeros(len(P), dtype=int)
+    best_t = np.zeros(len(P))
+    for j in (np.clip(v - 1, 0, m - 1), np.clip(v, 0, m - 1)):
+        A = Q[j]
+        D = Q[j + 1] - A
+        rel = P - A
+        t = np.einsum("ij,ij->i", rel, D) / np.einsum("ij,ij->i", D, D)
+        tc = np.clip(t, 0.0, 1.0)
+        diff = rel - tc[:, None] * D
+        d2 = np.einsum("ij,ij->i", diff, diff)
+        better = d2 < best_d2
+        best_d2 = np.where(better, d2, best_d2)
+        best_j = np.where(better, j, best_j)
+        best_t = np.where(better, t, best_t)
+    j, t = best_j, best_t
+    valid = ~(((j == 0) & (t < 0)) | ((j == m - 1) & (t > 1)))
     tc = np.clip(t, 0.0, 1.0)
-    diff = rel - tc[..., None] * D[None]
-    d2 = np.einsum("pij,pij->pi", diff, diff)
-    j = np.argmin(d2, axis=1)
-    r = np.arange(len(P))
-    tj = t[r, j]
-    valid = ~(((j == 0) & (tj < 0)) | ((j == len(Q) - 2) & (tj > 1)))
-    tjc = tc[r, j]
-    nq = NQ[j] * (1 - tjc)[:, None] + NQ[j + 1] * tjc[:, None]
+    foot = Q[j] * (1 - tc)[:, None] + Q[j + 1] * tc[:, None]
+    nq = NQ[j] * (1 - tc)[:, None] + NQ[j + 1] * tc[:, None]
     nq /= np.linalg.norm(nq, axis=1, keepdims=True)
-    gap = np.einsum("pi,pi->p", diff[r, j], nq)
-    return gap, j, tjc, valid, nq
+    gap = np.einsum("pi,pi->p", P - foot, nq)
+    return gap, j, tc, valid, nq
 
 
 def _interp_seg(arr: np.ndarray, j: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -440,6 +456,11 @@ class PositionSetup:
     tooth_b: np.ndarray
     phi: tuple[float, float]     # rotation of the gear frames (canonical) [rad]
     tip_contact: np.ndarray      # (Np,) bool: the contact is at a tip edge (off the involute pair)
+    depth_a: np.ndarray          # (Np,) near-field reading depths of the finite-element far field [m]
+    depth_b: np.ndarray
+    R_eff: np.ndarray            # (Np,) Hertz effective radius [m]
+    strain_op: dict = field(default_factory=dict)   # gauge -> (Nw, Np) strain per unit line load [m/N]
+    hub_op: dict = field(default_factory=dict)      # gear -> (Np, 3) hub force per unit line load (global)
 
 
 @dataclass(frozen=True)
@@ -457,6 +478,7 @@ class ContactState:
     fixed_point_iterations: int
     success: bool
     message: str
+    lcp_iterations: int = 0
 
 
 # =============================================================================================
@@ -529,6 +551,8 @@ class MeshContactSolver:
         self.slice_width_m = b / n
         self.slice_z_m = -b / 2 + (np.arange(n) + 0.5) * b / n
         self.crowning_slices_m = np.asarray([[float(c(zz)) for zz in self.slice_z_m] for c in crowning])
+        (Ea, nua), (Eb, nub) = materials
+        self._E_star = hertz_line_contact(1.0, 1.0, 1.0, Ea, nua, Eb, nub, plane=plane).effective_modulus_Pa
         self._kinematics()
         self._setup_cache: dict[float, PositionSetup] = {}
 
@@ -669,14 +693,32 @@ class MeshContactSolver:
             C_lin = np.where(same_slice, Cfull / bs, 0.0)
         else:
             C_lin = Cfull / b
+        R_a, R_b = get("R_a", 1.0), get("R_b", 1.0)
+        curv = 1.0 / R_a + 1.0 / R_b
+        if np.any(curv[np.isfinite(gap_pair)] <= 0):
+            raise GeometryError(f"mesh '{self.mesh_name}': non-convex contact (combined curvature <= 0) at "
+                                f"position {position}")
+        R_eff = 1.0 / np.maximum(curv, 1e-9)
+        hub_op = {}
+        for g, (teeth, sg) in enumerate(((tooth_a, s_a), (tooth_b, s_b))):
+            H = np.array([np.asarray(self.compliance[g].hub_force(int(t), ss), dtype=float) for t, ss in zip(teeth, sg)])
+            if self._mirror:   # actual gear frame -> canonical gear frame
+                H[:, 1:] *= -1.0
+            R = _rot(phi[g])
+            H[:, :2] = H[:, :2] @ R.T
+            hub_op[g] = H
         out = PositionSetup(
             position=position, pairs=pairs, g0=g0, lam=lam, C_lin=C_lin, pair_index=pair_index,
             slice_index=slice_index, slice_width_m=bs, s_a=s_a, s_b=s_b, roll_b_rad=get("roll_b"),
-            R_a=get("R_a", 1.0), R_b=get("R_b", 1.0),
+            R_a=R_a, R_b=R_b,
             point=np.array([g["point"] if g else [np.nan, np.nan] for g in geo]),
             normal=np.array([g["normal"] if g else [np.nan, np.nan] for g in geo]),
             tooth_a=tooth_a, tooth_b=tooth_b, phi=phi,
-            tip_contact=np.array([bool(g["tip"]) if g else False for g in geo]))
+            tip_contact=np.array([bool(g["tip"]) if g else False for g in geo]),
+            depth_a=np.asarray(self.compliance[0].depth(s_a), dtype=float),
+            depth_b=np.asarray(self.compliance[1].depth(s_b), dtype=float), R_eff=R_eff,
+            strain_op=self._strain_operator(pairs, tooth_a, tooth_b, s_a, s_b, self.tooth_offsets),
+            hub_op=hub_op)
         if len(self._setup_cache) > 256:
             self._setup_cache.clear()
         self._setup_cache[key] = out
@@ -684,59 +726,55 @@ class MeshContactSolver:
 
     # -------------------------------------------------------------------- near field
     def _hertz(self, setup: PositionSetup, w: np.ndarray):
-        """Half-width and peak pressure per candidate for line loads ``w`` [N/m]."""
-        (Ea, nua), (Eb, nub) = self.materials
-        Ra = setup.R_a[setup.pair_index]
-        Rb = setup.R_b[setup.pair_index]
-        k = np.where(Ra > 0, 1 / Ra, 0) + np.where(Rb > 0, 1 / Rb, 0) + np.where(Ra < 0, 1 / Ra, 0) \
-            + np.where(Rb < 0, 1 / Rb, 0)
-        k = np.maximum(k, 1e-6)
-        R = 1.0 / k
-        Es = hertz_line_contact(1.0, 1.0, 1.0, Ea, nua, Eb, nub, plane=self.plane).effective_modulus_Pa
+        """Half-width [m] and peak pressure [Pa] per candidate for line loads ``w`` [N/m]."""
+        R = setup.R_eff[setup.pair_index]
         w = np.maximum(w, 0.0)
-        a = np.sqrt(4.0 * w * R / (math.pi * Es))
-        p0 = np.sqrt(w * Es / (math.pi * R))
+        a = np.sqrt(4.0 * w * R / (math.pi * self._E_star))
+        p0 = np.sqrt(w * self._E_star / (math.pi * R))
         return a, p0
 
     def _near_compliance(self, setup: PositionSetup, w_eval: np.ndarray) -> np.ndarray:
-        """Secant near-field compliance [m/N] of each candidate (both bodies) at line load ``w_eval``."""
+        """Secant near-field compliance [m/N] of each candidate (both bodies' half-space approach
+        between surface and reading depth, :func:`hacgear_core.nearfield.halfspace_approach_hertz`)
+        at line load ``w_eval`` [N/m] (> 0)."""
         a, _ = self._hertz(setup, w_eval)
         pi = setup.pair_index
-        da = self.compliance[0].self_approach(w_eval, a, setup.s_a[pi])
-        db = self.compliance[1].self_approach(w_eval, a, setup.s_b[pi])
-        return (da + db) / w_eval / setup.slice_width_m
+        (Ea, nua), (Eb, nub) = self.materials
+        da = halfspace_approach_hertz(1.0, a, setup.depth_a[pi], Ea, nua, self.plane)
+        db = halfspace_approach_hertz(1.0, a, setup.depth_b[pi], Eb, nub, self.plane)
+        return (da + db) / setup.slice_width_m
 
     # -------------------------------------------------------------------- solves
     def _solve(self, setup: PositionSetup, *, force: float | None = None, deflection: float | None = None,
                warm: np.ndarray | None = None) -> ContactState:
         n = setup.g0.size
         bs = setup.slice_width_m
-        finite = np.isfinite(setup.g0)
-        # initial line load estimate for the near field: nominal share of the load
-        if warm is not None and np.any(warm > 0):
-            F = np.asarray(warm, float).copy()
-        else:
-            F = np.zeros(n)
-        total_iter = 0
+        F = np.asarray(warm, float).copy() if warm is not None and np.any(warm > 0) else np.zeros(n)
+        F_eval = F.copy()
         res = None
         msg = "converged"
         ok = True
+        total = 0
         for it in range(1, self.options.max_fixed_point + 1):
-            w = F / bs
+            w = F_eval / bs
             w_ref = max(float(w.max()), 1.0)
             w_eval = np.where(w > 1e-3 * w_ref, w, w_ref)
-            C = setup.C_lin + np.diag(self._near_compliance(setup, w_eval))
+            C = setup.C_lin.copy()
+            C[np.diag_indices(n)] += self._near_compliance(setup, w_eval)
             res = solve_contact_lcp(C, setup.g0, setup.lam, mesh_force_N=force, mesh_deflection_m=deflection,
                                     warm_start=F if np.any(F > 0) else None)
-            total_iter += res.iterations
+            total += res.iterations
             if not res.success:
                 ok, msg = False, res.message
                 break
             Fn = res.force_N
-            change = float(np.max(np.abs(Fn - F))) / max(float(Fn.max()), 1e-30)
+            scale = max(float(Fn.max()), 1e-30)
+            change = float(np.max(np.abs(Fn - F))) / scale
             F = Fn
             if change < self.options.fixed_point_tol or not np.any(Fn > 0):
                 break
+            # plain substitution first; relaxed (averaged loads for the compliance) if it lingers
+            F_eval = Fn if it < 4 else 0.5 * (F_eval + Fn)
         else:
             ok, msg = False, f"near-field fixed point did not converge in {self.options.max_fixed_point} iterations"
         w = F / bs
@@ -745,8 +783,8 @@ class MeshContactSolver:
         p0 = np.where(F > 0, p0, 0.0)
         return ContactState(setup=setup, lcp=res, force_N=F, line_load_N_m=w, half_width_m=a, peak_pressure_Pa=p0,
                             mesh_force_N=float(res.mesh_force_N), mesh_deflection_m=float(res.mesh_deflection_m),
-                            fixed_point_iterations=it, success=ok and res.success,
-                            message=msg if ok else msg)
+                            fixed_point_iterations=it, success=ok and res.success, message=msg,
+                            lcp_iterations=total)
 
     def no_load_deflection(self, position: float) -> float:
         """No-load mesh deflection [m] at ``position``: smallest rigid deflection that closes a gap."""
@@ -787,56 +825,53 @@ class MeshContactSolver:
                     s_a_m=np.where(loaded, s.s_a, np.nan), s_b_m=np.where(loaded, s.s_b, np.nan),
                     half_width_m=hw, peak_pressure_Pa=pp, tip_contact=s.tip_contact & loaded)
 
-    def strains(self, st: ContactState, offsets: Sequence[int] | None = None) -> dict[str, np.ndarray]:
-        """Gauge strains [-] on the teeth of pair offsets ``offsets`` (default ``tooth_offsets``,
-        relative to the reference pair), at the face centre."""
-        s = st.setup
-        offs = np.asarray(self.tooth_offsets if offsets is None else offsets, dtype=int)
+    def _strain_operator(self, setup_pairs: np.ndarray, tooth_a: np.ndarray, tooth_b: np.ndarray, s_a: np.ndarray,
+                         s_b: np.ndarray, offsets: np.ndarray) -> dict[str, np.ndarray]:
+        """gauge -> (len(offsets), Np) strain on the tooth of each offset per unit line load at each pair."""
         out = {}
-        loaded = np.flatnonzero(st.force_N > 0)
-        ns = self.options.face_slices
         for gear, gi, name in self.gauges:
             fc = self.compliance[gear]
             z = self.teeth[gear]
-            tooth_load = (s.tooth_a if gear == 0 else s.tooth_b)[s.pair_index[loaded]]
-            s_load = (s.s_a if gear == 0 else s.s_b)[s.pair_index[loaded]]
-            resp = np.array([self._actual_tooth(gear, -int(k) if gear == 0 else int(k)) for k in offs])
-            eps = np.zeros((len(offs), ns))
-            for col, j in enumerate(loaded):
-                k = (resp - tooth_load[col]) % z
-                e = np.array([fc.strain(gi, int(kk), s_load[col]) for kk in k])
-                eps[:, s.slice_index[j]] += e * st.force_N[j]
-            if self.options.face_coupling == "slices":
-                eps /= s.slice_width_m
-                # gauge at the face centre: interpolate between slice centres
-                val = np.array([np.interp(0.0, self.slice_z_m, row) for row in eps])
+            t_load = tooth_a if gear == 0 else tooth_b
+            s_load = s_a if gear == 0 else s_b
+            resp = np.array([self._actual_tooth(gear, -int(k) if gear == 0 else int(k)) for k in offsets])
+            M = np.zeros((len(offsets), len(setup_pairs)))
+            dk = (resp[:, None] - t_load[None, :]) % z
+            for k in np.unique(dk):
+                ii, jj = np.nonzero(dk == k)
+                M[ii, jj] = fc.strain(gi, int(k), s_load[jj])
+            out[name] = M
+        return out
+
+    def strains(self, st: ContactState, offsets: Sequence[int] | None = None) -> dict[str, np.ndarray]:
+        """Gauge strains [-] at the face centre on the teeth of pair offsets ``offsets`` (relative to
+        the reference pair; default ``tooth_offsets``) → gauge name -> (len(offsets),)."""
+        s = st.setup
+        if offsets is None:
+            ops = s.strain_op
+        else:
+            ops = self._strain_operator(s.pairs, s.tooth_a, s.tooth_b, s.s_a, s.s_b, np.asarray(offsets, int))
+        ns = self.options.face_slices
+        Wps = np.zeros((len(s.pairs), ns))                 # line load per pair and slice [N/m]
+        np.add.at(Wps, (s.pair_index, s.slice_index), st.line_load_N_m)
+        out = {}
+        for name, M in ops.items():
+            eps = M @ Wps                                  # (n_off, ns)
+            if self.options.face_coupling == "slices" and ns > 1:
+                out[name] = np.array([np.interp(0.0, self.slice_z_m, row) for row in eps])
+            elif self.options.face_coupling == "slices":
+                out[name] = eps[:, 0]
             else:
-                val = eps.sum(axis=1) / self.face_width_m
-            out[name] = val
+                out[name] = eps.sum(axis=1) * s.slice_width_m / self.face_width_m
         return out
 
     def hub_reactions(self, st: ContactState) -> dict[str, np.ndarray]:
-        """Generalized mesh force on each gear ``[Fx N, Fy N, Mz N m]`` (global frame: gear_a at the origin,
-        gear_b at ``(C, 0)``, driver turning counter-clockwise), from the finite-element reactions."""
+        """Generalized mesh force on each gear ``[Fx N, Fy N, Mz N m]`` from the finite-element hub
+        reactions, in the global frame (gear_a at the origin, gear_b at ``(C, 0)``, the driver turning
+        counter-clockwise; mirrored when the coast flanks are loaded)."""
         s = st.setup
-        out = {}
-        loaded = np.flatnonzero(st.force_N > 0)
-        for gear in (0, 1):
-            fc = self.compliance[gear]
-            tot = np.zeros(3)
-            for j in loaded:
-                p = s.pair_index[j]
-                tooth = (s.tooth_a if gear == 0 else s.tooth_b)[p]
-                sl = (s.s_a if gear == 0 else s.s_b)[p]
-                h = np.asarray(fc.hub_force(int(tooth), sl), dtype=float).copy()
-                if self._mirror:   # actual gear frame -> canonical gear frame
-                    h[1] *= -1
-                    h[2] *= -1
-                R = _rot(s.phi[gear])
-                h[:2] = R @ h[:2]
-                tot += h * st.force_N[j] / s.slice_width_m * s.slice_width_m
-            out[self.gear_names[gear]] = tot
-        return out
+        Fp = np.bincount(s.pair_index, weights=st.force_N, minlength=len(s.pairs))
+        return {self.gear_names[g]: Fp @ s.hub_op[g] for g in (0, 1)}
 
     def to_solution(self, st: ContactState):
         """:class:`hacgear_core.statics.StaticSolution` of a state (per tooth offset)."""
@@ -845,27 +880,21 @@ class MeshContactSolver:
         pr = self.pair_results(st)
         s = st.setup
         offs = self.tooth_offsets
-        nw = len(offs)
-        load = np.zeros(nw)
-        roll = np.full(nw, np.nan)
-        hw = np.zeros(nw)
-        pp = np.zeros(nw)
-        for i, p in enumerate(s.pairs):
-            k = np.flatnonzero(offs == p)
-            if k.size:
-                load[k] = pr["load_N"][i]
-                roll[k] = np.degrees(pr["roll_b_rad"][i])
-                hw[k] = pr["half_width_m"][i]
-                pp[k] = pr["peak_pressure_Pa"][i]
-        # offsets of the report are relative to the reference pair; strains on those teeth
-        strain = self.strains(st, offs)
-        hub = self.hub_reactions(st)
+        sel = np.searchsorted(s.pairs, offs)
+        inside = (sel < len(s.pairs)) & (s.pairs[np.clip(sel, 0, len(s.pairs) - 1)] == offs)
+        sel = np.clip(sel, 0, len(s.pairs) - 1)
+
+        def pick(a, fill):
+            return np.where(inside, a[sel], fill)
+
         return StaticSolution(success=bool(st.success), message=st.message,
-                              iterations=int(st.lcp.iterations if st.lcp else 0) + st.fixed_point_iterations,
+                              iterations=int(st.lcp_iterations) + int(st.fixed_point_iterations),
                               position=float(s.position), mesh_force_N=float(st.mesh_force_N),
-                              mesh_deflection_m=float(st.mesh_deflection_m), tooth_load_N=load,
-                              contact_roll_deg=roll, half_width_m=hw, peak_pressure_Pa=pp, strain=strain,
-                              hub_reaction=hub)
+                              mesh_deflection_m=float(st.mesh_deflection_m), tooth_load_N=pick(pr["load_N"], 0.0),
+                              contact_roll_deg=pick(np.degrees(pr["roll_b_rad"]), np.nan),
+                              half_width_m=pick(pr["half_width_m"], 0.0),
+                              peak_pressure_Pa=pick(pr["peak_pressure_Pa"], 0.0),
+                              strain=self.strains(st), hub_reaction=self.hub_reactions(st))
 
     def solve_load(self, position: float, mesh_force_N: float):
         """Load control: mesh force [N] → :class:`~hacgear_core.statics.StaticSolution`."""
@@ -968,12 +997,15 @@ def mesh_stiffness_curve(solver: MeshContactSolver, mesh_force_N: float, positio
 # Model → solver
 # =============================================================================================
 def make_mesh_solver(model: Any, mesh_name: str, *, options: ContactOptions | None = None,
-                     fe_options: Any = None, plane: str = "stress", cache: bool = True) -> MeshContactSolver:
+                     fe_options: Any = None, plane: str = "stress", cache: bool = True,
+                     gauges: Sequence[tuple[str, Any]] | None = None) -> MeshContactSolver:
     """Build the static contact solver of mesh ``mesh_name`` of ``model`` (a :class:`~hacgear_core.model.Model`,
     or a path / system name).  Finite-element influence coefficients come from
     :func:`hacgear_core.fe.gear_compliance` (cached on disk), so rebuilding in a worker is cheap.
 
-    ``options`` default: ``ContactOptions(face_slices=model.statics.face_slices)``.
+    ``options`` default: ``ContactOptions(face_slices=model.statics.face_slices)``; ``fe_options``: a
+    :class:`hacgear_core.fe.MeshOptions`; ``gauges``: ``(gear name, model Gauge)`` pairs replacing the
+    model's gauges (e.g. a row of points along a fillet).
     """
     from hacgear_core import fe as fe_mod
     from hacgear_core.geometry import gear_geometry, mesh_geometry
@@ -994,12 +1026,13 @@ def make_mesh_solver(model: Any, mesh_name: str, *, options: ContactOptions | No
     mg = mesh_geometry(model, mesh_name)
     ggs = (gear_geometry(ga), gear_geometry(gb))
     kw = {} if fe_options is None else {"options": fe_options}
-    comps, gauges = [], []
+    comps, gauge_list = [], []
     for gi, (g, gg, side) in enumerate(((ga, ggs[0], mesh.flank_a), (gb, ggs[1], mesh.flank_b))):
-        fg = tuple(fe_mod.Gauge(x.name, x.flank, x.radius_m) for x in g.gauges)
+        glist = g.gauges if gauges is None else tuple(x for name, x in gauges if name == g.name)
+        fg = tuple(fe_mod.Gauge(x.name, x.flank, x.radius_m) for x in glist)
         mat = fe_mod.ElasticMaterial(g.material.youngs_modulus_Pa, g.material.poisson_ratio, plane)
         comps.append(fe_mod.gear_compliance(gg, mat, side, gauges=fg, cache=cache, **kw))
-        gauges += [(gi, k, f"{g.name}/{x.name}") for k, x in enumerate(g.gauges)]
+        gauge_list += [(gi, k, f"{g.name}/{x.name}") for k, x in enumerate(glist)]
     # overlapping face width (axial positions of both gears)
     lo = max(ga.axial_position_m - ga.face_width_m / 2, gb.axial_position_m - gb.face_width_m / 2)
     hi = min(ga.axial_position_m + ga.face_width_m / 2, gb.axial_position_m + gb.face_width_m / 2)
@@ -1021,6 +1054,98 @@ def make_mesh_solver(model: Any, mesh_name: str, *, options: ContactOptions | No
         crowning=(crown(ga, ggs[0]), crown(gb, ggs[1])),
         materials=((ga.material.youngs_modulus_Pa, ga.material.poisson_ratio),
                    (gb.material.youngs_modulus_Pa, gb.material.poisson_ratio)),
-        gauges=gauges, options=options, plane=plane,
+        gauges=gauge_list, options=options, plane=plane,
         description=f"FE far field + Hertz near field, {options.face_slices} slices ({options.face_coupling}), "
                     f"mesh {mesh_name} of {model.name}")
+
+
+def model_variant(model: Any, *, tip_relief: bool = True, lead_crowning: bool = True,
+                  hob_tip_radius_m: float | None = None) -> Any:
+    """Copy of ``model`` with every gear's tip relief and/or lead crowning removed, or its hob tip
+    radius [m] replaced (studies of dissertation Figs. 2.5 and 2.7).  The copy keeps the model's
+    ``sha256``/``path`` (it is not a file), so never write tables from it."""
+    from dataclasses import replace as _replace
+
+    from hacgear_core.model import Flank
+
+    gears = []
+    for g in model.gears:
+        kw: dict[str, Any] = {}
+        if not tip_relief:
+            kw["flanks"] = {k: Flank(f.pressure_angle_rad) for k, f in g.flanks.items()}
+        if not lead_crowning:
+            kw["lead_crowning_m"] = 0.0
+        if hob_tip_radius_m is not None:
+            kw["hob_tip_radius_m"] = float(hob_tip_radius_m)
+        gears.append(_replace(g, **kw))
+    return _replace(model, gears=tuple(gears))
+
+
+@dataclass(frozen=True)
+class RootStrainScan:
+    """Surface strain along the root of one tooth over mesh positions (dissertation Fig. 2.7).
+
+    ``position`` (Np,) mesh cycles, ``radius_m`` (Ng,) gauge radii, ``s_m`` (Ng,) their profile
+    coordinate (arc length from the tip of the loaded flank), ``strain`` (Np, Ng) on the tooth of
+    the reference pair of gear ``gear``, ``tooth_load_N`` (Np,) its load, ``max_strain`` and where.
+    """
+
+    gear: str
+    position: np.ndarray
+    radius_m: np.ndarray
+    s_m: np.ndarray
+    strain: np.ndarray
+    tooth_load_N: np.ndarray
+    max_strain: float
+    max_position: float
+    max_radius_m: float
+
+
+def root_strain_scan(model: Any, mesh_name: str, mesh_force_N: float, *, gear: int = 1, n_gauges: int = 24,
+                     positions: int = 128, span: tuple[float, float] = (-1.0, 1.0),
+                     options: ContactOptions | None = None, fe_options: Any = None) -> RootStrainScan:
+    """Strain at ``n_gauges`` points of the loaded flank's root (from just above the root circle up
+    to the start of the active profile) of gear ``gear`` (0 = gear_a, 1 = gear_b) on the tooth of the
+    reference pair, over ``positions`` mesh positions in ``span`` [mesh cycles], load control."""
+    from hacgear_core.geometry import gear_geometry, mesh_geometry
+    from hacgear_core.model import Gauge, Model, load_model
+
+    if not isinstance(model, Model):
+        model = load_model(model)
+    meshes = {m.name: m for m in model.meshes}
+    if mesh_name not in meshes:
+        raise ModelError(f"unknown mesh {mesh_name!r}; the model has: {', '.join(meshes) or '(none)'}")
+    if gear not in (0, 1):
+        raise ModelError(f"gear must be 0 (gear_a) or 1 (gear_b), got {gear!r}")
+    if not (isinstance(n_gauges, (int, np.integer)) and 2 <= n_gauges <= 200):
+        raise ModelError(f"n_gauges must be an integer in [2, 200], got {n_gauges!r}")
+    mesh = meshes[mesh_name]
+    gname = (mesh.gear_a, mesh.gear_b)[gear]
+    side = (mesh.flank_a, mesh.flank_b)[gear]
+    g = {x.name: x for x in model.gears}[gname]
+    gg = gear_geometry(g)
+    mg = mesh_geometry(model, mesh_name)
+    rb = gg.base_radius_m[side]
+    r_sap = rb * math.sqrt(1.0 + math.radians(mg.roll_angle_deg[gname]["SAP"]) ** 2)
+    r_lo = gg.root_radius_m + 0.02 * (r_sap - gg.root_radius_m)
+    radii = np.linspace(r_lo, r_sap, n_gauges)
+    gauges = [(gname, Gauge(f"R{i:03d}", side, float(r))) for i, r in enumerate(radii)]
+    solver = make_mesh_solver(model, mesh_name, options=options, fe_options=fe_options, gauges=gauges)
+    fc = solver.compliance[gear]
+    s_g = np.array([gi["s_m"] for gi in fc.info["gauges"]])
+    pos = np.linspace(span[0], span[1], positions, endpoint=False)
+    eps = np.zeros((positions, n_gauges))
+    load = np.zeros(positions)
+    warm = None
+    for i, p in enumerate(pos):
+        st = solver.state_load(p, mesh_force_N)
+        if not st.success:
+            raise SolverError(f"contact solve failed at position {p:.4f}: {st.message}")
+        e = solver.strains(st, offsets=[0])
+        eps[i] = [e[f"{gname}/R{k:03d}"][0] for k in range(n_gauges)]
+        pr = solver.pair_results(st)
+        hit = np.flatnonzero(st.setup.pairs == 0)
+        load[i] = pr["load_N"][hit[0]] if hit.size else 0.0
+    k = np.unravel_index(int(np.argmax(eps)), eps.shape)
+    return RootStrainScan(gear=gname, position=pos, radius_m=radii, s_m=s_g, strain=eps, tooth_load_N=load,
+                          max_strain=float(eps[k]), max_position=float(pos[k[0]]), max_radius_m=float(radii[k[1]]))

@@ -76,7 +76,7 @@ __all__ = [
 ]
 
 #: bump when anything changes the numbers produced (part of every cache key)
-FE_CODE_VERSION = "fe-3"
+FE_CODE_VERSION = "fe-4"
 
 _GMSH_LOCK = threading.Lock()
 
@@ -142,7 +142,9 @@ class MeshOptions:
     flank_size_m : float
         Element size on the flanks (involute and tip rounding) of every tooth.
     fillet_size_m : float
-        Element size on fillets and root lands.
+        Element size on fillets and root lands (reduced to 0.3 times the fillet's radius
+        of curvature where that is smaller, but not below 0.3 ``fillet_size_m``; the tip
+        rounding gets at most half its radius).
     body_size_m : float
         Element size far from the teeth (blank).
     fine_layer_m : float
@@ -303,16 +305,22 @@ def mesh_gear(gg: Any, options: MeshOptions = MeshOptions()) -> GearMesh:
         raise GeometryError(f"bore_radius_m = {r_hub:.6g} m must lie {'outside' if internal else 'inside'} the "
                             f"tooth boundary (radii {radii.min():.6g}..{radii.max():.6g} m)")
 
-    # tip-rounding size: resolve its radius of curvature when the geometry gives one
-    tip_size = options.flank_size_m
-    try:
-        prof = gg.flank("drive", 400)
-        rc = np.asarray(prof.curvature_radius_m)[np.asarray(prof.region) == 3]
-        rc = rc[np.isfinite(rc) & (rc > 0)]
-        if rc.size:
-            tip_size = min(tip_size, 0.5 * float(rc.min()))
-    except Exception:  # geometry without tip rounding information
-        pass
+    # resolve the tip rounding and the fillet curvature when the geometry gives them
+    tip_size, fillet_size = options.flank_size_m, options.fillet_size_m
+    for sd in ("drive", "coast"):
+        try:
+            prof = gg.flank(sd, 400)
+            rc = np.abs(np.asarray(prof.curvature_radius_m, dtype=float))
+            rg = np.asarray(prof.region)
+        except Exception:  # geometry without curvature information: keep the given sizes
+            continue
+        r3 = rc[(rg == 3) & np.isfinite(rc) & (rc > 0)]
+        if r3.size:
+            tip_size = min(tip_size, max(0.5 * float(r3.min()), 0.25 * options.flank_size_m))
+        r1 = rc[(rg == 1) & np.isfinite(rc) & (rc > 0)]
+        if r1.size:
+            rho = float(np.percentile(r1, 10))
+            fillet_size = min(fillet_size, max(0.3 * rho, 0.3 * options.fillet_size_m))
 
     t0 = time.perf_counter()
     with _GMSH_LOCK:
@@ -344,8 +352,9 @@ def mesh_gear(gg: Any, options: MeshOptions = MeshOptions()) -> GearMesh:
             gmsh.model.mesh.setPeriodic(1, [cut_r], [cut_l], [c, -s, 0, 0, s, c, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1])
             fld = gmsh.model.mesh.field
             mins = []
-            for group, size in ((flank_curves, options.flank_size_m), (fillet_curves, options.fillet_size_m),
-                                (tip_curves, tip_size)):
+            for group, size, dmin in ((flank_curves, options.flank_size_m, options.fine_layer_m),
+                                      (fillet_curves, fillet_size, options.fine_layer_m),
+                                      (tip_curves, tip_size, 0.5 * options.fine_layer_m)):
                 if not group:
                     continue
                 fd = fld.add("Distance")
@@ -355,7 +364,7 @@ def mesh_gear(gg: Any, options: MeshOptions = MeshOptions()) -> GearMesh:
                 fld.setNumber(ft, "InField", fd)
                 fld.setNumber(ft, "SizeMin", size)
                 fld.setNumber(ft, "SizeMax", options.body_size_m)
-                fld.setNumber(ft, "DistMin", options.fine_layer_m if size != tip_size else 0.5 * options.fine_layer_m)
+                fld.setNumber(ft, "DistMin", dmin)
                 fld.setNumber(ft, "DistMax", options.fine_layer_m + options.growth_length_m)
                 mins.append(ft)
             fm = fld.add("Min")

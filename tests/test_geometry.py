@@ -563,3 +563,63 @@ def test_all_six_models_build():
             assert mg.contact_ratio > 1
             for g, d in mg.roll_angle_deg.items():
                 assert set(d) == {"SAP", "LPSTC", "HPSTC", "EAP"}
+
+
+# ---------------------------------------------------------------------------------------------
+# CLI: info and plot-geometry
+# ---------------------------------------------------------------------------------------------
+def test_info_json_keys(capsys):
+    import json
+
+    from hacgear_core.cli import main
+
+    assert main(["info", "spur_28t_asym", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    m = d["meshes"]["m12"]
+    assert m["contact_ratio"] == pytest.approx(1.4505, abs=1e-4)
+    assert m["contact_ratio_coast"] == pytest.approx(1.6239, abs=1e-4)
+    assert m["center_distance_m"] == pytest.approx(0.140)
+    assert m["base_radius_m"] == {"pinion": pytest.approx(0.070 * math.cos(math.radians(25))),
+                                  "wheel": pytest.approx(0.070 * math.cos(math.radians(25)))}
+    for k in ("SAP", "LPSTC", "HPSTC", "EAP"):
+        assert set(m["roll_angle_deg"][k]) == {"pinion", "wheel"}
+    assert m["roll_angle_deg"]["SAP"]["pinion"] < m["roll_angle_deg"]["EAP"]["pinion"]
+    for g in ("pinion", "wheel"):
+        assert d["gears"][g]["mass_kg"] > 0 and d["gears"][g]["inertia_kgm2"] > 0
+    assert main(["info", "planetary_65_55_175"]) == 0
+    out = capsys.readouterr()
+    assert "ring_planet" in out.out and "contact ratio" in out.out and "[kg]" in out.out
+
+
+def test_plot_geometry_mesh_position_no_overlap(tmp_path):
+    from matplotlib.path import Path as MPath
+
+    from hacgear_core.cli import main
+    from hacgear_core.cli.plot_geometry import _rot, mesh_position
+
+    for name, mesh in (("spur_28t_asym", "m12"), ("planetary_65_55_175", "ring_planet"),
+                       ("idler_28_33_39", "m23")):
+        model = load_model(name)
+        me = model.mesh(mesh)
+        ga, gb = gear_geometry(model.gear(me.gear_a)), gear_geometry(model.gear(me.gear_b))
+        mg = mesh_geometry(model, mesh)
+        pos = mesh_position(ga, gb, mg)
+        # the loaded flanks of tooth 0 of both gears pass exactly through the pitch point
+        for g, side, phi, c in ((ga, me.flank_a, pos["phi_a"], np.zeros(2)), (gb, me.flank_b, pos["phi_b"],
+                                                                            pos["centre_b"])):
+            rw = mg.operating_pitch_radius_m[g.name]
+            u = math.sqrt(rw ** 2 / g.base_radius_m[side] ** 2 - 1)
+            p = _rot(g.involute_point(side, u)[0], phi) + c
+            np.testing.assert_allclose(p, pos["pitch"], atol=1e-12)
+        a_xy = _rot(ga.gear_boundary(100).xy, pos["phi_a"])
+        b_xy = _rot(gb.gear_boundary(100).xy, pos["phi_b"]) + pos["centre_b"]
+        in_a = MPath(a_xy).contains_points(b_xy)
+        in_b = MPath(b_xy).contains_points(a_xy)
+        in_a = ~in_a if ga.internal else in_a
+        in_b = ~in_b if gb.internal else in_b
+        near_b = np.hypot(*(b_xy - pos["pitch"]).T) < 6 * ga.module_m
+        near_a = np.hypot(*(a_xy - pos["pitch"]).T) < 6 * ga.module_m
+        assert not (in_a & near_b).any() and not (in_b & near_a).any()
+    out = tmp_path / "g.png"
+    assert main(["plot-geometry", "spur_28t_asym", "--out", str(out), "--exaggerate", "50"]) == 0
+    assert out.stat().st_size > 10000

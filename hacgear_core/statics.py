@@ -821,10 +821,17 @@ def run_statics(
         finally:
             if f.id.valid:
                 f.close()
-    except BaseException:
+    except BaseException as exc:
         if own_executor is not None:
             own_executor.shutdown(wait=False, cancel_futures=True)
             own_executor = None
+        if isinstance(exc, cf.process.BrokenProcessPool):
+            raise SolverError(
+                f"a statics worker process died ({exc}); likely out of memory or killed. When calling "
+                "run_statics/compute_statics from a script, guard it with `if __name__ == '__main__':` (worker "
+                f"processes are spawned). Finished positions are kept in {partial}: continue with resume=True "
+                "(--resume)."
+            ) from None
         raise
     finally:
         if own_executor is not None:

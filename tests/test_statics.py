@@ -299,13 +299,10 @@ def test_solver_failure_is_reported_and_resumable(tmp_path):
         assert f["meshes/m12/done_deflections"][:4].all()
 
 
-def test_cli_without_contact_solver_says_so(tmp_path, capsys):
-    try:
-        import hacgear_core.contact  # noqa: F401
-        pytest.skip("the contact solver exists now")
-    except ImportError:
-        pass
+def test_cli_without_contact_solver_says_so(tmp_path, capsys, monkeypatch):
     from hacgear_core.cli import main
+
+    monkeypatch.setitem(sys.modules, "hacgear_core.contact", None)  # as if issue 3 were not there
 
     shutil.copy(MODEL, tmp_path / "model.toml")
     assert main(["statics", str(tmp_path / "model.toml")]) == 2
@@ -361,6 +358,7 @@ def test_sigkill_midway_then_resume_equals_uninterrupted(tmp_path):
     with h5py.File(partial, "r") as f:
         done_at_kill = int(f["meshes/m12/done_loads"][()].sum() + f["meshes/m12/done_deflections"][()].sum())
     assert 64 + 12 <= done_at_kill < 128
+    cmd[cmd.index("--workers") + 1] = "1"  # the resumed run in-process (cheaper; the pool ran above)
     res = subprocess.run(cmd + ["--resume", "--json"], cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert res.returncode == 0, res.stderr
     import json
@@ -369,3 +367,19 @@ def test_sigkill_midway_then_resume_equals_uninterrupted(tmp_path):
     assert rep["tasks_resumed"] == done_at_kill
     assert rep["tasks_computed"] == 128 - done_at_kill
     _assert_same_file(tmp_path / "ref.h5", out)
+
+
+@pytest.mark.slow
+def test_fe_contact_solver_small_grid(tmp_path):
+    """The real FE contact solver through the grid: process pool equals serial, monotone FDF, the FDF
+    reproduces the load-control results."""
+    pytest.importorskip("hacgear_core.contact")
+    model = tmp_path / "model.toml"
+    shutil.copy(MODEL, model)
+    a = compute_statics(model, tmp_path / "a.h5", positions=8, loads=4, deflections=16, workers=1, progress=False)
+    b = compute_statics(model, tmp_path / "b.h5", positions=8, loads=4, deflections=16, workers=2, progress=False)
+    _assert_same_file(tmp_path / "a.h5", tmp_path / "b.h5")
+    s = a.meshes["m12"]
+    assert s["fdf_max_decrease_N"] < 1e-6 * s["force_max_N"]
+    assert s["fdf_reproduces_static_rel_err"] < 0.05
+    assert b.tasks_computed == 16

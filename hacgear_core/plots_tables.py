@@ -1,9 +1,9 @@
 """Plots of force-deflection and strain-deflection functions (dissertation Figs. 3.3 and 4.6).
 
 ``python -m hacgear_core.plots_tables [TABLES.h5] [--mesh NAME] [--gauge GEAR/GAUGE] [--out DIR]`` writes
-``tables_fdf.png`` and ``tables_sdf.png``.  Without a table file it plots the analytical reference pair
-(:class:`hacgear_core.statics.AnalyticPairSolver`, not FE) — the figures in ``docs/figures`` are made so
-until the finite-element tables exist.  matplotlib is imported lazily.
+``tables_fdf<suffix>.png`` and ``tables_sdf<suffix>.png``.  Without a table file it plots the analytical
+reference pair (:class:`hacgear_core.statics.AnalyticPairSolver`, not FE; suffix ``_analytic``).
+matplotlib is imported lazily.
 """
 from __future__ import annotations
 
@@ -139,6 +139,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--mesh", default=None)
     ap.add_argument("--gauge", default=None, help="gauge '<gear>/<gauge>' of the SDF plot")
     ap.add_argument("--out", type=Path, default=Path("docs/figures"))
+    ap.add_argument("--suffix", default=None,
+                    help="file name suffix: tables_fdf<suffix>.png (default: '_analytic' without a table file, else '')")
     a = ap.parse_args(argv)
     a.out.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as td:
@@ -149,7 +151,8 @@ def main(argv: list[str] | None = None) -> int:
         else:
             t = _reference_table(Path(td))
         plt = _plt()
-        for name, fig in (("tables_fdf.png", plot_fdf(t)), ("tables_sdf.png", plot_sdf(t, a.gauge))):
+        suffix = a.suffix if a.suffix is not None else ("" if a.tables else "_analytic")
+        for name, fig in ((f"tables_fdf{suffix}.png", plot_fdf(t)), (f"tables_sdf{suffix}.png", plot_sdf(t, a.gauge))):
             fig.savefig(a.out / name, dpi=120)
             plt.close(fig)
             print(a.out / name)

@@ -362,7 +362,7 @@ class _Flank:
 # ----------------------------------------------------------------------------------------------
 # Gear geometry
 # ----------------------------------------------------------------------------------------------
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class GearGeometry:
     """Geometry of one gear, built by :func:`gear_geometry`.  See the module docstring for frames."""
 
@@ -909,7 +909,7 @@ def gear_geometry(gear: Any, *, shaper_teeth: int | None = None) -> GearGeometry
 # ----------------------------------------------------------------------------------------------
 # Mesh geometry
 # ----------------------------------------------------------------------------------------------
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class MeshGeometry:
     """Derived geometry of one tooth mesh (SI).  Per-gear dicts are keyed by gear name.
 

@@ -36,6 +36,7 @@ protocol by example, and to let the rest of the pipeline run before ``hacgear_co
 from __future__ import annotations
 
 import concurrent.futures as cf
+from concurrent.futures.process import BrokenProcessPool
 import math
 import os
 import pickle
@@ -825,7 +826,7 @@ def run_statics(
         if own_executor is not None:
             own_executor.shutdown(wait=False, cancel_futures=True)
             own_executor = None
-        if isinstance(exc, cf.process.BrokenProcessPool):
+        if isinstance(exc, BrokenProcessPool):
             raise SolverError(
                 f"a statics worker process died ({exc}); likely out of memory or killed. When calling "
                 "run_statics/compute_statics from a script, guard it with `if __name__ == '__main__':` (worker "

@@ -505,6 +505,7 @@ def _create_file(path: Path, layouts: Mapping[str, MeshLayout], root_attrs: Mapp
             _dataset(g, f"hub_reaction/{gear}", np.full(nd_shape[:2] + (3,), np.nan), key="hub_reaction")
         _dataset(g, "done_loads", np.zeros(lay.position.size, dtype=np.uint8))
         _dataset(g, "done_deflections", np.zeros(lay.position.size, dtype=np.uint8))
+    f.attrs["layout_complete"] = 1  # written last: a file killed while being laid out lacks it
     f.flush()
     return f
 
@@ -559,16 +560,20 @@ def open_statics_file(path: str | Path, layouts: Mapping[str, MeshLayout], root_
         except OSError as exc:
             note = f"could not reopen {path.name} ({exc}); started again"
         else:
-            diff = _same_layout(f, layouts, root_attrs)
-            if diff is None:
+            diff = _same_layout(f, layouts, root_attrs) if "layout_complete" in f.attrs else "unfinished"
+            if diff == "unfinished":
+                f.close()
+                note = f"{path.name} was interrupted while being created; started again"
+            elif diff is None:
                 done = sum(int(np.count_nonzero(f[f"meshes/{m}/{d}"][()])) for m in layouts
                            for d in ("done_loads", "done_deflections"))
                 return f, f"resumed {path.name}: {done} position task(s) already done"
-            f.close()
-            raise TableError(
-                f"cannot resume {path}: it was started with different settings ({diff} differ). Run "
-                "`hacgear statics` without --resume to start again (the partial file is replaced)."
-            )
+            else:
+                f.close()
+                raise TableError(
+                    f"cannot resume {path}: it was started with different settings ({diff} differ). Run "
+                    "`hacgear statics` without --resume to start again (the partial file is replaced)."
+                )
     elif resume:
         note = f"nothing to resume ({path.name} absent); started from scratch"
     path.parent.mkdir(parents=True, exist_ok=True)

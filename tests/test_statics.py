@@ -288,15 +288,31 @@ class _Failing(AnalyticPairSolver):
         return super().solve_deflection(position, x)
 
 
-def test_solver_failure_is_reported_and_resumable(tmp_path):
+@pytest.mark.parametrize("workers", [1, 2])
+def test_solver_failure_is_reported_and_resumable(tmp_path, workers):
     out = tmp_path / "t.h5"
     with pytest.raises(SolverError, match=r"position 0\.5 \(index 4\).*did not converge"):
         run_statics({"m12": _FailingFactory()}, out, n_positions=8, n_deflections=10, loads_N=_loads(4),
-                    workers=1, progress=False)
+                    workers=workers, progress=False)
     assert not out.exists()
     with h5py.File(out.with_name("t.h5.partial"), "r") as f:
         assert f["meshes/m12/done_loads"][()].all()
-        assert f["meshes/m12/done_deflections"][:4].all()
+        done = f["meshes/m12/done_deflections"][()]
+        assert done[4] == 0 and (workers > 1 or done[:4].all())
+    # the solver is fixed: resume computes only what is missing
+    rep = run_statics({"m12": AnalyticFactory()}, out, n_positions=8, n_deflections=10, loads_N=_loads(4),
+                      workers=1, progress=False, resume=True)
+    assert rep.tasks_computed == 8 - int(done.sum())
+
+
+def test_partial_file_killed_during_creation_starts_again(tmp_path):
+    out = tmp_path / "t.h5"
+    with h5py.File(tmp_path / "t.h5.partial", "w") as f:  # a layout interrupted half-way
+        f.attrs["format"] = "hacgear-tables"
+        f.create_group("meshes/m12")
+    rep = run_statics({"m12": AnalyticFactory()}, out, n_positions=4, n_deflections=8, loads_N=_loads(3),
+                      workers=1, progress=False, resume=True)
+    assert rep.tasks_computed == 8 and "interrupted while being created" in rep.message
 
 
 def test_cli_without_contact_solver_says_so(tmp_path, capsys, monkeypatch):

@@ -319,7 +319,7 @@ class Gear:
 class Mesh:
     """A tooth mesh between ``gear_a`` (driver) and ``gear_b`` (driven).  ``flank_a``/``flank_b`` name
     the flank of each gear that carries the load; ``center_distance_m`` None → derived from the
-    geometry (zero-backlash-free standard centre distance, see geometry)."""
+    geometry (the zero-backlash centre distance, see geometry; planetary: the carrier radius)."""
 
     name: str
     gear_a: str

@@ -18,12 +18,15 @@ Quantities
   the mating flank are discarded.  This finds involute contacts on the line of action *and*
   tip-edge contacts off the line of action (premature contact before the SAP / after the EAP,
   dissertation Figs. 2.5-2.6).
-* **Mesh deflection** ``x = r_b1 θ1 + r_b2 θ2`` of the rigid hubs.  The static solve holds the
-  hub of ``gear_b`` and turns the hub of ``gear_a`` (the driver) by ``θ1 = x / r_b1``: a
-  candidate with contact normal ``n`` at point ``c`` closes by ``lambda x`` with
-  ``lambda = ((ẑ × (c - O_a)) · n) / r_b1`` (= 1 on the line of action, ``h/r_b1`` at a tip
-  edge).  The mesh force is the generalized force conjugate to ``x``: ``W = sum lambda_i F_i
-  = T_a / r_b1`` (driver torque over its loaded base radius), so ``W x`` is the work.
+* **Mesh deflection** ``x = r_b1 θ1 + r_b2 θ2`` of the rigid hubs (θ positive in the sense that
+  closes the mesh).  The static solve turns both hubs by the same share, ``r_b1 θ1 = r_b2 θ2 = x/2``:
+  a candidate with contact normal ``n`` (from gear_a into gear_b) at point ``c`` closes by
+  ``lambda x`` with ``lambda = ½ (h_a / r_b1 + h_b / r_b2)``, ``h_a = (ẑ × (c - O_a)) · n`` and
+  ``h_b = -(ẑ × (c - O_b)) · n`` the moment arms about the two centres.  ``lambda = 1`` on the line
+  of action; at a tip edge or on a relieved (tilted) flank it differs.  The mesh force is the
+  generalized force conjugate to ``x``: ``W = sum lambda_i F_i = ½ (T_a / r_b1 + T_b / r_b2)``, which
+  is the torque over the base radius for involute contact and treats driver and driven alike (the
+  static state does not depend on which gear drives).
 * **Initial separation** ``g0`` along the contact normal includes tip relief (profile, via the
   geometry's ``modification_m``) and lead crowning of both gears (per slice).
 * **Compliance** ``C = C_a + C_b``: finite-element far field of each whole gear
@@ -366,13 +369,14 @@ class _Flank:
 
 def _canonical_flank(gg: Any, side: str, n: int, corner_radius_m: float, s_range: tuple[float, float]) -> _Flank:
     prof = gg.flank(side, n)
-    xy0 = np.asarray(prof.xy, dtype=float)
+    xy = np.asarray(prof.xy, dtype=float)            # the geometry's profile includes the relief
     nrm = np.asarray(prof.normal, dtype=float)
-    mod = np.asarray(getattr(prof, "modification_m", np.zeros(len(xy0))), dtype=float)
+    mod = np.asarray(getattr(prof, "modification_m", np.zeros(len(xy))), dtype=float)
     mod = np.where(np.isfinite(mod), mod, 0.0)
     if side == "coast":  # mirror about the tooth centreline: the loaded flank becomes the CCW side
-        xy0 = xy0 * [1.0, -1.0]
+        xy = xy * [1.0, -1.0]
         nrm = nrm * [1.0, -1.0]
+    xy0 = xy + mod[:, None] * nrm                     # unmodified involute (kinematics)
     region = np.asarray(prof.region).astype(int)
     curv = np.asarray(prof.curvature_radius_m, dtype=float).copy()
     tip = region == 3
@@ -381,7 +385,6 @@ def _canonical_flank(gg: Any, side: str, n: int, corner_radius_m: float, s_range
         corner[-1] = True   # sharp tip corner: the last profile point
     bad = ~np.isfinite(curv) | (curv == 0) | corner
     curv[bad & (tip | corner)] = corner_radius_m
-    xy = xy0 - mod[:, None] * nrm
     contact = (region == 2) | (region == 3) | corner
     return _Flank(xy=xy, xy0=xy0, normal=nrm, s=np.asarray(prof.s, float), radius=np.hypot(xy0[:, 0], xy0[:, 1]),
                   region=region, curvature=curv, contact=contact, s_min=s_range[0], s_max=s_range[1])
@@ -596,7 +599,7 @@ class MeshContactSolver:
         fa, fb = self._flank
         Pa, Na, Oa = self._place(0, -pair, phi[0])
         Pb, Nb, Ob = self._place(1, pair, phi[1])
-        rb_a = self.base_radius_m[0]
+        rb_a, rb_b = self.base_radius_m
         best = None
         # samples of a's flank onto b's flank polyline, and b's onto a's
         for src, (P, Psrc_fl, Q, NQ, Qfl) in enumerate(((Pa, fa, Pb, Nb, fb), (Pb, fb, Pa, Na, fa))):
@@ -608,8 +611,10 @@ class MeshContactSolver:
             # contact normal from a into b: b's inward normal (= -n_b) or a's outward normal
             nrm = -nq if src == 0 else nq
             cpt = 0.5 * (P[cand] + foot)
-            rel = cpt - Oa
-            lam = (-rel[:, 1] * nrm[:, 0] + rel[:, 0] * nrm[:, 1]) / rb_a
+            ra_, rb_ = cpt - Oa, cpt - Ob
+            h_a = -ra_[:, 1] * nrm[:, 0] + ra_[:, 0] * nrm[:, 1]        # (ẑ × (c - O_a)) · n
+            h_b = rb_[:, 1] * nrm[:, 0] - rb_[:, 0] * nrm[:, 1]         # -(ẑ × (c - O_b)) · n
+            lam = 0.5 * (h_a / rb_a + h_b / rb_b)
             ok = valid & (lam > 0.05) & (gap > -0.25 * Qfl.s.max())
             # foot must land where the mating flank can carry a point contact (not the root land)
             ok &= Qfl.region[j] >= 1
@@ -635,7 +640,6 @@ class MeshContactSolver:
             Ra = fa.curvature[j] * (1 - t) + fa.curvature[j + 1] * t
             tip = bool(fb.region[i_src] == 3 or i_src == len(fb.s) - 1)
             pb = Pb[i_src]
-        rb_b = self.base_radius_m[1]
         r_b = float(np.hypot(*(pb - Ob)))
         roll_b = math.sqrt(max(r_b * r_b / (rb_b * rb_b) - 1.0, 0.0))
         return dict(gap=float(gap), lam=float(lam), s_a=float(sa), s_b=float(sb), R_a=float(Ra), R_b=float(Rb),
@@ -699,14 +703,13 @@ class MeshContactSolver:
             raise GeometryError(f"mesh '{self.mesh_name}': non-convex contact (combined curvature <= 0) at "
                                 f"position {position}")
         R_eff = 1.0 / np.maximum(curv, 1e-9)
+        # generalized mesh force per unit contact load: on gear_b +n at c, on gear_a -n (global frame)
+        pts = np.array([g["point"] if g else [0.0, 0.0] for g in geo])
+        nrm = np.array([g["normal"] if g else [0.0, 0.0] for g in geo])
         hub_op = {}
-        for g, (teeth, sg) in enumerate(((tooth_a, s_a), (tooth_b, s_b))):
-            H = np.array([np.asarray(self.compliance[g].hub_force(int(t), ss), dtype=float) for t, ss in zip(teeth, sg)])
-            if self._mirror:   # actual gear frame -> canonical gear frame
-                H[:, 1:] *= -1.0
-            R = _rot(phi[g])
-            H[:, :2] = H[:, :2] @ R.T
-            hub_op[g] = H
+        for g, (O, sign) in enumerate(((np.zeros(2), -1.0), (np.array([self.center_distance_m, 0.0]), 1.0))):
+            r = pts - O
+            hub_op[g] = sign * np.stack([nrm[:, 0], nrm[:, 1], r[:, 0] * nrm[:, 1] - r[:, 1] * nrm[:, 0]], axis=1)
         out = PositionSetup(
             position=position, pairs=pairs, g0=g0, lam=lam, C_lin=C_lin, pair_index=pair_index,
             slice_index=slice_index, slice_width_m=bs, s_a=s_a, s_b=s_b, roll_b_rad=get("roll_b"),
@@ -866,9 +869,10 @@ class MeshContactSolver:
         return out
 
     def hub_reactions(self, st: ContactState) -> dict[str, np.ndarray]:
-        """Generalized mesh force on each gear ``[Fx N, Fy N, Mz N m]`` from the finite-element hub
-        reactions, in the global frame (gear_a at the origin, gear_b at ``(C, 0)``, the driver turning
-        counter-clockwise; mirrored when the coast flanks are loaded)."""
+        """Generalized mesh force on each gear ``[Fx N, Fy N, Mz N m]`` (resultant of the contact forces
+        about the gear centre = what the hub must react), in the global frame: gear_a at the origin,
+        gear_b at ``(C, 0)``, the driver turning counter-clockwise (mirrored when the coast flanks are
+        loaded)."""
         s = st.setup
         Fp = np.bincount(s.pair_index, weights=st.force_N, minlength=len(s.pairs))
         return {self.gear_names[g]: Fp @ s.hub_op[g] for g in (0, 1)}
@@ -941,7 +945,9 @@ class StiffnessCurve:
 
     ``mesh_cycle`` (n,), ``ste_m`` (n,) static mesh deflection [m], ``no_load_deflection_m`` (n,),
     ``local_slope_stiffness_N_per_m`` (n,) ``dW/dx`` at the load, ``mean_mesh_stiffness_N_per_m``
-    (mean of the local slope), ``secant_mesh_stiffness_N_per_m`` (``W / mean(x)``), ``mesh_force_N``.
+    (mean of the local slope), ``secant_mesh_stiffness_N_per_m`` (``W / mean(x)``),
+    ``average_slope_stiffness_N_per_m`` (n,) ``W / (x - x0)`` with ``x0`` the no-load deflection
+    (the "average slope" of dissertation Section 3.5), ``mesh_force_N``.
     """
 
     mesh_cycle: np.ndarray
@@ -953,6 +959,7 @@ class StiffnessCurve:
     mesh_force_N: float
     tooth_load_N: np.ndarray
     seconds: float
+    average_slope_stiffness_N_per_m: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 def mesh_stiffness_curve(solver: MeshContactSolver, mesh_force_N: float, positions: int = 64,
@@ -990,7 +997,7 @@ def mesh_stiffness_curve(solver: MeshContactSolver, mesh_force_N: float, positio
     return StiffnessCurve(mesh_cycle=pos, ste_m=x, no_load_deflection_m=x0, local_slope_stiffness_N_per_m=k,
                           mean_mesh_stiffness_N_per_m=float(k.mean()),
                           secant_mesh_stiffness_N_per_m=float(W / x.mean()), mesh_force_N=W, tooth_load_N=loads,
-                          seconds=time.perf_counter() - t0)
+                          seconds=time.perf_counter() - t0, average_slope_stiffness_N_per_m=W / (x - x0))
 
 
 # =============================================================================================

@@ -44,6 +44,7 @@ __all__ = [
     "linear_force",
     "mesh_force",
     "integrate",
+    "select_kernel",
     "table_force_many",
     "table_slope_many",
 ]
@@ -240,7 +241,6 @@ def _integrate_impl(n, s, kin, n_steps, h, mode, z1_2pi, ith1, ith2, ratio, minv
     return nrec
 
 
-@njit(cache=True, fastmath=_FM)
 def integrate(s, kin, n_steps, h, mode, z1_2pi, ith1, ith2, ratio, minv, kd, cm, v, fext, law,
               ftab, x0, inv_dx, lin, work, rec_every, rec_state, rec_out):
     """Advance the lumped model ``n_steps`` fixed RK4 steps of ``h`` [s] in place.
@@ -288,18 +288,22 @@ def integrate(s, kin, n_steps, h, mode, z1_2pi, ith1, ith2, ratio, minv, kd, cm,
     int
         Number of records written.
     """
-    n = s.shape[0] // 2
+    kern = select_kernel(law, s.shape[0] // 2)
+    return kern(s, kin, n_steps, h, mode, z1_2pi, ith1, ith2, ratio, minv, kd, cm, v, fext,
+                ftab, x0, inv_dx, lin, work, rec_every, rec_state, rec_out)
+
+
+def select_kernel(law: int, n: int):
+    """The compiled loop for force law ``law`` and ``n`` degrees of freedom.  Each loop is compiled
+    on first use only (cached on disk), so a run pays only for the variants it uses.  Same
+    arguments as :func:`integrate` without ``law``."""
     if law == LAW_TABLE:
         if n == 2:
-            return _integrate_table2(s, kin, n_steps, h, mode, z1_2pi, ith1, ith2, ratio, minv, kd, cm, v, fext,
-                                     ftab, x0, inv_dx, lin, work, rec_every, rec_state, rec_out)
+            return _integrate_table2
         if n == 4:
-            return _integrate_table4(s, kin, n_steps, h, mode, z1_2pi, ith1, ith2, ratio, minv, kd, cm, v, fext,
-                                     ftab, x0, inv_dx, lin, work, rec_every, rec_state, rec_out)
-        return _integrate_table(s, kin, n_steps, h, mode, z1_2pi, ith1, ith2, ratio, minv, kd, cm, v, fext,
-                                ftab, x0, inv_dx, lin, work, rec_every, rec_state, rec_out)
-    return _integrate_linear(s, kin, n_steps, h, mode, z1_2pi, ith1, ith2, ratio, minv, kd, cm, v, fext,
-                             ftab, x0, inv_dx, lin, work, rec_every, rec_state, rec_out)
+            return _integrate_table4
+        return _integrate_table
+    return _integrate_linear
 
 
 # One compiled loop per (force law, DOF count): constant trip counts let LLVM unroll the small loops.

@@ -219,6 +219,8 @@ class SpurPairSystem:
         w2max = eigh(np.diag(self.kd) + kmax * np.outer(self.v, self.v), mm, eigvals_only=True)
         self.max_frequency_Hz = float(np.sqrt(max(w2max.max(), 0.0)) / (2 * math.pi))
         self.work = np.zeros((5, 2 * self.n))
+        #: compiled loop for this force law and DOF count (kernels.select_kernel)
+        self.kernel = kernels.select_kernel(self.law.law, self.n)
 
     # ------------------------------------------------------------------ force law in Python
     def force(self, tau, x) -> np.ndarray:
@@ -322,9 +324,9 @@ class SpurPairSystem:
         if rec_state is None:
             rec_state = np.zeros((0, 2 * self.n))
             rec_out = np.zeros((0, 5))
-        return kernels.integrate(
+        return self.kernel(
             s, kin, int(n_steps), float(h), mode, self.z1_2pi, self.ith1, self.ith2, self.ratio, self.minv,
-            self.kd, self.cm, self.v, fext, self.law.law, self.ta.ftab, self.ta.x0, self.ta.inv_dx,
+            self.kd, self.cm, self.v, fext, self.ta.ftab, self.ta.x0, self.ta.inv_dx,
             self.law.lin, self.work, int(rec_every), rec_state, rec_out,
         )
 

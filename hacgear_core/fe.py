@@ -76,7 +76,7 @@ __all__ = [
 ]
 
 #: bump when anything changes the numbers produced (part of every cache key)
-FE_CODE_VERSION = "fe-4"
+FE_CODE_VERSION = "fe-5"
 
 _GMSH_LOCK = threading.Lock()
 
@@ -156,10 +156,10 @@ class MeshOptions:
         Boundary points per flank requested from ``gg.tooth_boundary`` (spline control points).
     """
 
-    flank_size_m: float = 0.4e-3
-    fillet_size_m: float = 0.4e-3
+    flank_size_m: float = 0.6e-3
+    fillet_size_m: float = 0.6e-3
     body_size_m: float = 3.0e-3
-    fine_layer_m: float = 1.5e-3
+    fine_layer_m: float = 1.2e-3
     growth_length_m: float = 6.0e-3
     n_per_flank: int = 120
 
@@ -338,7 +338,7 @@ def mesh_gear(gg: Any, options: MeshOptions = MeshOptions()) -> GearMesh:
                 tags = [ptag[i] for i in idx]
                 c = geo.addLine(tags[0], tags[1]) if len(tags) == 2 else geo.addSpline(tags)
                 curves.append(c)
-                (tip_curves if reg == 3 else flank_curves if reg == 2 else fillet_curves).append(c)
+                (tip_curves if reg in (3, 4) else flank_curves if reg == 2 else fillet_curves).append(c)
             pc = geo.addPoint(0.0, 0.0, 0.0)
             hl = geo.addPoint(r_hub * np.cos(-half), r_hub * np.sin(-half), 0.0)
             hr = geo.addPoint(r_hub * np.cos(half), r_hub * np.sin(half), 0.0)
@@ -956,7 +956,7 @@ def gear_compliance(gg: Any, material: Any, side: str, *, options: MeshOptions =
     depth_m : float
         Near-field reading depth [m] (0.05..5 mm); reduced to ``depth_fraction`` times the
         tooth chord along the normal where the tooth is thin (tip).
-    gauges : sequence of Gauge
+    gauges : sequence of Gauge (or model gauges with ``name``, ``flank``, ``radius_m``)
     n_profile : int
         Points of the dense profile from ``gg.flank``.
     cache : bool
@@ -979,7 +979,8 @@ def gear_compliance(gg: Any, material: Any, side: str, *, options: MeshOptions =
     if not (0.05 <= depth_fraction <= 0.5):
         raise ModelError(f"depth_fraction must be in [0.05, 0.5], got {depth_fraction!r}")
     mat = ElasticMaterial.coerce(material)
-    gauges = tuple(gauges)
+    gauges = tuple(g if isinstance(g, Gauge) else Gauge(g.name, getattr(g, "side", None) or g.flank, g.radius_m)
+                   for g in gauges)     # model gauges (``.flank``) are accepted too
     if len({g.name for g in gauges}) != len(gauges):
         raise ModelError("gauge names must be unique")
     z = int(gg.z)
@@ -1008,6 +1009,14 @@ def gear_compliance(gg: Any, material: Any, side: str, *, options: MeshOptions =
     chord = _chord_inward(xy, nrm, poly)
     depth = np.minimum(depth_m, depth_fraction * chord)
 
+    g_xy, g_t, g_n, g_info = [], [], [], []
+    for g in gauges:           # located first: a bad gauge fails before the expensive build
+        p, t, nn, sg, rg = _gauge_location(gg, g, n_profile)
+        g_xy.append(p)
+        g_t.append(t)
+        g_n.append(nn)
+        g_info.append(dict(name=g.name, side=g.side, radius_m=g.radius_m, s_m=sg, region=rg))
+
     t0 = time.perf_counter()
     if fe is None:
         fe = build_gear_fe(gg, mat, options)
@@ -1029,13 +1038,8 @@ def gear_compliance(gg: Any, material: Any, side: str, *, options: MeshOptions =
     C = np.einsum("pc,pci->pi", dirs, D).reshape(z, len(s_grid), len(s_grid))   # [k, j, i]
     C = np.ascontiguousarray(C.transpose(0, 2, 1))                                # [k, i, j]
     # gauges
-    g_xy, g_t, S = [], [], np.zeros((len(gauges), z, len(s_grid)))
-    g_info = []
-    for g_i, g in enumerate(gauges):
-        p, t, nn, sg, rg = _gauge_location(gg, g, n_profile)
-        g_xy.append(p)
-        g_t.append(t)
-        g_info.append(dict(name=g.name, side=g.side, radius_m=g.radius_m, s_m=sg, region=rg))
+    S = np.zeros((len(gauges), z, len(s_grid)))
+    for g_i, (p, t, nn) in enumerate(zip(g_xy, g_t, g_n)):
         q = np.stack([(p - 2e-6 * nn) @ rotation(2 * np.pi * k / z).T for k in range(z)])
         tt = np.stack([t @ rotation(2 * np.pi * k / z).T for k in range(z)])
         S[g_i] = fe.strain_operator(q, tt) @ U

@@ -359,7 +359,7 @@ def test_mesh_refinement_fine_sequence(gear):
 
 def test_cache_roundtrip(gear, tmp_path, monkeypatch):
     monkeypatch.setenv("HACGEAR_CACHE_DIR", str(tmp_path))
-    opts = MeshOptions(flank_size_m=1.0e-3, fillet_size_m=1.0e-3, body_size_m=4e-3)
+    opts = MeshOptions(flank_size_m=1.5e-3, fillet_size_m=1.5e-3, body_size_m=6e-3)
     a = gear_compliance(gear, MAT, "coast", options=opts, gauges=[Gauge("g", "coast", 36.6e-3)])
     files = list((tmp_path / "fe").glob("flank_*.npz"))
     assert len(files) == 1
@@ -394,3 +394,61 @@ def test_input_validation(gear):
     bad = SyntheticGear(bore_radius_m=40e-3)
     with pytest.raises(GeometryError, match="bore_radius_m"):
         mesh_gear(bad, COARSE)
+
+
+def test_reciprocity_between_teeth(flank):
+    """Maxwell-Betti: the influence of tooth 0 on tooth k equals (transposed) that of tooth
+    k on tooth 0, i.e. C[k] = C[-k]^T, up to the depth reading (< 1%)."""
+    inv = np.flatnonzero(flank.region == 2)
+    M = flank.matrix()
+    for k in (1, 2, 3):
+        A = M[k][np.ix_(inv, inv)]
+        B = M[-k].T[np.ix_(inv, inv)]
+        assert np.abs(A / B - 1).max() < 0.01
+
+
+def _real_gear(system="spur_28t_asym", index=0):
+    geometry = pytest.importorskip("hacgear_core.geometry")
+    from hacgear_core.model import load_model
+
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    model = load_model(os.path.join(root, "models", system, "model.toml"))
+    g = model.gears[index]
+    return g, geometry.gear_geometry(g)
+
+
+def test_real_28t_gear_mesh_is_periodic():
+    gear, gg = _real_gear()
+    gm = mesh_gear(gg, MeshOptions(flank_size_m=1.0e-3, fillet_size_m=1.0e-3, body_size_m=4e-3))
+    from scipy.spatial import cKDTree
+
+    dist, _ = cKDTree(gm.p).query(gm.p @ rotation(2 * np.pi / gg.z).T)
+    assert dist.max() < 1e-9
+    r = np.hypot(gm.p[:, 0], gm.p[:, 1])
+    assert np.isclose(r.min(), gg.bore_radius_m, rtol=1e-9)
+    assert r.max() <= gg.tip_radius_m * (1 + 1e-9) and r.max() > gg.tip_radius_m * (1 - 1e-3)   # tip relief lowers the corner
+    assert gm.t.shape[0] == gg.z * gm.n_sector_triangles
+
+
+@pytest.mark.slow
+def test_real_28t_gear_compliance():
+    """28-tooth asymmetric gear (dissertation Table 3.3), default mesh: identical-pair
+    stiffness at the pitch point (plane stress, 15 mm, no crowning), neighbour coupling,
+    gauges in the fillet with tension on the loaded side, equilibrium."""
+    gear, gg = _real_gear()
+    mat = ElasticMaterial(gear.material.youngs_modulus_Pa, gear.material.poisson_ratio)
+    gauges = [Gauge(x.name, x.flank, x.radius_m) for x in gear.gauges]
+    fc = gear_compliance(gg, mat, "drive", gauges=gauges, cache=False)
+    r = np.hypot(fc.xy_m[:, 0], fc.xy_m[:, 1])
+    s_p = float(np.interp(gg.pitch_radius_m, r[::-1], fc.s_m[::-1]))
+    w = 300.0 / (gg.base_radius_m["drive"] * gear.face_width_m)
+    rho = float(np.interp(s_p, fc.s_m, fc.curvature_radius_m))
+    a = hertz_line_contact(w, rho, rho, mat.youngs_modulus_Pa, mat.poisson_ratio).half_width_m
+    c_tooth = fc.far_field(0, s_p, s_p) + fc.self_approach(w, a, s_p) / w
+    k_pair = gear.face_width_m / (2 * c_tooth)
+    assert 1.4e8 < k_pair < 1.8e8
+    assert 0.25 < fc.far_field(1, s_p, s_p) / fc.far_field(0, s_p, s_p) < 0.5
+    assert [g["region"] for g in fc.info["gauges"]] == [1, 1]
+    assert fc.strain("SG25", 0, s_p) > 0 > fc.strain("SG20", 0, s_p)
+    F = -fc.normal
+    np.testing.assert_allclose(fc.hub_force_per_N_m[:, :2], F, atol=1e-8)

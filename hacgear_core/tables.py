@@ -554,27 +554,36 @@ def open_statics_file(path: str | Path, layouts: Mapping[str, MeshLayout], root_
 
     path = Path(path)
     note = ""
-    if resume and path.exists():
+    if path.exists():
         try:
             f = h5py.File(path, "r+")
+        except BlockingIOError:
+            raise TableError(f"{path} is open in another process (another `hacgear statics` still running?); "
+                             "wait for it or stop it first") from None
         except OSError as exc:
+            f = None
             note = f"could not reopen {path.name} ({exc}); started again"
+        if f is not None and not resume:
+            f.close()
+            f = None
+    else:
+        f = None
+    if f is not None:
+        diff = _same_layout(f, layouts, root_attrs) if "layout_complete" in f.attrs else "unfinished"
+        if diff == "unfinished":
+            f.close()
+            note = f"{path.name} was interrupted while being created; started again"
+        elif diff is None:
+            done = sum(int(np.count_nonzero(f[f"meshes/{m}/{d}"][()])) for m in layouts
+                       for d in ("done_loads", "done_deflections"))
+            return f, f"resumed {path.name}: {done} position task(s) already done"
         else:
-            diff = _same_layout(f, layouts, root_attrs) if "layout_complete" in f.attrs else "unfinished"
-            if diff == "unfinished":
-                f.close()
-                note = f"{path.name} was interrupted while being created; started again"
-            elif diff is None:
-                done = sum(int(np.count_nonzero(f[f"meshes/{m}/{d}"][()])) for m in layouts
-                           for d in ("done_loads", "done_deflections"))
-                return f, f"resumed {path.name}: {done} position task(s) already done"
-            else:
-                f.close()
-                raise TableError(
-                    f"cannot resume {path}: it was started with different settings ({diff} differ). Run "
-                    "`hacgear statics` without --resume to start again (the partial file is replaced)."
-                )
-    elif resume:
+            f.close()
+            raise TableError(
+                f"cannot resume {path}: it was started with different settings ({diff} differ). Run "
+                "`hacgear statics` without --resume to start again (the partial file is replaced)."
+            )
+    elif resume and not note:
         note = f"nothing to resume ({path.name} absent); started from scratch"
     path.parent.mkdir(parents=True, exist_ok=True)
     if path.exists():
@@ -623,7 +632,8 @@ def write_deflection_grid(f: Any, mesh: str, grid: np.ndarray) -> None:
 def consistency_summary(g: Any) -> dict[str, float]:
     """Figures of one finished mesh group: NLMD range, force range, the FDF's reproduction of the
     load-control results (max |F(p, x_static) − F| / max load at the grid positions), and the largest
-    decrease of the force along the deflection axis (should be ~0: the FDF is monotone)."""
+    decrease of the force along the deflection axis and of the static deflection along the load axis
+    (both should be ~0: the FDF is monotone)."""
     F = g["force_N"][()]
     x = g["deflection_m"][()]
     S = g["static_deflection_m"][()]
@@ -632,11 +642,13 @@ def consistency_summary(g: Any) -> dict[str, float]:
     rec = np.array([np.interp(S[i], x, F[i]) for i in range(F.shape[0])])
     err = float(np.max(np.abs(rec - L[None, :])) / L.max())
     drop = float(np.max(np.maximum(-np.diff(F, axis=1), 0.0)))
+    sdrop = float(np.max(np.maximum(-np.diff(S, axis=1), 0.0)))
     return {
         "no_load_deflection_min_m": float(nl.min()), "no_load_deflection_max_m": float(nl.max()),
         "deflection_grid_min_m": float(x[0]), "deflection_grid_max_m": float(x[-1]),
         "static_deflection_max_m": float(S.max()), "force_max_N": float(F.max()), "load_max_N": float(L.max()),
         "fdf_reproduces_static_rel_err": err, "fdf_max_decrease_N": drop,
+        "static_deflection_max_decrease_m": sdrop,
     }
 
 

@@ -399,3 +399,22 @@ def test_fe_contact_solver_small_grid(tmp_path):
     assert s["fdf_max_decrease_N"] < 1e-6 * s["force_max_N"]
     assert s["fdf_reproduces_static_rel_err"] < 0.05
     assert b.tasks_computed == 16
+
+
+def test_partial_file_in_use_by_another_process_is_not_touched(tmp_path):
+    out = tmp_path / "t.h5"
+    partial = tmp_path / "t.h5.partial"
+    holder = subprocess.Popen([sys.executable, "-c", (
+        "import h5py, sys, time\n"
+        f"f = h5py.File({str(partial)!r}, 'w'); f.attrs['x'] = 1; f.flush()\n"
+        "print('ready', flush=True); time.sleep(60)\n")], stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "ready"
+        for resume in (False, True):
+            with pytest.raises(TableError, match="open in another process"):
+                run_statics({"m12": AnalyticFactory()}, out, n_positions=4, n_deflections=8, loads_N=_loads(3),
+                            workers=1, progress=False, resume=resume)
+        assert partial.exists()
+    finally:
+        holder.kill()
+        holder.wait()

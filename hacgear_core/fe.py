@@ -733,11 +733,12 @@ class FlankCompliance:
         s = np.asarray(s, dtype=float)
         lo, hi = self.s_m[0], self.s_m[-1]
         tol = 1e-9 + 1e-6 * (hi - lo)
-        if np.any(s < lo - tol) or np.any(s > hi + tol) or np.any(~np.isfinite(s)):
+        smin, smax = (float(s), float(s)) if s.ndim == 0 else (s.min(), s.max())
+        if not (lo - tol <= smin and smax <= hi + tol):
             raise GeometryError(f"profile coordinate s must lie in [{lo:.6e}, {hi:.6e}] m (the sampled flank "
                                 f"of side {self.side!r}); got {np.min(s):.6e}..{np.max(s):.6e} m")
-        u = (np.clip(s, lo, hi) - lo) / (hi - lo) * (self.n_samples - 1)
-        i0 = np.clip(np.floor(u).astype(int), 0, self.n_samples - 2)
+        u = (np.clip(s, lo, hi) - lo) * ((self.n_samples - 1) / (hi - lo))
+        i0 = np.minimum(u.astype(int), self.n_samples - 2)
         return i0, u - i0
 
     def point(self, s_m):
@@ -779,16 +780,21 @@ class FlankCompliance:
         c = np.asarray(self.far_field(k, s_load, s_resp), dtype=float)
         if int(k) % self.z != 0:
             return c
-        x = np.abs(np.asarray(s_load, dtype=float) - np.asarray(s_resp, dtype=float))
-        x = np.broadcast_to(x, c.shape)
+        x2 = (np.asarray(s_load, dtype=float) - np.asarray(s_resp, dtype=float)) ** 2
         eps = 1e-9 if min_offset_m is None else float(min_offset_m)
-        far = x > eps
-        d = np.broadcast_to(self.depth(s_resp), c.shape)
-        corr = np.zeros(c.shape)
-        if np.any(far):
-            corr[far] = halfspace_approach_point(1.0, x[far], d[far], self.youngs_modulus_Pa,
-                                                 self.poisson_ratio, self.plane)
-        return c + corr
+        d2 = self.depth(s_resp) ** 2
+        Ep, nuq = self._plane_constants
+        with np.errstate(divide="ignore", invalid="ignore"):
+            corr = (np.log1p(d2 / x2) - (1.0 + nuq) * d2 / (x2 + d2)) / (np.pi * Ep)
+        return c + np.where(x2 > eps * eps, corr, 0.0)
+
+    @property
+    def _plane_constants(self):
+        """``(E', nu'')`` of :func:`hacgear_core.nearfield.halfspace_approach_point`."""
+        E, nu = self.youngs_modulus_Pa, self.poisson_ratio
+        if self.plane == "stress":
+            return E, nu
+        return E / (1 - nu * nu), nu / (1 - nu)
 
     def matrix(self) -> np.ndarray:
         """``(z, n, n)`` compliance at the samples: far field plus the mutual near-field

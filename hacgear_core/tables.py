@@ -222,6 +222,12 @@ class MeshTable:
         if not np.all(np.isfinite(self.force_N)):
             raise TableError(f"{where}: force_N contains NaN/inf (incomplete table?)")
 
+    def __getstate__(self) -> dict[str, Any]:
+        return {k: v for k, v in self.__dict__.items() if k != "_unrolled_cache"}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+
     # -- grid facts ------------------------------------------------------------------------
     @property
     def n_positions(self) -> int:
@@ -281,8 +287,13 @@ class MeshTable:
         return p, x
 
     def _unrolled(self, A: np.ndarray) -> np.ndarray:
-        """Per-pair array (Np, Nd, Nw) → (Nw·Np, Nd) over the pair phase τ = p − k ascending."""
-        return np.concatenate([A[:, :, i] for i in range(self.tooth_offsets.size - 1, -1, -1)], axis=0)
+        """Per-pair array (Np, Nd, Nw) → (Nw·Np, Nd) over the pair phase τ = p − k ascending (cached)."""
+        cache = self.__dict__.setdefault("_unrolled_cache", {})
+        hit = cache.get(id(A))
+        if hit is None or hit[0] is not A:
+            hit = cache[id(A)] = (A, np.ascontiguousarray(
+                np.concatenate([A[:, :, i] for i in range(self.tooth_offsets.size - 1, -1, -1)], axis=0)))
+        return hit[1]
 
     def tooth_phase(self, position: Any, tooth_offset: int | np.ndarray = 0) -> np.ndarray:
         """Phase τ = position − k of tooth pair ``k`` [mesh cycles]: τ = 0 at its pitch-point contact.

@@ -35,12 +35,14 @@ Quantities
   tooth, and for every loaded contact the Hertz half-space approach of both bodies, which
   depends on the load (``~ w ln(1/w)``).  The latter is handled by a fixed-point iteration on
   the secant compliance (converges in a few iterations; exact at the fixed point).
-* **Face width.**  The face is cut into ``face_slices`` slices of equal width.  Default
-  ``face_coupling="slices"``: the thin-slice model (each slice an independent plane-stress gear
-  of the slice width, as in ISO 6336-1 / Weber-Banaschek load-distribution practice); the
-  alternative ``"rigid"`` couples the far field uniformly over the face (the 2D gear acts
-  over the whole width) and keeps only the near field per slice.  The truth lies in between;
-  ``docs/static_contact.md`` reports both.
+* **Face width.**  The face is cut into ``face_slices`` slices of equal width; crowning enters each
+  slice's separation, the Hertz near field is per slice (line load ``F/b_s``).  The far field
+  (``face_coupling``): ``"rigid"`` (default) couples it uniformly over the face — the plane-stress
+  gear of the full width acts as one body, as the 2D idealisation itself assumes, appropriate for a
+  narrow face (the 28-tooth pair: b = 15 mm = 3 modules, about 1.3 tooth heights); ``"slices"`` is
+  the thin-slice model (each slice an independent plane-stress gear of the slice width, as in
+  ISO 6336 load-distribution practice), appropriate for wide faces.  The truth of a 3D body lies in
+  between; ``docs/static_contact.md`` reports both.
 
 The complementarity problem is a strictly convex quadratic programme (``C`` symmetric positive
 definite); :func:`solve_contact_lcp` solves it exactly with a primal active-set method (finite
@@ -306,8 +308,8 @@ class ContactOptions:
     ----------
     face_slices : int
         Slices across the face width (1..200).
-    face_coupling : {"slices", "rigid"}
-        Far-field coupling across the face (see the module docstring).
+    face_coupling : {"rigid", "slices"}
+        Far-field coupling across the face (see the module docstring); default "rigid".
     pair_window : int
         Tooth pairs examined on each side of the pair nearest the pitch point (>= 1); reported
         offsets are ``-pair_window..pair_window``.

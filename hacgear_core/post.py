@@ -22,6 +22,7 @@ from hacgear_core.errors import TableError
 
 __all__ = [
     "interpolate_table",
+    "pair_interpolate",
     "tooth_loads",
     "dynamic_contact_pressure",
     "dynamic_root_strain",
@@ -43,11 +44,15 @@ def interpolate_table(table, values, tau, x) -> np.ndarray:
     tau : array (n,)
         Mesh positions [cycles] (any real; periodic with period 1).
     x : array (n,)
-        Mesh deflections [m]; beyond the grid: linear extrapolation from the outermost columns.
+        Mesh deflections [m]; above the grid: linear extrapolation from the last two columns; below
+        the grid start (teeth apart): the first column (no extrapolation into negative loads).
 
     Returns
     -------
     array (n, ...)
+
+    Use this for quantities of the whole mesh (force, peak pressure).  Quantities of one tooth pair
+    (tooth load, root strain) are not periodic in position per offset; use :func:`pair_interpolate`.
     """
     ta = table_arrays(table)
     vals = np.asarray(values, dtype=float)
@@ -62,7 +67,7 @@ def interpolate_table(table, values, tau, x) -> np.ndarray:
     i = np.minimum(p.astype(int), npos - 1)
     a = p - i
     i1 = (i + 1) % npos
-    r = (x - ta.x0) * ta.inv_dx
+    r = np.maximum((x - ta.x0) * ta.inv_dx, 0.0)
     j = np.clip(np.floor(r).astype(int), 0, nd - 2)
     b = r - j
     ex = (slice(None),) + (None,) * (vals.ndim - 2)
@@ -72,9 +77,52 @@ def interpolate_table(table, values, tau, x) -> np.ndarray:
     return v0 + a * (v1 - v0)
 
 
+def pair_interpolate(table, values, phase, x) -> np.ndarray:
+    """Interpolate a per-tooth-pair quantity ``values`` (Np, Nd, Nw) at pair phase ``phase`` (n,)
+    [cycles] and deflection ``x`` (n,) [m].
+
+    Pair ``k`` at mesh position ``p`` has phase ``p - k`` (0 at its pitch-point contact) and its
+    state depends on the phase only (``X_k(p + 1) = X_{k-1}(p)``), so the columns of all offsets
+    unroll into one function of the phase over ``[-max k, 1 - min k)``; outside that range the pair
+    is out of mesh and the value is 0.  Deflection axis as in :func:`interpolate_table`.
+    """
+    ta = table_arrays(table)
+    vals = np.asarray(values, dtype=float)
+    npos, nd = ta.ftab.shape
+    offs = np.asarray(table.tooth_offsets).astype(int)
+    if vals.shape != (npos, nd, offs.size):
+        raise TableError(f"per-pair quantity has shape {vals.shape}, expected ({npos}, {nd}, {offs.size})")
+    order = np.argsort(offs)[::-1]  # phase ascending: largest offset first
+    if not np.array_equal(np.diff(offs[order]), -np.ones(offs.size - 1, dtype=int)):
+        raise TableError(f"tooth_offsets must be consecutive integers, got {offs.tolist()}")
+    unrolled = np.concatenate([vals[:, :, w] for w in order], axis=0)  # (Nw*Np, Nd)
+    phase = np.asarray(phase, dtype=float).ravel()
+    x = np.asarray(x, dtype=float).ravel()
+    rows = (phase + offs.max()) * npos
+    n_rows = unrolled.shape[0]
+    inside = (rows >= 0) & (rows <= n_rows - 1)
+    rr = np.clip(rows, 0, n_rows - 1)
+    i = np.minimum(np.floor(rr).astype(int), n_rows - 2)
+    a = rr - i
+    r = np.maximum((x - ta.x0) * ta.inv_dx, 0.0)
+    j = np.clip(np.floor(r).astype(int), 0, nd - 2)
+    b = r - j
+    v0 = unrolled[i, j] + b * (unrolled[i, j + 1] - unrolled[i, j])
+    v1 = unrolled[i + 1, j] + b * (unrolled[i + 1, j + 1] - unrolled[i + 1, j])
+    return np.where(inside, v0 + a * (v1 - v0), 0.0)
+
+
+def _per_offset(table, values, tau, x) -> np.ndarray:
+    tau = np.asarray(tau, dtype=float).ravel()
+    frac = tau - np.floor(tau)
+    offs = np.asarray(table.tooth_offsets).astype(int)
+    return np.stack([pair_interpolate(table, values, frac - k, x) for k in offs], axis=1)
+
+
 def tooth_loads(table, tau, x) -> np.ndarray:
-    """Load per tooth pair (n, Nw) [N] along the trajectory, columns = ``table.tooth_offsets``."""
-    return np.maximum(interpolate_table(table, table.tooth_load_N, tau, x), 0.0)
+    """Load per tooth pair (n, Nw) [N] along the trajectory, columns = ``table.tooth_offsets``
+    (offsets relative to the reference pair at each instant)."""
+    return np.maximum(_per_offset(table, table.tooth_load_N, tau, x), 0.0)
 
 
 def dynamic_contact_pressure(table, tau, x) -> np.ndarray:
@@ -95,16 +143,8 @@ def dynamic_root_strain(table, gauge: str, tau, x, tooth: int = 0) -> np.ndarray
     ``tau`` must be the *unwrapped* mesh position (cycles since the start); ``tooth`` is the offset
     of the followed tooth at ``tau`` in [0, 1) (see the module's tooth-following convention).
     """
-    arr = _gauge(table, gauge)
     tau = np.asarray(tau, dtype=float).ravel()
-    offs = list(np.asarray(table.tooth_offsets).astype(int))
-    all_w = interpolate_table(table, arr, tau, x)  # (n, Nw)
-    k = tooth - np.floor(tau).astype(int)
-    out = np.zeros(tau.size)
-    for w, off in enumerate(offs):
-        sel = k == off
-        out[sel] = all_w[sel, w]
-    return out
+    return pair_interpolate(table, _gauge(table, gauge), tau - tooth, x)
 
 
 def dynamic_mesh_stiffness(table, tau, x) -> np.ndarray:
@@ -128,7 +168,7 @@ def static_root_strain(table, gauge: str, force_N: float) -> np.ndarray:
     """Static root strain (Np, Nw) [-] at ``gauge`` at the static mesh force ``force_N`` [N]."""
     ta = table_arrays(table)
     xs = static_deflection(ta, force_N)
-    return interpolate_table(table, _gauge(table, gauge), np.asarray(table.position, float), xs)
+    return _per_offset(table, _gauge(table, gauge), np.asarray(table.position, float), xs)
 
 
 def strain_dynamic_factor(table, tau, x, force_N: float) -> dict:
@@ -140,6 +180,6 @@ def strain_dynamic_factor(table, tau, x, force_N: float) -> dict:
         smax = float(np.max(st))
         if smax <= 0:
             continue
-        dyn = interpolate_table(table, _gauge(table, g), tau, x)
+        dyn = _per_offset(table, _gauge(table, g), tau, x)
         out[g] = float(np.max(dyn)) / smax
     return out

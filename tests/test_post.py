@@ -96,3 +96,26 @@ def test_pressure_and_tooth_loads_vanish_without_contact_and_sum_to_force():
     assert np.all(post.dynamic_contact_pressure(tab, tau, x) > 0.0)
     with pytest.raises(TableError, match="gauge"):
         post.dynamic_root_strain(tab, "nope/SG", tau, x)
+
+
+def test_pair_interpolation_agrees_with_the_tables_module_off_grid():
+    tab = spur_fdf_table(tip_relief_m=20e-6, n_positions=32)
+    if not hasattr(tab, "sdf"):
+        pytest.skip("hacgear_core.tables.MeshTable not available")
+    rng = np.random.default_rng(3)
+    # phases inside the tabulated window, many in the last position cell of an offset block
+    phase = np.concatenate([rng.uniform(-1.9, 2.9, 300), np.arange(-2, 3) + 31.5 / 32])
+    x = rng.uniform(tab.deflection_m[1], tab.deflection_m[-2], phase.size)
+    mine = post.pair_interpolate(tab, tab.strain["wheel/SG"], phase, x)
+    theirs = tab.sdf("wheel/SG", phase, x)
+    ok = np.isfinite(theirs)
+    assert ok.sum() > 250
+    np.testing.assert_allclose(mine[ok], theirs[ok], rtol=1e-10, atol=1e-15)
+
+
+def test_strain_below_the_deflection_grid_is_not_extrapolated():
+    tab = spur_fdf_table(tip_relief_m=20e-6)
+    x0 = tab.deflection_m[0]
+    a = post.pair_interpolate(tab, tab.strain["wheel/SG"], [0.1], [x0])
+    b = post.pair_interpolate(tab, tab.strain["wheel/SG"], [0.1], [x0 - 50e-6])
+    assert b[0] == a[0]

@@ -15,6 +15,8 @@ def add_model_options(p: argparse.ArgumentParser, torque_required: bool = True) 
     p.add_argument("--torque", type=float, required=torque_required, default=None,
                    help="torque on gear 1 (driver) [N*m]")
     p.add_argument("--mesh", default=None, help="mesh name (default: the first mesh)")
+    p.add_argument("--tables", default=None,
+                   help="tables file to use with a model file (default: tables.h5 next to the model)")
     p.add_argument("--bearing-stiffness", type=float, default=None,
                    help="override both translational bearing stiffnesses along the line of action [N/m] "
                         "(inf: rigid, purely rotational model)")
@@ -30,4 +32,32 @@ def inputs_from_args(args: argparse.Namespace):
     from hacgear_core.dynamics.source import load_inputs
 
     return load_inputs(args.model, mesh=args.mesh, torque_Nm=args.torque,
-                       bearing_stiffness_N_per_m=args.bearing_stiffness, damping_ratio=args.damping_ratio)
+                       bearing_stiffness_N_per_m=args.bearing_stiffness, damping_ratio=args.damping_ratio,
+                       tables=args.tables)
+
+
+def json_safe(obj):
+    """Strict JSON: non-finite floats become None (NaN) or the strings "inf"/"-inf"; numpy scalars
+    and arrays become Python numbers and lists."""
+    import math
+
+    import numpy as np
+
+    if isinstance(obj, dict):
+        return {str(k): json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [json_safe(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return json_safe(obj.tolist())
+    if isinstance(obj, (np.floating, float)):
+        v = float(obj)
+        if math.isnan(v):
+            return None
+        if math.isinf(v):
+            return "inf" if v > 0 else "-inf"
+        return v
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, np.bool_):
+        return bool(obj)
+    return obj

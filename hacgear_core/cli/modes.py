@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from hacgear_core.cli._dyn_common import add_model_options, inputs_from_args
+from hacgear_core.cli._dyn_common import add_model_options, inputs_from_args, json_safe
 
 __all__ = ["register", "run"]
 
@@ -36,7 +36,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.no_impulse:
         rep["impulse_test"] = impulse_test(sy).to_json()
     if args.json:
-        print(json.dumps(rep, indent=2, default=lambda o: None if o != o else str(o)))
+        print(json.dumps(json_safe(rep), indent=2, allow_nan=False))
         return 0
     tag = " [SYNTHETIC TABLE]" if inp.synthetic else ""
     print(f"{inp.label}{tag}: torque {inp.params.torque_Nm:g} N*m, force law {args.force_law}, "

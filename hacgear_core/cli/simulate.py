@@ -7,7 +7,7 @@ import json
 
 import numpy as np
 
-from hacgear_core.cli._dyn_common import add_model_options, inputs_from_args
+from hacgear_core.cli._dyn_common import add_model_options, inputs_from_args, json_safe
 
 __all__ = ["register", "run"]
 
@@ -87,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
             np.savetxt(args.out, np.column_stack([tr[k] for k in keys]), delimiter=",", header=",".join(keys),
                        comments="")
     if args.json:
-        print(json.dumps(summary, indent=2))
+        print(json.dumps(json_safe(summary), indent=2, allow_nan=False))
     else:
         tag = " [SYNTHETIC TABLE]" if inp.synthetic else ""
         print(f"{inp.label}{tag}: {args.cycles} cycles at f_m {fm0:g}" + (f"->{fm1:g}" if fm1 != fm0 else "")

@@ -6,7 +6,7 @@ import argparse
 import json
 import math
 
-from hacgear_core.cli._dyn_common import add_model_options, inputs_from_args
+from hacgear_core.cli._dyn_common import add_model_options, inputs_from_args, json_safe
 
 __all__ = ["register", "run"]
 
@@ -58,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
     rep.update({"model": inp.label, "synthetic_table": inp.synthetic, "results_file": args.out,
                 "computed_speeds": {b: r.recomputed for b, r in res.branches.items()}})
     if args.json:
-        print(json.dumps(rep, indent=1))
+        print(json.dumps(json_safe(rep), indent=1, allow_nan=False))
         return 0
     tag = " [SYNTHETIC TABLE]" if inp.synthetic else ""
     print(f"{inp.label}{tag}: torque {inp.params.torque_Nm:g} N*m, force law {args.force_law}, "

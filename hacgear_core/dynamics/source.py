@@ -6,7 +6,8 @@ Accepted forms:
     the model file and its ``tables.h5`` (hash-checked), parameters via
     :func:`~hacgear_core.dynamics.spur.from_model`;
 ``path/to/tables.h5``
-    a tables file; parameters from the model file recorded in it (``model_file`` attribute);
+    a tables file; parameters from the model file recorded in it (``model_file`` attribute, looked
+    up next to the tables file); or give the model and ``tables=`` (CLI ``--tables``);
 ``synthetic:28t[,key=value...]``
     the synthetic table of :func:`~hacgear_core.dynamics.synthetic.spur_fdf_table` with the
     dissertation's 28-tooth gear blanks (outputs are labelled synthetic).  Keys:
@@ -60,9 +61,10 @@ def _synthetic(spec: str) -> DynamicsInputs:
 
 def load_inputs(model: str, *, mesh: str | None = None, torque_Nm: float | None = None,
                 bearing_stiffness_N_per_m: float | None = None,
-                damping_ratio: float | None = None) -> DynamicsInputs:
+                damping_ratio: float | None = None, tables: str | None = None) -> DynamicsInputs:
     """Parameters and mesh table for ``model`` (see module docstring), with optional overrides of
-    the torque on gear 1 [N m], both bearing stiffnesses [N/m] and the modal damping ratio."""
+    the torque on gear 1 [N m], both bearing stiffnesses [N/m] and the modal damping ratio;
+    ``tables``: a tables file to use instead of the model folder's ``tables.h5`` (hash-checked)."""
     if model.startswith("synthetic:"):
         inp = _synthetic(model)
     else:
@@ -93,11 +95,12 @@ def load_inputs(model: str, *, mesh: str | None = None, torque_Nm: float | None 
             from hacgear_core.tables import load_system_tables
 
             mdl = load_model(model)
-            tabs = load_system_tables(model)
+            tabs = load_system_tables(model, tables)
         tm = tabs.mesh(mesh)
         params = from_model(mdl, tm.name, table=tm)
-        synth = "synthetic" in str(getattr(tm, "solver", ""))
-        inp = DynamicsInputs(params, tm, f"{mdl.name}/{tm.name}", synth)
+        solver = str(getattr(tm, "solver", "") or "?")
+        synth = "synthetic" in solver
+        inp = DynamicsInputs(params, tm, f"{mdl.name}/{tm.name} (table solver: {solver})", synth)
     changes = {}
     if torque_Nm is not None:
         changes["torque_Nm"] = torque_Nm

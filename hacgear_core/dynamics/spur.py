@@ -524,13 +524,20 @@ class SpurPairSimulator:
             float(s[sy.dof_names.index(nm)]) if nm in sy.dof_names else 0.0 for nm in ("y1", "y2"))
 
     def strain(self, gauge: str) -> float:
-        """Root strain [-] at ``gauge`` on the tooth of the reference pair (offset 0) now."""
-        from hacgear_core.post import interpolate_table
+        """Root strain [-] now at ``gauge`` ("<gear>/<gauge>") on one physical tooth of that gear:
+        the tooth of the reference pair at mesh position 0, back in mesh every z mesh cycles
+        (pair phase ``((tau + z/2) mod z) - z/2``, see :func:`hacgear_core.post.pair_interpolate`)."""
+        from hacgear_core.post import pair_interpolate
 
-        arr = self.system.table.strain[gauge]
-        w = list(np.asarray(self.system.table.tooth_offsets)).index(0)
-        return float(interpolate_table(self.system.table, arr[:, :, w], [self.mesh_position],
-                                       [self.mesh_deflection_m])[0])
+        tab = self.system.table
+        strain = getattr(tab, "strain", None) or {}
+        if gauge not in strain:
+            raise ModelError(f"no strain gauge {gauge!r} in the table; gauges: {sorted(strain)}")
+        gear = gauge.split("/", 1)[0]
+        names = tuple(getattr(tab, "gear_names", ()))
+        z = self.params.teeth[names.index(gear)] if gear in names else self.params.teeth[1]
+        phase = ((self.mesh_position + 0.5 * z) % z) - 0.5 * z
+        return float(pair_interpolate(tab, strain[gauge], [phase], [self.mesh_deflection_m])[0])
 
     @property
     def peak_pressure_Pa(self) -> float:

@@ -815,6 +815,12 @@ def run_statics(
             "model_sha256": model_sha256, "model_file": model_file,
             "deflection_margin": float(deflection_margin),
         }
+        if resume and not partial.exists() and out.exists():
+            done = tb.completed_table_matches(out, layouts, root_attrs)
+            if done:
+                total = 2 * n_positions * len(names)
+                return StaticsReport(True, f"{out} is already complete for these settings; nothing to do", out,
+                                     total, 0, total, time.perf_counter() - t0, done)
         f, resumed_note = tb.open_statics_file(partial, layouts, root_attrs, resume=resume)
         try:
             return _run_phases(f, tb, factories, layouts, positions, executor, deflection_margin, progress,

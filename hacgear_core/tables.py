@@ -48,6 +48,7 @@ __all__ = [
     "fdf_force",
     "open_statics_file",
     "write_position",
+    "completed_table_matches",
     "write_deflection_grid",
     "consistency_summary",
 ]
@@ -600,6 +601,24 @@ def open_statics_file(path: str | Path, layouts: Mapping[str, MeshLayout], root_
     if path.exists():
         path.unlink()
     return _create_file(path, layouts, root_attrs), note
+
+
+def completed_table_matches(path: str | Path, layouts: Mapping[str, MeshLayout], root_attrs: Mapping[str, Any]
+                            ) -> dict[str, dict[str, float]] | None:
+    """For ``--resume`` after a finished run: the :func:`consistency_summary` of every mesh when ``path``
+    is a complete table made with these layouts and settings, else None."""
+    import h5py
+
+    try:
+        with h5py.File(path, "r") as f:
+            if "layout_complete" not in f.attrs or _same_layout(f, layouts, root_attrs) is not None:
+                return None
+            if not all(np.all(f[f"meshes/{m}/{d}"][()] == 1) for m in layouts
+                       for d in ("done_loads", "done_deflections")):
+                return None
+            return {m: consistency_summary(f[f"meshes/{m}"]) for m in layouts}
+    except OSError:
+        return None
 
 
 def write_position(f: Any, mesh: str, phase: int, ip: int, payload: Mapping[str, Any]) -> None:

@@ -262,6 +262,9 @@ def test_resume_complete_partial_and_mismatch(serial_run, tmp_path):
                       workers=1, progress=False, model_sha256="abc", resume=True)
     assert (rep.tasks_computed, rep.tasks_resumed) == (9, 15)
     _assert_same_file(serial_run, out)
+    again = run_statics({"m12": AnalyticFactory()}, out, n_positions=12, n_deflections=16, loads_N=_loads(),
+                        workers=1, progress=False, model_sha256="abc", resume=True)
+    assert (again.tasks_computed, again.tasks_resumed) == (0, 24) and "nothing to do" in again.message
     shutil.copy(serial_run, partial)
     with pytest.raises(TableError, match="cannot resume.*load_N"):
         run_statics({"m12": AnalyticFactory()}, out, n_positions=12, n_deflections=16, loads_N=_loads(7),

@@ -30,7 +30,14 @@ __all__ = [
     "static_mesh_stiffness",
     "static_root_strain",
     "strain_dynamic_factor",
+    "static_strain_max",
 ]
+
+
+def _grid(table):
+    """(Np, Nd, x0, 1/dx) from the table's grids without re-validating the FDF (hot path)."""
+    xd = np.asarray(table.deflection_m, dtype=float)
+    return len(table.position), xd.size, float(xd[0]), float((xd.size - 1) / (xd[-1] - xd[0]))
 
 
 def interpolate_table(table, values, tau, x) -> np.ndarray:
@@ -54,9 +61,8 @@ def interpolate_table(table, values, tau, x) -> np.ndarray:
     Use this for quantities of the whole mesh (force, peak pressure).  Quantities of one tooth pair
     (tooth load, root strain) are not periodic in position per offset; use :func:`pair_interpolate`.
     """
-    ta = table_arrays(table)
+    npos, nd, x0, inv_dx = _grid(table)
     vals = np.asarray(values, dtype=float)
-    npos, nd = ta.ftab.shape
     if vals.shape[:2] != (npos, nd):
         raise TableError(f"table quantity has shape {vals.shape}, expected ({npos}, {nd}, ...)")
     tau = np.asarray(tau, dtype=float).ravel()
@@ -67,7 +73,7 @@ def interpolate_table(table, values, tau, x) -> np.ndarray:
     i = np.minimum(p.astype(int), npos - 1)
     a = p - i
     i1 = (i + 1) % npos
-    r = np.maximum((x - ta.x0) * ta.inv_dx, 0.0)
+    r = np.maximum((x - x0) * inv_dx, 0.0)
     j = np.clip(np.floor(r).astype(int), 0, nd - 2)
     b = r - j
     ex = (slice(None),) + (None,) * (vals.ndim - 2)
@@ -86,9 +92,8 @@ def pair_interpolate(table, values, phase, x) -> np.ndarray:
     unroll into one function of the phase over ``[-max k, 1 - min k)``; outside that range the pair
     is out of mesh and the value is 0.  Deflection axis as in :func:`interpolate_table`.
     """
-    ta = table_arrays(table)
+    npos, nd, x0, inv_dx = _grid(table)
     vals = np.asarray(values, dtype=float)
-    npos, nd = ta.ftab.shape
     offs = np.asarray(table.tooth_offsets).astype(int)
     if vals.shape != (npos, nd, offs.size):
         raise TableError(f"per-pair quantity has shape {vals.shape}, expected ({npos}, {nd}, {offs.size})")
@@ -104,7 +109,7 @@ def pair_interpolate(table, values, phase, x) -> np.ndarray:
     rr = np.clip(rows, 0, n_rows - 1)
     i = np.minimum(np.floor(rr).astype(int), n_rows - 2)
     a = rr - i
-    r = np.maximum((x - ta.x0) * ta.inv_dx, 0.0)
+    r = np.maximum((x - x0) * inv_dx, 0.0)
     j = np.clip(np.floor(r).astype(int), 0, nd - 2)
     b = r - j
     v0 = unrolled[i, j] + b * (unrolled[i, j + 1] - unrolled[i, j])
@@ -113,10 +118,14 @@ def pair_interpolate(table, values, phase, x) -> np.ndarray:
 
 
 def _per_offset(table, values, tau, x) -> np.ndarray:
+    """(n, Nw): the per-pair quantity of every offset at mesh positions ``tau`` (one vectorised call)."""
     tau = np.asarray(tau, dtype=float).ravel()
+    x = np.asarray(x, dtype=float).ravel()
     frac = tau - np.floor(tau)
     offs = np.asarray(table.tooth_offsets).astype(int)
-    return np.stack([pair_interpolate(table, values, frac - k, x) for k in offs], axis=1)
+    ph = (frac[None, :] - offs[:, None]).ravel()
+    v = pair_interpolate(table, values, ph, np.tile(x, offs.size))
+    return v.reshape(offs.size, tau.size).T
 
 
 def tooth_loads(table, tau, x) -> np.ndarray:
@@ -171,15 +180,21 @@ def static_root_strain(table, gauge: str, force_N: float) -> np.ndarray:
     return _per_offset(table, _gauge(table, gauge), np.asarray(table.position, float), xs)
 
 
-def strain_dynamic_factor(table, tau, x, force_N: float) -> dict:
+def strain_dynamic_factor(table, tau, x, force_N: float, static_max: dict | None = None) -> dict:
     """Strain dynamic factor per gauge: max tensile dynamic root strain over all teeth along the
-    trajectory divided by the max static root strain at ``force_N`` [N] over the cycle."""
+    trajectory divided by the max static root strain at ``force_N`` [N] over the cycle.
+    ``static_max``: precomputed {gauge: max static strain} (see :func:`static_strain_max`)."""
+    sm = static_strain_max(table, force_N) if static_max is None else static_max
     out = {}
-    for g in sorted(getattr(table, "strain", None) or {}):
-        st = static_root_strain(table, g, force_N)
-        smax = float(np.max(st))
+    for g, smax in sm.items():
         if smax <= 0:
             continue
         dyn = _per_offset(table, _gauge(table, g), tau, x)
         out[g] = float(np.max(dyn)) / smax
     return out
+
+
+def static_strain_max(table, force_N: float) -> dict:
+    """{gauge: max static root strain over the cycle and all teeth} at ``force_N`` [N]."""
+    return {g: float(np.max(static_root_strain(table, g, force_N)))
+            for g in sorted(getattr(table, "strain", None) or {})}

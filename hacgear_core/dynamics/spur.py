@@ -308,6 +308,23 @@ class SpurPairSystem:
                 hi = mid
         return 0.5 * (lo + hi)
 
+    def cached(self, what: str, force_N: float):
+        """Per-system cache of static quantities used at every speed of a sweep:
+        ``deflection_at_0`` (static deflection at mesh position 0 [m]) and ``static_strain_max``
+        ({gauge: max static root strain})."""
+        key = (what, float(force_N))
+        c = self.__dict__.setdefault("_cache", {})
+        if key not in c:
+            if what == "deflection_at_0":
+                c[key] = self._deflection_at(0.0, force_N)
+            elif what == "static_strain_max":
+                from hacgear_core.post import static_strain_max
+
+                c[key] = static_strain_max(self.table, force_N)
+            else:
+                raise KeyError(what)
+        return c[key]
+
     def natural_frequencies_Hz(self) -> np.ndarray:
         """Elastic natural frequencies of the linearisation used for damping [Hz], ascending."""
         return np.sort(self.modal_omega[~self.rigid_modes]) / (2 * math.pi)

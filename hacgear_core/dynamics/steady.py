@@ -116,7 +116,7 @@ def trace_metrics(system: SpurPairSystem, x, f, dte, tau=None, static_force_N=No
     if tau is not None and strain:
         from hacgear_core.post import strain_dynamic_factor
 
-        dfs = strain_dynamic_factor(system.table, tau, x, fs)
+        dfs = strain_dynamic_factor(system.table, tau, x, fs, system.cached("static_strain_max", fs))
         if dfs:
             m["dynamic_factor_strain"] = float(max(dfs.values()))
     return m
@@ -154,7 +154,7 @@ def steady_state(system: SpurPairSystem, mesh_frequency_Hz: float, state0: np.nd
     h = 1.0 / (fm * nsp)
     omega = fm / system.z1_2pi
     fs = (system.params.torque_Nm if torque_Nm is None else torque_Nm) / system.rb[0]
-    xs = max(abs(system._deflection_at(0.0, fs)), 1e-7)
+    xs = max(abs(system.cached("deflection_at_0", fs)), 1e-7)
     scale = np.ones(len(_projection(system)))
     scale[1::2] = 2 * math.pi * fm  # rates
     proj = _projection(system) / (xs * scale[:, None])

@@ -755,18 +755,23 @@ class MeshContactSolver:
         n = setup.g0.size
         bs = setup.slice_width_m
         F = np.asarray(warm, float).copy() if warm is not None and np.any(warm > 0) else np.zeros(n)
-        F_eval = F.copy()
         res = None
         msg = "converged"
         ok = True
         total = 0
         for it in range(1, self.options.max_fixed_point + 1):
-            w = F_eval / bs
+            # Newton step on the load-dependent near field delta_i(F_i) = c_s(F_i) F_i: tangent compliance
+            # c_t on the diagonal and the offset (c_s - c_t) F_k in the separation; exact at the fixed point
+            w = F / bs
             w_ref = max(float(w.max()), 1.0)
-            w_eval = np.where(w > 1e-3 * w_ref, w, w_ref)
+            w_eval = np.maximum(w, 1e-3 * w_ref)      # continuous floor (unloaded / barely loaded points)
+            c_s = self._near_compliance(setup, w_eval)
+            c_t = c_s + (self._near_compliance(setup, 1.01 * w_eval) - c_s) / 0.01
+            c_t = np.maximum(c_t, 0.3 * c_s)
             C = setup.C_lin.copy()
-            C[np.diag_indices(n)] += self._near_compliance(setup, w_eval)
-            res = solve_contact_lcp(C, setup.g0, setup.lam, mesh_force_N=force, mesh_deflection_m=deflection,
+            C[np.diag_indices(n)] += c_t
+            g = setup.g0 + (c_s - c_t) * F
+            res = solve_contact_lcp(C, g, setup.lam, mesh_force_N=force, mesh_deflection_m=deflection,
                                     warm_start=F if np.any(F > 0) else None)
             total += res.iterations
             if not res.success:
@@ -778,8 +783,6 @@ class MeshContactSolver:
             F = Fn
             if change < self.options.fixed_point_tol or not np.any(Fn > 0):
                 break
-            # plain substitution first; relaxed (averaged loads for the compliance) if it lingers
-            F_eval = Fn if it < 4 else 0.5 * (F_eval + Fn)
         else:
             ok, msg = False, f"near-field fixed point did not converge in {self.options.max_fixed_point} iterations"
         w = F / bs

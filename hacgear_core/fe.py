@@ -67,6 +67,7 @@ __all__ = [
     "Gauge",
     "GearMesh",
     "GearFE",
+    "CyclicGearFE",
     "FlankCompliance",
     "mesh_gear",
     "build_gear_fe",
@@ -76,7 +77,7 @@ __all__ = [
 ]
 
 #: bump when anything changes the numbers produced (part of every cache key)
-FE_CODE_VERSION = "fe-5"
+FE_CODE_VERSION = "fe-6"
 
 _GMSH_LOCK = threading.Lock()
 
@@ -242,6 +243,11 @@ class GearMesh:
         Triangles per tooth sector.
     mesh_time_s : float
         gmsh wall time for the sector.
+    sector_p : ndarray (Ns, 2)
+        Nodes of the tooth-0 sector (``-pi/z`` to ``+pi/z``); the cut on ``+pi/z`` is
+        the rotation of the cut on ``-pi/z`` node by node.
+    sector_t : ndarray (Ts, 3)
+        Triangles of the sector.
     """
 
     p: np.ndarray
@@ -250,6 +256,8 @@ class GearMesh:
     hub_radius_m: float
     n_sector_triangles: int
     mesh_time_s: float
+    sector_p: np.ndarray
+    sector_t: np.ndarray
 
 
 def _boundary_pieces(xy: np.ndarray, region: np.ndarray, side: np.ndarray):
@@ -424,7 +432,7 @@ def mesh_gear(gg: Any, options: MeshOptions = MeshOptions()) -> GearMesh:
         parent[i] = r
     uniq, inv = np.unique(parent, return_inverse=True)
     P, T = P[uniq], inv[T]
-    return GearMesh(P, T.astype(np.int64), z, r_hub, len(ts), mesh_time)
+    return GearMesh(P, T.astype(np.int64), z, r_hub, len(ts), mesh_time, ps, ts.astype(np.int64))
 
 
 # ----------------------------------------------------------------------------- FE model
@@ -442,6 +450,8 @@ class PlaneFE:
         ``fixed_facets(x0, x1) -> bool mask`` over boundary facets with end points
         ``x0, x1`` (each (nf, 2)); every DOF (vertex and mid-side) of those facets is
         prescribed (0 unless given to :meth:`solve`).
+    factorize : bool
+        Factorise the free-free stiffness (needed by :meth:`solve`).
 
     Attributes
     ----------
@@ -453,7 +463,8 @@ class PlaneFE:
         ``assemble`` and ``factorize`` wall times [s].
     """
 
-    def __init__(self, p: np.ndarray, t: np.ndarray, material: ElasticMaterial, fixed_facets):
+    def __init__(self, p: np.ndarray, t: np.ndarray, material: ElasticMaterial, fixed_facets,
+                 factorize: bool = True):
         from skfem import Basis, ElementTriP2, ElementVector, MeshTri, asm
         from skfem.models.elasticity import linear_elasticity
 
@@ -476,11 +487,13 @@ class PlaneFE:
         mask = np.ones(self.basis.N, dtype=bool)
         mask[self.fixed] = False
         self.free = np.flatnonzero(mask)
-        Kff = self.K[self.free][:, self.free].tocsc()
-        try:
-            self._lu = spla.splu(Kff, permc_spec="COLAMD")
-        except RuntimeError as exc:
-            raise SolverError(f"factorisation of the stiffness matrix failed: {exc}") from exc
+        self._lu = None
+        if factorize:
+            Kff = self.K[self.free][:, self.free].tocsc()
+            try:
+                self._lu = spla.splu(Kff, permc_spec="COLAMD")
+            except RuntimeError as exc:
+                raise SolverError(f"factorisation of the stiffness matrix failed: {exc}") from exc
         t2 = time.perf_counter()
         self.n_dofs = int(self.basis.N)
         self.n_free = int(self.free.size)
@@ -640,9 +653,242 @@ class GearFE(PlaneFE):
         Mz = (x[~cx, None] * R[~cx]).sum(axis=0) - (y[cx, None] * R[cx]).sum(axis=0)
         return -np.stack([Fx, Fy, Mz], axis=1)
 
+    def influence(self, load_xy: np.ndarray, load_force: np.ndarray, disp_xy: np.ndarray,
+                  disp_dir: np.ndarray, strain_xy: np.ndarray, strain_dir: np.ndarray):
+        """Responses on every tooth to point loads on tooth 0 (full-model solve).
+
+        Parameters
+        ----------
+        load_xy, load_force : (m, 2)
+            Load points on tooth 0 [m] and forces [N/m].
+        disp_xy, disp_dir : (p, 2)
+            Read points (tooth-0 frame) [m] and unit directions of the displacement.
+        strain_xy, strain_dir : (q, 2)
+            Strain points (tooth-0 frame) and unit directions of the normal strain.
+
+        Returns
+        -------
+        disp : (z, p, m)
+            ``disp[k, j, i]``: displacement along ``R_k disp_dir[j]`` at ``R_k disp_xy[j]``
+            (tooth ``k``) caused by load ``i`` [m per N/m].
+        strain : (z, q, m)
+        hub : (m, 3)
+            :meth:`hub_force` of each load.
+        """
+        F = self.point_loads(load_xy, load_force)
+        U = self.solve(F)
+        z = self.z
+        disp = np.zeros((z, len(disp_xy), F.shape[1]))
+        strain = np.zeros((z, len(strain_xy), F.shape[1]))
+        for k in range(z):
+            R = rotation(2 * np.pi * k / z)
+            if len(disp_xy):
+                D = (self.displacement_operator(np.asarray(disp_xy) @ R.T) @ U).reshape(len(disp_xy), 2, -1)
+                disp[k] = np.einsum("jc,jci->ji", np.asarray(disp_dir) @ R.T, D)
+            if len(strain_xy):
+                strain[k] = self.strain_operator(np.asarray(strain_xy) @ R.T, np.asarray(strain_dir) @ R.T) @ U
+        return disp, strain, self.hub_force(U, F)
 
 
-def build_gear_fe(gg: Any, material: Any, options: MeshOptions = MeshOptions()) -> GearFE:
+class CyclicGearFE:
+    """Gear model solved by cyclic symmetry: one tooth sector, ``z`` harmonics.
+
+    The whole-gear stiffness is block-circulant over the ``z`` sectors (written in each
+    sector's rotated frame).  A discrete Fourier transform over the sectors decouples it
+    into ``floor(z/2)+1`` independent (complex Hermitian) sector problems
+    ``K_h = T_h^H K_s T_h``, where ``T_h`` imposes ``u_right = exp(i h 2pi/z) R(2pi/z) u_left``
+    on the two radial cuts.  A load on tooth 0 has the same transform for every harmonic,
+    so the responses of all teeth follow from one solve per harmonic and an inverse DFT.
+    Results equal those of :class:`GearFE` on the replicated mesh (to round-off) at a
+    fraction of the cost: only one sector is assembled, and the factorised systems have
+    sector size.
+
+    Attributes
+    ----------
+    gear_mesh : GearMesh
+    sector : PlaneFE
+        The assembled (unfactorised) sector with the hub DOF fixed.
+    z : int
+    n_dofs : int
+        DOF of the equivalent whole-gear model (``z`` times the reduced sector DOF plus the hub DOF).
+    n_free : int
+        Unknowns of the equivalent whole-gear model.
+    n_sector_free : int
+        Unknowns of each harmonic problem.
+    timings_s : dict
+        ``mesh``, ``assemble``, ``factorize`` wall times [s].
+    """
+
+    def __init__(self, gear_mesh: GearMesh, material: ElasticMaterial):
+        r = gear_mesh.hub_radius_m
+        z = self.z = gear_mesh.z
+        self.gear_mesh = gear_mesh
+        self.material = material
+        self.hub_radius_m = r
+
+        def on_hub(x0, x1):
+            return ((np.abs(np.hypot(x0[:, 0], x0[:, 1]) - r) < 1e-7 * r)
+                    & (np.abs(np.hypot(x1[:, 0], x1[:, 1]) - r) < 1e-7 * r))
+
+        t0 = time.perf_counter()
+        sec = self.sector = PlaneFE(gear_mesh.sector_p, gear_mesh.sector_t, material, on_hub, factorize=False)
+        th = 2 * np.pi / z
+        half = th / 2
+        X = sec.dof_locations                                   # (2, N)
+        N = sec.n_dofs
+        scale = float(np.max(np.hypot(X[0], X[1])))
+        tol = 1e-9 * scale
+
+        def on_line(angle):
+            e = np.array([np.cos(angle), np.sin(angle)])
+            return (np.abs(e[0] * X[1] - e[1] * X[0]) < tol) & (e[0] * X[0] + e[1] * X[1] > 0)
+
+        left = np.flatnonzero(on_line(-half))
+        right = np.flatnonzero(on_line(half))
+        comp = sec.dof_component
+        Rt = rotation(th)
+        # pair each right DOF with the two left DOF at the rotated location
+        locL = (Rt @ X[:, left]).T
+        tree = cKDTree(locL)
+        dist, idx = tree.query(X[:, right].T)
+        if right.size != left.size or right.size == 0 or dist.max() > 1e3 * tol:
+            raise GeometryError("the two radial cuts of the tooth sector do not match (periodic mesh expected)")
+        pairs = {}
+        for d_l in left:
+            pairs.setdefault(tuple(np.round(X[:, d_l] / tol).astype(np.int64)), {})[int(comp[d_l])] = d_l
+        fixed = np.zeros(N, dtype=bool)
+        fixed[sec.fixed] = True
+        is_right = np.zeros(N, dtype=bool)
+        is_right[right] = True
+        keep = np.flatnonzero(~fixed & ~is_right)
+        red = np.full(N, -1, dtype=np.int64)
+        red[keep] = np.arange(keep.size)
+        n_red = keep.size
+        Ti = sp.csr_matrix((np.ones(n_red), (keep, np.arange(n_red))), shape=(N, n_red))
+        rows, cols, vals = [], [], []
+        c, s_ = Rt[0, 0], Rt[1, 0]
+        for j, d_r in enumerate(right):
+            if fixed[d_r]:
+                continue
+            d_l_any = left[idx[j]]
+            key = tuple(np.round(X[:, d_l_any] / tol).astype(np.int64))
+            lx, ly = pairs[key][0], pairs[key][1]
+            if fixed[lx] or fixed[ly]:
+                raise GeometryError("inconsistent hub tie on the sector cuts")
+            # u_R = e^{i phi} R u_L
+            coef = (c, -s_) if comp[d_r] == 0 else (s_, c)
+            for dl, cf in ((lx, coef[0]), (ly, coef[1])):
+                if cf != 0.0:
+                    rows.append(d_r)
+                    cols.append(red[dl])
+                    vals.append(cf)
+        Tr = sp.csr_matrix((vals, (rows, cols)), shape=(N, n_red))
+        K = sec.K
+        self._Ti, self._Tr = Ti, Tr
+        A0 = (Ti.T @ K @ Ti + Tr.T @ K @ Tr).tocsc()
+        A1 = (Ti.T @ K @ Tr).tocsc()
+        t1 = time.perf_counter()
+        self._lu = []
+        self._harmonics = list(range(z // 2 + 1))
+        for h in self._harmonics:
+            ph = np.exp(1j * h * th)
+            if h == 0 or 2 * h == z:
+                Kh = (A0 + ph.real * (A1 + A1.T)).tocsc()
+            else:
+                Kh = (A0 + ph * A1 + np.conj(ph) * A1.T).tocsc()
+            try:
+                # Hermitian positive definite: symmetric ordering, no pivoting
+                self._lu.append(spla.splu(Kh, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                                          options=dict(SymmetricMode=True)))
+            except RuntimeError as exc:
+                raise SolverError(f"factorisation of harmonic {h} failed: {exc}") from exc
+        t2 = time.perf_counter()
+        self.n_sector_free = int(n_red)
+        self.n_free = int(z * n_red)
+        self.n_dofs = int(z * n_red + z * (np.count_nonzero(fixed) - np.count_nonzero(fixed[right])))
+        self.timings_s = {"mesh": gear_mesh.mesh_time_s, "assemble": t1 - t0, "factorize": t2 - t1}
+        self.mesh = sec.mesh
+
+    def _map_to_sector(self, pts, dirs):
+        """Rotate points (and directions) into sector 0; return them and the sector shift."""
+        pts = np.atleast_2d(np.asarray(pts, dtype=float))
+        dirs = np.atleast_2d(np.asarray(dirs, dtype=float))
+        th = 2 * np.pi / self.z
+        m = np.round(np.arctan2(pts[:, 1], pts[:, 0]) / th).astype(int)
+        P = np.empty_like(pts)
+        D = np.empty_like(dirs)
+        for q in range(len(pts)):
+            R = rotation(-m[q] * th)
+            P[q] = R @ pts[q]
+            D[q] = R @ dirs[q]
+        return P, D, m
+
+    def _all_teeth(self, Op, U_h, shift):
+        """Inverse DFT: ``(z, rows, m)`` values of operator ``Op`` (rows x sector DOF) on
+        every sector, from the harmonic solutions; ``shift`` re-indexes rows whose point
+        was mapped from sector ``shift`` into sector 0."""
+        z = self.z
+        OTi = Op @ self._Ti
+        OTr = Op @ self._Tr
+        th = 2 * np.pi / z
+        Y = np.zeros((z, Op.shape[0], U_h[0].shape[1]), dtype=complex)
+        for h, Uh in zip(self._harmonics, U_h):
+            Y[h] = OTi @ Uh + np.exp(1j * h * th) * (OTr @ Uh)
+            if 0 < h and 2 * h != z:
+                Y[z - h] = np.conj(Y[h])
+        V = np.fft.ifft(Y, axis=0).real                       # V[k] = (1/z) sum_h e^{i h k th} Y_h
+        if np.any(shift != 0):
+            out = np.empty_like(V)
+            k = np.arange(z)
+            for r in range(V.shape[1]):
+                out[:, r] = V[(k + shift[r]) % z, r]
+            return out
+        return V
+
+    def influence(self, load_xy, load_force, disp_xy, disp_dir, strain_xy, strain_dir):
+        """Same contract as :meth:`GearFE.influence` (loads on tooth 0, responses on all teeth)."""
+        sec = self.sector
+        P, Fd, m_load = self._map_to_sector(load_xy, load_force)
+        if np.any(m_load != 0):
+            raise GeometryError("load points must lie on tooth 0 (its sector -pi/z..pi/z)")
+        F = sec.point_loads(P, Fd)
+        U_h = []
+        for h, lu in zip(self._harmonics, self._lu):
+            ph = np.exp(1j * h * 2 * np.pi / self.z)
+            rhs = self._Ti.T @ F + np.conj(ph) * (self._Tr.T @ F)
+            if h == 0 or 2 * h == self.z:
+                rhs = rhs.real
+            U_h.append(lu.solve(np.ascontiguousarray(rhs)))
+        nload = F.shape[1]
+        z = self.z
+        disp = np.zeros((z, len(disp_xy), nload))
+        strain = np.zeros((z, len(strain_xy), nload))
+        if len(disp_xy):
+            Pd, Dd, md = self._map_to_sector(disp_xy, disp_dir)
+            Op = sec.displacement_operator(Pd)
+            W = sp.csr_matrix((Dd.ravel(), (np.repeat(np.arange(len(Pd)), 2), np.arange(2 * len(Pd)))),
+                              shape=(len(Pd), 2 * len(Pd)))
+            disp = self._all_teeth((W @ Op).tocsr(), U_h, md)
+        if len(strain_xy):
+            Ps, Ds, ms = self._map_to_sector(strain_xy, strain_dir)
+            strain = self._all_teeth(sec.strain_operator(Ps, Ds), U_h, ms)
+        # hub: element forces of every sector on its hub nodes, summed in the gear frame
+        fx = sec.fixed
+        cx = sec.dof_component[fx] == 0
+        x, y = sec.dof_locations[0, fx], sec.dof_locations[1, fx]
+        G = sp.csr_matrix(np.vstack([cx.astype(float), (~cx).astype(float),
+                                     np.where(cx, -y, x)])) @ sec.K[fx]
+        H = self._all_teeth(G.tocsr(), U_h, np.zeros(3, dtype=int))     # (z, 3, m) per sector, local frame
+        hub = np.zeros((nload, 3))
+        for k in range(z):
+            R = rotation(2 * np.pi * k / z)
+            hub[:, :2] += (R @ H[k, :2]).T
+            hub[:, 2] += H[k, 2]
+        return disp, strain, -hub
+
+
+def build_gear_fe(gg: Any, material: Any, options: MeshOptions = MeshOptions(),
+                  method: str = "cyclic") -> "CyclicGearFE | GearFE":
     """Mesh, assemble and factorise the whole gear (hub held fixed).
 
     Parameters
@@ -650,12 +896,21 @@ def build_gear_fe(gg: Any, material: Any, options: MeshOptions = MeshOptions()) 
     gg : GearGeometry-like
     material : ElasticMaterial or object with ``youngs_modulus_Pa``/``poisson_ratio``
     options : MeshOptions
+    method : {"cyclic", "full"}
+        ``"cyclic"`` (default): one sector and ``z//2+1`` harmonic factorisations
+        (:class:`CyclicGearFE`); ``"full"``: the replicated whole-gear mesh with one
+        factorisation (:class:`GearFE`), same results, slower; kept as the reference.
 
     Returns
     -------
-    GearFE
+    CyclicGearFE or GearFE
+        Both provide ``influence(...)``, ``n_dofs``, ``n_free``, ``timings_s``.
     """
-    return GearFE(mesh_gear(gg, options), ElasticMaterial.coerce(material))
+    if method not in ("cyclic", "full"):
+        raise ModelError(f"method must be 'cyclic' or 'full', got {method!r}")
+    gm = mesh_gear(gg, options)
+    mat = ElasticMaterial.coerce(material)
+    return CyclicGearFE(gm, mat) if method == "cyclic" else GearFE(gm, mat)
 
 
 # ----------------------------------------------------------------------------- influence coefficients
@@ -967,8 +1222,9 @@ def gear_compliance(gg: Any, material: Any, side: str, *, options: MeshOptions =
         Points of the dense profile from ``gg.flank``.
     cache : bool
         Read/write the on-disk cache (:func:`cache_dir`).
-    fe : GearFE, optional
-        Reuse an already factorised model (must match ``gg``, ``material`` and ``options``).
+    fe : CyclicGearFE or GearFE, optional
+        Reuse an already factorised model (must match ``gg``, ``material`` and ``options``);
+        default: :func:`build_gear_fe` with ``method="cyclic"``.
 
     Returns
     -------
@@ -1027,33 +1283,15 @@ def gear_compliance(gg: Any, material: Any, side: str, *, options: MeshOptions =
     if fe is None:
         fe = build_gear_fe(gg, mat, options)
     t1 = time.perf_counter()
-    F = fe.point_loads(xy, -nrm)
-    U = fe.solve(F)
-    t2 = time.perf_counter()
-    # responses on every tooth at the reading depth
     read = xy - depth[:, None] * nrm
-    pts, dirs = [], []
-    for k in range(z):
-        R = rotation(2 * np.pi * k / z)
-        pts.append(read @ R.T)
-        dirs.append(-nrm @ R.T)
-    pts = np.concatenate(pts)
-    dirs = np.concatenate(dirs)
-    D = fe.displacement_operator(pts) @ U                      # (2 z n, n_load)
-    D = D.reshape(z * len(s_grid), 2, -1)
-    C = np.einsum("pc,pci->pi", dirs, D).reshape(z, len(s_grid), len(s_grid))   # [k, j, i]
-    C = np.ascontiguousarray(C.transpose(0, 2, 1))                                # [k, i, j]
-    # gauges
-    S = np.zeros((len(gauges), z, len(s_grid)))
-    for g_i, (p, t, nn) in enumerate(zip(g_xy, g_t, g_n)):
-        q = np.stack([(p - 2e-6 * nn) @ rotation(2 * np.pi * k / z).T for k in range(z)])
-        tt = np.stack([t @ rotation(2 * np.pi * k / z).T for k in range(z)])
-        S[g_i] = fe.strain_operator(q, tt) @ U
-    H = fe.hub_force(U, F)
-    t3 = time.perf_counter()
-    info = dict(cache_key=key, n_dofs=fe.n_dofs, n_free=fe.n_free, n_triangles=int(fe.mesh.t.shape[1]),
+    g_q = np.array([p - 2e-6 * nn for p, nn in zip(g_xy, g_n)]).reshape(-1, 2)
+    disp, S, H = fe.influence(xy, -nrm, read, -nrm, g_q, np.array(g_t).reshape(-1, 2))
+    C = np.ascontiguousarray(disp.transpose(0, 2, 1))          # [k, i (load), j (response)]
+    S = np.ascontiguousarray(S.transpose(1, 0, 2))              # [g, k, i]
+    t2 = time.perf_counter()
+    info = dict(cache_key=key, n_dofs=fe.n_dofs, n_free=fe.n_free, n_triangles=int(fe.gear_mesh.t.shape[0]),
                 n_sector_triangles=fe.gear_mesh.n_sector_triangles, options=asdict(options),
-                timings_s=dict(fe.timings_s, build_total=t1 - t0, solve=t2 - t1, post=t3 - t2),
+                timings_s=dict(fe.timings_s, build_total=t1 - t0, solve=t2 - t1),
                 gauges=g_info, face="per unit face width (thickness 1 m)", code_version=FE_CODE_VERSION,
                 depth_m=depth_m, depth_fraction=depth_fraction)
     out = FlankCompliance(side=side, z=z, s_m=s_grid, xy_m=xy, normal=nrm, region=region, roll_angle_rad=roll,

@@ -367,3 +367,90 @@ def test_synthetic_28t_impulse_test_brackets_and_weights():
     assert it.weighted_mean_Hz[0] == pytest.approx((2 - eps) * fs_ + (eps - 1) * fd_)
     # magnitude check only (synthetic table, mean stiffness 150 N/um): dissertation HAC 2775 Hz
     assert 2000 < it.weighted_mean_Hz[0] < 3500
+
+
+# ---------------------------------------------------------------- model adapter, simulator outputs, CLI
+def test_from_model_maps_the_28_tooth_model():
+    from pathlib import Path
+
+    from hacgear_core.dynamics.spur import from_model
+    from hacgear_core.model import load_model
+
+    path = Path(__file__).resolve().parents[1] / "models" / "spur_28t_asym" / "model.toml"
+    if not path.exists():
+        pytest.skip("model file not present")
+    p = from_model(load_model(path))
+    rb = 0.5 * 5e-3 * 28 * math.cos(math.radians(25.0))  # the 25 deg flank is loaded
+    assert p.base_radius_m == pytest.approx((rb, rb), rel=1e-12)
+    assert p.teeth == (28, 28)
+    assert p.torque_Nm == 300.0 and p.modal_damping_ratio == 0.02
+    assert p.rigid_supports and p.rotational_stiffness_Nm_per_rad == (0.0, 0.0)
+    # blank: annulus 40..126.4 mm plus half of the tooth ring to 149.9 mm, 15 mm, 7850 kg/m^3
+    m_disk = 7850 * math.pi / 4 * (0.1264**2 - 0.04**2) * 0.015
+    m_ring = 7850 * math.pi / 4 * (0.1499**2 - 0.1264**2) * 0.015
+    assert p.mass_kg[0] == pytest.approx(m_disk + 0.5 * m_ring, rel=1e-12)
+    i_disk = 0.5 * m_disk * (0.0632**2 + 0.02**2)
+    i_ring = 0.5 * 0.5 * m_ring * (0.07495**2 + 0.0632**2)
+    assert p.inertia_kg_m2[0] == pytest.approx(i_disk + i_ring, rel=1e-12)
+
+
+def test_simulator_post_processed_outputs():
+    tab = spur_fdf_table(tip_relief_m=20e-6)
+    sim = SpurPairSimulator(synthetic_28t_parameters(tab), tab)
+    sim.set_speed_input(mesh_frequency_Hz=1000.0)
+    strains, press = [], []
+    for _ in range(3 * 28 * 8):  # three revolutions of gear 2, 8 samples per mesh cycle
+        assert sim.advance(1.0 / 8000.0).success
+        strains.append(sim.strain("wheel/SG"))
+        press.append(sim.peak_pressure_Pa)
+    strains = np.array(strains)
+    # the gauge tooth of the wheel is loaded once per revolution of the wheel (every 28 mesh cycles)
+    idx = np.nonzero(strains > 0.2 * strains.max())[0]
+    gaps = np.nonzero(np.diff(idx) > 8 * 8)[0]  # passages separated by > 8 mesh cycles unloaded
+    starts = idx[gaps + 1]  # full passages (the first, at t = 0, starts mid-mesh)
+    assert idx[0] == 0 and len(starts) == 3
+    np.testing.assert_array_equal(np.diff(starts), 28 * 8)
+    assert 100e-6 < strains.max() < 2e-3
+    assert min(press) > 0  # no contact loss at 1000 Hz, 300 N m
+    with pytest.raises(ModelError, match="gauge"):
+        sim.strain("nope")
+
+
+def _cli(argv, capsys):
+    import json
+
+    from hacgear_core.cli import main
+
+    rc = main(argv)
+    out = capsys.readouterr().out
+    return rc, (json.loads(out) if "--json" in argv and rc == 0 else out)
+
+
+def test_cli_modes_and_sweep_json(capsys, tmp_path):
+    rc, d = _cli(["modes", "synthetic:28t", "--torque", "300", "--json", "--no-impulse"], capsys)
+    assert rc == 0 and d["synthetic_table"] is True
+    f = d["natural_frequencies_Hz"]
+    assert f == sorted(f) and len(f) == 1 and 2000 < f[0] < 3500
+    assert d["bearing_stiffness_N_per_m"] == ["inf", "inf"]
+    rc, d = _cli(["modes", "synthetic:28t", "--torque", "300", "--json", "--no-impulse",
+                  "--bearing-stiffness", "200e6"], capsys)
+    assert len(d["natural_frequencies_Hz"]) == 3 and len(d["mode_shapes"]["shapes"][0]) == 4
+    out = str(tmp_path / "r.h5")
+    rc, d = _cli(["sweep", "synthetic:28t", "--torque", "100", "--fm", "1500:2500:3", "--direction", "up",
+                  "--json", "--no-progress", "--out", out], capsys)
+    assert rc == 0 and d["computed_speeds"] == {"up": 3}
+    assert d["branches"]["up"]["mesh_frequency_Hz"] == [1500.0, 2000.0, 2500.0]
+    rc, d = _cli(["sweep", "synthetic:28t", "--torque", "100", "--fm", "1500:2500:3", "--direction", "up",
+                  "--json", "--no-progress", "--out", out], capsys)
+    assert d["computed_speeds"] == {"up": 0}
+
+
+def test_cli_user_errors_are_reported_without_traceback(capsys):
+    from hacgear_core.cli import main
+
+    assert main(["sweep", "synthetic:28t", "--torque", "100", "--fm", "1:x:2"]) == 2
+    assert "START:STOP:N" in capsys.readouterr().err
+    assert main(["modes", "synthetic:29t", "--torque", "100"]) == 2
+    assert "synthetic:28t" in capsys.readouterr().err
+    assert main(["modes", "synthetic:28t", "--torque", "-5"]) == 2
+    assert "torque_Nm [N*m]" in capsys.readouterr().err

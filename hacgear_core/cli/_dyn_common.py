@@ -13,7 +13,7 @@ MODEL_HELP = ("model file models/<system>/model.toml (or its folder) with its ta
 def add_model_options(p: argparse.ArgumentParser, torque_required: bool = True) -> None:
     p.add_argument("model", help=MODEL_HELP)
     p.add_argument("--torque", type=float, required=torque_required, default=None,
-                   help="torque on gear 1 (driver) [N*m]")
+                   help="torque on gear 1 (driver) [N*m] (default: the model's [operating] torque)")
     p.add_argument("--mesh", default=None, help="mesh name (default: the first mesh)")
     p.add_argument("--tables", default=None,
                    help="tables file to use with a model file (default: tables.h5 next to the model)")

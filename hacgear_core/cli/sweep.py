@@ -21,7 +21,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "written to an HDF5 file; re-running the same command after an interruption computes only "
             "the missing speeds."),
     )
-    add_model_options(p)
+    add_model_options(p, torque_required=False)
     p.add_argument("--fm", required=True, help="mesh frequencies START:STOP:N [Hz, Hz, count]")
     p.add_argument("--direction", choices=("up", "down", "both"), default="both")
     p.add_argument("--out", default=None, help="HDF5 results file (incremental, resumable)")
@@ -29,54 +29,82 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="processes for the branches (2 runs up and down in parallel) [-]")
     p.add_argument("--rtol", type=float, default=1e-5, help="steady-state tolerance (relative) [-]")
     p.add_argument("--max-cycles", type=int, default=3000, help="cycle cap per speed [-]")
+    p.add_argument("--torques", default=None,
+                   help="several torques on gear 1, comma separated [N*m] (instead of --torque): one sweep "
+                        "per torque, all branches in parallel over --workers processes")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
 
-def run(args: argparse.Namespace) -> int:
-    from hacgear_core.dynamics.steady import SteadyStateOptions
-    from hacgear_core.dynamics.sweep import SweepSpec, parse_fm, run_sweep
+def _torques(args) -> list[float]:
     from hacgear_core.errors import ModelError
 
+    if args.torques is None:
+        return [args.torque]  # None: the model's [operating] torque
+    try:
+        ts = [float(t) for t in args.torques.split(",") if t.strip()]
+    except ValueError:
+        raise ModelError(f"--torques must be comma-separated numbers [N*m], got {args.torques!r}") from None
+    if not ts or any(not (t > 0 and math.isfinite(t)) for t in ts):
+        raise ModelError(f"--torques [N*m] must be finite and > 0, got {args.torques!r}")
+    return ts
+
+
+def run(args: argparse.Namespace) -> int:
+    from hacgear_core.dynamics.steady import SteadyStateOptions
+    from hacgear_core.dynamics.sweep import SweepSpec, parse_fm, run_sweeps
+    from hacgear_core.errors import ModelError
+
+    torques = _torques(args)
+    args.torque = torques[0]
     inp = inputs_from_args(args)
     fms = parse_fm(args.fm)
-    spec = SweepSpec(inp.params, inp.table, tuple(fms), args.direction, args.force_law,
-                     options=SteadyStateOptions(rtol=args.rtol, max_cycles=args.max_cycles), label=inp.label)
     if args.workers < 1:
         raise ModelError(f"--workers must be >= 1, got {args.workers}")
+    opts = SteadyStateOptions(rtol=args.rtol, max_cycles=args.max_cycles)
+    specs = [SweepSpec(inp.params, inp.table, tuple(fms), args.direction, args.force_law, torque_Nm=t,
+                       options=opts, label=f"{inp.label} {t or inp.params.torque_Nm:g} N*m") for t in torques]
+    n_tasks = sum(len(s.branches) for s in specs)
     ex = None
-    if args.workers > 1 and len(spec.branches) > 1:
+    if args.workers > 1 and n_tasks > 1:
         from concurrent.futures import ProcessPoolExecutor
 
-        ex = ProcessPoolExecutor(max_workers=min(args.workers, len(spec.branches)))
+        ex = ProcessPoolExecutor(max_workers=min(args.workers, n_tasks))
     try:
-        res = run_sweep(spec, out=args.out, executor=ex, progress=not args.no_progress)
+        results = run_sweeps(specs, out=args.out, executor=ex, progress=not args.no_progress)
     finally:
         if ex is not None:
             ex.shutdown()
-    rep = res.to_json()
-    rep.update({"model": inp.label, "synthetic_table": inp.synthetic, "results_file": args.out,
-                "computed_speeds": {b: r.recomputed for b, r in res.branches.items()}})
+    reps = []
+    for res in results:
+        rep = res.to_json()
+        rep.update({"model": inp.label, "synthetic_table": inp.synthetic, "results_file": args.out,
+                    "computed_speeds": {b: r.recomputed for b, r in res.branches.items()}})
+        reps.append(rep)
     if args.json:
-        print(json.dumps(json_safe(rep), indent=1, allow_nan=False))
+        print(json.dumps(json_safe(reps[0] if len(reps) == 1 else reps), indent=1, allow_nan=False))
         return 0
     tag = " [SYNTHETIC TABLE]" if inp.synthetic else ""
-    print(f"{inp.label}{tag}: torque {inp.params.torque_Nm:g} N*m, force law {args.force_law}, "
-          f"{len(fms)} speeds, direction {args.direction}")
-    for b, r in res.branches.items():
-        print(f"branch {b} ({r.recomputed} speeds computed now):")
-        print("   f_m [Hz]   rms x [um]  mean x [um]  DTE rms [um]  F_max [N]  loss [-]  DF_F  state")
-        for i, f in enumerate(r.mesh_frequency_Hz):
-            m = {k: v[i] for k, v in r.metrics.items()}
-            st = f"period-{r.period_cycles[i]}" if r.converged[i] else "CAP"
-            print(f"  {f:9.1f}  {m['rms_deflection_m'] * 1e6:10.4f}  {m['mean_deflection_m'] * 1e6:11.4f}  "
-                  f"{m['dte_rms_m'] * 1e6:12.4f}  {m['peak_force_N']:9.1f}  {m['contact_loss_fraction']:8.3f}  "
-                  f"{m['dynamic_factor_force']:4.2f}  {st}")
-    if res.jumps:
-        for j in res.jumps:
+    for res in results:
+        print(f"{inp.label}{tag}: torque {res.spec.params.torque_Nm:g} N*m, force law {args.force_law}, "
+              f"{len(fms)} speeds, direction {args.direction}")
+        for b, r in res.branches.items():
+            print(f"branch {b} ({r.recomputed} speeds computed now):")
+            print("   f_m [Hz]   rms x [um]  mean x [um]  DTE rms [um]  F_max [N]  loss [-]  DF_F  state")
+            for i, f in enumerate(r.mesh_frequency_Hz):
+                m = {k: v[i] for k, v in r.metrics.items()}
+                st = f"period-{r.period_cycles[i]}" if r.converged[i] else "CAP"
+                print(f"  {f:9.1f}  {m['rms_deflection_m'] * 1e6:10.4f}  {m['mean_deflection_m'] * 1e6:11.4f}  "
+                      f"{m['dte_rms_m'] * 1e6:12.4f}  {m['peak_force_N']:9.1f}  {m['contact_loss_fraction']:8.3f}  "
+                      f"{m['dynamic_factor_force']:4.2f}  {st}")
+        conf = [j for j in res.jumps if j.confirmed]
+        for j in conf:
             print(f"{j.kind} in the {j.branch} sweep between {j.interval_Hz[0]:.1f} and {j.interval_Hz[1]:.1f} Hz "
-                  f"(rms {j.rms_before_m * 1e6:.3f} -> {j.rms_after_m * 1e6:.3f} um)"
-                  f"{' confirmed by hysteresis' if j.confirmed else ' (unconfirmed)'}")
-    else:
-        print("no jumps")
+                  f"(rms {j.rms_before_m * 1e6:.3f} -> {j.rms_after_m * 1e6:.3f} um), confirmed by hysteresis")
+        if not conf:
+            print("no confirmed jumps")
+        n_unc = len(res.jumps) - len(conf)
+        if n_unc:
+            print(f"{n_unc} unconfirmed RMS change(s) > 30 % between adjacent speeds (steep flanks or short "
+                  "windows; listed in --json)")
     return 0

@@ -33,8 +33,9 @@ Quantities
   (:mod:`hacgear_core.fe`, hub held, all teeth: cross-tooth coupling) plus the analytical
   near field (:mod:`hacgear_core.nearfield`): the mutual term between distinct points on one
   tooth, and for every loaded contact the Hertz half-space approach of both bodies, which
-  depends on the load (``~ w ln(1/w)``).  The latter is handled by a fixed-point iteration on
-  the secant compliance (converges in a few iterations; exact at the fixed point).
+  depends on the load (``~ w ln(1/w)``).  The latter is handled by Newton steps: tangent
+  compliance on the diagonal, the secant-minus-tangent term as a separation offset (3-6 LCP
+  solves per state; exact at convergence).
 * **Face width.**  The face is cut into ``face_slices`` slices of equal width; crowning enters each
   slice's separation, the Hertz near field is per slice (line load ``F/b_s``).  The far field
   (``face_coupling``): ``"rigid"`` (default) couples it uniformly over the face — the plane-stress
@@ -318,7 +319,7 @@ class ContactOptions:
     corner_radius_m : float
         Edge radius used for the Hertz curvature at a sharp tip corner (tip_edge_radius = 0) [m].
     fixed_point_tol : float
-        Relative change of the loads that ends the near-field fixed-point iteration.
+        Relative change of the loads that ends the near-field (Newton) iteration.
     max_fixed_point : int
         Iteration limit of that loop.
     """

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from hacgear_core.dynamics.conventional import FORCE_LAWS, ForceLaw, make_force_law
 from hacgear_core.dynamics.fdf import StaticStiffness, static_stiffness
+from hacgear_core.dynamics.modes import ImpulseResult, ModalResult, impulse_test, modal_analysis
 from hacgear_core.dynamics.spur import (
     SpurPairParameters,
     SpurPairSimulator,
@@ -17,6 +18,8 @@ from hacgear_core.dynamics.spur import (
     StepResult,
     from_model,
 )
+from hacgear_core.dynamics.steady import SteadyStateOptions, SteadyStateResult, steady_state
+from hacgear_core.dynamics.sweep import SweepResult, SweepSpec, detect_jumps, run_sweep, run_sweeps
 
 __all__ = [
     "FORCE_LAWS",
@@ -29,4 +32,16 @@ __all__ = [
     "SpurPairSystem",
     "StepResult",
     "from_model",
+    "ModalResult",
+    "ImpulseResult",
+    "modal_analysis",
+    "impulse_test",
+    "SteadyStateOptions",
+    "SteadyStateResult",
+    "steady_state",
+    "SweepSpec",
+    "SweepResult",
+    "run_sweep",
+    "run_sweeps",
+    "detect_jumps",
 ]

@@ -100,6 +100,7 @@ class SweepSpec:
 
     def run_id(self) -> str:
         h = hashlib.sha256()
+        h.update(repr(np.shape(self.table.force_N)).encode())
         h.update(np.ascontiguousarray(np.asarray(self.table.force_N, dtype=np.float64)).tobytes())
         h.update(np.asarray(self.table.deflection_m, dtype=np.float64).tobytes())
         h.update(json.dumps(self._describe(), sort_keys=True).encode())

@@ -258,6 +258,15 @@ def test_resume_of_interrupted_sweep_is_identical(tmp_path, monkeypatch):
     with pytest.raises(KeyboardInterrupt):
         run_sweep(spec, out=tmp_path / "res.h5", progress=False)
     monkeypatch.setattr(sw, "steady_state", real)
+    # a kill in the middle of writing a row leaves uncommitted data beyond attrs["rows"]: dropped
+    import h5py
+
+    part = next((tmp_path / "res.h5.parts").glob("*.h5"))
+    with h5py.File(part, "a") as f:
+        assert f.attrs["rows"] == 3
+        for name in f.keys():
+            f[name].resize(4, axis=0)
+        f["rms_deflection_m"][3] = 123.0
     res = run_sweep(spec, out=tmp_path / "res.h5", progress=False).branches["up"]
     assert res.recomputed == 5
     for k in ref.metrics:
@@ -266,6 +275,14 @@ def test_resume_of_interrupted_sweep_is_identical(tmp_path, monkeypatch):
     again = run_sweep(spec, out=tmp_path / "res.h5", progress=False).branches["up"]
     assert again.recomputed == 0
     assert not (tmp_path / "res.h5.parts").exists()
+    # an unreadable part file (killed while the file itself was being written) is moved aside
+    parts = tmp_path / "bad.h5.parts"
+    parts.mkdir()
+    (parts / f"{spec.run_id()}_up.h5").write_bytes(b"not hdf5")
+    with pytest.warns(RuntimeWarning, match="unreadable"):
+        bad = run_sweep(spec, out=tmp_path / "bad.h5", progress=False).branches["up"]
+    assert bad.recomputed == 8
+    np.testing.assert_array_equal(bad.metrics["rms_deflection_m"], ref.metrics["rms_deflection_m"])
 
 
 def test_sweeps_in_parallel_through_an_executor(tmp_path):

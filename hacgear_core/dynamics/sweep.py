@@ -161,24 +161,41 @@ class SweepResult:
 
 # ------------------------------------------------------------------------------ HDF5 rows
 def _open_part(path: Path, n2: int, spec: SweepSpec, branch: str):
+    """Open (or create) a branch part file; rows beyond the committed count ``attrs['rows']`` (a
+    write interrupted by a kill) are dropped.  An unreadable part file is moved aside."""
     import h5py
 
-    f = h5py.File(path, "a")
+    try:
+        f = h5py.File(path, "a")
+    except OSError:
+        bad = path.with_name(path.name + ".unreadable")
+        path.replace(bad)
+        import warnings
+
+        warnings.warn(f"sweep part file {path} was unreadable (killed while writing?); moved to {bad.name}, "
+                      "the branch restarts", RuntimeWarning, stacklevel=2)
+        f = h5py.File(path, "a")
     if "mesh_frequency_Hz" not in f:
         f.attrs["branch"] = branch
         f.attrs["spec"] = json.dumps(spec._describe(), sort_keys=True)
+        f.attrs["rows"] = 0
         for name in ("mesh_frequency_Hz", "converged", "period_cycles", "cycles_run") + METRIC_NAMES:
             dt = "i8" if name in ("converged", "period_cycles", "cycles_run") else "f8"
             f.create_dataset(name, shape=(0,), maxshape=(None,), dtype=dt, chunks=(64,))
         f.create_dataset("state", shape=(0, n2), maxshape=(None, n2), dtype="f8", chunks=(64, n2))
+        f.flush()
     elif f.attrs.get("spec") != json.dumps(spec._describe(), sort_keys=True):
         f.close()
         raise ModelError(f"{path} belongs to another sweep (spec differs); remove it to start afresh")
+    rows = int(f.attrs.get("rows", 0))
+    for name in f.keys():
+        if f[name].shape[0] != rows:
+            f[name].resize(rows, axis=0)
     return f
 
 
 def _append_row(f, fm, res) -> None:
-    k = f["mesh_frequency_Hz"].shape[0]
+    k = int(f.attrs["rows"])
     for name in f.keys():
         f[name].resize(k + 1, axis=0)
     f["mesh_frequency_Hz"][k] = fm
@@ -188,6 +205,8 @@ def _append_row(f, fm, res) -> None:
     for m in METRIC_NAMES:
         f[m][k] = res.metrics[m]
     f["state"][k] = res.state
+    f.flush()
+    f.attrs["rows"] = k + 1  # commit marker: written after the row's data
     f.flush()
 
 

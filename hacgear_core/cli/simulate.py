@@ -28,6 +28,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--cycles", type=int, default=400, help="mesh cycles to simulate [-]")
     p.add_argument("--record-cycles", type=int, default=4, help="mesh cycles recorded at the end [-]")
     p.add_argument("--steps-per-cycle", type=int, default=128, help="recorded samples per mesh cycle [-]")
+    p.add_argument("--drive-torques", default=None,
+                   help="T1,T2 [N*m]: drivetrain coupling instead of a prescribed speed: shaft torques on gear 1 "
+                        "and gear 2 (each positive in its direction of rotation; a load is negative), starting "
+                        "at --fm; the speed then follows from the dynamics")
     p.add_argument("--out", default=None, help="output file: .csv or .npz")
     p.set_defaults(func=run)
 
@@ -46,17 +50,34 @@ def run(args: argparse.Namespace) -> int:
     fm0 = args.fm
     fm1 = args.fm if args.fm_end is None else args.fm_end
     n_free = args.cycles - args.record_cycles
-    # free part: advance cycle by cycle (speed updated per cycle for a run-up)
-    for c in range(n_free):
+    drive = None
+    if args.drive_torques is not None:
+        try:
+            drive = [float(t) for t in args.drive_torques.split(",")]
+            assert len(drive) == 2
+        except (ValueError, AssertionError):
+            raise ModelError(f"--drive-torques must be T1,T2 [N*m], got {args.drive_torques!r}") from None
+        if args.fm_end is not None:
+            raise ModelError("--fm-end (prescribed run-up) and --drive-torques (torque inputs) exclude each other")
+        sim.set_speed_input(mesh_frequency_Hz=fm0)
+        sim.set_torque_inputs(*drive)
+
+    def current_fm(c):
+        if drive is not None:  # the speed is an output: step by the current mesh period
+            return max(abs(sim.speed1_rad_s) * sim.system.z1_2pi, 1.0)
         fm = fm0 + (fm1 - fm0) * (c + 0.5) / args.cycles
         sim.set_speed_input(mesh_frequency_Hz=fm)
+        return fm
+
+    # free part: advance cycle by cycle (speed updated per cycle for a run-up)
+    for c in range(n_free):
+        fm = current_fm(c)
         r = sim.advance(1.0 / fm)
         if not r.success:
             raise ModelError(r.message)
     chunks = []
     for c in range(n_free, args.cycles):
-        fm = fm0 + (fm1 - fm0) * (c + 0.5) / args.cycles
-        sim.set_speed_input(mesh_frequency_Hz=fm)
+        fm = current_fm(c)
         chunks.append(sim.run(1.0 / fm, 1.0 / (fm * args.steps_per_cycle)))
     tr = {k: np.concatenate([c[k] for c in chunks]) for k in chunks[0] if k != "state"}
     tab = inp.table
@@ -75,6 +96,8 @@ def run(args: argparse.Namespace) -> int:
         "peak_force_N": float(tr["mesh_force_N"].max()),
         "contact_loss_fraction": float(np.mean(tr["mesh_force_N"] <= 0)),
         "final_speed1_rad_s": sim.speed1_rad_s, "final_angle1_rad": sim.angle1_rad,
+        "final_speed2_rad_s": sim.speed2_rad_s, "final_angle2_rad": sim.angle2_rad,
+        "drive_torques_Nm": drive,
         "max_peak_pressure_Pa": float(tr["peak_pressure_Pa"].max()) if "peak_pressure_Pa" in tr else None,
         "max_strain": {k[7:-1]: float(v.max()) for k, v in tr.items() if k.startswith("strain[")},
         "out": args.out,
@@ -92,6 +115,9 @@ def run(args: argparse.Namespace) -> int:
         tag = " [SYNTHETIC TABLE]" if inp.synthetic else ""
         print(f"{inp.label}{tag}: {args.cycles} cycles at f_m {fm0:g}" + (f"->{fm1:g}" if fm1 != fm0 else "")
               + f" Hz, torque {inp.params.torque_Nm:g} N*m, law {args.force_law}")
+        if drive is not None:
+            print(f"  torque inputs T1 = {drive[0]:g}, T2 = {drive[1]:g} N*m: final speeds {sim.speed1_rad_s:.3f}, "
+                  f"{sim.speed2_rad_s:.3f} rad/s, angles {sim.angle1_rad:.4f}, {sim.angle2_rad:.4f} rad")
         print(f"  last {args.record_cycles} cycles: mean x {summary['mean_deflection_m'] * 1e6:.3f} um, rms "
               f"{summary['rms_deflection_m'] * 1e6:.3f} um, F_max {summary['peak_force_N']:.1f} N, contact loss "
               f"{summary['contact_loss_fraction']:.3f}")

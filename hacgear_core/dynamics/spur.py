@@ -514,6 +514,23 @@ class SpurPairSimulator:
         return {"time_s": t0 + ro[:, 4], "mesh_position": ro[:, 0], "mesh_deflection_m": ro[:, 1],
                 "mesh_force_N": ro[:, 2], "dynamic_transmission_error_m": ro[:, 3], "state": rs}
 
+    # ------------------------------------------------------------------ state snapshots (FMI get/set state)
+    def get_state(self) -> dict:
+        """A snapshot of everything :meth:`advance` depends on (copying arrays)."""
+        return {"s": self.s.copy(), "kin": self.kin.copy(), "time_s": self.time_s, "mode": self.mode,
+                "fext": self.fext.copy(), "torque_Nm": self.torque_Nm, "t1_Nm": self.t1_Nm, "t2_Nm": self.t2_Nm}
+
+    def set_state(self, snap: dict) -> None:
+        """Restore a snapshot from :meth:`get_state` (in place; outputs updated)."""
+        if snap["s"].shape != self.s.shape:
+            raise ModelError(f"state snapshot has {snap['s'].size} entries, this simulator {self.s.size}")
+        self.s[:] = snap["s"]
+        self.kin[:] = snap["kin"]
+        self.fext = snap["fext"].copy()
+        self.time_s, self.mode = snap["time_s"], snap["mode"]
+        self.torque_Nm, self.t1_Nm, self.t2_Nm = snap["torque_Nm"], snap["t1_Nm"], snap["t2_Nm"]
+        self._update_outputs()
+
     # ------------------------------------------------------------------ outputs
     def _update_outputs(self) -> None:
         sy, s, n = self.system, self.s, self.system.n

@@ -28,7 +28,6 @@ import dataclasses
 import hashlib
 import json
 import math
-import os
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
 from pathlib import Path

@@ -78,7 +78,7 @@ def main(argv=None) -> int:
         fc = gear_compliance(gg, mat, "drive", options=opts, gauges=gauges, fe=fe, cache=False)
         t2 = time.perf_counter()
         i = fc.n_samples // 2
-        row = dict(refine=f, n_dofs=fe.n_dofs, n_free=fe.n_free, n_triangles=int(fe.mesh.t.shape[1]),
+        row = dict(refine=f, n_dofs=fe.n_dofs, n_free=fe.n_free, n_triangles=int(fe.gear_mesh.t.shape[0]),
                    n_samples=fc.n_samples, mesh_s=fe.timings_s["mesh"], assemble_s=fe.timings_s["assemble"],
                    factorize_s=fe.timings_s["factorize"], solves_and_post_s=t2 - t1, total_s=t2 - t0,
                    **_pitch_numbers(fc, gg, gear, w),

@@ -370,13 +370,14 @@ class _Flank:
     s_max: float
 
 
-def _canonical_flank(gg: Any, side: str, n: int, corner_radius_m: float, s_range: tuple[float, float]) -> _Flank:
+def _canonical_flank(gg: Any, side: str, n: int, corner_radius_m: float, s_range: tuple[float, float],
+                     mirror: bool) -> _Flank:
     prof = gg.flank(side, n)
     xy = np.asarray(prof.xy, dtype=float)            # the geometry's profile includes the relief
     nrm = np.asarray(prof.normal, dtype=float)
     mod = np.asarray(getattr(prof, "modification_m", np.zeros(len(xy))), dtype=float)
     mod = np.where(np.isfinite(mod), mod, 0.0)
-    if side == "coast":  # mirror about the tooth centreline: the loaded flank becomes the CCW side
+    if mirror:  # mirror about the tooth centreline (the whole picture is mirrored)
         xy = xy * [1.0, -1.0]
         nrm = nrm * [1.0, -1.0]
     xy0 = xy + mod[:, None] * nrm                     # unmodified involute (kinematics)
@@ -523,12 +524,15 @@ class MeshContactSolver:
         for side in flanks:
             if side not in ("drive", "coast"):
                 raise ModelError(f"flank must be 'drive' or 'coast', got {side!r}")
-        if flanks[0] != flanks[1]:
-            raise SolverError(f"mesh '{mesh_name}': an external mesh loads the same-named flank on both gears "
-                              f"(both turn their loaded flank forward); got flank_a={flanks[0]!r}, "
-                              f"flank_b={flanks[1]!r}")
-        if any(bool(getattr(g, "internal", False)) for g in geometry):
-            raise SolverError(f"mesh '{mesh_name}': internal (ring) meshes are not supported by the contact solver yet")
+        internal = [bool(getattr(g, "internal", False)) for g in geometry]
+        if all(internal):
+            raise GeometryError(f"mesh '{mesh_name}': two internal gears cannot mesh")
+        self.internal = any(internal)
+        if (flanks[0] == flanks[1]) == self.internal:
+            raise SolverError(
+                f"mesh '{mesh_name}': an {'internal' if self.internal else 'external'} mesh loads "
+                f"{'opposite' if self.internal else 'same'}-named flanks (drive = counter-clockwise side of a "
+                f"tooth); got flank_a={flanks[0]!r}, flank_b={flanks[1]!r}")
         if not (face_width_m > 0):
             raise ModelError(f"face_width_m must be > 0 m, got {face_width_m!r}")
         self.mesh_name = mesh_name
@@ -543,14 +547,19 @@ class MeshContactSolver:
         self.plane = plane
         self.compliance = tuple(compliance)
         self.description = description or f"FE/near-field static contact solver, mesh {mesh_name}"
+        # canonical picture: gear_a turns counter-clockwise with its loaded flank on the CCW side of its
+        # teeth (the whole picture is mirrored when that is the coast flank); gear_b turns clockwise
+        # (external mesh) or counter-clockwise (internal mesh)
         self._mirror = flanks[0] == "coast"
+        self._sense_b = 1 if self.internal else -1
+        self._pair_sign = (-1, -self._sense_b)      # canonical tooth of pair k: (-k, +k) external, (-k, -k) internal
         W = options.pair_window
         self.tooth_offsets = np.arange(-W, W + 1)
         self.gauges = tuple(gauges)
         self.gauge_names = tuple(name for _, _, name in gauges)
         self._flank = tuple(
             _canonical_flank(gg, side, options.n_profile, options.corner_radius_m,
-                             (float(fc.s_m[0]), float(fc.s_m[-1])))
+                             (float(fc.s_m[0]), float(fc.s_m[-1])), self._mirror)
             for gg, side, fc in zip(geometry, flanks, compliance))
         n = options.face_slices
         b = self.face_width_m
@@ -567,11 +576,19 @@ class MeshContactSolver:
         """Frame angles at position 0: pitch-point contact of the reference pair (tooth 0 / tooth 0)."""
         rb_a, rb_b = self.base_radius_m
         C = self.center_distance_m
-        if C <= rb_a + rb_b:
+        if not self.internal and C <= rb_a + rb_b:
             raise GeometryError(f"center_distance_m = {C:.6g} m must exceed r_b1 + r_b2 = {rb_a + rb_b:.6g} m")
-        rw_a = C * rb_a / (rb_a + rb_b)
-        rw_b = C - rw_a
+        if self.internal and C <= abs(rb_b - rb_a):
+            raise GeometryError(f"center_distance_m = {C:.6g} m must exceed |r_b2 - r_b1| = {abs(rb_b - rb_a):.6g} m")
+        if self.internal:
+            rw_a, rw_b = C * rb_a / abs(rb_b - rb_a), C * rb_b / abs(rb_b - rb_a)
+        else:
+            rw_a = C * rb_a / (rb_a + rb_b)
+            rw_b = C - rw_a
         self.operating_pitch_radius_m = (rw_a, rw_b)
+        # pitch point P = (rw_a, 0); gear_b's centre on the far side (external) or the same side (internal)
+        self._theta_P_b = 0.0 if self.internal else math.pi
+        self._O = (np.zeros(2), np.array([rw_a - rw_b * math.cos(self._theta_P_b), 0.0]))
 
         def polar_at(fl: _Flank, r: float) -> float:
             inv = fl.region == 2
@@ -583,25 +600,27 @@ class MeshContactSolver:
                                     f"({rr.min():.6g}..{rr.max():.6g} m)")
             return float(np.interp(r, rr[o], ang[o]))
 
-        self._phi0 = (-polar_at(self._flank[0], rw_a), math.pi - polar_at(self._flank[1], rw_b))
+        self._phi0 = (-polar_at(self._flank[0], rw_a), self._theta_P_b - polar_at(self._flank[1], rw_b))
 
     def frame_angles(self, position: float) -> tuple[float, float]:
-        """Rotation angles [rad] of the canonical frames of gear_a (CCW) and gear_b (CW) at ``position``."""
+        """Rotation angles [rad] of the canonical frames of gear_a (CCW) and gear_b (CW external, CCW
+        internal) at ``position``."""
         za, zb = self.teeth
-        return (self._phi0[0] + 2 * math.pi * position / za, self._phi0[1] - 2 * math.pi * position / zb)
+        return (self._phi0[0] + 2 * math.pi * position / za,
+                self._phi0[1] + self._sense_b * 2 * math.pi * position / zb)
 
     def _place(self, gear: int, tooth: int, phi: float):
         """Global points/normals of the canonical loaded flank of ``tooth`` (canonical numbering)."""
         fl = self._flank[gear]
         R = _rot(phi + 2 * math.pi * tooth / self.teeth[gear])
-        O = np.array([0.0, 0.0]) if gear == 0 else np.array([self.center_distance_m, 0.0])
+        O = self._O[gear]
         return fl.xy @ R.T + O, fl.normal @ R.T, O
 
     def _pair_geometry(self, pair: int, phi: tuple[float, float]):
         """Closest approach of pair ``pair`` (gear_a tooth -pair, gear_b tooth +pair)."""
         fa, fb = self._flank
-        Pa, Na, Oa = self._place(0, -pair, phi[0])
-        Pb, Nb, Ob = self._place(1, pair, phi[1])
+        Pa, Na, Oa = self._place(0, self._pair_sign[0] * pair, phi[0])
+        Pb, Nb, Ob = self._place(1, self._pair_sign[1] * pair, phi[1])
         rb_a, rb_b = self.base_radius_m
         best = None
         # samples of a's flank onto b's flank polyline, and b's onto a's
@@ -616,7 +635,8 @@ class MeshContactSolver:
             cpt = 0.5 * (P[cand] + foot)
             ra_, rb_ = cpt - Oa, cpt - Ob
             h_a = -ra_[:, 1] * nrm[:, 0] + ra_[:, 0] * nrm[:, 1]        # (ẑ × (c - O_a)) · n
-            h_b = rb_[:, 1] * nrm[:, 0] - rb_[:, 0] * nrm[:, 1]         # -(ẑ × (c - O_b)) · n
+            # closing rotation of gear_b is against its sense of rotation
+            h_b = self._sense_b * (rb_[:, 0] * nrm[:, 1] - rb_[:, 1] * nrm[:, 0])
             lam = 0.5 * (h_a / rb_a + h_b / rb_b)
             ok = valid & (lam > 0.05) & (gap > -0.25 * Qfl.s.max())
             # foot must land where the mating flank can carry a point contact (not the root land)
@@ -681,8 +701,8 @@ class MeshContactSolver:
         crown = self.crowning_slices_m.sum(axis=0)          # both gears, per slice
         g0 = gap_pair[pair_index] + crown[slice_index]
         lam = lam_pair[pair_index]
-        tooth_a = np.array([self._actual_tooth(0, -int(p)) for p in pairs])
-        tooth_b = np.array([self._actual_tooth(1, int(p)) for p in pairs])
+        tooth_a = np.array([self._actual_tooth(0, self._pair_sign[0] * int(p)) for p in pairs])
+        tooth_b = np.array([self._actual_tooth(1, self._pair_sign[1] * int(p)) for p in pairs])
         # pair-level 2D compliance (per unit width) [m^2/N]
         Cp = np.zeros((npair, npair))
         for g, (fc, teeth, s) in enumerate(((self.compliance[0], tooth_a, s_a), (self.compliance[1], tooth_b, s_b))):
@@ -701,16 +721,15 @@ class MeshContactSolver:
         else:
             C_lin = Cfull / b
         R_a, R_b = get("R_a", 1.0), get("R_b", 1.0)
+        # combined curvature (a concave ring flank has R < 0); a non-positive value (conforming surfaces,
+        # only met off the line of action) is treated as a flat-on-flat contact of 1 m effective radius
         curv = 1.0 / R_a + 1.0 / R_b
-        if np.any(curv[np.isfinite(gap_pair)] <= 0):
-            raise GeometryError(f"mesh '{self.mesh_name}': non-convex contact (combined curvature <= 0) at "
-                                f"position {position}")
-        R_eff = 1.0 / np.maximum(curv, 1e-9)
+        R_eff = 1.0 / np.maximum(curv, 1.0)
         # generalized mesh force per unit contact load: on gear_b +n at c, on gear_a -n (global frame)
         pts = np.array([g["point"] if g else [0.0, 0.0] for g in geo])
         nrm = np.array([g["normal"] if g else [0.0, 0.0] for g in geo])
         hub_op = {}
-        for g, (O, sign) in enumerate(((np.zeros(2), -1.0), (np.array([self.center_distance_m, 0.0]), 1.0))):
+        for g, (O, sign) in enumerate(((self._O[0], -1.0), (self._O[1], 1.0))):
             r = pts - O
             hub_op[g] = sign * np.stack([nrm[:, 0], nrm[:, 1], r[:, 0] * nrm[:, 1] - r[:, 1] * nrm[:, 0]], axis=1)
         out = PositionSetup(
@@ -843,7 +862,7 @@ class MeshContactSolver:
             z = self.teeth[gear]
             t_load = tooth_a if gear == 0 else tooth_b
             s_load = s_a if gear == 0 else s_b
-            resp = np.array([self._actual_tooth(gear, -int(k) if gear == 0 else int(k)) for k in offsets])
+            resp = np.array([self._actual_tooth(gear, self._pair_sign[gear] * int(k)) for k in offsets])
             M = np.zeros((len(offsets), len(setup_pairs)))
             dk = (resp[:, None] - t_load[None, :]) % z
             for k in np.unique(dk):
@@ -877,7 +896,8 @@ class MeshContactSolver:
     def hub_reactions(self, st: ContactState) -> dict[str, np.ndarray]:
         """Generalized mesh force on each gear ``[Fx N, Fy N, Mz N m]`` (resultant of the contact forces
         about the gear centre = what the hub must react), in the global frame: gear_a at the origin,
-        gear_b at ``(C, 0)``, the driver turning counter-clockwise (mirrored when the coast flanks are
+        gear_b at ``(+C, 0)`` (external mesh, or internal with gear_a the ring) or ``(-C, 0)`` (gear_b the
+        ring), the driver turning counter-clockwise (the picture mirrored when gear_a's coast flank is
         loaded)."""
         s = st.setup
         Fp = np.bincount(s.pair_index, weights=st.force_N, minlength=len(s.pairs))

@@ -314,6 +314,29 @@ def test_coast_flank_mesh(model):
     assert h["wheel"][2] == pytest.approx(-TORQUE, rel=2e-3)
 
 
+def test_internal_mesh_ring_drives_planet():
+    """Internal mesh (ring = gear_a, planet = gear_b, both turning the same way): conjugate contact at
+    the pitch point, lambda = 1 on the line of action, torque balance on both gears."""
+    m = load_model("planetary_65_55_175")
+    s = make_mesh_solver(m, "ring_planet")
+    assert s.internal
+    ns = s.options.face_slices
+    st0 = s.setup(0.0)
+    i0 = int(np.flatnonzero(st0.pairs == 0)[0])
+    assert abs(st0.g0[i0 * ns + ns // 2]) < 0.1e-6
+    assert st0.lam[i0 * ns + ns // 2] == pytest.approx(1.0, abs=1e-3)
+    W = 2000.0
+    for p in (0.1, 0.6):
+        st = s.state_load(p, W)
+        assert st.success, st.message
+        h = s.hub_reactions(st)
+        rb1, rb2 = s.base_radius_m
+        assert h["ring"][2] == pytest.approx(-W * rb1, rel=0.01)      # opposes the ring's drive
+        assert h["planet"][2] == pytest.approx(W * rb2, rel=0.01)     # drives the planet the same way round
+        np.testing.assert_allclose(h["ring"][:2], -h["planet"][:2], atol=1e-9 * W)
+        assert s.solve_deflection(p, st.mesh_deflection_m).mesh_force_N == pytest.approx(W, rel=1e-5)
+
+
 # ---------------------------------------------------------------------------------------------- slow
 @pytest.mark.slow
 def test_fe_mesh_convergence(model):

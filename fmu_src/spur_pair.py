@@ -5,8 +5,16 @@ package, :class:`hacgear_core.fmu.HacgearSlave` with :class:`hacgear_core.fmu.Sp
 ``build_fmu.py`` copies this file into each FMU under the unique module name ``hacgear_<system>``.
 Idler chains, planetary sets and helical pairs add a file like this one naming their ``KIND``.
 """
+import ctypes
 import json
 import os
+
+# pythonfmu 0.7.0's C wrapper (findClass) re-executes this module's source in its __dict__ on every
+# fmi2Instantiate and then Py_DECREFs that dict although it holds only a borrowed reference.  A slave module
+# whose dict has few other owners (this one defines no functions) is then freed under the live module:
+# use-after-free, heap corruption, an abort at importer exit or a failed second instantiation.  Each
+# execution of this line adds the reference that the wrapper will take away.
+ctypes.pythonapi.Py_IncRef(ctypes.py_object(globals()))
 
 from pythonfmu import Fmi2Slave  # noqa: F401  (pythonfmu's class finder needs it in this module)
 

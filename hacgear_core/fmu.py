@@ -282,20 +282,21 @@ class SpurPairAdapter:
         for g in self.gauges:
             gear, _, gauge = g.partition("/")
             spec.append(V(f"root_strain.{_ident(gear)}.{_ident(gauge or gear)}", "Real", "output", "continuous", "1",
-                          f"root strain at gauge '{g}' on the tooth of the reference tooth pair (table lookup)"))
+                          f"root strain at gauge '{g}' of one tooth (in mesh every {self._teeth_of(gear)} mesh cycles; "
+                          "0 while out of mesh; table lookup)"))
         names = [v.name for v in spec]
         if len(set(names)) != len(names):
             raise ModelError(f"FMU variable names are not unique: {names}")
         return tuple(spec)
 
+    def _teeth_of(self, gear: str) -> int:
+        names = tuple(getattr(self.table, "gear_names", ()))
+        return int(self.table.teeth[names.index(gear)]) if gear in names else int(self.table.teeth[0])
+
     # ------------------------------------------------------------------ outputs
     def getters(self) -> dict[str, Callable[[], float]]:
         """Output name -> zero-argument getter reading the current simulator."""
         a = self
-
-        def gauge_getter(key):
-            return lambda: a.sim.strain(key)
-
         out = {
             "mesh_force": lambda: a.sim.mesh_force_N,
             "mesh_deflection": lambda: a.sim.mesh_deflection_m,
@@ -308,12 +309,31 @@ class SpurPairAdapter:
             "speed2": lambda: a.sim.speed2_rad_s,
             "bearing_force1": lambda: a.sim.bearing_force_N[0],
             "bearing_force2": lambda: a.sim.bearing_force_N[1],
-            "peak_pressure": lambda: a.sim.peak_pressure_Pa,
+            "peak_pressure": a.peak_pressure,
         }
         for g in self.gauges:
             gear, _, gauge = g.partition("/")
-            out[f"root_strain.{_ident(gear)}.{_ident(gauge or gear)}"] = gauge_getter(g)
+            out[f"root_strain.{_ident(gear)}.{_ident(gauge or gear)}"] = (lambda key: lambda: a.root_strain(key))(g)
         return out
+
+    def peak_pressure(self) -> float:
+        """Maximum contact pressure over all teeth now [Pa] (table lookup along the dynamic state)."""
+        from hacgear_core.post import dynamic_contact_pressure
+
+        return float(dynamic_contact_pressure(self.table, [self.sim.mesh_position], [self.sim.mesh_deflection_m])[0])
+
+    def root_strain(self, gauge: str) -> float:
+        """Root strain [-] at ``gauge`` ("<gear>/<gauge>") on one physical tooth of that gear: the tooth in the
+        reference pair at mesh position 0.  It passes through the mesh once every z mesh cycles (z = teeth of
+        the gauge's gear) and reads 0 while out of the tabulated tooth window (library tooth-following
+        convention of :func:`hacgear_core.post.dynamic_root_strain`)."""
+        from hacgear_core.post import dynamic_root_strain
+
+        z = self._teeth_of(gauge.partition("/")[0])
+        tau = self.sim.mesh_position % z
+        if tau >= 0.5 * z:
+            tau -= z
+        return float(dynamic_root_strain(self.table, gauge, [tau], [self.sim.mesh_deflection_m])[0])
 
     # ------------------------------------------------------------------ configuration
     @staticmethod

@@ -487,3 +487,21 @@ def test_real_28t_gear_refinement():
     out = np.array(out)
     assert np.all(np.abs(out[1] / out[0] - 1) < 0.01)
     assert np.all(np.abs(out[2] / out[1] - 1) < 0.01)
+
+
+def test_internal_ring_gear_compliance():
+    """Internal gear (175-tooth ring of the planetary model, rim tied to the hub): the
+    cyclic solve gives positive own-tooth compliance, smaller neighbour coupling, and hub
+    reactions that balance the unit loads."""
+    ring, gg = _real_gear("planetary_65_55_175", 2)
+    assert gg.internal
+    fc = gear_compliance(gg, ring.material, "drive", cache=False,
+                         options=MeshOptions(flank_size_m=1.0e-3, fillet_size_m=1.0e-3, body_size_m=4e-3))
+    inv = np.flatnonzero(fc.region == 2)
+    d0 = np.array([fc.far_field_m2_N[0, i, i] for i in inv])
+    d1 = np.array([fc.far_field_m2_N[1, i, i] for i in inv])
+    assert np.all(d0 > 0) and np.all(np.abs(d1) < 0.5 * d0)
+    F = -fc.normal
+    np.testing.assert_allclose(fc.hub_force_per_N_m[:, :2], F, atol=1e-8)
+    M = fc.xy_m[:, 0] * F[:, 1] - fc.xy_m[:, 1] * F[:, 0]
+    np.testing.assert_allclose(fc.hub_force_per_N_m[:, 2], M, rtol=1e-4)

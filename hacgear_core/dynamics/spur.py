@@ -460,6 +460,11 @@ class SpurPairSimulator:
         self.fext = self.system.fext_torque(t1, t2)
 
     # ------------------------------------------------------------------ stepping
+    @property
+    def current_internal_step_s(self) -> float:
+        """The largest RK4 sub-step [s] :meth:`advance` would use now (depends on the speed)."""
+        return self._internal_step()
+
     def _internal_step(self) -> float:
         sy = self.system
         h = 1.0 / (32.0 * sy.max_frequency_Hz)

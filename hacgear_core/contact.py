@@ -53,7 +53,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, replace as _replace
 from typing import Any, Callable, Sequence
 
 import numpy as np
@@ -429,12 +429,6 @@ def _project(P: np.ndarray, Q: np.ndarray, NQ: np.ndarray, tree: Any = None):
     nq /= np.linalg.norm(nq, axis=1, keepdims=True)
     gap = np.einsum("pi,pi->p", P - foot, nq)
     return gap, j, tc, valid, nq
-
-
-def _interp_seg(arr: np.ndarray, j: np.ndarray, t: np.ndarray) -> np.ndarray:
-    if arr.ndim == 1:
-        return arr[j] * (1 - t) + arr[j + 1] * t
-    return arr[j] * (1 - t)[:, None] + arr[j + 1] * t[:, None]
 
 
 @dataclass(frozen=True)
@@ -1097,8 +1091,6 @@ def model_variant(model: Any, *, tip_relief: bool = True, lead_crowning: bool = 
     """Copy of ``model`` with every gear's tip relief and/or lead crowning removed, or its hob tip
     radius [m] replaced (studies of dissertation Figs. 2.5 and 2.7).  The copy keeps the model's
     ``sha256``/``path`` (it is not a file), so never write tables from it."""
-    from dataclasses import replace as _replace
-
     from hacgear_core.model import Flank
 
     gears = []

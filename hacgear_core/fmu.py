@@ -27,14 +27,16 @@ Pieces
 :func:`postprocess_model_description`, :func:`build_fmu`
     the build (used by ``build_fmu.py``).
 
-Error policy inside an importer (pythonfmu 0.7.0 maps a Python exception to ``fmi2Fatal`` and a false
-return of ``do_step`` to ``fmi2Discard``; it has no other error path):
+Error policy inside an importer.  pythonfmu 0.7.0 maps a Python exception in the slave to ``fmi2Fatal`` and
+then releases its references to the slave twice (heap corruption, a later crash of the importer), and a
+false return of ``do_step`` to ``fmi2Discard``; it has no other error path.  So no slave method raises:
 
-* wrong package versions at instantiation: exception → ``fmi2Instantiate`` fails with the message;
-* parameters out of range when initialization ends: the message is logged and ``fmi2ExitInitializationMode``
-  returns ``fmi2Fatal`` (the only error status pythonfmu can return there);
-* NaN/inf/out-of-range inputs, impossible step sizes, a diverging integration: the message is logged with
-  ``fmi2Error`` category and ``fmi2DoStep`` returns ``fmi2Discard``; the state is left unchanged.
+* wrong package versions or unreadable resources at instantiation: the instance is created with the variables
+  of its modelDescription.xml, the reason is logged (``logStatusError``) and every ``doStep`` is refused;
+* parameters out of range when initialization ends: logged there, every ``doStep`` refused (``fmi2Discard``)
+  with the same message;
+* NaN/inf/out-of-range inputs, impossible step sizes, a diverging integration: logged, ``fmi2DoStep``
+  returns ``fmi2Discard``, the state is left unchanged (the importer may correct the input and go on).
 """
 from __future__ import annotations
 
@@ -323,17 +325,9 @@ class SpurPairAdapter:
         return float(dynamic_contact_pressure(self.table, [self.sim.mesh_position], [self.sim.mesh_deflection_m])[0])
 
     def root_strain(self, gauge: str) -> float:
-        """Root strain [-] at ``gauge`` ("<gear>/<gauge>") on one physical tooth of that gear: the tooth in the
-        reference pair at mesh position 0.  It passes through the mesh once every z mesh cycles (z = teeth of
-        the gauge's gear) and reads 0 while out of the tabulated tooth window (library tooth-following
-        convention of :func:`hacgear_core.post.dynamic_root_strain`)."""
-        from hacgear_core.post import dynamic_root_strain
-
-        z = self._teeth_of(gauge.partition("/")[0])
-        tau = self.sim.mesh_position % z
-        if tau >= 0.5 * z:
-            tau -= z
-        return float(dynamic_root_strain(self.table, gauge, [tau], [self.sim.mesh_deflection_m])[0])
+        """Root strain [-] at ``gauge`` on one physical tooth (library:
+        :meth:`~hacgear_core.dynamics.spur.SpurPairSimulator.strain`)."""
+        return self.sim.strain(gauge)
 
     # ------------------------------------------------------------------ configuration
     @staticmethod
@@ -389,7 +383,7 @@ class SpurPairAdapter:
 
     def internal_step(self) -> float:
         """Internal step the simulator would use now [s]."""
-        return float(self.sim._internal_step())
+        return float(self.sim.current_internal_step_s)
 
 
 #: System kind -> adapter class.  A new kind adds its adapter here and a thin ``fmu_src/<kind>.py``.
@@ -479,15 +473,17 @@ def _load(resources: Path):
 
 
 def make_adapter(resources: str | Path):
-    """The adapter of the system in ``resources`` (model.toml, tables.h5, hacgear_fmu.json)."""
+    """The adapter of the system in ``resources``: an FMU's resources folder (model.toml, tables.h5,
+    hacgear_fmu.json) or a model folder (model.toml, tables.h5)."""
     resources = Path(resources)
-    info = fmu_info(resources)
-    kind = info.get("kind")
-    if kind not in ADAPTERS:
-        raise HacgearError(f"FMU kind {kind!r} has no adapter (have {sorted(ADAPTERS)})")
     model, table = _load(resources)
-    if model.kind != kind:
-        raise HacgearError(f"model kind {model.kind!r} differs from the FMU's kind {kind!r}")
+    kind = model.kind
+    if (resources / FMU_INFO_FILE).exists():
+        kind = fmu_info(resources).get("kind")
+        if model.kind != kind:
+            raise HacgearError(f"model kind {model.kind!r} differs from the FMU's kind {kind!r}")
+    if kind not in ADAPTERS:
+        raise HacgearError(f"no FMU adapter for system kind {kind!r} yet (have {sorted(ADAPTERS)})")
     return ADAPTERS[kind](model, table)
 
 
@@ -510,6 +506,9 @@ MAX_SUBSTEPS_PER_STEP = 200_000_000
 class HacgearSlave(Fmi2Slave):
     """Generic pythonfmu slave of a hacgear system; subclasses (``fmu_src/<kind>.py``) set ``KIND``.
 
+    No method lets an exception escape: pythonfmu 0.7.0 turns one into ``fmi2Fatal`` *and* releases its
+    references to the slave then and again at ``fmi2FreeInstance`` (a double ``Py_DECREF``: heap corruption,
+    a crash of the importer later).  Errors are logged and reported through ``doStep`` (``fmi2Discard``).
     The slave keeps no module-level state: everything lives on the instance.
     """
 
@@ -519,62 +518,115 @@ class HacgearSlave(Fmi2Slave):
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        res = Path(self.resources)
+        self.values: dict[str, float] = {}
+        self._failed = ""
+        self.time = 0.0
+        self.adapter = None
+        try:
+            self._setup(Path(self.resources))
+        except Exception as exc:  # keep the instance alive, report the reason, refuse to step
+            self._failed = f"this FMU cannot run: {exc}"
+            if not self._register_from_model_description():
+                raise  # at build time (no modelDescription.xml yet): fail the build loudly
+            self.log(self._failed, Fmi2Status.error)
+
+    def _setup(self, res: Path) -> None:
         info = fmu_info(res)
         problems = check_requirements(info.get("requirements", {}))
         if problems:
             raise HacgearError(
-                f"FMU '{info.get('system')}' cannot run in this Python ({sys.executable}): " + "; ".join(problems)
-                + ". Install the named packages (pip install ...) in the importer's Python.")
+                f"FMU '{info.get('system')}' needs other Python packages in the importer's Python "
+                f"({sys.executable}): " + "; ".join(problems) + ". Install them (pip install ...).")
         if self.KIND and info.get("kind") != self.KIND:
             raise HacgearError(f"slave of kind {self.KIND!r} got resources of kind {info.get('kind')!r}")
         self.modelName = info["system"]
         self.description = info.get("description") or f"hacgear {info['kind']} {info['system']}"
         self.version = info.get("hacgear_version")
-        self.adapter = make_adapter(res)
-        self.values: dict[str, float] = {}
-        self._failed = ""
-        self.time = 0.0
-        getters = self.adapter.getters()
-        for v in self.adapter.variables:
+        adapter = make_adapter(res)
+        getters = adapter.getters()
+        self.adapter = adapter
+        for v in adapter.variables:
             if v.causality == "output":
                 var_cls = Real if v.type == "Real" else Integer
                 self.register_variable(var_cls(
                     v.name, causality=_CAUS[v.causality], variability=_VARI[v.variability],
-                    description=v.description, initial=Fmi2Initial.exact, getter=getters[v.name]))
+                    description=v.description, initial=Fmi2Initial.exact, getter=self._safe(v.name, getters[v.name])))
             else:
                 self.values[v.name] = v.start
-                self.register_variable(self._param_var(v))
+                self.register_variable(self._param_var(v.name, v.type, v.causality, v.variability, v.description))
 
-    def _param_var(self, v: FmuVariable):
+    def _register_from_model_description(self) -> bool:
+        """Register the FMU's variables from its modelDescription.xml (start values, no model) so that an
+        importer can still set and get them; False when there is no modelDescription.xml (build time)."""
+        path = Path(self.resources).parent / "modelDescription.xml"
+        if not path.exists() or self.vars:
+            return False
+        for sv in ET.parse(path).getroot().find("ModelVariables").findall("ScalarVariable"):
+            typed = sv.find("Real")
+            typ = "Real"
+            if typed is None:
+                typed, typ = sv.find("Integer"), "Integer"
+            start = typed.get("start") if typed is not None else None
+            name = sv.get("name")
+            self.values[name] = (float(start) if typ == "Real" else int(start)) if start is not None else math.nan
+            if sv.get("causality") == "output":
+                self.register_variable(Real(name, causality=Fmi2Causality.output, variability=Fmi2Variability.continuous,
+                                            description=sv.get("description"), initial=Fmi2Initial.exact,
+                                            getter=(lambda n: lambda: self.values[n])(name)))
+            else:
+                self.register_variable(self._param_var(name, typ, sv.get("causality"), sv.get("variability"),
+                                                       sv.get("description")))
+        return True
+
+    def _safe(self, name: str, getter: Callable[[], float]) -> Callable[[], float]:
+        """Wrap an output getter so that a failure gives NaN and a log message, never an exception."""
+        def get():
+            try:
+                return getter()
+            except Exception as exc:
+                self.log(f"output '{name}' could not be computed: {type(exc).__name__}: {exc}", Fmi2Status.error)
+                return math.nan
+        return get
+
+    def _param_var(self, name: str, typ: str, causality: str, variability: str, description: str):
         values = self.values
-        name = v.name
-        if v.type == "Real":
-            return Real(name, causality=_CAUS[v.causality], variability=_VARI[v.variability],
-                        description=v.description, getter=lambda: values[name],
-                        setter=lambda x: values.__setitem__(name, float(x)))
-        return Integer(name, causality=_CAUS[v.causality], variability=_VARI[v.variability],
-                       description=v.description, getter=lambda: values[name],
-                       setter=lambda x: values.__setitem__(name, int(x)))
+        cls, conv = (Real, float) if typ == "Real" else (Integer, int)
 
-    # ------------------------------------------------------------------ FMI calls
+        def setter(x):
+            try:
+                values[name] = conv(x)
+            except (TypeError, ValueError, OverflowError):
+                values[name] = math.nan
+
+        return cls(name, causality=_CAUS[causality], variability=_VARI[variability], description=description,
+                   getter=lambda: values[name], setter=setter)
+
+    # ------------------------------------------------------------------ FMI calls (never raise)
     def setup_experiment(self, start_time, stop_time=None, tolerance=None):
-        self.time = float(start_time)
+        try:
+            self.time = float(start_time)
+        except (TypeError, ValueError):
+            pass
 
     def exit_initialization_mode(self):
-        errors = [msg for v in self.adapter.variables if v.causality != "output"
-                  for msg in [v.check(self.values[v.name])] if msg]
-        if not errors:
-            try:
-                self.adapter.configure(self.values)
-            except (HacgearError, ValueError, ArithmeticError) as exc:
-                errors.append(str(exc))
+        if self._failed:
+            self.log(self._failed, Fmi2Status.error)
+            return
+        try:
+            errors = [msg for v in self.adapter.variables if v.causality != "output"
+                      for msg in [v.check(self.values[v.name])] if msg]
+            if not errors:
+                try:
+                    self.adapter.configure(self.values)
+                except (HacgearError, ValueError, ArithmeticError) as exc:
+                    errors.append(str(exc))
+        except Exception as exc:
+            errors = [f"{type(exc).__name__}: {exc}"]
         if errors:
-            msg = "invalid parameters or start values: " + "; ".join(errors)
-            self.log(msg, Fmi2Status.error)
-            self._failed = msg
-            # pythonfmu 0.7 has no error path here but an exception (-> fmi2Fatal with this message)
-            raise HacgearError(msg)
+            # pythonfmu 0.7 can return no error status here without corrupting itself (see class docstring):
+            # log it now, refuse every doStep (fmi2Discard) with the same message.
+            self._failed = "invalid parameters or start values: " + "; ".join(errors)
+            self.log(self._failed, Fmi2Status.error)
 
     def do_step(self, current_time, step_size):
         try:

@@ -1,0 +1,389 @@
+"""FMUs (hacgear_core.fmu, fmu_src/, build_fmu.py): built once per session from synthetic tables into a
+temporary folder, then run under fmpy (high- and low-level API) in this process."""
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+from xml.etree import ElementTree as ET
+
+import numpy as np
+import pytest
+
+fmpy = pytest.importorskip("fmpy")
+from fmpy import extract, read_model_description  # noqa: E402
+from fmpy.fmi1 import FMICallException  # noqa: E402
+from fmpy.fmi2 import FMU2Slave  # noqa: E402
+
+import hacgear_core.fmu as hf  # noqa: E402
+from hacgear_core.dynamics.spur import SpurPairSimulator, from_model  # noqa: E402
+from hacgear_core.errors import HacgearError  # noqa: E402
+from hacgear_core.model import load_model  # noqa: E402
+from hacgear_core.tables import read_tables  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+SYSTEMS = ("spur_28t_asym", "spur_50t_icr137")
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    """Two spur-pair FMUs (synthetic tables) built by build_fmu.py's main() into a temporary folder."""
+    base = tmp_path_factory.mktemp("fmu")
+    models = base / "models"
+    for s in SYSTEMS:
+        hf.synthetic_system_folder(ROOT / "models" / s / "model.toml", models)
+    sys.path.insert(0, str(ROOT))
+    try:
+        import build_fmu
+    finally:
+        sys.path.remove(str(ROOT))
+    rc = build_fmu.main(["--models", str(models), "--out", str(base / "dist")])
+    assert rc == 0
+    return {"models": models, "dist": base / "dist", "fmu": {s: base / "dist" / f"{s}.fmu" for s in SYSTEMS},
+            "build_fmu": build_fmu}
+
+
+def _library(built, system, internal_step, torque=None):
+    folder = built["models"] / system
+    model = load_model(folder / "model.toml")
+    table = read_tables(folder / "tables.h5").meshes[model.mesh().name]
+    p = from_model(model, table=table)
+    if torque is not None:
+        p = p.replace(torque_Nm=torque)
+    return SpurPairSimulator(p, table, internal_step_s=internal_step), table
+
+
+class _Low:
+    """fmpy low-level co-simulation session that records log messages."""
+
+    def __init__(self, path, name="inst"):
+        self.md = read_model_description(str(path))
+        self.dir = extract(str(path))
+        self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
+        self.messages = []
+
+        def logger(component, instance, status, category, message):
+            self.messages.append((status, message.decode(errors="replace")))
+
+        from fmpy.fmi2 import (calloc, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+                               fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, free)
+
+        cb = fmi2CallbackFunctions()
+        cb.logger = fmi2CallbackLoggerTYPE(logger)
+        cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        self._cb = cb
+        self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=self.dir,
+                             modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
+        self.fmu.instantiate(loggingOn=True, callbacks=cb)
+
+    def init(self, **params):
+        self.fmu.setupExperiment(startTime=0.0)
+        self.fmu.enterInitializationMode()
+        for k, v in params.items():
+            if k == "mode":
+                self.fmu.setInteger([self.vr[k]], [int(v)])
+            else:
+                self.fmu.setReal([self.vr[k]], [float(v)])
+        self.fmu.exitInitializationMode()
+
+    def get(self, *names):
+        return self.fmu.getReal([self.vr[n] for n in names])
+
+    def close(self):
+        try:
+            self.fmu.terminate()
+        except FMICallException:
+            pass
+        self.fmu.freeInstance()
+        import shutil
+
+        shutil.rmtree(self.dir, ignore_errors=True)
+
+
+# ---------------------------------------------------------------------------------------------- build
+def test_model_description_units_ranges_and_spec(built):
+    path = built["fmu"]["spur_28t_asym"]
+    with zipfile.ZipFile(path) as z:
+        root = ET.fromstring(z.read("modelDescription.xml"))
+        names = set(z.namelist())
+        info = json.loads(z.read("resources/hacgear_fmu.json"))
+    assert {"resources/model.toml", "resources/tables.h5", "resources/hacgear_spur_28t_asym.py",
+            "binaries/linux64/spur_28t_asym.so"} <= names
+    assert info["requirements"]["hacgear"].startswith("==") and "numba" in info["requirements"]
+    units = {u.get("name") for u in root.find("UnitDefinitions")}
+    spec = {v.name: v for v in hf.variables_for(built["models"] / "spur_28t_asym")}
+    xml_vars = root.find("ModelVariables").findall("ScalarVariable")
+    assert {sv.get("name") for sv in xml_vars} == set(spec)
+    for sv in xml_vars:
+        v = spec[sv.get("name")]
+        assert sv.get("description") == v.description and v.description
+        if v.type == "Real":
+            real = sv.find("Real")
+            assert real.get("unit") == v.unit and v.unit in units
+        if sv.get("causality") == "output":
+            assert sv.get("initial") == "exact" and sv.find(v.type).get("start") is not None
+        else:
+            t = sv.find(v.type)
+            assert float(t.get("min")) == v.min and float(t.get("max")) == v.max
+            assert v.min <= float(t.get("start")) <= v.max
+    # only the enumerated switch is an Integer (FMI 2.0 has no unit attribute on Integer)
+    assert [n for n, v in spec.items() if v.type != "Real"] == ["mode"]
+    outs = {n for n, v in spec.items() if v.causality == "output"}
+    assert {"mesh_force", "mesh_deflection", "dte", "mesh_position", "contact", "peak_pressure", "bearing_force1",
+            "bearing_force2", "angle1", "angle2", "speed1", "speed2", "root_strain.wheel.SG",
+            "root_strain.pinion.SG"} <= outs
+    # the output start values are the initial static equilibrium at the nominal torque
+    start_f = float(next(sv for sv in xml_vars if sv.get("name") == "mesh_force").find("Real").get("start"))
+    sim, table = _library(built, "spur_28t_asym", None)
+    assert start_f == pytest.approx(sim.params.torque_Nm / table.base_radius_m[0], rel=1e-6)
+
+
+@pytest.mark.parametrize("system", SYSTEMS)
+def test_fmpy_validate_and_fmutool_check(built, system):
+    assert built["build_fmu"].validate_fmu(built["fmu"][system]) == []
+
+
+def test_postprocess_refuses_spec_mismatch(built):
+    with zipfile.ZipFile(built["fmu"]["spur_28t_asym"]) as z:
+        xml = z.read("modelDescription.xml")
+    spec = hf.variables_for(built["models"] / "spur_28t_asym")
+    with pytest.raises(HacgearError, match="not in the spec"):
+        hf.postprocess_model_description(xml, spec[1:])
+    extra = spec + (hf.FmuVariable("ghost", "Real", "output", "continuous", "m", "a variable the slave lacks"),)
+    with pytest.raises(HacgearError, match="missing in modelDescription"):
+        hf.postprocess_model_description(xml, extra)
+
+
+def test_build_script_skips_and_errors(built, tmp_path, capsys):
+    bf = built["build_fmu"]
+    # a model folder without tables is skipped when building all, an error when named
+    (tmp_path / "m" / "spur_50t_icr18").mkdir(parents=True)
+    (tmp_path / "m" / "spur_50t_icr18" / "model.toml").write_bytes(
+        (ROOT / "models" / "spur_50t_icr18" / "model.toml").read_bytes())
+    assert bf.main(["--models", str(tmp_path / "m"), "--out", str(tmp_path / "d")]) == 0
+    assert "skipped, no tables.h5" in capsys.readouterr().out
+    assert bf.main(["--models", str(tmp_path / "m"), "--out", str(tmp_path / "d"), "--system", "spur_50t_icr18"]) == 1
+    # tables of another model are refused with the table module's message
+    (tmp_path / "m" / "spur_50t_icr18" / "tables.h5").write_bytes(
+        (built["models"] / "spur_28t_asym" / "tables.h5").read_bytes())
+    assert bf.main(["--models", str(tmp_path / "m"), "--out", str(tmp_path / "d"), "--system", "spur_50t_icr18"]) == 1
+    assert "does not belong to" in capsys.readouterr().err
+
+
+def test_field_checks_name_unit_and_range():
+    v = hf.FmuVariable("torque", "Real", "parameter", "fixed", "N.m", "a torque", 1.0, 0.0, 10.0)
+    assert v.check(5.0) == ""
+    msg = v.check(float("nan"))
+    assert "torque" in msg and "N.m" in msg and "[0, 10]" in msg
+    assert "outside" in v.check(11.0)
+    with pytest.raises(ValueError):
+        hf.FmuVariable("x", "Real", "output", "continuous", "furlong", "bad unit")
+    with pytest.raises(ValueError):
+        hf.FmuVariable("x", "Real", "parameter", "fixed", "m", "no start")
+
+
+def test_requirements_check_messages():
+    assert hf.check_requirements(hf.requirements()) == []
+    probs = hf.check_requirements({"hacgear": "==99.0", "numpy": ">=999", "no-such-package-xyz": ">=1"})
+    assert len(probs) == 3
+    assert "hacgear" in probs[0] and "==99.0" in probs[0]
+    assert "not installed" in probs[2]
+
+
+# ---------------------------------------------------------------------------------------------- runs
+def test_fmu_reproduces_library_time_series(built):
+    """Same speed, torque, internal step: the FMU under fmpy equals the library to <= 1e-9 (relative)."""
+    speed, torque, h_int, dt, n = 520.0, 250.0, 2e-6, 1e-4, 300
+    res = fmpy.simulate_fmu(str(built["fmu"]["spur_28t_asym"]), start_time=0.0, stop_time=n * dt, step_size=dt,
+                            output_interval=dt,
+                            start_values={"speed1_in": speed, "torque": torque, "internal_step": h_int},
+                            output=["mesh_force", "mesh_deflection", "dte", "mesh_position", "angle1", "speed2"])
+    sim, _ = _library(built, "spur_28t_asym", h_int, torque)
+    sim.reset(speed_rad_s=speed)
+    sim.set_speed_input(speed_rad_s=speed)
+    lib = {k: [] for k in ("mesh_force", "mesh_deflection", "dte", "mesh_position", "angle1", "speed2")}
+    for _ in range(n):
+        assert sim.advance(dt).success
+        for k, a in (("mesh_force", "mesh_force_N"), ("mesh_deflection", "mesh_deflection_m"),
+                     ("dte", "dynamic_transmission_error_m"), ("mesh_position", "mesh_position"),
+                     ("angle1", "angle1_rad"), ("speed2", "speed2_rad_s")):
+            lib[k].append(getattr(sim, a))
+    assert len(res) == n + 1
+    for k, v in lib.items():
+        v = np.asarray(v)
+        f = res[k][1:]
+        scale = np.max(np.abs(v))
+        assert scale > 0
+        assert np.max(np.abs(f - v)) <= 1e-9 * scale, k
+    # a dynamic run, not a constant: the mesh force varies over the mesh cycle
+    assert np.ptp(res["mesh_force"]) > 0.05 * np.mean(res["mesh_force"])
+
+
+def test_any_communication_step_is_substepped(built):
+    """One 2 ms step equals twenty 0.1 ms steps at a fixed internal step (same sub-steps)."""
+    kw = dict(start_values={"speed1_in": 400.0, "internal_step": 1e-6}, output=["mesh_force", "dte"])
+    fine = fmpy.simulate_fmu(str(built["fmu"]["spur_28t_asym"]), stop_time=2e-3, step_size=1e-4,
+                             output_interval=1e-4, **kw)
+    coarse = fmpy.simulate_fmu(str(built["fmu"]["spur_28t_asym"]), stop_time=2e-3, step_size=2e-3,
+                               output_interval=2e-3, **kw)
+    assert coarse["dte"][-1] == pytest.approx(fine["dte"][-1], rel=1e-9, abs=1e-18)
+    assert coarse["mesh_force"][-1] == pytest.approx(fine["mesh_force"][-1], rel=1e-9)
+
+
+def test_drivetrain_mode_transmits_balanced_torques(built):
+    """Mode 1: shaft torques in, speeds out.  Balanced torques (T2 = -T1 r_b2/r_b1) keep the mean speed and the
+    mean mesh force is T1/r_b1; an unbalanced driving torque accelerates the pair as one inertia."""
+    t1 = 300.0
+    sim, table = _library(built, "spur_50t_icr137", None)
+    rb1, rb2 = table.base_radius_m
+    j1, j2 = sim.params.inertia_kg_m2
+    w0 = 200.0
+    res = fmpy.simulate_fmu(str(built["fmu"]["spur_50t_icr137"]), stop_time=0.05, step_size=1e-4,
+                            start_values={"mode": 1, "speed1_start": w0, "torque1_in": t1,
+                                          "torque2_in": -t1 * rb2 / rb1},
+                            output=["speed1", "speed2", "mesh_force", "angle1"])
+    assert np.mean(res["speed1"]) == pytest.approx(w0, rel=1e-3)
+    assert np.mean(res["speed2"]) == pytest.approx(w0 * rb1 / rb2, rel=1e-3)
+    assert np.mean(res["mesh_force"][len(res) // 2:]) == pytest.approx(t1 / rb1, rel=0.02)
+    assert res["angle1"][-1] == pytest.approx(w0 * 0.05, rel=2e-3)
+    # net torque: d(omega1)/dt = (T1 + T2 r_b1/r_b2) / (J1 + J2 (r_b1/r_b2)^2)
+    t2 = -0.5 * t1 * rb2 / rb1
+    res = fmpy.simulate_fmu(str(built["fmu"]["spur_50t_icr137"]), stop_time=0.05, step_size=1e-4,
+                            start_values={"mode": 1, "speed1_start": w0, "torque1_in": t1, "torque2_in": t2},
+                            output=["speed1"])
+    alpha = (t1 + t2 * rb1 / rb2) / (j1 + j2 * (rb1 / rb2) ** 2)
+    slope = np.polyfit(res["time"], res["speed1"], 1)[0]
+    assert slope == pytest.approx(alpha, rel=0.02)
+
+
+def test_root_strain_follows_one_tooth(built):
+    """The gauge tooth is loaded once per revolution of its gear (every z mesh cycles) and unloaded between."""
+    z = 28
+    speed = 300.0  # rad/s -> one pinion revolution in 20.9 ms
+    res = fmpy.simulate_fmu(str(built["fmu"]["spur_28t_asym"]), stop_time=0.05, step_size=2e-5,
+                            output_interval=2e-5, start_values={"speed1_in": speed},
+                            output=["root_strain.pinion.SG", "mesh_position", "peak_pressure"])
+    s = res["root_strain.pinion.SG"]
+    loaded = np.abs(s) > 0.1 * np.max(np.abs(s))
+    pos = res["mesh_position"][loaded]
+    # loaded only within a few mesh cycles around multiples of z
+    phase = (pos + z / 2) % z - z / 2
+    assert np.all(np.abs(phase) < 3.0)
+    assert {int(round(p / z)) for p in pos} == {0, 1, 2}
+    assert np.all(res["peak_pressure"] >= 0) and np.max(res["peak_pressure"]) > 1e8
+
+
+def test_bad_parameters_are_logged_and_steps_refused(built):
+    low = _Low(built["fmu"]["spur_28t_asym"])
+    try:
+        low.init(modal_damping_ratio=2.0, internal_step=-1.0)
+        text = " ".join(m for _, m in low.messages)
+        assert "modal_damping_ratio" in text and "[0, 0.99]" in text and "internal_step" in text
+        with pytest.raises(FMICallException, match="discard"):
+            low.fmu.doStep(0.0, 1e-4)
+        assert "doStep refused" in low.messages[-1][1]
+    finally:
+        low.close()
+    # fmpy's high-level call logs it and ends the run at the refused (discarded) first step
+    msgs = []
+    res = fmpy.simulate_fmu(str(built["fmu"]["spur_28t_asym"]), stop_time=1e-3, step_size=1e-4,
+                            start_values={"bearing_stiffness1": -5.0},
+                            logger=lambda *a: msgs.append(a[-1].decode(errors="replace")))
+    assert len(res) < 3 and any("bearing_stiffness1" in m and "[N/m]" in m for m in msgs)
+
+
+def test_nan_input_and_bad_steps_are_discarded_with_state_kept(built):
+    low = _Low(built["fmu"]["spur_28t_asym"])
+    try:
+        low.init(speed1_in=300.0)
+        low.fmu.doStep(0.0, 1e-4)
+        before = low.get("mesh_force", "dte", "mesh_position")
+        low.fmu.setReal([low.vr["speed1_in"]], [float("nan")])
+        with pytest.raises(FMICallException, match="discard"):
+            low.fmu.doStep(1e-4, 1e-4)
+        assert low.get("mesh_force", "dte", "mesh_position") == before
+        assert any("speed1_in" in m and "NaN" in m for _, m in low.messages)
+        low.fmu.setReal([low.vr["speed1_in"]], [1e9])
+        with pytest.raises(FMICallException, match="discard"):
+            low.fmu.doStep(1e-4, 1e-4)
+        low.fmu.setReal([low.vr["speed1_in"]], [300.0])
+        for bad in (0.0, -1e-4, float("inf"), float("nan")):
+            with pytest.raises(FMICallException, match="discard"):
+                low.fmu.doStep(1e-4, bad)
+        assert any("step size" in m for _, m in low.messages)
+        low.fmu.doStep(1e-4, 1e-4)  # goes on normally
+        assert low.get("mesh_position")[0] > before[2]
+    finally:
+        low.close()
+
+
+def test_two_fmus_and_repeated_runs_in_one_process(built):
+    a, b = (str(built["fmu"][s]) for s in SYSTEMS)
+    kw = dict(stop_time=5e-3, step_size=1e-4, output_interval=1e-4, start_values={"speed1_in": 300.0},
+              output=["mesh_position",
+                                                                                        "mesh_force"])
+    ra1 = fmpy.simulate_fmu(a, **kw)
+    rb = fmpy.simulate_fmu(b, **kw)
+    ra2 = fmpy.simulate_fmu(a, **kw)
+    rb2 = fmpy.simulate_fmu(b, **kw)
+    assert np.array_equal(ra1["mesh_force"], ra2["mesh_force"])
+    assert np.array_equal(rb["mesh_force"], rb2["mesh_force"])
+    # mesh position advances z1 * speed / (2 pi) cycles per second: 28 vs 50 teeth
+    assert ra1["mesh_position"][-1] == pytest.approx(28 * 300.0 * 5e-3 / (2 * math.pi), rel=1e-3)
+    assert rb["mesh_position"][-1] == pytest.approx(50 * 300.0 * 5e-3 / (2 * math.pi), rel=1e-3)
+    # two instances of different FMUs side by side (low-level)
+    la, lb = _Low(built["fmu"][SYSTEMS[0]], "a"), _Low(built["fmu"][SYSTEMS[1]], "b")
+    try:
+        la.init(speed1_in=300.0)
+        lb.init(speed1_in=300.0)
+        for k in range(50):
+            la.fmu.doStep(k * 1e-4, 1e-4)
+            lb.fmu.doStep(k * 1e-4, 1e-4)
+        assert la.get("mesh_force")[0] == pytest.approx(ra1["mesh_force"][50], rel=1e-12)
+        assert lb.get("mesh_force")[0] == pytest.approx(rb["mesh_force"][50], rel=1e-12)
+    finally:
+        la.close()
+        lb.close()
+
+
+def test_unmet_requirement_refuses_instantiation(built, tmp_path):
+    bad = tmp_path / "spur_28t_asym.fmu"
+    bad.write_bytes(built["fmu"]["spur_28t_asym"].read_bytes())
+    with zipfile.ZipFile(bad) as z:
+        info = json.loads(z.read("resources/hacgear_fmu.json"))
+    info["requirements"]["hacgear"] = "==99.0"
+    hf._rewrite_zip_member(bad, "resources/hacgear_fmu.json", json.dumps(info).encode())
+    low = _Low(bad)
+    try:
+        low.init(speed1_in=300.0)
+        with pytest.raises(FMICallException, match="discard"):
+            low.fmu.doStep(0.0, 1e-4)
+        text = " ".join(m for _, m in low.messages)
+        assert "hacgear==99.0" in text and "cannot run" in text
+    finally:
+        low.close()
+
+
+def test_fresh_process_hits_numba_cache(built):
+    """Kernels come from the installed package: in a fresh process (after a first one filled the cache)
+    the FMU loads the compiled integrator from numba's cache instead of compiling it."""
+    code = (
+        "import fmpy, sys, json\n"
+        f"r = fmpy.simulate_fmu({str(built['fmu']['spur_28t_asym'])!r}, stop_time=1e-3, step_size=1e-4,"
+        " start_values={'speed1_in': 300.0})\n"
+        "from hacgear_core.dynamics import kernels\n"
+        "ds = [d for d in vars(kernels).values() if hasattr(d, 'stats')]\n"
+        "print(json.dumps({'file': kernels.__file__, 'hits': sum(sum(d.stats.cache_hits.values()) for d in ds),"
+        " 'misses': sum(sum(d.stats.cache_misses.values()) for d in ds)}))\n"
+    )
+    out = None
+    for _ in range(2):
+        p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+        assert p.returncode == 0, p.stderr[-2000:]
+        out = json.loads(p.stdout.strip().splitlines()[-1])
+    assert Path(out["file"]).resolve().is_relative_to(ROOT / "hacgear_core")
+    assert out["hits"] >= 1 and out["misses"] == 0

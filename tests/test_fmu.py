@@ -291,7 +291,7 @@ def test_bad_parameters_are_logged_and_steps_refused(built):
     # fmpy's high-level call logs it and ends the run at the refused (discarded) first step
     msgs = []
     res = fmpy.simulate_fmu(str(built["fmu"]["spur_28t_asym"]), stop_time=1e-3, step_size=1e-4,
-                            start_values={"bearing_stiffness1": -5.0},
+                            start_values={"bearing_stiffness1": -5.0}, debug_logging=True,
                             logger=lambda *a: msgs.append(a[-1].decode(errors="replace")))
     assert len(res) < 3 and any("bearing_stiffness1" in m and "[N/m]" in m for m in msgs)
 

@@ -421,3 +421,38 @@ def test_partial_file_in_use_by_another_process_is_not_touched(tmp_path):
     finally:
         holder.kill()
         holder.wait()
+
+
+@pytest.mark.parametrize("system", ["spur_28t_asym", "spur_50t_icr137", "spur_50t_icr18"])
+def test_committed_tables_agree_with_a_coarse_regeneration(tmp_path, system):
+    """The committed models/<system>/tables.h5 (>= 64 positions) belong to their model file, and a
+    coarse regeneration with the current solver agrees with them where the grids coincide: static
+    deflection per (position, load) and NLMD exactly at shared positions (same loads), the FDF at the
+    committed (position, deflection) nodes by interpolation of the coarse deflection grid."""
+    pytest.importorskip("hacgear_core.contact")
+    from hacgear_core.model import load_model
+    from hacgear_core.tables import load_system_tables, read_tables
+
+    root = Path(__file__).resolve().parent.parent / "models" / system
+    committed = load_system_tables(root / "model.toml")          # refuses a table of another model
+    model = load_model(root / "model.toml")
+    mesh = model.meshes[0].name
+    ref = committed.meshes[mesh]
+    assert len(ref.position) >= 64
+    n_loads = len(ref.load_N)
+    shutil.copy(root / "model.toml", tmp_path / "model.toml")
+    compute_statics(tmp_path / "model.toml", tmp_path / "coarse.h5", positions=8, loads=n_loads, deflections=48,
+                    workers=1, progress=False)
+    coarse = read_tables(tmp_path / "coarse.h5", tmp_path / "model.toml").meshes[mesh]
+    step = len(ref.position) // 8
+    np.testing.assert_allclose(coarse.load_N, ref.load_N, rtol=1e-12)
+    scale = float(np.max(ref.static_deflection_m))
+    np.testing.assert_allclose(coarse.static_deflection_m, ref.static_deflection_m[::step], atol=1e-3 * scale)
+    np.testing.assert_allclose(coarse.no_load_deflection_m, ref.no_load_deflection_m[::step], atol=1e-3 * scale)
+    # FDF: compare at committed deflection nodes inside both grids, 2 % of the largest force
+    x = ref.deflection_m
+    inside = (x >= coarse.deflection_m[0]) & (x <= coarse.deflection_m[-1])
+    for ic in range(8):
+        f_ref = ref.force_N[ic * step, inside]
+        f_coarse = np.interp(x[inside], coarse.deflection_m, coarse.force_N[ic])
+        np.testing.assert_allclose(f_coarse, f_ref, atol=0.02 * float(ref.force_N.max()))

@@ -1,0 +1,53 @@
+"""Published numbers of the dissertation, checked on the committed FE tables (hacgear_core.validation).
+
+These run the whole chain that a user runs: model file -> committed tables.h5 (made by our own FE/contact
+solver) -> HAC dynamics.  Numbers and tolerances are listed in docs/validation.md."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hacgear_core.validation import natural_frequencies, sweep
+
+
+def test_28t_natural_frequency_rigid_supports_2800Hz():
+    """Dissertation 3.6.1: 2800 Hz (FE/CM), 2775 Hz (HAC), 2825 Hz (experiment), 300 N m, 25 deg flank."""
+    r = natural_frequencies("spur_28t_asym", 300.0)
+    assert r["linearised_Hz"][0] == pytest.approx(2800.0, rel=0.05)
+    assert r["impulse_weighted_Hz"][0] == pytest.approx(2800.0, rel=0.05)
+    # single contact is softer than double contact
+    assert r["impulse_single_Hz"][0] < r["impulse_weighted_Hz"][0] < r["impulse_double_Hz"][0]
+
+
+@pytest.mark.xfail(strict=True, reason="measured 3837 Hz (impulse, contact-ratio weighted) / 3786 Hz (linearised): "
+                   "-7.5 % / -8.8 % against 4150 Hz; see docs/validation.md")
+def test_28t_highest_natural_frequency_with_200MN_per_m_bearings_4150Hz():
+    r = natural_frequencies("spur_28t_asym", 300.0, 200e6)
+    assert r["impulse_weighted_Hz"][-1] == pytest.approx(4150.0, rel=0.05)
+
+
+def test_28t_bearing_compliance_adds_two_modes_below_and_one_above():
+    rigid = natural_frequencies("spur_28t_asym", 300.0)["linearised_Hz"][0]
+    r = natural_frequencies("spur_28t_asym", 300.0, 200e6)["linearised_Hz"]
+    assert len(r) == 3 and r[0] < r[1] < rigid < r[2]
+
+
+def test_50t_icr137_softening_with_jumps_and_superharmonic_peaks():
+    """Dissertation Fig. 3.5 (170 N m): double-valued softening region below f_m/f_n = 1 with jump-up on the
+    up sweep and jump-down on the down sweep, resonance peaks near f_m/f_n = 1/2 and 1/3."""
+    s = sweep("spur_50t_icr137", 170.0, (0.25, 1.3, 106))
+    jumps = [(j["kind"], j["branch"], j["fm_over_fn"]) for j in s["jumps"]]
+    ups = [f for k, b, f in jumps if k == "jump-up" and b == "up" and 0.6 < f < 1.0]
+    downs = [f for k, b, f in jumps if k == "jump-down" and b == "down" and 0.4 < f < 1.0]
+    assert ups and downs, jumps
+    assert min(downs) < max(ups), "jump-down below jump-up: a double-valued region"
+    up = s["branches"]["up"]
+    f = np.asarray(up["fm_over_fn"])
+    rms = np.asarray(up["rms_deflection_m"])
+    base = np.median(rms[(f > 0.36) & (f < 0.45)])
+    for lo, hi in ((0.45, 0.55), (0.29, 0.36)):
+        sel = (f > lo) & (f < hi)
+        assert rms[sel].max() > 1.5 * base, f"no resonance peak in {lo}..{hi}"
+    # the large-amplitude branch loses contact for part of the cycle
+    down = s["branches"]["down"]
+    assert max(down["contact_loss_fraction"]) > 0.1

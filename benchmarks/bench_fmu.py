@@ -1,0 +1,150 @@
+#!/usr/bin/env python
+"""FMU overhead: 1 s of simulated time through fmpy at a 1e-4 s communication step against the library run
+directly with the same internal step, in one process.
+
+Printed figures (wall seconds, best of ``--repeat``):
+
+* ``library advance``: :class:`~hacgear_core.dynamics.spur.SpurPairSimulator` stepped with ``advance(1e-4)``
+  10 000 times (the same communication grid, outputs read each step): the reference of the judged ratio;
+* ``library run``: one ``run(1.0, record_dt_s=1e-4)`` call (the kernel's own loop, no per-step Python);
+* ``fmpy simulate_fmu``: the FMU under ``fmpy.simulate_fmu`` (step 1e-4, outputs recorded every step);
+* ``fmpy low-level``: ``doStep`` + ``getReal`` of the same outputs on fmpy's FMU2Slave;
+* instantiate-to-first-doStep time of the FMU in this (warm) process.
+
+Judged ratio: fmpy simulate_fmu / library advance (goal <= 1.5).
+
+    python benchmarks/bench_fmu.py [--fmu dist/spur_28t_asym.fmu] [--speed-rpm 3000] [--repeat 3]
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import shutil
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+OUTPUTS = ["mesh_force", "mesh_deflection", "dte", "mesh_position", "speed1"]
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--fmu", help="spur-pair FMU (default: dist/spur_28t_asym.fmu, else a synthetic build)")
+    ap.add_argument("--speed-rpm", type=float, default=3000.0, help="pinion speed [rpm]")
+    ap.add_argument("--internal-step", type=float, default=2e-6, help="internal RK4 step [s]")
+    ap.add_argument("--repeat", type=int, default=3)
+    args = ap.parse_args(argv)
+
+    import fmpy
+    import numpy as np
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    from hacgear_core.dynamics.spur import SpurPairSimulator, from_model
+    from hacgear_core.model import load_model
+    from hacgear_core.tables import read_tables
+
+    work = Path(tempfile.mkdtemp(prefix="hacgear_bench_fmu_"))
+    synthetic = False
+    if args.fmu:
+        fmu_path = Path(args.fmu)
+    elif (ROOT / "dist" / "spur_28t_asym.fmu").exists():
+        fmu_path = ROOT / "dist" / "spur_28t_asym.fmu"
+    else:
+        from hacgear_core.fmu import build_fmu, synthetic_system_folder
+
+        folder = synthetic_system_folder(ROOT / "models" / "spur_28t_asym" / "model.toml", work / "models")
+        fmu_path = build_fmu(folder, work / "dist")
+        synthetic = True
+    speed = args.speed_rpm * 2 * math.pi / 60
+    h_int, dt, t_end = args.internal_step, 1e-4, 1.0
+    n = int(round(t_end / dt))
+
+    unz = extract(str(fmu_path))
+    model = load_model(Path(unz) / "resources" / "model.toml")
+    table = read_tables(Path(unz) / "resources" / "tables.h5").meshes[model.mesh().name]
+    params = from_model(model, table=table)
+    sim = SpurPairSimulator(params, table, internal_step_s=h_int)
+
+    def lib_advance():
+        sim.reset(speed_rad_s=speed)
+        sim.set_speed_input(speed_rad_s=speed)
+        rec = np.empty((n, len(OUTPUTS)))
+        for k in range(n):
+            sim.advance(dt)
+            rec[k] = (sim.mesh_force_N, sim.mesh_deflection_m, sim.dynamic_transmission_error_m, sim.mesh_position,
+                      sim.speed1_rad_s)
+        return rec
+
+    def lib_run():
+        sim.reset(speed_rad_s=speed)
+        sim.set_speed_input(speed_rad_s=speed)
+        return sim.run(t_end, dt)
+
+    def fmu_high():
+        return fmpy.simulate_fmu(str(fmu_path), stop_time=t_end, step_size=dt, output_interval=dt,
+                                 start_values={"speed1_in": speed, "internal_step": h_int}, output=OUTPUTS)
+
+    md = read_model_description(str(fmu_path))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    outs = [vr[o] for o in OUTPUTS]
+    first_step = []
+
+    def fmu_low():
+        t0 = time.perf_counter()
+        f = FMU2Slave(guid=md.guid, unzipDirectory=unz, modelIdentifier=md.coSimulation.modelIdentifier,
+                      instanceName="bench")
+        f.instantiate()
+        f.setupExperiment(startTime=0.0)
+        f.enterInitializationMode()
+        f.setReal([vr["speed1_in"], vr["internal_step"]], [speed, h_int])
+        f.exitInitializationMode()
+        rec = np.empty((n, len(OUTPUTS)))
+        t = 0.0
+        for k in range(n):
+            f.doStep(t, dt)
+            if k == 0:
+                first_step.append(time.perf_counter() - t0)
+            t += dt
+            rec[k] = f.getReal(outs)
+        f.terminate()
+        f.freeInstance()
+        return rec
+
+    def best(fn):
+        times, out = [], None
+        for _ in range(args.repeat):
+            t0 = time.perf_counter()
+            out = fn()
+            times.append(time.perf_counter() - t0)
+        return min(times), out
+
+    fmu_high()  # warm-up (first instantiation in this process imports the slave module)
+    t_adv, rec_adv = best(lib_advance)
+    t_run, _ = best(lib_run)
+    t_high, res = best(fmu_high)
+    t_low, rec_low = best(fmu_low)
+    same = np.max(np.abs(rec_low[:, 0] - rec_adv[:, 0])) / np.max(np.abs(rec_adv[:, 0]))
+    nsub = int(math.ceil(dt / h_int - 1e-9))
+    print(f"bench_fmu: {fmu_path.name}{' (synthetic tables)' if synthetic else ''}, pinion {args.speed_rpm:g} rpm, "
+          f"1 s simulated, communication step {dt:g} s, internal step {dt / nsub:.3g} s ({nsub} RK4 sub-steps per "
+          f"step, {n * nsub} in all), best of {args.repeat}")
+    print(f"  library advance(1e-4) x {n}:        {t_adv:7.3f} s")
+    print(f"  library run(1 s, record 1e-4):      {t_run:7.3f} s")
+    print(f"  fmpy simulate_fmu:                  {t_high:7.3f} s")
+    print(f"  fmpy low-level doStep+getReal:      {t_low:7.3f} s")
+    print(f"  instantiate -> first doStep (warm): {min(first_step):7.3f} s")
+    print(f"  max relative difference FMU vs library (mesh force): {same:.2e}")
+    print(f"  per communication step: library {t_adv / n * 1e6:.1f} us, fmpy simulate_fmu {t_high / n * 1e6:.1f} us, "
+          f"fmpy low-level {t_low / n * 1e6:.1f} us")
+    print(f"RATIO fmpy simulate_fmu / library advance = {t_high / t_adv:.2f} (goal <= 1.5); "
+          f"low-level / library advance = {t_low / t_adv:.2f}; simulate_fmu / library run = {t_high / t_run:.2f}")
+    shutil.rmtree(unz, ignore_errors=True)
+    shutil.rmtree(work, ignore_errors=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -387,3 +387,26 @@ def test_fresh_process_hits_numba_cache(built):
         out = json.loads(p.stdout.strip().splitlines()[-1])
     assert Path(out["file"]).resolve().is_relative_to(ROOT / "hacgear_core")
     assert out["hits"] >= 1 and out["misses"] == 0
+
+
+def test_drivetrain_bench_follows_the_motor_and_carries_the_load(built):
+    """Short ramp of the bench (fmpy low-level API): speeds follow the drive, the shafts carry the load torque,
+    the mean mesh force is the static one."""
+    sys.path.insert(0, str(ROOT / "examples"))
+    try:
+        import drivetrain_bench as db
+    finally:
+        sys.path.remove(str(ROOT / "examples"))
+    cfg = db.BenchConfig(speed_start_rpm=3000.0, speed_end_rpm=3300.0, ramp_s=0.1, hold_s=0.05, load_torque_Nm=200.0)
+    res = db.run_drivetrain_bench(built["fmu"]["spur_28t_asym"], cfg)
+    t = res["time_s"]
+    assert t[-1] == pytest.approx(0.2, abs=1e-9) and bool(res["synthetic"][0])
+    end = t > 0.17
+    w_ref = 3300.0 * 2 * math.pi / 60
+    assert np.mean(res["motor_speed_rad_s"][end]) == pytest.approx(w_ref, rel=0.01)
+    assert np.mean(res["pinion_speed_rad_s"][end]) == pytest.approx(w_ref, rel=0.01)
+    # the wheel turns at r_b1/r_b2 of the pinion speed and the load shaft carries -T_load on average
+    rb1, rb2 = res["base_radius_m"]
+    assert np.mean(res["wheel_speed_rad_s"][end]) == pytest.approx(w_ref * rb1 / rb2, rel=0.01)
+    assert np.mean(res["shaft2_torque_Nm"][end]) == pytest.approx(-200.0, rel=0.05)
+    assert np.mean(res["mesh_force_N"][end]) == pytest.approx(res["static_mesh_force_N"][0], rel=0.05)

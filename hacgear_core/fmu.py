@@ -516,6 +516,50 @@ _VARI = {"fixed": Fmi2Variability.fixed, "tunable": Fmi2Variability.tunable,
 MAX_SUBSTEPS_PER_STEP = 200_000_000
 
 
+#: pythonfmu binaries (path -> ctypes handle) whose exit-time state is released by :func:`_release_pythonfmu_states`.
+_PYTHONFMU_BINARIES: dict = {}
+
+
+def _release_pythonfmu_states() -> None:
+    for handle in list(_PYTHONFMU_BINARIES.values()):
+        try:
+            handle.finalizePythonInterpreter()
+        except Exception:  # pragma: no cover - nothing sensible to do at exit
+            pass
+
+
+def _guard_pythonfmu_exit(resources: Path) -> None:
+    """Work around a use-after-free at process exit in pythonfmu 0.7.0's binary.
+
+    Measured with valgrind (pythonfmu 0.7.0, fmpy 0.3.32, glibc): the binary stays loaded until the importer
+    exits (its std::thread holds it); at exit the C++ destructor of its global ``std::shared_ptr<PyState>`` runs
+    first, then its ``__attribute__((destructor))`` calls ``finalizePythonInterpreter()``, which resets that
+    already destroyed shared_ptr and decrements a counter inside the freed block ("Invalid read ... 8 bytes inside
+    a block of size 128 free'd").  That write corrupts the malloc free lists; when the process later frees more
+    (e.g. scipy's libgfortran at exit) it aborts with "corrupted double-linked list" (~10 % of runs, more under
+    load).  Calling the exported ``finalizePythonInterpreter()`` from a Python ``atexit`` handler, while the
+    shared_ptr is still alive, empties it, so both exit-time destructors find nothing to release.  A handle is kept
+    on each binary so that the call target stays mapped.  Linux binaries only.
+    """
+    import atexit
+    import ctypes
+
+    for lib in sorted((resources.parent / "binaries").glob("*/*.so")):
+        key = str(lib)
+        if key in _PYTHONFMU_BINARIES:
+            continue
+        try:
+            handle = ctypes.CDLL(key)
+            fn = handle.finalizePythonInterpreter
+        except (OSError, AttributeError):  # another platform's binary, or not a pythonfmu binary
+            continue
+        fn.restype = None
+        fn.argtypes = []
+        if not _PYTHONFMU_BINARIES:
+            atexit.register(_release_pythonfmu_states)
+        _PYTHONFMU_BINARIES[key] = handle
+
+
 class HacgearSlave(Fmi2Slave):
     """Generic pythonfmu slave of a hacgear system; subclasses (``fmu_src/<kind>.py``) set ``KIND``.
 
@@ -535,6 +579,10 @@ class HacgearSlave(Fmi2Slave):
         self._failed = ""
         self.time = 0.0
         self.adapter = None
+        try:
+            _guard_pythonfmu_exit(Path(self.resources))
+        except Exception:  # pragma: no cover - best effort
+            pass
         try:
             self._setup(Path(self.resources))
         except Exception as exc:  # keep the instance alive, report the reason, refuse to step

@@ -410,3 +410,19 @@ def test_drivetrain_bench_follows_the_motor_and_carries_the_load(built):
     assert np.mean(res["wheel_speed_rad_s"][end]) == pytest.approx(w_ref * rb1 / rb2, rel=0.01)
     assert np.mean(res["shaft2_torque_Nm"][end]) == pytest.approx(-200.0, rel=0.05)
     assert np.mean(res["mesh_force_N"][end]) == pytest.approx(res["static_mesh_force_N"][0], rel=0.05)
+
+
+def test_importer_exits_cleanly(built):
+    """pythonfmu 0.7.0's binary frees its interpreter state twice at process exit unless the slave releases it
+    first (hacgear_core.fmu._guard_pythonfmu_exit): fresh importer processes that load scipy, numba and h5py only
+    through the FMU must exit with status 0, not abort."""
+    code = (
+        "import fmpy\n"
+        f"r = fmpy.simulate_fmu({str(built['fmu']['spur_28t_asym'])!r}, stop_time=2e-3, step_size=1e-4,"
+        " start_values={'speed1_in': 300.0})\n"
+        "import hacgear_core.fmu as hf\n"
+        "assert any(k.endswith('spur_28t_asym.so') for k in hf._PYTHONFMU_BINARIES), hf._PYTHONFMU_BINARIES\n"
+    )
+    for _ in range(4):
+        p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+        assert p.returncode == 0, (p.returncode, p.stderr[-2000:])

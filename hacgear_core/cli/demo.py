@@ -86,10 +86,10 @@ def run(args) -> int:
     if "sweep" in commands:
         n = 40 if args.quick else 120
         sw = _stage("sweep", ["sweep", args.model, "--torque", str(torque), "--fm", f"500:4500:{n}",
-                              "--direction", "both", "--json", "--out", str(out / "sweep.h5")], out, "sweep.json")
-        for key in ("jump_up_Hz", "jump_down_Hz"):
-            if key in sw:
-                print(f"  {key}: {sw[key]}")
+                              "--direction", "both", "--json", "--no-progress", "--out", str(out / "sweep.h5")], out, "sweep.json")
+        jumps = [f"{j['kind']} at {j['frequency_Hz']:.0f} Hz ({j['branch']} sweep)" for j in sw.get("jumps", [])
+                 if j.get("confirmed")]
+        print(f"  confirmed jumps: {', '.join(jumps) if jumps else 'none'}")
     try:
         from hacgear_core import fmu as _fmu  # noqa: F401
     except ImportError:
@@ -105,7 +105,7 @@ def run(args) -> int:
         cmd = [sys.executable, str(bench), "--fmu", str(out / f"{model.name}.fmu"), "--out",
                str(out / "drivetrain.png")]
         if args.quick:
-            cmd.append("--quick")
+            cmd += ["--ramp", "0.2"]
         subprocess.run(cmd, check=True)
         print(f"  drivetrain bench plot: {out / 'drivetrain.png'}")
     return 0

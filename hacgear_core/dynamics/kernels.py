@@ -60,10 +60,8 @@ _FM = {"contract"}
 
 
 @njit(cache=True, inline="always", fastmath=_FM)
-def table_force(ftab, x0, inv_dx, tau, x):
-    """Bilinear FDF lookup ``F(tau, x)`` [N]; ``tau`` any real (periodic, period 1), ``x`` [m]."""
-    npos = ftab.shape[0]
-    nd = ftab.shape[1]
+def periodic_cell(npos, tau):
+    """Cell of a periodic position grid ``k/npos``: ``(i, i+1 mod npos, fraction)`` for any real ``tau``."""
     p = tau * npos
     if p < 0.0 or p >= npos:  # tau outside [0, 1): wrap (the usual case skips the floor)
         p -= npos * math.floor(tau)
@@ -74,6 +72,15 @@ def table_force(ftab, x0, inv_dx, tau, x):
     i1 = i + 1
     if i1 == npos:
         i1 = 0
+    return i, i1, a
+
+
+@njit(cache=True, inline="always", fastmath=_FM)
+def table_force(ftab, x0, inv_dx, tau, x):
+    """Bilinear FDF lookup ``F(tau, x)`` [N]; ``tau`` any real (periodic, period 1), ``x`` [m]."""
+    npos = ftab.shape[0]
+    nd = ftab.shape[1]
+    i, i1, a = periodic_cell(npos, tau)
     r = (x - x0) * inv_dx
     j = int(r)  # truncation: r < 0 is clamped to column 0 below (linear extrapolation either way)
     if j < 0:
@@ -93,16 +100,7 @@ def table_force(ftab, x0, inv_dx, tau, x):
 def linear_force(lin, tau, x):
     """Conventional law ``max(0, k(tau)(x - e(tau)) + f0(tau))`` [N]; ``lin`` (3, Np)."""
     npos = lin.shape[1]
-    p = tau * npos
-    if p < 0.0 or p >= npos:  # tau outside [0, 1): wrap (the usual case skips the floor)
-        p -= npos * math.floor(tau)
-    i = int(p)
-    if i >= npos:
-        i = npos - 1
-    a = p - i
-    i1 = i + 1
-    if i1 == npos:
-        i1 = 0
+    i, i1, a = periodic_cell(npos, tau)
     k = lin[0, i] + a * (lin[0, i1] - lin[0, i])
     e = lin[1, i] + a * (lin[1, i1] - lin[1, i])
     f0 = lin[2, i] + a * (lin[2, i1] - lin[2, i])

@@ -21,12 +21,10 @@ pair at cycle 0 is offset ``-n`` at cycle ``n`` (convention used by :mod:`hacgea
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 
 __all__ = [
-    "SyntheticMeshTable",
     "spur_fdf_table",
     "linear_fdf_table",
     "disk_mass_inertia",
@@ -34,38 +32,10 @@ __all__ = [
 ]
 
 
-@dataclass(frozen=True)
-class SyntheticMeshTable:
-    """Same attribute names as ``hacgear_core.tables.MeshTable`` (tables contract); used only when
-    that module is not importable.  Tables built here carry ``solver = "synthetic ..."`` (MeshTable)
-    or ``synthetic = True`` so outputs can be labelled."""
-
-    name: str
-    gear_names: tuple[str, str]
-    teeth: tuple[int, int]
-    base_radius_m: tuple[float, float]
-    position: np.ndarray
-    deflection_m: np.ndarray
-    force_N: np.ndarray
-    no_load_deflection_m: np.ndarray
-    load_N: np.ndarray
-    static_deflection_m: np.ndarray
-    tooth_offsets: np.ndarray
-    tooth_load_N: np.ndarray
-    contact_roll_deg: np.ndarray
-    peak_pressure_Pa: np.ndarray
-    strain: dict = field(default_factory=dict)
-    synthetic: bool = True
-    solver: str = "synthetic"
-
-
 def _make_table(**kw):
-    """Build the contract's MeshTable if ``hacgear_core.tables`` provides a compatible one, else the
-    local :class:`SyntheticMeshTable`."""
-    try:
-        from hacgear_core.tables import MeshTable  # type: ignore
-    except ImportError:  # pragma: no cover - tables module not available
-        return SyntheticMeshTable(**kw)
+    """The contract's :class:`hacgear_core.tables.MeshTable`, labelled as synthetic."""
+    from hacgear_core.tables import MeshTable
+
     fields = dict(kw)
     fields.pop("synthetic", None)
     fields["solver"] = "synthetic (hacgear_core.dynamics.synthetic, not a contact solution)"

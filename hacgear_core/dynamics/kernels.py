@@ -131,15 +131,7 @@ def table_slope_many(ftab, x0, inv_dx, tau, x, out):
     npos = ftab.shape[0]
     nd = ftab.shape[1]
     for k in range(tau.shape[0]):
-        t = tau[k] - math.floor(tau[k])
-        p = t * npos
-        i = int(p)
-        if i >= npos:
-            i = npos - 1
-        a = p - i
-        i1 = i + 1
-        if i1 == npos:
-            i1 = 0
+        i, i1, a = periodic_cell(npos, tau[k])
         r = (x[k] - x0) * inv_dx
         j = int(r)
         if j < 0:

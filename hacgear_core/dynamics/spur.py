@@ -590,13 +590,12 @@ class SpurPairSimulator:
 def from_model(model, mesh_name: str | None = None, table=None) -> SpurPairParameters:
     """Map a :class:`hacgear_core.model.Model` (kind ``spur_pair``) to :class:`SpurPairParameters`.
 
-    Masses/inertias: the gear's ``mass_kg``/``inertia_kgm2`` when given, else a blank of solid
-    annulus bore..root plus the tooth ring root..tip half filled
-    (:func:`~hacgear_core.dynamics.synthetic.disk_mass_inertia`).  Base radii and teeth come from
+    Masses/inertias: those of :func:`hacgear_core.geometry.gear_geometry` (the gear's ``mass_kg`` /
+    ``inertia_kgm2`` when given, else the generated blank with its teeth, as ``hacgear info`` reports).  Base radii and teeth come from
     ``table`` when given (they define the FDF's deflection), else from module, teeth and the loaded
     flank's pressure angle.  Torque: ``[operating] torque_Nm`` referred to gear 1.
     """
-    from hacgear_core.dynamics.synthetic import disk_mass_inertia
+    from hacgear_core.geometry import gear_geometry
 
     if getattr(model, "kind", "spur_pair") not in ("spur_pair",):
         raise ModelError(f"from_model: model kind must be 'spur_pair', got {model.kind!r}")
@@ -604,10 +603,9 @@ def from_model(model, mesh_name: str | None = None, table=None) -> SpurPairParam
     ga, gb = model.gear(mesh.gear_a), model.gear(mesh.gear_b)
     masses, inertias, rbs, kys, kts = [], [], [], [], []
     for g, flank in ((ga, mesh.flank_a), (gb, mesh.flank_b)):
-        m, j = disk_mass_inertia(g.material.density_kg_per_m3, g.face_width_m, g.tip_diameter_m,
-                                 g.root_diameter_m, g.bore_diameter_m)
-        masses.append(g.mass_kg if g.mass_kg is not None else m)
-        inertias.append(g.inertia_kgm2 if g.inertia_kgm2 is not None else j)
+        gg = gear_geometry(g)
+        masses.append(gg.mass_kg)
+        inertias.append(gg.inertia_kgm2)
         rbs.append(0.5 * g.module_m * g.teeth * math.cos(g.flanks[flank].pressure_angle_rad))
         kys.append(g.support.translational_stiffness_N_per_m)
         kts.append(g.support.rotational_stiffness_Nm_per_rad)

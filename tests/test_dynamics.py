@@ -505,3 +505,27 @@ def test_long_runs_keep_precision():
         out.append((s.copy(), kin[0], kin[1] - cycles0))
     np.testing.assert_array_equal(out[0][0], out[1][0])
     assert out[0][1] == out[1][1] and out[0][2] == out[1][2] == 50.0
+
+
+def test_cli_refuses_a_table_of_another_model_unless_overridden(tmp_path, capsys):
+    """A table made from another model file is refused with the regenerate command; the expert override
+    uses a table of an edited model file, but a table of a different gear pair stays refused."""
+    import shutil
+    from pathlib import Path
+
+    from hacgear_core.cli import main
+
+    root = Path(__file__).resolve().parents[1] / "models"
+    other = str(root / "spur_50t_icr137" / "tables.h5")
+    assert main(["modes", "spur_28t_asym", "--torque", "300", "--tables", other]) == 2
+    err = capsys.readouterr().err
+    assert "does not belong to" in err and "hacgear statics" in err and "Traceback" not in err
+    assert main(["modes", "spur_28t_asym", "--torque", "300", "--tables", other, "--ignore-model-hash"]) == 2
+    assert "teeth (28, 28) do not match the table's teeth (50, 50)" in capsys.readouterr().err
+    edited = tmp_path / "model.toml"
+    edited.write_text((root / "spur_28t_asym" / "model.toml").read_text().replace(
+        "modal_damping_ratio = 0.02", "modal_damping_ratio = 0.03"))
+    shutil.copy(root / "spur_28t_asym" / "tables.h5", tmp_path / "tables.h5")
+    assert main(["modes", str(edited), "--torque", "300"]) == 2
+    capsys.readouterr()
+    assert main(["modes", str(edited), "--torque", "300", "--ignore-model-hash", "--json"]) == 0

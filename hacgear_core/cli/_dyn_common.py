@@ -26,6 +26,8 @@ def add_model_options(p: argparse.ArgumentParser, torque_required: bool = True) 
                    help="hac: force-deflection table (default); ste / average_slope / local_slope: the "
                         "conventional models of dissertation Eqs. 3.6-3.8 built from the same table")
     p.add_argument("--json", action="store_true", help="print results as JSON (SI, unit in key names)")
+    p.add_argument("--ignore-model-hash", action="store_true",
+                   help="experts: use a tables file whose model_sha256 does not match the model file")
 
 
 def inputs_from_args(args: argparse.Namespace):
@@ -33,7 +35,7 @@ def inputs_from_args(args: argparse.Namespace):
 
     return load_inputs(args.model, mesh=args.mesh, torque_Nm=args.torque,
                        bearing_stiffness_N_per_m=args.bearing_stiffness, damping_ratio=args.damping_ratio,
-                       tables=args.tables)
+                       tables=args.tables, allow_hash_mismatch=args.ignore_model_hash)
 
 
 def json_safe(obj):

@@ -61,10 +61,12 @@ def _synthetic(spec: str) -> DynamicsInputs:
 
 def load_inputs(model: str, *, mesh: str | None = None, torque_Nm: float | None = None,
                 bearing_stiffness_N_per_m: float | None = None,
-                damping_ratio: float | None = None, tables: str | None = None) -> DynamicsInputs:
+                damping_ratio: float | None = None, tables: str | None = None,
+                allow_hash_mismatch: bool = False) -> DynamicsInputs:
     """Parameters and mesh table for ``model`` (see module docstring), with optional overrides of
     the torque on gear 1 [N m], both bearing stiffnesses [N/m] and the modal damping ratio;
-    ``tables``: a tables file to use instead of the model folder's ``tables.h5`` (hash-checked)."""
+    ``tables``: a tables file to use instead of the model folder's ``tables.h5`` (hash-checked unless
+    ``allow_hash_mismatch``, an expert override for a table of an edited model file)."""
     if model.startswith("synthetic:"):
         inp = _synthetic(model)
     else:
@@ -89,13 +91,13 @@ def load_inputs(model: str, *, mesh: str | None = None, torque_Nm: float | None 
             mdl = load_model(mp)
             from hacgear_core.tables import read_tables as _rt
 
-            tabs = _rt(path, mp)
+            tabs = _rt(path, mp, allow_hash_mismatch=allow_hash_mismatch)
         else:
             from hacgear_core.model import load_model
             from hacgear_core.tables import load_system_tables
 
             mdl = load_model(model)
-            tabs = load_system_tables(model, tables)
+            tabs = load_system_tables(model, tables, allow_hash_mismatch=allow_hash_mismatch)
         tm = tabs.mesh(mesh)
         params = from_model(mdl, tm.name, table=tm)
         solver = str(getattr(tm, "solver", "") or "?")

@@ -269,6 +269,7 @@ class GearMesh:
     mesh_time_s: float
     sector_p: np.ndarray
     sector_t: np.ndarray
+    sector_offset_rad: float = 0.0
 
 
 def _boundary_pieces(xy: np.ndarray, region: np.ndarray, side: np.ndarray):
@@ -309,15 +310,18 @@ def mesh_gear(gg: Any, options: MeshOptions = MeshOptions()) -> GearMesh:
     keep = np.r_[True, np.linalg.norm(np.diff(xy, axis=0), axis=1) > 1e-12]
     xy, region, side = xy[keep], region[keep], side[keep]
     half = np.pi / z
+    # the sector is [-pi/z + off, pi/z + off]: off = 0 unless the root land lies off the mid-space angle
+    off = float(getattr(gg, "sector_offset_rad", 0.0))
+    lo, hi = off - half, off + half
     r0, r1 = np.hypot(*xy[0]), np.hypot(*xy[-1])
     a0, a1 = np.arctan2(xy[0, 1], xy[0, 0]), np.arctan2(xy[-1, 1], xy[-1, 0])
-    if abs(r0 - r1) > 1e-6 * r0 or abs(a0 + half) > 1e-6 or abs(a1 - half) > 1e-6:
-        raise GeometryError("tooth_boundary must run from the coast mid-root space (angle -pi/z) to the drive "
-                            f"mid-root space (+pi/z) at equal radii; got angles {a0:.6f}, {a1:.6f} rad "
-                            f"(expected {-half:.6f}, {half:.6f}) and radii {r0:.6e}, {r1:.6e} m")
+    if abs(r0 - r1) > 1e-6 * r0 or abs(a0 - lo) > 1e-6 or abs(a1 - hi) > 1e-6:
+        raise GeometryError("tooth_boundary must run from the coast root-space cut (angle -pi/z + sector_offset_rad) "
+                            f"to the drive root-space cut (+pi/z + sector_offset_rad) at equal radii; got angles "
+                            f"{a0:.6f}, {a1:.6f} rad (expected {lo:.6f}, {hi:.6f}) and radii {r0:.6e}, {r1:.6e} m")
     rr = 0.5 * (r0 + r1)
-    xy[0] = rr * np.array([np.cos(-half), np.sin(-half)])
-    xy[-1] = rr * np.array([np.cos(half), np.sin(half)])
+    xy[0] = rr * np.array([np.cos(lo), np.sin(lo)])
+    xy[-1] = rr * np.array([np.cos(hi), np.sin(hi)])
     radii = np.hypot(xy[:, 0], xy[:, 1])
     internal = bool(getattr(gg, "internal", False))
     if (not internal and r_hub >= radii.min()) or (internal and r_hub <= radii.max()):
@@ -359,8 +363,8 @@ def mesh_gear(gg: Any, options: MeshOptions = MeshOptions()) -> GearMesh:
                 curves.append(c)
                 (tip_curves if reg in (3, 4) else flank_curves if reg == 2 else fillet_curves).append(c)
             pc = geo.addPoint(0.0, 0.0, 0.0)
-            hl = geo.addPoint(r_hub * np.cos(-half), r_hub * np.sin(-half), 0.0)
-            hr = geo.addPoint(r_hub * np.cos(half), r_hub * np.sin(half), 0.0)
+            hl = geo.addPoint(r_hub * np.cos(lo), r_hub * np.sin(lo), 0.0)
+            hr = geo.addPoint(r_hub * np.cos(hi), r_hub * np.sin(hi), 0.0)
             cut_l = geo.addLine(hl, ptag[0])
             cut_r = geo.addLine(hr, ptag[-1])
             arc = geo.addCircleArc(hr, pc, hl)
@@ -443,7 +447,7 @@ def mesh_gear(gg: Any, options: MeshOptions = MeshOptions()) -> GearMesh:
         parent[i] = r
     uniq, inv = np.unique(parent, return_inverse=True)
     P, T = P[uniq], inv[T]
-    return GearMesh(P, T.astype(np.int64), z, r_hub, len(ts), mesh_time, ps, ts.astype(np.int64))
+    return GearMesh(P, T.astype(np.int64), z, r_hub, len(ts), mesh_time, ps, ts.astype(np.int64), off)
 
 
 # ----------------------------------------------------------------------------- FE model
@@ -786,8 +790,9 @@ class CyclicGearFE:
             e = np.array([np.cos(angle), np.sin(angle)])
             return (np.abs(e[0] * X[1] - e[1] * X[0]) < tol) & (e[0] * X[0] + e[1] * X[1] > 0)
 
-        left = np.flatnonzero(on_line(-half))
-        right = np.flatnonzero(on_line(half))
+        off = self.sector_offset_rad = float(getattr(gear_mesh, "sector_offset_rad", 0.0))
+        left = np.flatnonzero(on_line(off - half))
+        right = np.flatnonzero(on_line(off + half))
         comp = sec.dof_component
         Rt = rotation(th)
         # pair each right DOF with the two left DOF at the rotated location
@@ -862,7 +867,8 @@ class CyclicGearFE:
         pts = np.atleast_2d(np.asarray(pts, dtype=float))
         dirs = np.atleast_2d(np.asarray(dirs, dtype=float))
         th = 2 * np.pi / self.z
-        m = np.round(np.arctan2(pts[:, 1], pts[:, 0]) / th).astype(int)
+        ang = np.arctan2(pts[:, 1], pts[:, 0]) - getattr(self, "sector_offset_rad", 0.0)
+        m = np.round(ang / th).astype(int)
         P = np.empty_like(pts)
         D = np.empty_like(dirs)
         for q in range(len(pts)):
@@ -898,7 +904,7 @@ class CyclicGearFE:
         sec = self.sector
         P, Fd, m_load = self._map_to_sector(load_xy, load_force)
         if np.any(m_load != 0):
-            raise GeometryError("load points must lie on tooth 0 (its sector -pi/z..pi/z)")
+            raise GeometryError("load points must lie on tooth 0 (its sector -pi/z..pi/z, shifted by sector_offset_rad)")
         F = sec.point_loads(P, Fd)
         U_h = []
         with _single_thread_blas():
@@ -1248,6 +1254,9 @@ def _hash_inputs(gg, material, options, side, s_grid, depth, gauges, n_profile) 
                              gauges=[asdict(g) for g in gauges], n_profile=n_profile),
                         sort_keys=True, default=float).encode())
     h.update(np.ascontiguousarray(s_grid).tobytes())
+    off = float(getattr(gg, "sector_offset_rad", 0.0))
+    if off != 0.0:  # sector cut off the mid-space angle (kept out of the key otherwise: old caches stay valid)
+        h.update(f"sector_offset_rad={off!r}".encode())
     return h.hexdigest()[:32]
 
 

@@ -60,6 +60,7 @@ __all__ = [
     "REGION_TIP_ROUNDING",
     "REGION_TIP_LAND",
     "involute_function",
+    "max_hob_tip_radius_m",
     "FlankProfile",
     "Boundary",
     "GearGeometry",
@@ -401,6 +402,7 @@ class GearGeometry:
     shaper_teeth: int | None
     warnings: tuple[str, ...]
     density_kg_per_m3: float
+    sector_offset_rad: float
     _form: _ToothForm = field(repr=False, compare=False)
     _flanks: Mapping[str, _Flank] = field(repr=False, compare=False)
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
@@ -524,6 +526,14 @@ class GearGeometry:
         nX, nY = np.sin(ang), np.cos(ang)
         return X, Y, nX, nY
 
+    def root_cut_local_rad(self, side: str) -> float:
+        """Polar angle [rad], in the flank's local frame (tooth axis = 0, flank on the + side), where
+        the flank's root space is cut: ``pi/z`` when both fillet bottoms lie inside the mid-space angle,
+        else the middle of the (off-centre) root land, ``pi/z +/- sector_offset_rad``."""
+        _check_side(side)
+        d = self.sector_offset_rad if side == "drive" else -self.sector_offset_rad
+        return math.pi / self.z + d
+
     def flank(self, side: str, n: int = 200) -> FlankProfile:
         """Flank of tooth 0 (``side`` = drive | coast) with ``n`` points from root to tip."""
         _check_side(side)
@@ -534,7 +544,7 @@ class GearGeometry:
             return self._cache[key]
         fl = self._flanks[side]
         r_f = self.root_radius_m
-        th_mid = math.pi / self.z
+        th_mid = self.root_cut_local_rad(side)
         # region lengths
         land_len = r_f * (th_mid - fl.bottom_theta)
         phid = np.linspace(fl.phi_start, fl.phi_end, _FILLET_DENSE)
@@ -778,6 +788,55 @@ def _build_flank(gear: Any, form: _ToothForm, side: str, r_f: float, r_a: float,
                   relief_shape=fl_model.tip_relief_shape)
 
 
+def _root_land_rad(gear: Any, form: _ToothForm, r_f: float, r_a: float, m: float, z0: int | None,
+                   rho: float) -> float:
+    """Angular root land 2 pi/z - th_drive - th_coast [rad] for tool tip radius ``rho`` [m]."""
+    th = []
+    for sd in SIDES:
+        alpha = form.alpha[sd]
+        tool = (_RackTool(form.r, alpha, form.psi, r_f, rho) if not form.internal
+                else _ShaperTool(form, sd, r_f, rho, z0, m))
+        c, _, _ = tool.centre(np.atleast_1d(tool.phi_bottom))
+        cmi = c - tool.I[:, None]
+        p = _rot(np.atleast_1d(tool.phi_bottom), c + rho * tool.sign * cmi / np.hypot(cmi[0], cmi[1]))[:, 0]
+        th.append(math.atan2(p[0], p[1]))
+    return 2 * math.pi / form.z - th[0] - th[1]
+
+
+def _max_tool_tip_radius(gear: Any, form: _ToothForm, r_f: float, r_a: float, m: float, z0: int | None) -> float:
+    """Largest tool tip radius [m] whose two tip circles do not overlap (root land >= 0)."""
+    lo, hi = 1e-9, gear.hob_tip_radius_m
+    f = lambda rho: _root_land_rad(gear, form, r_f, r_a, m, z0, rho)  # noqa: E731
+    try:
+        if f(lo) < 0:
+            return 0.0
+        return float(brentq(f, lo, hi, xtol=1e-12))
+    except (GeometryError, ValueError):
+        return float("nan")
+
+
+def max_hob_tip_radius_m(gear: Any, *, shaper_teeth: int | None = None) -> float:
+    """Largest hob (or shaper) tip radius [m] the gear's tool can have: the two tip circles of the
+    tool tooth touch (zero root land); the fillets then meet on the root circle, generally off the
+    mid-space angle for asymmetric teeth."""
+    z = int(gear.teeth)
+    m = float(gear.module_m)
+    r = 0.5 * m * z
+    internal = bool(gear.internal)
+    alpha = {s: float(gear.flanks[s].pressure_angle_rad) for s in SIDES}
+    form = _ToothForm(z=z, r=r, internal=internal, alpha=alpha, rb={s: r * math.cos(alpha[s]) for s in SIDES},
+                      psi=float(gear.tooth_thickness_m) / (2 * r))
+    z0 = None
+    if internal:
+        z0 = int(shaper_teeth) if shaper_teeth is not None else max(8, min(SHAPER_TEETH, z // 3))
+    r_f = 0.5 * gear.root_diameter_m
+    f = lambda rho: _root_land_rad(gear, form, r_f, 0.5 * gear.tip_diameter_m, m, z0, rho)  # noqa: E731
+    hi = 0.5 * m
+    while f(hi) > 0 and hi < 10 * m:
+        hi *= 1.5
+    return float(brentq(f, 1e-9, hi, xtol=1e-12))
+
+
 def gear_geometry(gear: Any, *, shaper_teeth: int | None = None) -> GearGeometry:
     """Build the geometry of one :class:`hacgear_core.model.Gear` (a few ms).
 
@@ -813,14 +872,22 @@ def gear_geometry(gear: Any, *, shaper_teeth: int | None = None) -> GearGeometry
     if gear.hob_tip_radius_m <= 0:
         raise GeometryError(f"gear '{gear.name}': hob_tip_radius_mm must be > 0 (a sharp tool tip leaves no fillet)")
     flanks = {s: _build_flank(gear, form, s, r_f, r_a, m, z0, warnings) for s in SIDES}
-    # root land must contain the mid-pitch angle on both sides
-    for s in SIDES:
-        if flanks[s].bottom_theta >= math.pi / z:
-            raise GeometryError(
-                f"gear '{gear.name}' {s} flank: the root fillet bottom (polar angle "
-                f"{math.degrees(flanks[s].bottom_theta):.3f} deg) lies beyond the mid-pitch angle "
-                f"{math.degrees(math.pi / z):.3f} deg: the tool tip has no land (hob_tip_radius_mm "
-                f"{gear.hob_tip_radius_m * 1e3:g} too large or root_diameter_mm too small)")
+    # root land: the generated root space runs from the drive fillet bottom (polar angle th_d) to the
+    # next tooth's coast fillet bottom (2 pi/z - th_c); the rack/shaper tip land maps onto it, so a
+    # negative land means the two tip circles of the tool tooth overlap (tool tip too narrow).
+    th_d, th_c = flanks["drive"].bottom_theta, flanks["coast"].bottom_theta
+    land = 2 * math.pi / z - th_d - th_c
+    if land < -1e-9 / z:
+        rho_max = _max_tool_tip_radius(gear, form, r_f, r_a, m, z0)
+        raise GeometryError(
+            f"gear '{gear.name}': hob_tip_radius_mm = {gear.hob_tip_radius_m * 1e3:g} mm too large: the two tip "
+            f"circles of the tool tooth overlap (root land {math.degrees(land):.4f} deg < 0); allowed: "
+            f"0 < hob_tip_radius_mm <= {rho_max * 1e3:.4f} mm for this gear (or a larger root_diameter_mm)")
+    land = max(land, 0.0)
+    if th_d <= math.pi / z and th_c <= math.pi / z:
+        sector_offset = 0.0  # cut at the mid-space angle (symmetric cut, as before)
+    else:
+        sector_offset = 0.5 * (th_d - th_c)  # cut in the middle of the off-centre root land
     # tooth thickness at the tip
     s_tip = r_a * float(form.thickness_angle(r_a))
     if s_tip <= 0:
@@ -874,7 +941,7 @@ def gear_geometry(gear: Any, *, shaper_teeth: int | None = None) -> GearGeometry
         involute_end_roll_rad={s: flanks[s].u_end for s in SIDES}, undercut={s: flanks[s].undercut for s in SIDES},
         fillet_root_curvature_radius_m=fillet_rc, tip_thickness_m=s_tip, bore_radius_m=r_bore, mass_kg=0.0,
         inertia_kgm2=0.0, diametral_inertia_kgm2=0.0, blank_mass_kg=0.0, blank_inertia_kgm2=0.0, teeth_area_m2=0.0,
-        shaper_teeth=z0, warnings=(), density_kg_per_m3=rho_mat, _form=form, _flanks=flanks)
+        shaper_teeth=z0, warnings=(), density_kg_per_m3=rho_mat, sector_offset_rad=sector_offset, _form=form, _flanks=flanks)
     # mass properties from the polygon of the whole boundary
     # one tooth sector (origin + one pitch of boundary), times z
     sector = np.vstack([[0.0, 0.0], gg.tooth_boundary(240).xy])

@@ -24,9 +24,13 @@ def main() -> int:
     ap.add_argument("--grid", action="store_true", help="also time the statics grid workload")
     ap.add_argument("--figures", metavar="DIR", help="instead: run the study of docs/static_contact.md, write "
                                                      "DIR/contact_*.png and print its numbers")
+    ap.add_argument("--hob-figure", metavar="DIR", help="instead: only the hob tip radius study (Fig. 2.7 analogue), "
+                                                        "write DIR/contact_fillet_strain_hob_radius.png")
     args = ap.parse_args()
     if args.figures:
         return figures(args.figures)
+    if args.hob_figure:
+        return hob_radius_figure(args.hob_figure)
 
     from hacgear_core.contact import make_mesh_solver
     from hacgear_core.model import load_model
@@ -178,10 +182,31 @@ def figures(out_dir: str) -> int:
     fig.savefig(out / "contact_strain_loads_location.png", dpi=120)
     plt.close(fig)
 
+    hob_radius_figure(out_dir)
+    return 0
+
+
+def hob_radius_figure(out_dir: str) -> int:
+    """Dissertation Fig. 2.7 analogue: wheel root strain for hob tip radii 0.4, 1.8 (the largest the
+    28-tooth tool allows) and 0.01 mm."""
+    from pathlib import Path
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from hacgear_core.contact import make_mesh_solver, model_variant, root_strain_scan
+    from hacgear_core.model import load_model
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    model = load_model("spur_28t_asym")
+    W = 300.0 / make_mesh_solver(model, "m12").base_radius_m[0]
     # ---- Fig. 2.7 analogue: strain along the root for three hob tip radii
     fig, ax = plt.subplots(1, 3, figsize=(13, 4), sharey=True)
     ref = None
-    for a, r in zip(ax, (0.4e-3, 1.3e-3, 0.01e-3)):
+    for a, r in zip(ax, (0.4e-3, 1.8e-3, 0.01e-3)):
         sc = root_strain_scan(model, "m12", W, positions=96) if r == 0.4e-3 else \
             root_strain_scan(model_variant(model, hob_tip_radius_m=r), "m12", W, positions=96)
         if ref is None:

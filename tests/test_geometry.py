@@ -9,7 +9,8 @@ import pytest
 from hacgear_core.errors import GeometryError, ModelError
 from hacgear_core.geometry import (
     REGION_FILLET, REGION_INVOLUTE, REGION_ROOT_LAND, REGION_TIP_ROUNDING, SIDES, fillet_root_curvature_radius_rack,
-    fillet_root_curvature_radius_shaper, gear_geometry, involute_function, mesh_geometry, model_geometry,
+    fillet_root_curvature_radius_shaper, gear_geometry, involute_function, max_hob_tip_radius_m, mesh_geometry,
+    model_geometry,
     zero_backlash_center_distance,
 )
 from hacgear_core.model import Flank, Gear, Material, load_model
@@ -623,3 +624,52 @@ def test_plot_geometry_mesh_position_no_overlap(tmp_path):
     out = tmp_path / "g.png"
     assert main(["plot-geometry", "spur_28t_asym", "--out", str(out), "--exaggerate", "50"]) == 0
     assert out.stat().st_size > 10000
+
+
+def test_hob_tip_radius_limit_is_the_tool_tip_not_the_mid_space_angle(asym28):
+    """Dissertation 2.4.1: 1.8 mm is "the maximum hob tip radius allowed by geometry" for the 28-tooth
+    asymmetric gear.  The limit is the tool: its two tip circles touch (zero root land).  Up to it the
+    gear builds, with the land (and the sector cut) off the mid-space angle; beyond it the error names
+    the field, the unit and the maximum."""
+    import dataclasses
+
+    g = asym28.gear("wheel")
+    rho_max = max_hob_tip_radius_m(g)
+    assert 1.75e-3 < rho_max < 1.85e-3
+    gg = gear_geometry(dataclasses.replace(g, hob_tip_radius_m=1.8e-3))
+    half = math.pi / gg.z
+    assert gg.sector_offset_rad > 0
+    tb = gg.tooth_boundary(100)
+    a = np.arctan2(tb.xy[:, 1], tb.xy[:, 0])
+    assert a[0] == pytest.approx(-half + gg.sector_offset_rad, abs=1e-12)
+    assert a[-1] == pytest.approx(half + gg.sector_offset_rad, abs=1e-12)
+    assert np.all(np.diff(a) > 0)                                     # simple, counter-clockwise
+    r = np.hypot(tb.xy[:, 0], tb.xy[:, 1])
+    assert r.min() == pytest.approx(gg.root_radius_m, rel=1e-9)      # fillets stay above the root circle
+    # the cut lies on the root land, between the drive bottom and the next tooth's coast bottom
+    land = tb.region == REGION_ROOT_LAND
+    assert land[-1] and land[0]
+    assert np.allclose(r[land], gg.root_radius_m, rtol=1e-12)
+    # closed gear boundary: tooth k ends where tooth k+1 starts
+    gb = gg.gear_boundary(100)
+    seg = np.hypot(*np.diff(np.vstack([gb.xy, gb.xy[:1]]), axis=0).T)
+    assert seg.max() < 5 * np.median(seg) + 1e-4
+    # just below the limit: the two fillets meet (vanishing land); above it: a clear error
+    gg_lim = gear_geometry(dataclasses.replace(g, hob_tip_radius_m=rho_max * (1 - 1e-6)))
+    fd, fc = gg_lim.flank("drive", 200), gg_lim.flank("coast", 200)
+    assert (fd.region == REGION_ROOT_LAND).sum() + (fc.region == REGION_ROOT_LAND).sum() <= 4
+    with pytest.raises(GeometryError, match=r"hob_tip_radius_mm = 1\.9 mm too large.*<= 1\.81"):
+        gear_geometry(dataclasses.replace(g, hob_tip_radius_m=1.9e-3))
+    # the nominal 0.4 mm tooth keeps the symmetric cut (unchanged FE/contact results)
+    assert gear_geometry(g).sector_offset_rad == 0.0
+
+
+def test_symmetric_tooth_max_hob_radius_closed_form():
+    """Symmetric rack: the tip land vanishes when rho = (p/4 - h tan a) cos a / (1 - sin a), with h the
+    tool addendum (here 1.25 m, zero shift); the fillets then meet on the mid-space line."""
+    m, a = 5e-3, math.radians(20.0)
+    g = make_gear()
+    expect = (math.pi * m / 4 - 1.25 * m * math.tan(a)) * math.cos(a) / (1 - math.sin(a))
+    assert max_hob_tip_radius_m(g) == pytest.approx(expect, rel=1e-6)
+    gg = gear_geometry(make_gear(rho=0.999 * expect))
+    assert gg.sector_offset_rad == 0.0

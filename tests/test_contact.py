@@ -360,10 +360,25 @@ def test_hob_tip_radius_trend(model):
     0.01 mm is checked against that band (measured +12.3 %).  1.8 mm, now buildable (the root land
     and the sector cut lie off the mid-space angle), measures -19.8 %: beyond the dissertation's
     band by 2.6 points (docs/static_contact.md); asserted here is the trend -- monotone in the
-    radius, a reduction at least the dissertation's lower bound (9.2 %) and below a quarter."""
-    W = TORQUE / 0.0634415450925655
-    m = {r: root_strain_scan(model_variant(model, hob_tip_radius_m=r), "m12", W, positions=64).max_strain
-         for r in (0.01e-3, 0.4e-3, 1.3e-3, 1.8e-3)}
+    radius and a reduction at least the dissertation's lower bound (9.2 %); the dissertation's band for
+    1.8 mm is the strict xfail below."""
+    m = _hob_max_strains(model)
     assert m[0.01e-3] / m[0.4e-3] - 1 == pytest.approx(0.100, abs=0.04)
     assert m[0.01e-3] > m[0.4e-3] > m[1.3e-3] > m[1.8e-3]
-    assert -0.25 < m[1.8e-3] / m[0.4e-3] - 1 < -0.132 + 0.04
+    assert m[1.8e-3] / m[0.4e-3] - 1 < -0.132 + 0.04
+
+
+def _hob_max_strains(model, _cache={}):
+    if not _cache:
+        W = TORQUE / 0.0634415450925655
+        _cache.update({r: root_strain_scan(model_variant(model, hob_tip_radius_m=r), "m12", W,
+                                           positions=64).max_strain for r in (0.01e-3, 0.4e-3, 1.3e-3, 1.8e-3)})
+    return _cache
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="measured -19.8 % for 1.8 mm vs the dissertation's -13.2 % +/- 4 points "
+                   "(docs/validation.md)")
+def test_hob_tip_radius_18mm_matches_dissertation_band(model):
+    m = _hob_max_strains(model)
+    assert m[1.8e-3] / m[0.4e-3] - 1 == pytest.approx(-0.132, abs=0.04)

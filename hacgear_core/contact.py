@@ -934,20 +934,19 @@ class MeshContactSolver:
         loads = np.asarray(loads_N, dtype=float).ravel()
         defl = np.asarray(deflections_m, dtype=float).ravel()
         self.setup(position)
-        out_l, out_d = [], []
-        warm = None
-        for W in loads:
-            st = self.state_load(position, W, warm=warm)
+        return (self._warm_started(self.state_load, position, loads),
+                self._warm_started(self.state_deflection, position, defl))
+
+    def _warm_started(self, state_fn, position: float, values: np.ndarray) -> list:
+        """Solve ``state_fn(position, v)`` for each value in order, each warm-started from the last
+        loaded contact state."""
+        out, warm = [], None
+        for v in values:
+            st = state_fn(position, v, warm=warm)
             if st.success and np.any(st.force_N > 0):
                 warm = st.force_N
-            out_l.append(self.to_solution(st))
-        warm = None
-        for x in defl:
-            st = self.state_deflection(position, x, warm=warm)
-            if st.success and np.any(st.force_N > 0):
-                warm = st.force_N
-            out_d.append(self.to_solution(st))
-        return out_l, out_d
+            out.append(self.to_solution(st))
+        return out
 
     # pickling: drop the set-up cache
     def __getstate__(self):

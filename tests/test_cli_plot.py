@@ -22,15 +22,11 @@ def test_plot_tables_fdf_and_sdf(tmp_path):
 
 
 def test_plot_sweep_marks_the_jumps(tmp_path, capsys):
+    from hacgear_core.dynamics.spur import SpurPairSystem
     from hacgear_core.dynamics.sweep import SweepSpec, run_sweep
-    from hacgear_core.dynamics.synthetic import linear_fdf_table
-    from hacgear_core.dynamics.spur import SpurPairParameters, SpurPairSystem
+    from hacgear_core.dynamics.synthetic import softening_example
 
-    k, rb = 150e6, 0.0634
-    xs0 = 100.0 / rb / k
-    tab = linear_fdf_table(k, offset_amplitude_m=0.2 * xs0, x_max_m=6 * xs0)
-    p = SpurPairParameters(mass_kg=(1.6, 2.1), inertia_kg_m2=(0.0044, 0.0061), base_radius_m=(rb, rb),
-                           teeth=(28, 28), modal_damping_ratio=0.03, torque_Nm=100.0)
+    p, tab, _ = softening_example()
     fn = SpurPairSystem(p, tab).natural_frequencies_Hz()[0]
     res = run_sweep(SweepSpec(p, tab, tuple(np.linspace(0.5 * fn, 1.3 * fn, 41)), "both"), out=tmp_path / "s.h5",
                     progress=False)

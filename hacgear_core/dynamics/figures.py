@@ -17,10 +17,10 @@ def main(outdir: str = "docs/figures") -> dict:
     import matplotlib.pyplot as plt
 
     from hacgear_core import post
-    from hacgear_core.dynamics.spur import SpurPairParameters, SpurPairSystem
+    from hacgear_core.dynamics.spur import SpurPairSystem
     from hacgear_core.dynamics.steady import steady_state
     from hacgear_core.dynamics.sweep import SweepSpec, run_sweep
-    from hacgear_core.dynamics.synthetic import linear_fdf_table, spur_fdf_table, synthetic_28t_parameters
+    from hacgear_core.dynamics.synthetic import softening_example, spur_fdf_table, synthetic_28t_parameters
 
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
@@ -107,11 +107,7 @@ def main(outdir: str = "docs/figures") -> dict:
     plt.close(fig)
 
     # 4. the classical softening oscillator: jumps
-    k, rb = 150e6, 0.0634
-    xs0 = 100.0 / rb / k
-    ltab = linear_fdf_table(k, offset_amplitude_m=0.2 * xs0, x_max_m=6 * xs0)
-    lp = SpurPairParameters(mass_kg=(1.6, 2.1), inertia_kg_m2=(0.0044, 0.0061), base_radius_m=(rb, rb),
-                            teeth=(28, 28), modal_damping_ratio=0.03, torque_Nm=100.0)
+    lp, ltab, xs0 = softening_example()
     fnl = SpurPairSystem(lp, ltab).natural_frequencies_Hz()[0]
     r = run_sweep(SweepSpec(lp, ltab, tuple(np.linspace(0.5 * fnl, 1.3 * fnl, 81)), "both"), progress=False)
     fig, ax = plt.subplots(figsize=(8, 4))

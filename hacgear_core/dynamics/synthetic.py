@@ -29,6 +29,7 @@ __all__ = [
     "linear_fdf_table",
     "disk_mass_inertia",
     "synthetic_28t_parameters",
+    "softening_example",
 ]
 
 
@@ -231,3 +232,17 @@ def synthetic_28t_parameters(table, *, bearing_stiffness_N_per_m: float = math.i
         teeth=tuple(table.teeth), bearing_stiffness_N_per_m=(bearing_stiffness_N_per_m,) * 2,
         modal_damping_ratio=modal_damping_ratio, torque_Nm=torque_Nm,
     )
+
+
+def softening_example(damping_ratio: float = 0.03):
+    """The classical softening oscillator used in tests and figures: constant mesh stiffness 150 N/um,
+    a sinusoidal no-load deflection of 20 % of the static deflection (contact loss at large amplitude),
+    28-tooth blanks, 100 N m.  Returns ``(params, table, static_deflection_m)``."""
+    from hacgear_core.dynamics.spur import SpurPairParameters
+
+    k, rb = 150e6, 0.0634
+    xs0 = 100.0 / rb / k
+    table = linear_fdf_table(k, offset_amplitude_m=0.2 * xs0, x_max_m=6 * xs0)
+    params = SpurPairParameters(mass_kg=(1.6, 2.1), inertia_kg_m2=(0.0044, 0.0061), base_radius_m=(rb, rb),
+                                teeth=(28, 28), modal_damping_ratio=damping_ratio, torque_Nm=100.0)
+    return params, table, xs0

@@ -220,6 +220,7 @@ class SpurPairAdapter:
         self.mode = MODE_SPEED
         self.input_checks: tuple = ()
         self.step_floor_s = 0.0
+        self._bind()
 
     # ------------------------------------------------------------------ the spec (declared once)
     def _spec(self) -> tuple[FmuVariable, ...]:
@@ -301,38 +302,49 @@ class SpurPairAdapter:
         return int(self.table.teeth[names.index(gear)]) if gear in names else int(self.table.teeth[0])
 
     # ------------------------------------------------------------------ outputs
+    #: outputs kept in :attr:`out` (filled once per step from the kernel's end-of-step record and the state)
+    FAST_OUTPUTS = ("mesh_force", "mesh_deflection", "dte", "mesh_position", "contact", "angle1", "angle2",
+                    "speed1", "speed2")
+
     def getters(self) -> dict[str, Callable[[], float]]:
-        """Output name -> zero-argument getter reading the current simulator."""
+        """Output name -> zero-argument getter returning a Python float for the current step.
+
+        The outputs in :data:`FAST_OUTPUTS` read the vector :attr:`out` that :meth:`advance` fills once per step;
+        the others (bearing forces, table post-processing) bring the simulator's own outputs up to date first
+        (:meth:`synced`), once per step and only when one of them is asked for."""
         a = self
-        out = {
-            "mesh_force": lambda: a.sim.mesh_force_N,
-            "mesh_deflection": lambda: a.sim.mesh_deflection_m,
-            "dte": lambda: a.sim.dynamic_transmission_error_m,
-            "mesh_position": lambda: a.sim.mesh_position,
-            "contact": lambda: 1.0 if a.sim.in_contact else 0.0,
-            "angle1": lambda: a.sim.angle1_rad,
-            "angle2": lambda: a.sim.angle2_rad,
-            "speed1": lambda: a.sim.speed1_rad_s,
-            "speed2": lambda: a.sim.speed2_rad_s,
-            "bearing_force1": lambda: a.sim.bearing_force_N[0],
-            "bearing_force2": lambda: a.sim.bearing_force_N[1],
-            "peak_pressure": a.peak_pressure,
-        }
+
+        def fast(i):
+            return lambda: a.out[i]
+
+        out = {name: fast(i) for i, name in enumerate(self.FAST_OUTPUTS)}
+        out["bearing_force1"] = lambda: float(a.synced().bearing_force_N[0])
+        out["bearing_force2"] = lambda: float(a.synced().bearing_force_N[1])
+        out["peak_pressure"] = a.peak_pressure
         for g in self.gauges:
             gear, _, gauge = g.partition("/")
             out[f"root_strain.{_ident(gear)}.{_ident(gauge or gear)}"] = (lambda key: lambda: a.root_strain(key))(g)
         return out
 
+    def synced(self):
+        """The simulator with its output attributes (``mesh_force_N``, ``bearing_force_N``, ...) brought up to
+        date with its state (:meth:`advance` updates only :attr:`out`)."""
+        if self._stale:
+            self.sim._update_outputs()
+            self._stale = False
+        return self.sim
+
     def peak_pressure(self) -> float:
         """Maximum contact pressure over all teeth now [Pa] (table lookup along the dynamic state)."""
         from hacgear_core.post import dynamic_contact_pressure
 
-        return float(dynamic_contact_pressure(self.table, [self.sim.mesh_position], [self.sim.mesh_deflection_m])[0])
+        sim = self.synced()
+        return float(dynamic_contact_pressure(self.table, [sim.mesh_position], [sim.mesh_deflection_m])[0])
 
     def root_strain(self, gauge: str) -> float:
         """Root strain [-] at ``gauge`` on one physical tooth (library:
         :meth:`~hacgear_core.dynamics.spur.SpurPairSimulator.strain`)."""
-        return self.sim.strain(gauge)
+        return float(self.synced().strain(gauge))
 
     # ------------------------------------------------------------------ configuration
     @staticmethod
@@ -374,6 +386,7 @@ class SpurPairAdapter:
         fm_max = 4.0 * max(abs(v.min), abs(v.max)) * sy.z1_2pi  # mesh frequency bound, margin for vibration [Hz]
         floor = min(1.0 / (32.0 * sy.max_frequency_Hz), 1.0 / (128.0 * fm_max))
         self.step_floor_s = min(floor, h) if h else floor
+        self._bind()
 
     def input_names(self) -> tuple[str, ...]:
         """Inputs read in the current mode (only these are checked and applied)."""
@@ -391,8 +404,53 @@ class SpurPairAdapter:
                 self.sim.set_torque_inputs(cur[0], cur[1])
         self._last_inputs = cur
 
-    def advance(self, dt: float):
-        return self.sim.advance(dt)
+    def _bind(self) -> None:
+        """Buffers of :meth:`advance` for the current simulator; :attr:`out` from its current outputs."""
+        from hacgear_core.dynamics import kernels
+
+        sim = self.sim
+        m2 = 2 * sim.system.n
+        self._rec_state = np.zeros((1, m2))
+        self._rec_out = np.zeros((1, 5))
+        sy = sim.system
+        self._layout = (sy.n, sy.ith1, sy.ith2, sy.ratio, sy.z1_2pi, float(sim.params.mesh_phase))
+        self._kernel_mode = {"speed": kernels.MODE_SPEED, "torque": kernels.MODE_TORQUE}
+        self.out = [float(sim.mesh_force_N), float(sim.mesh_deflection_m), float(sim.dynamic_transmission_error_m),
+                    float(sim.mesh_position), 1.0 if sim.in_contact else 0.0, float(sim.angle1_rad),
+                    float(sim.angle2_rad), float(sim.speed1_rad_s), float(sim.speed2_rad_s)]
+        self._stale = False
+
+    def advance(self, dt: float) -> str:
+        """Advance the simulator by ``dt`` [s] > 0 (checked by the caller); ``""`` on success, else the reason
+        (the state is then left unchanged).
+
+        The same step as :meth:`SpurPairSimulator.advance <hacgear_core.dynamics.spur.SpurPairSimulator.advance>`
+        (equal RK4 sub-steps no longer than the simulator's internal step, one call of the system's compiled
+        kernel, state restored when it is not finite), with the kernel recording the mesh outputs at the end of
+        the step: the FMU's outputs (:attr:`out`) then need no Python evaluation of the force law, and the
+        simulator's other output attributes are updated only when asked for (:meth:`synced`).
+        """
+        sim = self.sim
+        nsub = max(1, int(math.ceil(dt / sim.current_internal_step_s - 1e-9)))
+        s, kin = sim.s, sim.kin
+        s0, k0 = s.copy(), kin.copy()
+        rec = self._rec_out
+        sim.system.integrate(s, kin, nsub, dt / nsub, sim.fext, mode=self._kernel_mode[sim.mode], rec_every=nsub,
+                             rec_state=self._rec_state, rec_out=rec)
+        st, kt = s.tolist(), kin.tolist()
+        isf = math.isfinite
+        if not (all(map(isf, st)) and all(map(isf, kt))):
+            s[:], kin[:] = s0, k0
+            return f"integration diverged within dt = {dt:g} s (state not finite); state restored"
+        sim.time_s += dt
+        # kernel record: [unwrapped mesh position, mesh deflection, mesh force, r_b1 th1 + r_b2 th2, time offset]
+        pos, x, f, dte, _ = rec[0].tolist()
+        n, i1, i2, ratio, z1_2pi, phase = self._layout
+        phi_ref = (kt[1] + kt[0] - phase) / z1_2pi
+        self.out = [f, x, dte, pos, 1.0 if f > 0.0 else 0.0, phi_ref + st[i1], ratio * phi_ref - st[i2],
+                    kt[2] + st[n + i1], ratio * kt[2] - st[n + i2]]
+        self._stale = True
+        return ""
 
     def internal_step(self) -> float:
         """Internal step the simulator would use now [s]."""
@@ -590,6 +648,7 @@ class HacgearSlave(Fmi2Slave):
             if not self._register_from_model_description():
                 raise  # at build time (no modelDescription.xml yet): fail the build loudly
             self.log(self._failed, Fmi2Status.error)
+        self._index_reals()
 
     def _setup(self, res: Path) -> None:
         info = fmu_info(res)
@@ -614,7 +673,7 @@ class HacgearSlave(Fmi2Slave):
                     description=v.description, initial=Fmi2Initial.exact,
                     getter=self._safe(v.name, getters[v.name]) if v.name in adapter.fallible else getters[v.name]))
             else:
-                self.values[v.name] = v.start
+                self.values[v.name] = float(v.start) if v.type == "Real" else int(v.start)
                 self.register_variable(self._param_var(v.name, v.type, v.causality, v.variability, v.description))
 
     def _register_from_model_description(self) -> bool:
@@ -649,6 +708,12 @@ class HacgearSlave(Fmi2Slave):
                 self.log(f"output '{name}' could not be computed: {type(exc).__name__}: {exc}", Fmi2Status.error)
                 return math.nan
         return get
+
+    def _index_reals(self) -> None:
+        """Value reference -> getter / setter of the Real variables (the per-step fast path of
+        :meth:`get_real` and :meth:`set_real`; outputs have no setter)."""
+        self._real_get = {vr: v.getter for vr, v in self.vars.items() if isinstance(v, Real)}
+        self._real_set = {vr: v.setter for vr, v in self.vars.items() if isinstance(v, Real) and v.setter is not None}
 
     def _param_var(self, name: str, typ: str, causality: str, variability: str, description: str):
         values = self.values
@@ -690,6 +755,50 @@ class HacgearSlave(Fmi2Slave):
             self._failed = "invalid parameters or start values: " + "; ".join(errors)
             self.log(self._failed, Fmi2Status.error)
 
+    def get_real(self, vrs):
+        """fmi2GetReal: the values (a list of floats, as pythonfmu's C wrapper reads them) of the Real variables
+        ``vrs``.  One dictionary lookup and one getter call per variable (pythonfmu's own version checks each
+        variable's type first); a value reference that is not a Real variable of this FMU gives NaN and a log
+        message instead of an exception (see the class docstring)."""
+        try:
+            get = self._real_get
+            return [get[vr]() for vr in vrs]
+        except Exception:
+            return self._get_real_checked(vrs)
+
+    def _get_real_checked(self, vrs):
+        out = []
+        for vr in vrs:
+            g = self._real_get.get(vr)
+            if g is None:
+                self.log(f"getReal: value reference {vr!r} is not a Real variable of this FMU; NaN returned",
+                         Fmi2Status.error)
+                out.append(math.nan)
+                continue
+            try:
+                out.append(float(g()))
+            except Exception as exc:
+                self.log(f"getReal: '{self.vars[vr].name}' could not be read: {type(exc).__name__}: {exc}; NaN "
+                         "returned", Fmi2Status.error)
+                out.append(math.nan)
+        return out
+
+    def set_real(self, vrs, values):
+        """fmi2SetReal: store the values of Real parameters and inputs (checked when initialization ends and in
+        every ``doStep``); a value reference that is not a settable Real variable is logged and ignored."""
+        try:
+            put = self._real_set
+            for vr, x in zip(vrs, values):
+                put[vr](x)
+        except Exception:
+            for vr, x in zip(vrs, values):
+                setter = self._real_set.get(vr)
+                if setter is None:
+                    self.log(f"setReal: value reference {vr!r} is not a settable Real variable of this FMU "
+                             "(parameter or input); ignored", Fmi2Status.error)
+                else:
+                    setter(x)
+
     def do_step(self, current_time, step_size):
         try:
             return self._do_step(current_time, step_size)
@@ -702,7 +811,7 @@ class HacgearSlave(Fmi2Slave):
             self.log(f"doStep refused: {self._failed}", Fmi2Status.error)
             return False
         h = float(step_size)
-        if not (math.isfinite(h) and h > 0.0):
+        if not (0.0 < h < math.inf):  # False for NaN
             self.log(f"communication step size [s] must be finite and > 0, got {step_size!r}", Fmi2Status.error)
             return False
         ad = self.adapter
@@ -719,9 +828,9 @@ class HacgearSlave(Fmi2Slave):
                 self.log(f"communication step {h:g} s needs {h / hi_:.3g} internal steps of {hi_:.3g} s "
                          f"(limit {MAX_SUBSTEPS_PER_STEP:g}); use shorter communication steps", Fmi2Status.error)
                 return False
-        res = ad.advance(h)
-        if not res.success:
-            self.log(f"doStep at t = {current_time:g} s: {res.message}", Fmi2Status.error)
+        msg = ad.advance(h)
+        if msg:
+            self.log(f"doStep at t = {current_time:g} s: {msg}", Fmi2Status.error)
             return False
         self.time = current_time + h
         return True

@@ -223,6 +223,93 @@ def test_fmu_reproduces_library_time_series(built):
     assert np.ptp(res["mesh_force"]) > 0.05 * np.mean(res["mesh_force"])
 
 
+def _adapter_and_library(built, system, mode, h_int, **inputs):
+    """The FMU's adapter (as the slave drives it) and a library simulator with the same parameters and inputs."""
+    ad = hf.make_adapter(built["models"] / system)
+    values = {v.name: v.start for v in ad.variables if v.causality != "output"}
+    values.update(mode=mode, internal_step=h_int, **inputs)
+    ad.configure(values)
+    sim, _ = _library(built, system, h_int)
+    if mode == hf.MODE_SPEED:
+        sim.reset(speed_rad_s=values["speed1_in"])
+        sim.set_speed_input(speed_rad_s=values["speed1_in"])
+    else:
+        sim.reset(speed_rad_s=values["speed1_start"])
+        sim.set_torque_inputs(values["torque1_in"], values["torque2_in"])
+    return ad, values, sim
+
+
+_LIB_ATTR = {"mesh_force": "mesh_force_N", "mesh_deflection": "mesh_deflection_m",
+             "dte": "dynamic_transmission_error_m", "mesh_position": "mesh_position", "angle1": "angle1_rad",
+             "angle2": "angle2_rad", "speed1": "speed1_rad_s", "speed2": "speed2_rad_s"}
+
+
+@pytest.mark.parametrize("system, mode", [("spur_28t_asym", 0), ("spur_50t_icr137", 0), ("spur_50t_icr137", 1)])
+def test_fmu_step_path_equals_library_advance(built, system, mode):
+    """The adapter's step (kernel with end-of-step recording, outputs filled once per step) gives every output
+    of SpurPairSimulator.advance, in both modes, over steps of different lengths and a changing input."""
+    inputs = {"speed1_in": 410.0} if mode == 0 else {"speed1_start": 150.0, "torque1_in": 250.0, "torque2_in": -200.0}
+    ad, values, sim = _adapter_and_library(built, system, mode, 1.5e-6, **inputs)
+    get = ad.getters()
+    steps = [1e-4] * 40 + [3.3e-5, 2e-4, 1e-6] * 5
+    for k, dt in enumerate(steps):
+        if k == 20:  # an input changes between steps (applied by the slave before the step)
+            key, val = ("speed1_in", 430.0) if mode == 0 else ("torque1_in", 400.0)
+            values[key] = val
+            ad.apply_inputs(values)
+            if mode == 0:
+                sim.set_speed_input(speed_rad_s=val)
+            else:
+                sim.set_torque_inputs(val, values["torque2_in"])
+        assert ad.advance(dt) == ""
+        assert sim.advance(dt).success
+        for name, attr in _LIB_ATTR.items():
+            ref = getattr(sim, attr)
+            assert get[name]() == pytest.approx(ref, rel=1e-13, abs=1e-13 * max(abs(ref), 1e-6)), (k, name)
+        assert get["contact"]() == (1.0 if sim.in_contact else 0.0)
+        if k % 7 == 0:  # outputs that sync the simulator's own attributes first (asked for now and then)
+            assert get["bearing_force1"]() == pytest.approx(sim.bearing_force_N[0], rel=1e-12)
+            assert get["bearing_force2"]() == pytest.approx(sim.bearing_force_N[1], rel=1e-12)
+            assert get["peak_pressure"]() == pytest.approx(sim.peak_pressure_Pa, rel=1e-12)
+    assert ad.sim.time_s == pytest.approx(sim.time_s, rel=1e-15)
+    assert all(type(g()) is float for g in get.values())  # pythonfmu's C wrapper reads Python floats
+
+
+def test_fmu_step_divergence_keeps_the_state(built):
+    """A step whose integration is not finite is refused with a message and leaves state and outputs as they were."""
+    ad, _, _ = _adapter_and_library(built, "spur_28t_asym", 0, 2e-6, speed1_in=300.0)
+    assert ad.advance(1e-4) == ""
+    s, kin, out, t = ad.sim.s.copy(), ad.sim.kin.copy(), list(ad.out), ad.sim.time_s
+    good = ad.sim.fext
+    ad.sim.fext = np.full_like(good, np.nan)
+    msg = ad.advance(1e-4)
+    assert "diverged" in msg and "restored" in msg
+    assert np.array_equal(ad.sim.s, s) and np.array_equal(ad.sim.kin, kin) and ad.out == out
+    assert ad.sim.time_s == t
+    ad.sim.fext = good
+    assert ad.advance(1e-4) == "" and ad.out != out
+
+
+def test_get_set_real_of_unknown_references_are_logged(built):
+    """getReal of a reference that is not a Real variable gives NaN and a message, setReal of an output or an
+    unknown reference is ignored with a message: no exception reaches pythonfmu's wrapper (fmi2Fatal)."""
+    low = _Low(built["fmu"]["spur_28t_asym"])
+    try:
+        low.init(speed1_in=300.0)
+        low.fmu.doStep(0.0, 1e-4)
+        f = low.get("mesh_force")[0]
+        vals = low.fmu.getReal([low.vr["mesh_force"], 99999, low.vr["mode"]])
+        assert vals[0] == f and math.isnan(vals[1]) and math.isnan(vals[2])
+        assert any("99999" in m and "not a Real variable" in m for _, m in low.messages)
+        low.fmu.setReal([low.vr["mesh_force"], 99999], [1.0, 2.0])
+        assert any("not a settable Real variable" in m for _, m in low.messages)
+        assert low.get("mesh_force")[0] == f
+        low.fmu.doStep(1e-4, 1e-4)  # goes on normally
+        assert low.get("mesh_position")[0] > 0
+    finally:
+        low.close()
+
+
 def test_any_communication_step_is_substepped(built):
     """One 2 ms step equals twenty 0.1 ms steps at a fixed internal step (same sub-steps)."""
     kw = dict(start_values={"speed1_in": 400.0, "internal_step": 1e-6}, output=["mesh_force", "dte"])

@@ -9,6 +9,9 @@ Printed figures (wall seconds, best of ``--repeat``):
 * ``library run``: one ``run(1.0, record_dt_s=1e-4)`` call (the kernel's own loop, no per-step Python);
 * ``fmpy simulate_fmu``: the FMU under ``fmpy.simulate_fmu`` (step 1e-4, outputs recorded every step);
 * ``fmpy low-level``: ``doStep`` + ``getReal`` of the same outputs on fmpy's FMU2Slave;
+* ``slave without importer`` (not judged): the FMU's Python slave class called directly (``do_step`` +
+  ``get_real``), i.e. the FMU's own per-step work; ``fmpy low-level`` minus this is what pythonfmu's C wrapper
+  and fmpy add per step;
 * instantiate-to-first-doStep time of the FMU in this (warm) process.
 
 Judged ratio: fmpy simulate_fmu / library advance (goal <= 1.5).
@@ -143,6 +146,22 @@ def main(argv=None) -> int:
         f.freeInstance()
         return rec
 
+    def slave_direct():
+        from hacgear_core.fmu import HacgearSlave
+
+        sl = HacgearSlave(instance_name="direct", resources=str(Path(unz) / "resources"))
+        sl.setup_experiment(0.0)
+        sl.set_real([vr["speed1_in"], vr["internal_step"]], [speed, h_int])
+        sl.exit_initialization_mode()
+        rec = np.empty((n, len(OUTPUTS)))
+        t = 0.0
+        for k in range(n):
+            if not sl.do_step(t, dt):
+                raise SystemExit(f"direct slave step failed: {[m.msg for m in sl.log_queue]}")
+            t += dt
+            rec[k] = sl.get_real(outs)
+        return rec
+
     def best(fn):
         times, out = [], None
         for _ in range(args.repeat):
@@ -157,6 +176,7 @@ def main(argv=None) -> int:
     t_run, _ = best(lib_run)
     t_high, res = best(fmu_high)
     t_low, rec_low = best(fmu_low)
+    t_direct, _ = best(slave_direct)
     same = np.max(np.abs(rec_low[:, 0] - rec_adv[:, 0])) / np.max(np.abs(rec_adv[:, 0]))
     nsub = int(math.ceil(dt / h_int - 1e-9))
     print(f"bench_fmu: {fmu_path.name}{' (synthetic tables)' if synthetic else ''}, pinion {args.speed_rpm:g} rpm, "
@@ -166,12 +186,15 @@ def main(argv=None) -> int:
     print(f"  library run(1 s, record 1e-4):      {t_run:7.3f} s")
     print(f"  fmpy simulate_fmu:                  {t_high:7.3f} s")
     print(f"  fmpy low-level doStep+getReal:      {t_low:7.3f} s")
+    print(f"  slave without importer (not judged): {t_direct:7.3f} s")
     print(f"  instantiate -> first doStep (warm): {min(first_step):7.3f} s")
     print(f"  fresh process, instantiate -> first doStep: {fresh[0]:.3f} s (1st process), {fresh[1]:.3f} s "
           f"(2nd process, numba cache warm; goal <= 1 s)")
     print(f"  max relative difference FMU vs library (mesh force): {same:.2e}")
     print(f"  per communication step: library {t_adv / n * 1e6:.1f} us, fmpy simulate_fmu {t_high / n * 1e6:.1f} us, "
-          f"fmpy low-level {t_low / n * 1e6:.1f} us")
+          f"fmpy low-level {t_low / n * 1e6:.1f} us, slave without importer {t_direct / n * 1e6:.1f} us "
+          f"(pythonfmu wrapper + fmpy add {(t_low - t_direct) / n * 1e6:.1f} us low-level, "
+          f"{(t_high - t_direct) / n * 1e6:.1f} us in simulate_fmu)")
     print(f"RATIO fmpy simulate_fmu / library advance = {t_high / t_adv:.2f} (goal <= 1.5); "
           f"low-level / library advance = {t_low / t_adv:.2f}; simulate_fmu / library run = {t_high / t_run:.2f}")
     shutil.rmtree(unz, ignore_errors=True)

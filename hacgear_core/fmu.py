@@ -220,7 +220,6 @@ class SpurPairAdapter:
         self.mode = MODE_SPEED
         self.input_checks: tuple = ()
         self.step_floor_s = 0.0
-        self._bind()
 
     # ------------------------------------------------------------------ the spec (declared once)
     def _spec(self) -> tuple[FmuVariable, ...]:
@@ -302,49 +301,40 @@ class SpurPairAdapter:
         return int(self.table.teeth[names.index(gear)]) if gear in names else int(self.table.teeth[0])
 
     # ------------------------------------------------------------------ outputs
-    #: outputs kept in :attr:`out` (filled once per step from the kernel's end-of-step record and the state)
-    FAST_OUTPUTS = ("mesh_force", "mesh_deflection", "dte", "mesh_position", "contact", "angle1", "angle2",
-                    "speed1", "speed2")
-
     def getters(self) -> dict[str, Callable[[], float]]:
-        """Output name -> zero-argument getter returning a Python float for the current step.
-
-        The outputs in :data:`FAST_OUTPUTS` read the vector :attr:`out` that :meth:`advance` fills once per step;
-        the others (bearing forces, table post-processing) bring the simulator's own outputs up to date first
-        (:meth:`synced`), once per step and only when one of them is asked for."""
+        """Output name -> zero-argument getter returning a Python float for the current step: the simulator's
+        own output attributes (kept current by its ``advance``) and the table post-processing."""
         a = self
-
-        def fast(i):
-            return lambda: a.out[i]
-
-        out = {name: fast(i) for i, name in enumerate(self.FAST_OUTPUTS)}
-        out["bearing_force1"] = lambda: float(a.synced().bearing_force_N[0])
-        out["bearing_force2"] = lambda: float(a.synced().bearing_force_N[1])
-        out["peak_pressure"] = a.peak_pressure
+        out = {
+            "mesh_force": lambda: a.sim.mesh_force_N,
+            "mesh_deflection": lambda: a.sim.mesh_deflection_m,
+            "dte": lambda: a.sim.dynamic_transmission_error_m,
+            "mesh_position": lambda: a.sim.mesh_position,
+            "contact": lambda: 1.0 if a.sim.in_contact else 0.0,
+            "angle1": lambda: a.sim.angle1_rad,
+            "angle2": lambda: a.sim.angle2_rad,
+            "speed1": lambda: a.sim.speed1_rad_s,
+            "speed2": lambda: a.sim.speed2_rad_s,
+            "bearing_force1": lambda: a.sim.bearing_force_N[0],
+            "bearing_force2": lambda: a.sim.bearing_force_N[1],
+            "peak_pressure": a.peak_pressure,
+        }
         for g in self.gauges:
             gear, _, gauge = g.partition("/")
             out[f"root_strain.{_ident(gear)}.{_ident(gauge or gear)}"] = (lambda key: lambda: a.root_strain(key))(g)
         return out
 
-    def synced(self):
-        """The simulator with its output attributes (``mesh_force_N``, ``bearing_force_N``, ...) brought up to
-        date with its state (:meth:`advance` updates only :attr:`out`)."""
-        if self._stale:
-            self.sim._update_outputs()
-            self._stale = False
-        return self.sim
-
     def peak_pressure(self) -> float:
         """Maximum contact pressure over all teeth now [Pa] (table lookup along the dynamic state)."""
         from hacgear_core.post import dynamic_contact_pressure
 
-        sim = self.synced()
+        sim = self.sim
         return float(dynamic_contact_pressure(self.table, [sim.mesh_position], [sim.mesh_deflection_m])[0])
 
     def root_strain(self, gauge: str) -> float:
         """Root strain [-] at ``gauge`` on one physical tooth (library:
         :meth:`~hacgear_core.dynamics.spur.SpurPairSimulator.strain`)."""
-        return float(self.synced().strain(gauge))
+        return float(self.sim.strain(gauge))
 
     # ------------------------------------------------------------------ configuration
     @staticmethod
@@ -386,7 +376,6 @@ class SpurPairAdapter:
         fm_max = 4.0 * max(abs(v.min), abs(v.max)) * sy.z1_2pi  # mesh frequency bound, margin for vibration [Hz]
         floor = min(1.0 / (32.0 * sy.max_frequency_Hz), 1.0 / (128.0 * fm_max))
         self.step_floor_s = min(floor, h) if h else floor
-        self._bind()
 
     def input_names(self) -> tuple[str, ...]:
         """Inputs read in the current mode (only these are checked and applied)."""
@@ -404,53 +393,12 @@ class SpurPairAdapter:
                 self.sim.set_torque_inputs(cur[0], cur[1])
         self._last_inputs = cur
 
-    def _bind(self) -> None:
-        """Buffers of :meth:`advance` for the current simulator; :attr:`out` from its current outputs."""
-        from hacgear_core.dynamics import kernels
-
-        sim = self.sim
-        m2 = 2 * sim.system.n
-        self._rec_state = np.zeros((1, m2))
-        self._rec_out = np.zeros((1, 5))
-        sy = sim.system
-        self._layout = (sy.n, sy.ith1, sy.ith2, sy.ratio, sy.z1_2pi, float(sim.params.mesh_phase))
-        self._kernel_mode = {"speed": kernels.MODE_SPEED, "torque": kernels.MODE_TORQUE}
-        self.out = [float(sim.mesh_force_N), float(sim.mesh_deflection_m), float(sim.dynamic_transmission_error_m),
-                    float(sim.mesh_position), 1.0 if sim.in_contact else 0.0, float(sim.angle1_rad),
-                    float(sim.angle2_rad), float(sim.speed1_rad_s), float(sim.speed2_rad_s)]
-        self._stale = False
-
     def advance(self, dt: float) -> str:
-        """Advance the simulator by ``dt`` [s] > 0 (checked by the caller); ``""`` on success, else the reason
-        (the state is then left unchanged).
-
-        The same step as :meth:`SpurPairSimulator.advance <hacgear_core.dynamics.spur.SpurPairSimulator.advance>`
-        (equal RK4 sub-steps no longer than the simulator's internal step, one call of the system's compiled
-        kernel, state restored when it is not finite), with the kernel recording the mesh outputs at the end of
-        the step: the FMU's outputs (:attr:`out`) then need no Python evaluation of the force law, and the
-        simulator's other output attributes are updated only when asked for (:meth:`synced`).
-        """
-        sim = self.sim
-        nsub = max(1, int(math.ceil(dt / sim.current_internal_step_s - 1e-9)))
-        s, kin = sim.s, sim.kin
-        s0, k0 = s.copy(), kin.copy()
-        rec = self._rec_out
-        sim.system.integrate(s, kin, nsub, dt / nsub, sim.fext, mode=self._kernel_mode[sim.mode], rec_every=nsub,
-                             rec_state=self._rec_state, rec_out=rec)
-        st, kt = s.tolist(), kin.tolist()
-        isf = math.isfinite
-        if not (all(map(isf, st)) and all(map(isf, kt))):
-            s[:], kin[:] = s0, k0
-            return f"integration diverged within dt = {dt:g} s (state not finite); state restored"
-        sim.time_s += dt
-        # kernel record: [unwrapped mesh position, mesh deflection, mesh force, r_b1 th1 + r_b2 th2, time offset]
-        pos, x, f, dte, _ = rec[0].tolist()
-        n, i1, i2, ratio, z1_2pi, phase = self._layout
-        phi_ref = (kt[1] + kt[0] - phase) / z1_2pi
-        self.out = [f, x, dte, pos, 1.0 if f > 0.0 else 0.0, phi_ref + st[i1], ratio * phi_ref - st[i2],
-                    kt[2] + st[n + i1], ratio * kt[2] - st[n + i2]]
-        self._stale = True
-        return ""
+        """Advance the simulator by ``dt`` [s] > 0 (checked by the caller) with the library's own step,
+        :meth:`SpurPairSimulator.advance <hacgear_core.dynamics.spur.SpurPairSimulator.advance>`; ``""`` on
+        success, else the reason (the state is then left unchanged)."""
+        r = self.sim.advance(dt)
+        return "" if r.success else r.message
 
     def internal_step(self) -> float:
         """Internal step the simulator would use now [s]."""

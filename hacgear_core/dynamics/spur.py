@@ -390,6 +390,14 @@ class SpurPairSimulator:
         self.kin = np.zeros(3)
         self._rec_s = np.zeros((1, 2 * n))
         self._rec_o = np.zeros((1, 5))
+        sy = self.system
+        self._v = [float(c) for c in sy.v]
+        self._rb = (float(sy.rb[0]), float(sy.rb[1]))
+        # per support (y1, y2): (state index, stiffness) of a translational DOF, or (-1, 0) when rigid (its
+        # reaction then balances the mesh force: -F on gear 1, +F on gear 2)
+        self._supports = tuple(
+            (sy.dof_names.index(nm), float(sy.kd[sy.dof_names.index(nm)])) if nm in sy.dof_names else (-1, 0.0)
+            for nm in ("y1", "y2"))
         self.reset()
 
     # ------------------------------------------------------------------ inputs
@@ -477,7 +485,12 @@ class SpurPairSimulator:
 
     def advance(self, dt: float) -> StepResult:
         """Advance by ``dt`` [s] (any size > 0) with equal RK4 sub-steps <= the internal step.
-        On failure (non-finite state) the state is left unchanged and ``success`` is False."""
+        On failure (non-finite state) the state is left unchanged and ``success`` is False.
+
+        One call of the compiled kernel, which also records the mesh outputs (mesh position, deflection,
+        force, DTE) at the end of the step; the other output attributes follow from the state in plain
+        Python floats.  This is the per-step path of the FMUs too (a communication step costs a few µs
+        beyond the kernel's own work)."""
         try:
             dt = float(dt)
         except (TypeError, ValueError):
@@ -485,16 +498,20 @@ class SpurPairSimulator:
         if not (math.isfinite(dt) and dt > 0):
             return StepResult(False, f"step size dt [s] must be finite and > 0, got {dt!r}", 0)
         nsub = max(1, int(math.ceil(dt / self._internal_step() - 1e-9)))
-        h = dt / nsub
-        s0, k0 = self.s.copy(), self.kin.copy()
-        mode = kernels.MODE_SPEED if self.mode == "speed" else kernels.MODE_TORQUE
-        self.system.integrate(self.s, self.kin, nsub, h, self.fext, mode=mode)
-        if not (np.all(np.isfinite(self.s)) and np.all(np.isfinite(self.kin))):
-            self.s[:], self.kin[:] = s0, k0
+        s, kin = self.s, self.kin
+        s0, k0 = s.copy(), kin.copy()
+        self.system.integrate(s, kin, nsub, dt / nsub, self.fext,
+                              mode=kernels.MODE_SPEED if self.mode == "speed" else kernels.MODE_TORQUE,
+                              rec_every=nsub, rec_state=self._rec_s, rec_out=self._rec_o)
+        st, kt = s.tolist(), kin.tolist()
+        isf = math.isfinite
+        if not (all(map(isf, st)) and all(map(isf, kt))):
+            s[:], kin[:] = s0, k0
             return StepResult(False, f"integration diverged within dt = {dt:g} s (state not finite); "
                                      f"state restored", nsub)
         self.time_s += dt
-        self._update_outputs()
+        pos, x, f, dte, _ = self._rec_o[0].tolist()
+        self._set_outputs(st, kt, pos, x, f, dte)
         return StepResult(True, "", nsub)
 
     def run(self, duration_s: float, record_dt_s: float) -> dict:
@@ -538,29 +555,34 @@ class SpurPairSimulator:
 
     # ------------------------------------------------------------------ outputs
     def _update_outputs(self) -> None:
-        sy, s, n = self.system, self.s, self.system.n
-        x = float(sy.v @ s[:n])
-        tau = self.kin[0] + sy.z1_2pi * s[sy.ith1]
+        """Output attributes from the state, with the force law evaluated in Python (after reset,
+        set_state, run)."""
+        sy = self.system
+        st, kt = self.s.tolist(), self.kin.tolist()
+        x = sum(vi * si for vi, si in zip(self._v, st))
+        tau = kt[0] + sy.z1_2pi * st[sy.ith1]
+        self._set_outputs(st, kt, kt[1] + tau, x, float(sy.force(tau, x)),
+                          self._rb[0] * st[sy.ith1] + self._rb[1] * st[sy.ith2])
+
+    def _set_outputs(self, st: list, kt: list, pos: float, x: float, f: float, dte: float) -> None:
+        """Set the output attributes from the state ``st`` (2n floats), kinematics ``kt`` (3 floats) and the
+        mesh outputs: unwrapped mesh position [-], mesh deflection [m], mesh force [N], DTE [m]."""
+        sy, n = self.system, self.system.n
+        i1, i2 = sy.ith1, sy.ith2
         self.mesh_deflection_m = x
-        self.mesh_position = float(self.kin[1] + tau)
-        self.mesh_force_N = float(sy.force(tau, x))
-        self.in_contact = self.mesh_force_N > 0.0
-        self.dynamic_transmission_error_m = float(sy.rb[0] * s[sy.ith1] + sy.rb[1] * s[sy.ith2])
-        phi_ref = (self.kin[1] + self.kin[0] - self.params.mesh_phase) / sy.z1_2pi
-        self.angle1_rad = float(phi_ref + s[sy.ith1])
-        self.angle2_rad = float(sy.ratio * phi_ref - s[sy.ith2])
-        self.speed1_rad_s = float(self.kin[2] + s[n + sy.ith1])
-        self.speed2_rad_s = float(sy.ratio * self.kin[2] - s[n + sy.ith2])
-        bf = []
-        for g, (name, sign) in enumerate((("y1", -1.0), ("y2", 1.0))):
-            if name in sy.dof_names:
-                i = sy.dof_names.index(name)
-                bf.append(float(sy.kd[i] * s[i]))
-            else:  # rigid support: its reaction balances the mesh force
-                bf.append(sign * self.mesh_force_N)
-        self.bearing_force_N = tuple(bf)
-        self.translation_m = tuple(
-            float(s[sy.dof_names.index(nm)]) if nm in sy.dof_names else 0.0 for nm in ("y1", "y2"))
+        self.mesh_position = pos
+        self.mesh_force_N = f
+        self.in_contact = f > 0.0
+        self.dynamic_transmission_error_m = dte
+        phi_ref = (kt[1] + kt[0] - self.params.mesh_phase) / sy.z1_2pi
+        ratio = sy.ratio
+        self.angle1_rad = phi_ref + st[i1]
+        self.angle2_rad = ratio * phi_ref - st[i2]
+        self.speed1_rad_s = kt[2] + st[n + i1]
+        self.speed2_rad_s = ratio * kt[2] - st[n + i2]
+        (i_y1, k1), (i_y2, k2) = self._supports
+        self.bearing_force_N = (k1 * st[i_y1] if i_y1 >= 0 else -f, k2 * st[i_y2] if i_y2 >= 0 else f)
+        self.translation_m = (st[i_y1] if i_y1 >= 0 else 0.0, st[i_y2] if i_y2 >= 0 else 0.0)
 
     def strain(self, gauge: str) -> float:
         """Root strain [-] now at ``gauge`` ("<gear>/<gauge>") on one physical tooth of that gear:

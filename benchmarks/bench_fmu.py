@@ -67,6 +67,9 @@ def main(argv=None) -> int:
     ap.add_argument("--fmu", help="spur-pair FMU (default: dist/spur_28t_asym.fmu, else a synthetic build)")
     ap.add_argument("--speed-rpm", type=float, default=3000.0, help="pinion speed [rpm]")
     ap.add_argument("--internal-step", type=float, default=2e-6, help="internal RK4 step [s]")
+    ap.add_argument("--comm-step", type=float, default=1e-4,
+                    help="communication step [s] (the judged figure uses 1e-4; larger steps show the per-step "
+                         "cost of pythonfmu + fmpy amortised)")
     ap.add_argument("--repeat", type=int, default=3)
     args = ap.parse_args(argv)
 
@@ -92,7 +95,7 @@ def main(argv=None) -> int:
         fmu_path = build_fmu(folder, work / "dist")
         synthetic = True
     speed = args.speed_rpm * 2 * math.pi / 60
-    h_int, dt, t_end = args.internal_step, 1e-4, 1.0
+    h_int, dt, t_end = args.internal_step, args.comm_step, 1.0
     n = int(round(t_end / dt))
 
     unz = extract(str(fmu_path))
@@ -182,8 +185,8 @@ def main(argv=None) -> int:
     print(f"bench_fmu: {fmu_path.name}{' (synthetic tables)' if synthetic else ''}, pinion {args.speed_rpm:g} rpm, "
           f"1 s simulated, communication step {dt:g} s, internal step {dt / nsub:.3g} s ({nsub} RK4 sub-steps per "
           f"step, {n * nsub} in all), best of {args.repeat}")
-    print(f"  library advance(1e-4) x {n}:        {t_adv:7.3f} s")
-    print(f"  library run(1 s, record 1e-4):      {t_run:7.3f} s")
+    print(f"  library advance({dt:g}) x {n}:        {t_adv:7.3f} s")
+    print(f"  library run(1 s, record {dt:g}):      {t_run:7.3f} s")
     print(f"  fmpy simulate_fmu:                  {t_high:7.3f} s")
     print(f"  fmpy low-level doStep+getReal:      {t_low:7.3f} s")
     print(f"  slave without importer (not judged): {t_direct:7.3f} s")

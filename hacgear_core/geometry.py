@@ -47,7 +47,6 @@ from dataclasses import dataclass, field
 from typing import Any, Mapping
 
 import numpy as np
-from scipy.optimize import brentq
 
 from hacgear_core.errors import GeometryError, ModelError
 
@@ -82,6 +81,13 @@ REGION_TIP_ROUNDING = 3
 REGION_TIP_LAND = 4  # only in Boundary (tooth_boundary / gear_boundary)
 
 _FILLET_DENSE = 400
+
+
+def _brentq(f, a: float, b: float, **kw) -> float:
+    """scipy.optimize.brentq, imported on first use (the FMUs, which need no geometry solve, load faster)."""
+    from scipy.optimize import brentq
+
+    return brentq(f, a, b, **kw)
 
 
 def involute_function(alpha: Any) -> Any:
@@ -167,7 +173,7 @@ def zero_backlash_center_distance(fa: _ToothForm, fb: _ToothForm) -> float:
         raise GeometryError(
             f"no zero-backlash centre distance between {lo * 1e3:.3f} and {hi * 1e3:.3f} mm (tooth thicknesses "
             "inconsistent with the tooth counts); give center_distance_mm in the model")
-    return float(brentq(f, lo, hi, xtol=1e-13, rtol=1e-14))
+    return float(_brentq(f, lo, hi, xtol=1e-13, rtol=1e-14))
 
 
 # ----------------------------------------------------------------------------------------------
@@ -276,7 +282,7 @@ class _ShaperTool:
             if vals[i] * vals[i + 1] <= 0 and dots[i] * self.sign > 0:
                 if vals[i] == 0:
                     return float(grid[i])
-                return float(brentq(lambda p: float(g(p)[0][0]), grid[i + 1], grid[i], xtol=1e-15))
+                return float(_brentq(lambda p: float(g(p)[0][0]), grid[i + 1], grid[i], xtol=1e-15))
         raise GeometryError("internal gear: could not locate the fillet/involute tangency of the shaper tip")
 
 
@@ -748,7 +754,7 @@ def _build_flank(gear: Any, form: _ToothForm, side: str, r_f: float, r_a: float,
             rr = math.hypot(*q)
             return math.atan2(q[0], q[1]) - float(form.theta(side, max(rr, rb)))
 
-        phi_end = brentq(gfun, grid[i], grid[i + 1], xtol=1e-15)
+        phi_end = _brentq(gfun, grid[i], grid[i + 1], xtol=1e-15)
         q = fillet_pts(phi_end)[:, 0]
         R_form = math.hypot(*q)
     u_form = math.sqrt(max(R_form * R_form / (rb * rb) - 1.0, 0.0))
@@ -810,7 +816,7 @@ def _max_tool_tip_radius(gear: Any, form: _ToothForm, r_f: float, r_a: float, m:
     try:
         if f(lo) < 0:
             return 0.0
-        return float(brentq(f, lo, hi, xtol=1e-12))
+        return float(_brentq(f, lo, hi, xtol=1e-12))
     except (GeometryError, ValueError):
         return float("nan")
 
@@ -834,7 +840,7 @@ def max_hob_tip_radius_m(gear: Any, *, shaper_teeth: int | None = None) -> float
     hi = 0.5 * m
     while f(hi) > 0 and hi < 10 * m:
         hi *= 1.5
-    return float(brentq(f, 1e-9, hi, xtol=1e-12))
+    return float(_brentq(f, 1e-9, hi, xtol=1e-12))
 
 
 def gear_geometry(gear: Any, *, shaper_teeth: int | None = None) -> GearGeometry:

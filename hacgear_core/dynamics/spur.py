@@ -32,7 +32,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import eigh
 
 from hacgear_core.dynamics import kernels
 from hacgear_core.dynamics.conventional import ForceLaw, make_force_law
@@ -154,6 +153,15 @@ class SpurPairParameters:
         return replace(self, **changes)
 
 
+def _eigh_diagonal_mass(k: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Eigenpairs of K φ = ω² M φ for symmetric K (n, n) and a diagonal mass matrix given by its positive
+    diagonal ``m`` (n,): ascending ω² and mass-normalised shapes (φᵀ M φ = I), through the symmetric standard
+    problem of M^-1/2 K M^-1/2 (numpy only: the FMUs load faster without scipy.linalg)."""
+    s = 1.0 / np.sqrt(m)
+    w2, psi = np.linalg.eigh(s[:, None] * k * s[None, :])
+    return w2, s[:, None] * psi
+
+
 class SpurPairSystem:
     """Assembled spur-pair model: active DOFs, matrices, damping, force law and table arrays.
 
@@ -202,7 +210,7 @@ class SpurPairSystem:
         # linearisation and modal damping
         km = self.law.mean_stiffness_N_per_m
         self.k_lin = np.diag(self.kd) + km * np.outer(self.v, self.v)
-        w2, phi = eigh(self.k_lin, np.diag(self.m))
+        w2, phi = _eigh_diagonal_mass(self.k_lin, self.m)
         w2 = np.clip(w2, 0.0, None)
         omega = np.sqrt(w2)
         rigid = omega < 1e-6 * max(omega.max(), 1.0)
@@ -216,7 +224,7 @@ class SpurPairSystem:
         # highest frequency the integrator must resolve: linearisation at the stiffest table slope
         kmax = max(km, float(np.max(np.diff(ta.ftab, axis=1))) * ta.inv_dx,
                    float(np.max(self.law.lin[0])) if self.law.law == kernels.LAW_LINEAR else 0.0)
-        w2max = eigh(np.diag(self.kd) + kmax * np.outer(self.v, self.v), mm, eigvals_only=True)
+        w2max, _ = _eigh_diagonal_mass(np.diag(self.kd) + kmax * np.outer(self.v, self.v), self.m)
         self.max_frequency_Hz = float(np.sqrt(max(w2max.max(), 0.0)) / (2 * math.pi))
         self.work = np.zeros((5, 2 * self.n))
         #: compiled loop for this force law and DOF count (kernels.select_kernel)

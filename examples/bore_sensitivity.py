@@ -13,8 +13,9 @@ in ``models/spur_28t_asym/model.toml``) and, for each, measures with the normal 
 * highest natural frequency with k_y1 = k_y2 = 200e6 N/m (``--bearing-stiffness 200e6``) — dissertation
   4150 Hz HAC / 4250 Hz FE/CM.
 
-It also solves the two-mode frequency equations of the lumped model for the mass properties that the
-dissertation's own numbers imply (mesh stiffness 150e6 N/m, 2775 Hz, 4150 Hz), to compare with those of a
+It also solves the two-mode frequency equations of the lumped model
+(``hacgear_core.dynamics.identical_pair_mass_properties``) for the mass properties that the dissertation's own
+numbers imply (mesh stiffness 150e6 N/m, 2775 Hz, 4150 Hz), to compare with those of a
 solid blank.  Writes ``<out>/bore_sensitivity.json`` and ``<out>/figures/bore_sensitivity.png``.
 
     python examples/bore_sensitivity.py [--bores 30,35,40,50,60] [--out docs]    (~40 s on 2 cores, cold)
@@ -50,27 +51,13 @@ def _cli_json(argv: list[str]) -> dict:
     return json.loads(buf.getvalue())
 
 
-def implied_mass_properties(k: float, f_rigid: float, f_high: float, k_y: float, r_b: float) -> dict:
-    """Mass m [kg] and polar inertia J [kg m²] of two identical gears that give natural frequency ``f_rigid``
-    [Hz] with rigid supports and highest frequency ``f_high`` [Hz] with translational supports ``k_y`` [N/m],
-    for mesh stiffness ``k`` [N/m] and base radius ``r_b`` [m] (lumped model of dissertation Eq. 3.1).
-
-    Rigid supports: ω² = 2k/M_e with M_e = J/r_b².  Supports k_y, mode y1 = −y2, r_bθ1 = r_bθ2 = u:
-    det([[k_y + 2k − ω²m, 2k], [2k, 2k − ω²M_e]]) = 0, solved for m.
-    """
-    w1, w2 = 2 * math.pi * f_rigid, 2 * math.pi * f_high
-    m_e = 2 * k / w1 ** 2
-    b = 2 * k - w2 ** 2 * m_e
-    m = (k_y + 2 * k - 4 * k * k / b) / w2 ** 2
-    return {"mass_kg": m, "inertia_kgm2": m_e * r_b ** 2, "equivalent_mass_kg": m_e,
-            "mass_ratio_m_rb2_over_J": m * r_b ** 2 / (m_e * r_b ** 2)}
-
-
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--bores", default="30,35,40,50,60", help="bore diameters [mm], comma separated")
     ap.add_argument("--out", default=str(ROOT / "docs"), help="folder for bore_sensitivity.json and figures/")
     args = ap.parse_args(argv)
+    from hacgear_core.dynamics import identical_pair_mass_properties
+
     bores = [float(b) for b in args.bores.split(",")]
     text = MODEL.read_text(encoding="utf-8")
     if len(re.findall(r"^bore_diameter_mm = .*$", text, flags=re.M)) != 2:
@@ -104,15 +91,15 @@ def main(argv=None) -> int:
                   f"N/m, f(rigid) = {row['f_rigid_Hz']:.0f} Hz, f(k_y = 200e6) = {row['f_200_Hz']:.0f} Hz", flush=True)
     # check of the inversion: each row's own frequencies and stiffness must give back its mass and inertia
     for row in rows:
-        back = implied_mass_properties(row["mean_mesh_stiffness_N_per_m"], row["f_rigid_Hz"], row["f_200_Hz"], K_Y, r_b)
+        back = identical_pair_mass_properties(row["mean_mesh_stiffness_N_per_m"], row["f_rigid_Hz"], row["f_200_Hz"], K_Y, r_b)
         row["inversion_error_mass"] = back["mass_kg"] / row["mass_kg"] - 1.0
         row["inversion_error_inertia"] = back["inertia_kgm2"] / row["inertia_kgm2"] - 1.0
     err = max(max(abs(r["inversion_error_mass"]), abs(r["inversion_error_inertia"])) for r in rows)
     print(f"inversion check on the computed rows: largest relative error in m, J = {err:.1e}")
-    implied = implied_mass_properties(PUBLISHED["mesh_stiffness_N_per_m"], PUBLISHED["f_rigid_Hz"],
+    implied = identical_pair_mass_properties(PUBLISHED["mesh_stiffness_N_per_m"], PUBLISHED["f_rigid_Hz"],
                                       PUBLISHED["f_200_Hz"], K_Y, r_b)
     print(f"dissertation's numbers imply m = {implied['mass_kg']:.3f} kg, J = {implied['inertia_kgm2'] * 1e3:.3f}e-3 "
-          f"kg m², m r_b²/J = {implied['mass_ratio_m_rb2_over_J']:.3f}")
+          f"kg m², m r_b²/J = {implied['mass_ratio']:.3f}")
     band = {"mean_mesh_stiffness_N_per_m": (0.9 * 150e6, 1.1 * 150e6), "f_rigid_Hz": (0.95 * 2800, 1.05 * 2800),
             "f_200_Hz": (0.95 * 4150, 1.05 * 4150)}
     for row in rows:

@@ -52,6 +52,27 @@ def test_linear_fdf_natural_frequency_modal_and_impulse():
     assert it.double_contact_Hz[0] == pytest.approx(fn_rot(), rel=2e-3)
 
 
+def test_identical_pair_mass_properties_inverts_the_modal_analysis():
+    """Mass and inertia of identical gears read back from the rigid-support and supported natural frequencies
+    of the linearised 4-DOF model (closed-form inversion vs. the numerical eigenproblem)."""
+    from hacgear_core.dynamics.modes import identical_pair_mass_properties
+
+    m, j, ky = 1.3, 0.0041, 200e6
+    tab = linear_fdf_table(K)
+    base = dict(mass_kg=(m, m), inertia_kg_m2=(j, j))
+    f_rigid = modal_analysis(SpurPairSystem(params(**base), tab)).natural_frequencies_Hz[-1]
+    f_sup = modal_analysis(SpurPairSystem(params(**base, bearing_stiffness_N_per_m=(ky, ky)), tab)).natural_frequencies_Hz[-1]
+    assert f_sup > f_rigid
+    r = identical_pair_mass_properties(K, f_rigid, f_sup, ky, RB)
+    assert r["mass_kg"] == pytest.approx(m, rel=1e-9)
+    assert r["inertia_kgm2"] == pytest.approx(j, rel=1e-9)
+    assert r["mass_ratio"] == pytest.approx(m * RB**2 / j, rel=1e-9)
+    with pytest.raises(ModelError, match="f_supported_Hz"):
+        identical_pair_mass_properties(K, f_rigid, 0.9 * f_rigid, ky, RB)
+    with pytest.raises(ModelError, match="support_stiffness_N_per_m"):
+        identical_pair_mass_properties(K, f_rigid, f_sup, float("nan"), RB)
+
+
 @pytest.mark.parametrize("ratio", [0.6, 1.4])
 def test_linear_fdf_forced_response_matches_closed_form(ratio):
     a = 2e-6

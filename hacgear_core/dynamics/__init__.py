@@ -10,7 +10,13 @@ from __future__ import annotations
 
 from hacgear_core.dynamics.conventional import FORCE_LAWS, ForceLaw, make_force_law
 from hacgear_core.dynamics.fdf import StaticStiffness, static_stiffness
-from hacgear_core.dynamics.modes import ImpulseResult, ModalResult, impulse_test, modal_analysis
+from hacgear_core.dynamics.modes import (
+    ImpulseResult,
+    ModalResult,
+    identical_pair_mass_properties,
+    impulse_test,
+    modal_analysis,
+)
 from hacgear_core.dynamics.spur import (
     SpurPairParameters,
     SpurPairSimulator,
@@ -36,6 +42,7 @@ __all__ = [
     "ImpulseResult",
     "modal_analysis",
     "impulse_test",
+    "identical_pair_mass_properties",
     "SteadyStateOptions",
     "SteadyStateResult",
     "steady_state",

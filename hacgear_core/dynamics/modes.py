@@ -27,9 +27,10 @@ import numpy as np
 
 from hacgear_core.dynamics.fdf import contact_count, static_stiffness
 from hacgear_core.dynamics.spur import SpurPairSystem
-from hacgear_core.errors import SolverError
+from hacgear_core.errors import ModelError, SolverError
 
-__all__ = ["ModalResult", "ImpulseResult", "modal_analysis", "impulse_test", "contact_positions"]
+__all__ = ["ModalResult", "ImpulseResult", "modal_analysis", "impulse_test", "contact_positions",
+           "identical_pair_mass_properties"]
 
 
 @dataclass
@@ -202,3 +203,50 @@ def impulse_test(system: SpurPairSystem, positions: tuple[float, float] | None =
     else:
         mean = np.array([])
     return ImpulseResult(fsg, fdb, mean, ps, pd, eps)
+
+
+def identical_pair_mass_properties(mesh_stiffness_N_per_m: float, f_rigid_Hz: float, f_supported_Hz: float,
+                                   support_stiffness_N_per_m: float, base_radius_m: float) -> dict:
+    """Mass and polar inertia of two identical gears from two natural frequencies of the lumped model.
+
+    Inverts the 4-DOF spur-pair model (dissertation Eq. 3.1, no damping) for identical gears: with rigid
+    supports the mesh mode is ``omega_r**2 = 2 k / M_e`` (``M_e = J / r_b**2``); with translational supports
+    ``k_y`` along the line of action the highest mode (``y1 = -y2``, ``r_b theta1 = r_b theta2``) satisfies
+    ``det([[k_y + 2k - omega**2 m, 2k], [2k, 2k - omega**2 M_e]]) = 0``, solved for ``m``.  Used to read the
+    mass properties implied by published frequencies (docs/validation.md, "The unspecified blank").
+
+    Parameters
+    ----------
+    mesh_stiffness_N_per_m : float
+        Mean mesh stiffness k [N/m] (> 0).
+    f_rigid_Hz, f_supported_Hz : float
+        Natural frequency with rigid supports and highest natural frequency with supports ``k_y`` [Hz] (> 0).
+    support_stiffness_N_per_m : float
+        Translational support stiffness k_y of each gear [N/m] (> 0, finite).
+    base_radius_m : float
+        Base radius r_b [m] (> 0).
+
+    Returns
+    -------
+    dict
+        ``mass_kg``, ``inertia_kgm2``, ``equivalent_mass_kg`` (J/r_b**2) and ``mass_ratio`` (m r_b**2 / J;
+        1 for a thin ring at the base circle, about 2 r_b**2/R**2 for a solid disk of radius R).
+    """
+    vals = {"mesh_stiffness_N_per_m": mesh_stiffness_N_per_m, "f_rigid_Hz": f_rigid_Hz,
+            "f_supported_Hz": f_supported_Hz, "support_stiffness_N_per_m": support_stiffness_N_per_m,
+            "base_radius_m": base_radius_m}
+    for name, v in vals.items():
+        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+            raise ModelError(f"{name} must be a finite number > 0, got {v!r}")
+    k, ky, rb = mesh_stiffness_N_per_m, support_stiffness_N_per_m, base_radius_m
+    w1, w2 = 2 * math.pi * f_rigid_Hz, 2 * math.pi * f_supported_Hz
+    m_e = 2 * k / w1 ** 2
+    b = 2 * k - w2 ** 2 * m_e
+    if b >= 0:
+        raise ModelError(f"f_supported_Hz = {f_supported_Hz:g} Hz must exceed f_rigid_Hz = {f_rigid_Hz:g} Hz for "
+                         "identical gears on translational supports (the highest mode lies above the rigid one)")
+    m = (ky + 2 * k - 4 * k * k / b) / w2 ** 2
+    if m <= 0:
+        raise ModelError(f"no positive gear mass gives {f_supported_Hz:g} Hz with k_y = {ky:g} N/m and "
+                         f"k = {k:g} N/m: f_supported_Hz [Hz] is too high for these stiffnesses")
+    return {"mass_kg": m, "inertia_kgm2": m_e * rb ** 2, "equivalent_mass_kg": m_e, "mass_ratio": m * rb ** 2 / (m_e * rb ** 2)}

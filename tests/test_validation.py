@@ -51,3 +51,30 @@ def test_50t_icr137_softening_with_jumps_and_superharmonic_peaks():
     # the large-amplitude branch loses contact for part of the cycle
     down = s["branches"]["down"]
     assert max(down["contact_loss_fraction"]) > 0.1
+
+
+@pytest.mark.slow
+def test_28t_blank_bore_trend_stiffness_mass_and_frequency():
+    """docs/validation.md "The unspecified blank": a smaller bore leaves more blank to twist between hub and root,
+    so the mean mesh stiffness falls strongly (~-7 % from 40 to 35 mm), the gear gets heavier, and the rigid-support
+    natural frequency sqrt(2 k / (J / r_b^2)) falls with it."""
+    import dataclasses
+    import math
+
+    from hacgear_core.cli.stiffness import stiffness_dict
+    from hacgear_core.geometry import gear_geometry
+    from hacgear_core.model import load_model
+
+    base = load_model("models/spur_28t_asym/model.toml")
+    out = {}
+    for bore in (0.035, 0.040):
+        m = dataclasses.replace(base, gears=tuple(dataclasses.replace(g, bore_diameter_m=bore) for g in base.gears))
+        k = stiffness_dict(m, 300.0, positions=16)["mean_mesh_stiffness_N_per_m"]
+        gg = gear_geometry(m.gears[0])
+        rb = gg.base_radius_m["drive"]
+        out[bore] = (k, gg.mass_kg, math.sqrt(2 * k / (gg.inertia_kgm2 / rb**2)) / (2 * math.pi))
+    (k35, m35, f35), (k40, m40, f40) = out[0.035], out[0.040]
+    assert 0.88 < k35 / k40 < 0.97
+    assert m35 > m40
+    assert f35 < f40
+    assert f40 == pytest.approx(2800.0, rel=0.05)

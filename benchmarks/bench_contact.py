@@ -25,7 +25,7 @@ def main() -> int:
     ap.add_argument("--figures", metavar="DIR", help="instead: run the study of docs/static_contact.md, write "
                                                      "DIR/contact_*.png and print its numbers")
     ap.add_argument("--hob-figure", metavar="DIR", help="instead: only the hob tip radius study (Fig. 2.7 analogue), "
-                                                        "write DIR/contact_fillet_strain_hob_radius.png")
+                                                        "write DIR/contact_fillet_strain_hob_radius{,_profile}.png")
     args = ap.parse_args()
     if args.figures:
         return figures(args.figures)
@@ -188,7 +188,12 @@ def figures(out_dir: str) -> int:
 
 def hob_radius_figure(out_dir: str) -> int:
     """Dissertation Fig. 2.7 analogue: wheel root strain for hob tip radii 0.4, 1.8 (the largest the
-    28-tooth tool allows) and 0.01 mm."""
+    28-tooth tool allows) and 0.01 mm, with the investigation of docs/static_contact.md "Hob tip
+    radius": converged point strain (48 points equally spaced in arc length, 0.1 mm elements along
+    the fillets), the same with the default mesh and with the default 24 radius-spaced points, a
+    1 mm gauge grid, a fixed radial gauge axis, and the maximum restricted to radii above r_cut.
+    Writes contact_fillet_strain_hob_radius.png (strain over two mesh cycles) and
+    contact_fillet_strain_hob_radius_profile.png (maximum over the cycle along the root, fillets)."""
     from pathlib import Path
 
     import matplotlib
@@ -197,35 +202,104 @@ def hob_radius_figure(out_dir: str) -> int:
     import matplotlib.pyplot as plt
 
     from hacgear_core.contact import make_mesh_solver, model_variant, root_strain_scan
+    from hacgear_core.fe import MeshOptions
+    from hacgear_core.geometry import gear_geometry
     from hacgear_core.model import load_model
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     model = load_model("spur_28t_asym")
     W = 300.0 / make_mesh_solver(model, "m12").base_radius_m[0]
-    # ---- Fig. 2.7 analogue: strain along the root for three hob tip radii
+    radii = (0.4e-3, 1.8e-3, 0.01e-3)
+    fine = MeshOptions(fillet_size_m=0.1e-3)
+    variants = {"point, arc 48, fillet mesh 0.1 mm": dict(sampling="arc", n_gauges=48, fe_options=fine),
+                "point, arc 48, default mesh": dict(sampling="arc", n_gauges=48),
+                "point, radius 24, default mesh (default call)": dict(),
+                "1 mm gauge grid, arc 24, fillet mesh 0.1 mm": dict(sampling="arc", n_gauges=24, fe_options=fine,
+                                                                  gauge_length_m=1e-3)}
+    scans: dict = {}
+    t0 = time.perf_counter()
+    for name, kw in variants.items():
+        scans[name] = {r: root_strain_scan(model_variant(model, hob_tip_radius_m=r), "m12", W, positions=96, **kw)
+                       for r in radii}
+    print(f"hob tip radius study: {time.perf_counter() - t0:.0f} s")
+
+    def row(label, m):
+        print(f"| {label} | {m[0.4e-3] * 1e6:.1f} | {m[1.8e-3] * 1e6:.1f} ({(m[1.8e-3] / m[0.4e-3] - 1) * 100:+.1f} %) | "
+              f"{m[0.01e-3] * 1e6:.1f} ({(m[0.01e-3] / m[0.4e-3] - 1) * 100:+.1f} %) |", flush=True)
+
+    print("| definition | 0.4 mm [ue] | 1.8 mm (vs 0.4) | 0.01 mm (vs 0.4) |")
+    print("|---|---|---|---|")
+    print("| dissertation Fig. 2.7 | | (-13.2 %) | (+10.0 %) |")
+    for name, sc in scans.items():
+        row(name, {r: s.max_strain for r, s in sc.items()})
+    ref = scans["point, arc 48, fillet mesh 0.1 mm"]
+    # fixed radial gauge axis: at the traction-free surface the stress is uniaxial along the tangent t,
+    # so the strain along a unit d at angle th to t is eps_t (cos^2 th - nu' sin^2 th), nu' = nu (plane stress)
+    nu = model.gears[1].material.poisson_ratio
+    m_rad = {}
+    for r, sc in ref.items():
+        gg = gear_geometry(model_variant(model, hob_tip_radius_m=r).gears[1])
+        p = gg.flank("drive", 4000)
+        s, xy, nrm = np.asarray(p.s), np.asarray(p.xy), np.asarray(p.normal)
+        o = np.argsort(s)
+        P = np.stack([np.interp(sc.s_m, s[o], xy[o, k]) for k in range(2)], axis=1)
+        N = np.stack([np.interp(sc.s_m, s[o], nrm[o, k]) for k in range(2)], axis=1)
+        c = np.abs(np.sum(P / np.linalg.norm(P, axis=1)[:, None] * np.stack([-N[:, 1], N[:, 0]], 1), axis=1)
+                   / np.linalg.norm(N, axis=1))
+        m_rad[r] = float(np.max(sc.strain * (c ** 2 - nu * (1 - c ** 2))[None, :]))
+    row("radial gauge axis (point, arc 48, fillet mesh 0.1 mm)", m_rad)
+    for r_cut in (63.5e-3, 63.7e-3, 63.8e-3, 64.0e-3):
+        row(f"max over r >= {r_cut * 1e3:.1f} mm only (point, arc 48, fillet mesh 0.1 mm)",
+            {r: float(sc.strain[:, sc.radius_m >= r_cut].max()) for r, sc in ref.items()})
+    for r, sc in ref.items():
+        print(f"hob tip radius {r * 1e3:g} mm: max {sc.max_strain * 1e6:.1f} ue at mesh cycle {sc.max_position + 1:.3f}, "
+              f"radius {sc.max_radius_m * 1e3:.3f} mm, arc {sc.max_s_m * 1e3:.3f} mm from the tip", flush=True)
+
+    # ---- Fig. 2.7 analogue: strain over two mesh cycles at points along the root
     fig, ax = plt.subplots(1, 3, figsize=(13, 4), sharey=True)
-    ref = None
-    for a, r in zip(ax, (0.4e-3, 1.8e-3, 0.01e-3)):
-        sc = root_strain_scan(model, "m12", W, positions=96) if r == 0.4e-3 else \
-            root_strain_scan(model_variant(model, hob_tip_radius_m=r), "m12", W, positions=96)
-        if ref is None:
-            ref = sc.max_strain
-        for k in range(0, len(sc.radius_m), 3):
-            a.plot(sc.position + 1.0, sc.strain[:, k] * 1e6, lw=0.8, label=f"s = {sc.s_m[k] * 1e3:.2f} mm")
+    for a, r in zip(ax, radii):
+        sc = ref[r]
+        for k in range(0, len(sc.radius_m), 6):
+            a.plot(sc.position + 1.0, sc.strain[:, k] * 1e6, lw=0.8, label=f"r = {sc.radius_m[k] * 1e3:.2f} mm")
         a.set_title(f"hob tip radius {r * 1e3:g} mm: max {sc.max_strain * 1e6:.0f} ue "
-                    f"({(sc.max_strain / ref - 1) * 100:+.1f} %)", fontsize=9)
+                    f"({(sc.max_strain / ref[0.4e-3].max_strain - 1) * 100:+.1f} %)", fontsize=9)
         a.set_xlabel("mesh cycle")
-        print(f"hob tip radius {r * 1e3:g} mm: max root strain {sc.max_strain * 1e6:.1f} ue at mesh cycle "
-              f"{sc.max_position + 1:.3f}, radius {sc.max_radius_m * 1e3:.3f} mm; vs 0.4 mm "
-              f"{(sc.max_strain / ref - 1) * 100:+.1f} %", flush=True)
     ax[0].set_ylabel("surface strain, wheel root (relief) [1e-6]")
     ax[0].legend(fontsize=6)
     fig.tight_layout()
     fig.savefig(out / "contact_fillet_strain_hob_radius.png", dpi=120)
     plt.close(fig)
-    return 0
 
+    # ---- where the maximum lies: max over the mesh cycle along the root, and the fillets
+    fig, ax = plt.subplots(1, 2, figsize=(12, 4.5))
+    for r, col in zip(radii, ("C0", "C1", "C2")):
+        sc = ref[r]
+        ax[0].plot(sc.radius_m * 1e3, sc.strain.max(axis=0) * 1e6, col, label=f"{r * 1e3:g} mm, point")
+        g1 = scans["1 mm gauge grid, arc 24, fillet mesh 0.1 mm"][r]
+        ax[0].plot(g1.radius_m * 1e3, g1.strain.max(axis=0) * 1e6, col + "--", lw=0.8, label=f"{r * 1e3:g} mm, 1 mm grid")
+        gg = gear_geometry(model_variant(model, hob_tip_radius_m=r).gears[1])
+        xy = np.asarray(gg.flank("drive", 2000).xy) * 1e3
+        ax[1].plot(xy[:, 1], xy[:, 0], col, label=f"{r * 1e3:g} mm")
+        ax[1].plot(sc.max_radius_m * 1e3 * np.sin(np.interp(sc.max_s_m, np.asarray(gg.flank("drive", 2000).s)[::-1],
+                                                            np.arctan2(xy[::-1, 1], xy[::-1, 0]))),
+                   sc.max_radius_m * 1e3 * np.cos(np.interp(sc.max_s_m, np.asarray(gg.flank("drive", 2000).s)[::-1],
+                                                            np.arctan2(xy[::-1, 1], xy[::-1, 0]))), col + "o")
+    ax[0].axvline(64.051, color="k", lw=0.6, ls=":")
+    ax[0].set_xlabel("radius [mm] (dotted: gauge SG25, 64.051 mm)")
+    ax[0].set_ylabel("max over two mesh cycles [1e-6]")
+    ax[0].legend(fontsize=7)
+    ax[1].set_aspect("equal")
+    ax[1].set_xlim(3.5, 8.5)
+    ax[1].set_ylim(62.9, 66.4)
+    ax[1].set_xlabel("tooth frame y [mm]")
+    ax[1].set_ylabel("tooth frame x [mm]")
+    ax[1].set_title("25 deg fillet of the wheel (dots: location of the maximum)", fontsize=9)
+    ax[1].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(out / "contact_fillet_strain_hob_radius_profile.png", dpi=120)
+    plt.close(fig)
+    return 0
 
 if __name__ == "__main__":
     raise SystemExit(main())

@@ -272,6 +272,14 @@ def test_mean_mesh_stiffness(model, solver):
     assert c.mean_mesh_stiffness_N_per_m < 0.92 * cp.mean_mesh_stiffness_N_per_m
 
 
+@pytest.mark.xfail(strict=True, reason="measured 165.9e6 N/m (+10.6 %) with the model's 40 mm bore; the dissertation "
+                   "gives no blank and a 35 mm bore would give 153.8e6 (docs/validation.md, 'The unspecified blank')")
+def test_mean_mesh_stiffness_within_10_percent_of_150e6(solver):
+    """Issue #3's criterion as asked: dissertation Section 3.6.2, 150e6 N/m +/- 10 % at 300 N m."""
+    c = mesh_stiffness_curve(solver, _force(solver), positions=32)
+    assert c.mean_mesh_stiffness_N_per_m == pytest.approx(150e6, rel=0.10)
+
+
 def test_solution_protocol(solver):
     from hacgear_core.statics import MeshStaticSolver, describe_solver
 

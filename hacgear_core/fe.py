@@ -259,6 +259,15 @@ class GearMesh:
         the rotation of the cut on ``-pi/z`` node by node.
     sector_t : ndarray (Ts, 3)
         Triangles of the sector.
+    sector_offset_rad : float
+        Angle of the sector centre (the cuts lie at ``sector_offset_rad -+ pi/z``).
+    sector_thickness : ndarray (Ts,) or None
+        Relative thickness of each sector triangle (factor on its plane stiffness): the web's
+        ``relative_thickness`` inside the web annulus, 1 elsewhere; None: 1 everywhere (solid blank).
+    thickness : ndarray (T,) or None
+        The same for the triangles of the whole gear.
+    web_radii_m : tuple (inner, outer) or None
+        Radii of the two circles the mesh conforms to (web ends), None without a web.
     """
 
     p: np.ndarray
@@ -270,6 +279,9 @@ class GearMesh:
     sector_p: np.ndarray
     sector_t: np.ndarray
     sector_offset_rad: float = 0.0
+    sector_thickness: np.ndarray | None = None
+    thickness: np.ndarray | None = None
+    web_radii_m: tuple[float, float] | None = None
 
 
 def _boundary_pieces(xy: np.ndarray, region: np.ndarray, side: np.ndarray):
@@ -327,6 +339,16 @@ def mesh_gear(gg: Any, options: MeshOptions = MeshOptions()) -> GearMesh:
     if (not internal and r_hub >= radii.min()) or (internal and r_hub <= radii.max()):
         raise GeometryError(f"bore_radius_m = {r_hub:.6g} m must lie {'outside' if internal else 'inside'} the "
                             f"tooth boundary (radii {radii.min():.6g}..{radii.max():.6g} m)")
+    web = getattr(gg, "web", None)
+    if web is not None:
+        r_wi, r_wo, f_web = float(web.inner_radius_m), float(web.outer_radius_m), float(web.relative_thickness)
+        if internal:
+            raise GeometryError("a web is not supported for internal gears")
+        if not r_hub < r_wi < r_wo < radii.min():
+            raise GeometryError(f"web radii must satisfy bore {r_hub:.6g} < inner {r_wi:.6g} < outer {r_wo:.6g} < "
+                                f"lowest boundary radius {radii.min():.6g} m")
+        if not 0.0 < f_web <= 1.0:
+            raise GeometryError(f"web relative_thickness must lie in (0, 1], got {f_web!r}")
 
     # resolve the tip rounding and the fillet curvature when the geometry gives them
     tip_size, fillet_size = options.flank_size_m, options.fillet_size_m
@@ -365,14 +387,34 @@ def mesh_gear(gg: Any, options: MeshOptions = MeshOptions()) -> GearMesh:
             pc = geo.addPoint(0.0, 0.0, 0.0)
             hl = geo.addPoint(r_hub * np.cos(lo), r_hub * np.sin(lo), 0.0)
             hr = geo.addPoint(r_hub * np.cos(hi), r_hub * np.sin(hi), 0.0)
-            cut_l = geo.addLine(hl, ptag[0])
-            cut_r = geo.addLine(hr, ptag[-1])
-            arc = geo.addCircleArc(hr, pc, hl)
-            loop = geo.addCurveLoop(curves + [-cut_r, arc, cut_l])
-            geo.addPlaneSurface([loop])
-            geo.synchronize()
             c, s = np.cos(2 * half), np.sin(2 * half)
-            gmsh.model.mesh.setPeriodic(1, [cut_r], [cut_l], [c, -s, 0, 0, s, c, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1])
+            affine = [c, -s, 0, 0, s, c, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]
+            web_surface = None
+            if web is None:
+                cut_l = geo.addLine(hl, ptag[0])
+                cut_r = geo.addLine(hr, ptag[-1])
+                arc = geo.addCircleArc(hr, pc, hl)
+                loop = geo.addCurveLoop(curves + [-cut_r, arc, cut_l])
+                geo.addPlaneSurface([loop])
+                geo.synchronize()
+                gmsh.model.mesh.setPeriodic(1, [cut_r], [cut_l], affine)
+            else:
+                # three conforming surfaces: hub (bore..r_wi), web (r_wi..r_wo), rim + tooth (r_wo..outline);
+                # each radial cut is split at the two web radii and kept periodic piece by piece
+                wil = geo.addPoint(r_wi * np.cos(lo), r_wi * np.sin(lo), 0.0)
+                wir = geo.addPoint(r_wi * np.cos(hi), r_wi * np.sin(hi), 0.0)
+                wol = geo.addPoint(r_wo * np.cos(lo), r_wo * np.sin(lo), 0.0)
+                wor = geo.addPoint(r_wo * np.cos(hi), r_wo * np.sin(hi), 0.0)
+                cl = [geo.addLine(hl, wil), geo.addLine(wil, wol), geo.addLine(wol, ptag[0])]
+                cr = [geo.addLine(hr, wir), geo.addLine(wir, wor), geo.addLine(wor, ptag[-1])]
+                arc = geo.addCircleArc(hr, pc, hl)
+                arc_i = geo.addCircleArc(wir, pc, wil)
+                arc_o = geo.addCircleArc(wor, pc, wol)
+                geo.addPlaneSurface([geo.addCurveLoop([cr[0], arc_i, -cl[0], -arc])])
+                web_surface = geo.addPlaneSurface([geo.addCurveLoop([cr[1], arc_o, -cl[1], -arc_i])])
+                geo.addPlaneSurface([geo.addCurveLoop(curves + [-cr[2], arc_o, cl[2]])])
+                geo.synchronize()
+                gmsh.model.mesh.setPeriodic(1, cr, cl, affine)
             fld = gmsh.model.mesh.field
             mins = []
             for group, size, dmin in ((flank_curves, options.flank_size_m, options.fine_layer_m),
@@ -401,6 +443,10 @@ def mesh_gear(gg: Any, options: MeshOptions = MeshOptions()) -> GearMesh:
             gmsh.model.mesh.generate(2)
             ntags, coords, _ = gmsh.model.mesh.getNodes()
             etags, enodes = gmsh.model.mesh.getElementsByType(2)
+            in_web = None
+            if web_surface is not None:
+                wtags, _ = gmsh.model.mesh.getElementsByType(2, web_surface)
+                in_web = np.isin(np.asarray(etags), np.asarray(wtags))
         except Exception as exc:  # gmsh raises plain Exception
             raise GeometryError(f"gmsh could not mesh the tooth sector: {exc}") from exc
         finally:
@@ -447,7 +493,11 @@ def mesh_gear(gg: Any, options: MeshOptions = MeshOptions()) -> GearMesh:
         parent[i] = r
     uniq, inv = np.unique(parent, return_inverse=True)
     P, T = P[uniq], inv[T]
-    return GearMesh(P, T.astype(np.int64), z, r_hub, len(ts), mesh_time, ps, ts.astype(np.int64), off)
+    if web is None:
+        return GearMesh(P, T.astype(np.int64), z, r_hub, len(ts), mesh_time, ps, ts.astype(np.int64), off)
+    th_s = np.where(in_web, f_web, 1.0)
+    return GearMesh(P, T.astype(np.int64), z, r_hub, len(ts), mesh_time, ps, ts.astype(np.int64), off,
+                    sector_thickness=th_s, thickness=np.tile(th_s, z), web_radii_m=(r_wi, r_wo))
 
 
 # ----------------------------------------------------------------------------- FE model
@@ -497,6 +547,8 @@ class PlaneFE:
         prescribed (0 unless given to :meth:`solve`).
     factorize : bool
         Factorise the free-free stiffness (needed by :meth:`solve`).
+    thickness : ndarray (T,), optional
+        Relative thickness of each triangle (factor on its stiffness, > 0); None: 1 everywhere.
 
     Attributes
     ----------
@@ -509,7 +561,7 @@ class PlaneFE:
     """
 
     def __init__(self, p: np.ndarray, t: np.ndarray, material: ElasticMaterial, fixed_facets,
-                 factorize: bool = True):
+                 factorize: bool = True, thickness: np.ndarray | None = None):
         from skfem import Basis, ElementTriP2, ElementVector, MeshTri, asm
         from skfem.models.elasticity import linear_elasticity
 
@@ -520,7 +572,20 @@ class PlaneFE:
         self._scalar_elem = ElementTriP2()
         self.basis = Basis(self.mesh, ElementVector(self._scalar_elem))
         lam, mu = material.lame
-        self.K = asm(linear_elasticity(lam, mu), self.basis).tocsr()
+        if thickness is None:
+            self.K = asm(linear_elasticity(lam, mu), self.basis).tocsr()
+        else:
+            th = np.asarray(thickness, dtype=float)
+            if th.shape != (self.mesh.t.shape[1],) or not np.all(np.isfinite(th) & (th > 0)):
+                raise ModelError(f"thickness must be {self.mesh.t.shape[1]} finite factors > 0 (one per triangle)")
+            # assemble each thickness group on its own elements (global DOF numbering) and scale it
+            K = None
+            for f in np.unique(th):
+                sub = Basis(self.mesh, ElementVector(self._scalar_elem), elements=np.flatnonzero(th == f))
+                Kf = f * asm(linear_elasticity(lam, mu), sub)
+                K = Kf if K is None else K + Kf
+            self.K = K.tocsr()
+        self.thickness = None if thickness is None else np.asarray(thickness, dtype=float)
         t1 = time.perf_counter()
         pm = self.mesh.p
         bf = self.mesh.boundary_facets()
@@ -677,7 +742,8 @@ class GearFE(PlaneFE):
             return ((np.abs(np.hypot(x0[:, 0], x0[:, 1]) - r) < 1e-7 * r)
                     & (np.abs(np.hypot(x1[:, 0], x1[:, 1]) - r) < 1e-7 * r))
 
-        super().__init__(gear_mesh.p, gear_mesh.t, material, on_hub)
+        super().__init__(gear_mesh.p, gear_mesh.t, material, on_hub,
+                         thickness=getattr(gear_mesh, "thickness", None))
         self.gear_mesh = gear_mesh
         self.z = gear_mesh.z
         self.hub_radius_m = r
@@ -778,7 +844,8 @@ class CyclicGearFE:
                     & (np.abs(np.hypot(x1[:, 0], x1[:, 1]) - r) < 1e-7 * r))
 
         t0 = time.perf_counter()
-        sec = self.sector = PlaneFE(gear_mesh.sector_p, gear_mesh.sector_t, material, on_hub, factorize=False)
+        sec = self.sector = PlaneFE(gear_mesh.sector_p, gear_mesh.sector_t, material, on_hub, factorize=False,
+                                    thickness=getattr(gear_mesh, "sector_thickness", None))
         th = 2 * np.pi / z
         half = th / 2
         X = sec.dof_locations                                   # (2, N)
@@ -1257,6 +1324,10 @@ def _hash_inputs(gg, material, options, side, s_grid, depth, gauges, n_profile) 
     off = float(getattr(gg, "sector_offset_rad", 0.0))
     if off != 0.0:  # sector cut off the mid-space angle (kept out of the key otherwise: old caches stay valid)
         h.update(f"sector_offset_rad={off!r}".encode())
+    web = getattr(gg, "web", None)
+    if web is not None:  # webbed blank (kept out of the key for solid blanks: their caches stay valid)
+        h.update((f"web={float(web.inner_radius_m)!r},{float(web.outer_radius_m)!r},"
+                  f"{float(web.relative_thickness)!r}").encode())
     return h.hexdigest()[:32]
 
 

@@ -62,6 +62,7 @@ __all__ = [
     "max_hob_tip_radius_m",
     "FlankProfile",
     "Boundary",
+    "WebGeometry",
     "GearGeometry",
     "MeshGeometry",
     "gear_geometry",
@@ -369,6 +370,30 @@ class _Flank:
 # ----------------------------------------------------------------------------------------------
 # Gear geometry
 # ----------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class WebGeometry:
+    """Web of a webbed blank (SI), as the finite-element model sees it.
+
+    ``inner_radius_m``: hub outer radius (web starts); ``outer_radius_m``: rim inner radius (web ends);
+    ``thickness_m``: axial web thickness; ``relative_thickness``: ``thickness_m / face_width_m`` in (0, 1],
+    the factor on the plane stiffness of the web region (the plane model works per unit face width).
+    """
+
+    thickness_m: float
+    inner_radius_m: float
+    outer_radius_m: float
+    relative_thickness: float
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.inner_radius_m < self.outer_radius_m:
+            raise GeometryError(f"web radii must satisfy 0 < inner_radius_m < outer_radius_m, got "
+                                f"{self.inner_radius_m!r}, {self.outer_radius_m!r} m")
+        if not 0.0 < self.relative_thickness <= 1.0:
+            raise GeometryError(f"web relative_thickness must lie in (0, 1], got {self.relative_thickness!r}")
+        if not self.thickness_m > 0.0:
+            raise GeometryError(f"web thickness_m must be > 0 m, got {self.thickness_m!r}")
+
+
 @dataclass(frozen=True, eq=False)
 class GearGeometry:
     """Geometry of one gear, built by :func:`gear_geometry`.  See the module docstring for frames."""
@@ -409,6 +434,7 @@ class GearGeometry:
     warnings: tuple[str, ...]
     density_kg_per_m3: float
     sector_offset_rad: float
+    web: WebGeometry | None
     _form: _ToothForm = field(repr=False, compare=False)
     _flanks: Mapping[str, _Flank] = field(repr=False, compare=False)
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
@@ -936,6 +962,16 @@ def gear_geometry(gear: Any, *, shaper_teeth: int | None = None) -> GearGeometry
         r_bore = r_f + 3.0 * m
         warnings.append(f"gear '{gear.name}': internal gear without bore_diameter_mm (outer rim); using rim radius "
                         f"r_f + 3 m = {r_bore * 1e3:.3f} mm")
+    mweb = getattr(gear, "web", None)
+    web = None
+    if mweb is not None:
+        if internal:
+            raise GeometryError(f"gear '{gear.name}': a web is not supported for internal gears")
+        r_wi, r_wo = 0.5 * float(mweb.inner_diameter_m), 0.5 * float(mweb.outer_diameter_m)
+        if not r_bore < r_wi < r_wo < r_f:
+            raise GeometryError(f"gear '{gear.name}': web radii must satisfy bore {r_bore * 1e3:g} < inner "
+                                f"{r_wi * 1e3:g} < outer {r_wo * 1e3:g} < root {r_f * 1e3:g} mm")
+        web = WebGeometry(float(mweb.thickness_m), r_wi, r_wo, min(1.0, float(mweb.thickness_m) / b))
     gg = GearGeometry(
         name=gear.name, z=z, module_m=m, pitch_radius_m=r, tip_radius_m=r_a, root_radius_m=r_f, internal=internal,
         face_width_m=b, helix_angle_rad=float(gear.helix_angle_rad), axial_position_m=float(gear.axial_position_m),
@@ -947,7 +983,8 @@ def gear_geometry(gear: Any, *, shaper_teeth: int | None = None) -> GearGeometry
         involute_end_roll_rad={s: flanks[s].u_end for s in SIDES}, undercut={s: flanks[s].undercut for s in SIDES},
         fillet_root_curvature_radius_m=fillet_rc, tip_thickness_m=s_tip, bore_radius_m=r_bore, mass_kg=0.0,
         inertia_kgm2=0.0, diametral_inertia_kgm2=0.0, blank_mass_kg=0.0, blank_inertia_kgm2=0.0, teeth_area_m2=0.0,
-        shaper_teeth=z0, warnings=(), density_kg_per_m3=rho_mat, sector_offset_rad=sector_offset, _form=form, _flanks=flanks)
+        shaper_teeth=z0, warnings=(), density_kg_per_m3=rho_mat, sector_offset_rad=sector_offset, web=web, _form=form,
+        _flanks=flanks)
     # mass properties from the polygon of the whole boundary
     # one tooth sector (origin + one pitch of boundary), times z
     sector = np.vstack([[0.0, 0.0], gg.tooth_boundary(240).xy])
@@ -963,12 +1000,21 @@ def gear_geometry(gear: Any, *, shaper_teeth: int | None = None) -> GearGeometry
         j_tot = 0.5 * math.pi * r_bore ** 4 - j
     mass = rho_mat * b * a_tot
     inertia = rho_mat * b * j_tot
+    web_mass = 0.0
+    if web is not None:  # the web annulus has thickness t instead of b: remove (b - t) of it
+        ri, ro, t_w = web.inner_radius_m, web.outer_radius_m, web.thickness_m
+        mass -= rho_mat * (b - t_w) * math.pi * (ro ** 2 - ri ** 2)
+        inertia -= rho_mat * (b - t_w) * 0.5 * math.pi * (ro ** 4 - ri ** 4)
+        web_mass = rho_mat * t_w * math.pi * (ro ** 2 - ri ** 2)
     blank_mass, blank_inertia = mass, inertia
     if gear.mass_kg is not None:
         mass = float(gear.mass_kg)
     if gear.inertia_kgm2 is not None:
         inertia = float(gear.inertia_kgm2)
-    diam = 0.5 * inertia + mass * b * b / 12.0
+    if web is None or gear.mass_kg is not None:
+        diam = 0.5 * inertia + mass * b * b / 12.0
+    else:  # thin slices about a diameter: rim and hub of width b, web of width t
+        diam = 0.5 * inertia + (mass - web_mass) * b * b / 12.0 + web_mass * web.thickness_m ** 2 / 12.0
     object.__setattr__(gg, "mass_kg", mass)
     object.__setattr__(gg, "inertia_kgm2", inertia)
     object.__setattr__(gg, "diametral_inertia_kgm2", diam)

@@ -32,6 +32,10 @@ The format (one example per system lives in ``models/``)::
     face_width_mm = 15.0
     bore_diameter_mm = 40.0
     material = "steel"
+    [gears.web]                       # optional: webbed blank (absent: solid disk from bore to root)
+    thickness_mm = 5.0                # web thickness, (0, face_width_mm]
+    inner_diameter_mm = 60.0          # hub outer diameter, (bore_diameter_mm, outer_diameter_mm)
+    outer_diameter_mm = 105.0         # rim inner diameter, <= root_diameter_mm - 2 mm
     [gears.drive]                     # flank named "drive" (counter-clockwise side of tooth 0)
     pressure_angle_deg = 25.0
     tip_relief_um = 47.0
@@ -75,6 +79,7 @@ __all__ = [
     "Flank",
     "Gauge",
     "Support",
+    "Web",
     "Gear",
     "Mesh",
     "Damping",
@@ -208,6 +213,40 @@ class Support:
         return math.isinf(self.translational_stiffness_N_per_m)
 
 
+#: smallest radial rim thickness a web may leave below the root circle: outer_diameter <= root - 2 * this
+WEB_MIN_RIM_M = 1e-3
+
+
+@dataclass(frozen=True)
+class Web:
+    """Web of a webbed gear blank (SI): a thin annulus of axial ``thickness_m`` between the hub
+    (outer diameter ``inner_diameter_m``) and the rim (inner diameter ``outer_diameter_m``); hub and
+    rim keep the full face width.  Checks against the gear (bore, root, face width) are in
+    :class:`Gear`."""
+
+    thickness_m: float
+    inner_diameter_m: float
+    outer_diameter_m: float
+
+    def __post_init__(self) -> None:
+        _check_range("web.thickness_m", self.thickness_m, "m", 0.0, 2.0, lo_open=True)
+        _check_range("web.inner_diameter_m", self.inner_diameter_m, "m", 0.0, 40.0, lo_open=True)
+        _check_range("web.outer_diameter_m", self.outer_diameter_m, "m", 0.0, 40.0, lo_open=True)
+        if not self.inner_diameter_m < self.outer_diameter_m:
+            raise ModelError(
+                f"web.inner_diameter_m [m] = {self.inner_diameter_m:g} must be smaller than web.outer_diameter_m "
+                f"= {self.outer_diameter_m:g} m"
+            )
+
+    @property
+    def inner_radius_m(self) -> float:
+        return 0.5 * self.inner_diameter_m
+
+    @property
+    def outer_radius_m(self) -> float:
+        return 0.5 * self.outer_diameter_m
+
+
 @dataclass(frozen=True)
 class Gear:
     """One gear (SI).  For helical gears, module, pressure angles and tooth thickness are transverse.
@@ -217,7 +256,9 @@ class Gear:
     ``tooth_thickness_m``: circular tooth thickness on the reference circle; ``hob_tip_radius_m``: edge
     radius of the generating tool tip; ``bore_diameter_m``: hub bore (inner boundary of the blank; for
     internal gears the outer rim diameter); ``mass_kg``/``inertia_kgm2``: lumped values overriding the
-    values computed from the blank (None: computed).
+    values computed from the blank (None: computed); ``web``: a :class:`Web` (webbed blank: hub from the
+    bore to ``web.inner_diameter_m``, web of ``web.thickness_m``, full-width rim from ``web.outer_diameter_m``
+    to the root) or None (solid blank from the bore to the root).
     """
 
     name: str
@@ -240,6 +281,7 @@ class Gear:
     inertia_kgm2: float | None = None
     gauges: tuple[Gauge, ...] = ()
     support: Support = field(default_factory=Support)
+    web: Web | None = None
 
     def __post_init__(self) -> None:
         where = f"gear '{self.name}'"
@@ -305,6 +347,35 @@ class Gear:
         names = [g.name for g in self.gauges]
         if len(set(names)) != len(names):
             raise ModelError(f"{where}: gauge names must be unique, got {names}")
+        if self.web is not None:
+            self._check_web(where)
+
+    def _check_web(self, where: str) -> None:
+        w = self.web
+        if not isinstance(w, Web):
+            raise ModelError(f"{where}: web must be a Web or None, got {type(w).__name__}")
+        if self.internal:
+            raise ModelError(f"{where}: web is not supported for internal gears (ring gears have no hub/web); "
+                             "remove [gears.web]")
+        if w.thickness_m > self.face_width_m * (1 + 1e-12):
+            raise ModelError(
+                f"{where}: web.thickness [mm] = {w.thickness_m * 1e3:g} exceeds the face width; allowed: "
+                f"(0, face_width = {self.face_width_m * 1e3:g}] mm"
+            )
+        if not w.inner_diameter_m > self.bore_diameter_m:
+            raise ModelError(
+                f"{where}: web.inner_diameter [mm] = {w.inner_diameter_m * 1e3:g} must exceed the bore diameter "
+                f"{self.bore_diameter_m * 1e3:g} mm (the hub lies between bore and web); allowed: "
+                f"(bore_diameter, web.outer_diameter) = ({self.bore_diameter_m * 1e3:g}, "
+                f"{w.outer_diameter_m * 1e3:g}) mm"
+            )
+        d_max = self.root_diameter_m - 2 * WEB_MIN_RIM_M
+        if w.outer_diameter_m > d_max * (1 + 1e-12):
+            raise ModelError(
+                f"{where}: web.outer_diameter [mm] = {w.outer_diameter_m * 1e3:g} leaves no rim below the root "
+                f"circle; allowed: (web.inner_diameter, root_diameter - {2e3 * WEB_MIN_RIM_M:g} mm] = "
+                f"({w.inner_diameter_m * 1e3:g}, {d_max * 1e3:g}] mm"
+            )
 
     @property
     def is_helical(self) -> bool:
@@ -616,7 +687,9 @@ _GEAR_KEYS = (
     "name", "teeth", "module_mm", "tip_diameter_mm", "root_diameter_mm", "tooth_thickness_mm", "hob_tip_radius_mm",
     "face_width_mm", "bore_diameter_mm", "material", "internal", "helix_angle_deg", "axial_position_mm",
     "lead_crowning_um", "tip_edge_radius_mm", "mass_kg", "inertia_kgm2", "drive", "coast", "gauges", "support",
+    "web",
 )
+_WEB_KEYS = ("thickness_mm", "inner_diameter_mm", "outer_diameter_mm")
 _MESH_KEYS = ("name", "gear_a", "gear_b", "flank_a", "flank_b", "center_distance_mm")
 _TOP_KEYS = ("system", "materials", "gears", "meshes", "damping", "operating", "statics", "planetary")
 
@@ -664,6 +737,36 @@ def _read_support(ssec: "_Section | None") -> Support:
     return support
 
 
+def _read_web(wsec: "_Section | None", face_mm: float, bore_mm: float, root_mm: float, internal: bool) -> Web | None:
+    """``[gears.web]`` → :class:`Web` (None when absent); bounds that depend on the gear are checked here so
+    that the message names the TOML key."""
+    if wsec is None:
+        return None
+    if internal:
+        raise wsec.error(wsec.path, "", "no [gears.web] on internal gears", "a table",
+                         problem="a web is not supported for internal (ring) gears")
+    rim = 2e3 * WEB_MIN_RIM_M
+
+    def num(key: str, allowed: str, ok: Callable[[float], bool]) -> float:
+        v = wsec._get(key, True, None, "mm", allowed)
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise wsec.error(wsec.key(key), "mm", allowed, v, problem=f"wrong type {type(v).__name__} ({v!r})")
+        v = float(v)
+        if v != v or not ok(v):
+            raise wsec.error(wsec.key(key), "mm", allowed, v, problem=f"value {v:g} out of range")
+        return v
+
+    d_max = root_mm - rim
+    t = num("thickness_mm", f"(0, face_width_mm = {face_mm:g}]", lambda v: 0.0 < v <= face_mm)
+    d_in = num("inner_diameter_mm", f"(bore_diameter_mm = {bore_mm:g}, root_diameter_mm - {rim:g} = {d_max:g})",
+               lambda v: bore_mm < v < d_max)
+    d_out = num("outer_diameter_mm", f"(web.inner_diameter_mm = {d_in:g}, root_diameter_mm - {rim:g} = {d_max:g}] "
+                f"(a rim of at least {rim / 2:g} mm must remain below the root circle)",
+                lambda v: d_in < v <= d_max)
+    wsec.done(_WEB_KEYS)
+    return Web(t * 1e-3, d_in * 1e-3, d_out * 1e-3)
+
+
 def _read_gear(sec: _Section, materials: dict[str, Material]) -> Gear:
     name = sec.string("name")
     teeth = sec.integer("teeth", 6, 1000)
@@ -696,6 +799,7 @@ def _read_gear(sec: _Section, materials: dict[str, Material]) -> Gear:
         gsec.done(_GAUGE_KEYS)
         gauges.append(Gauge(gname, gflank, grad * 1e-3))
     support = _read_support(sec.table("support", required=False))
+    web = _read_web(sec.table("web", required=False), face, bore, root, internal)
     sec.done(_GEAR_KEYS)
     return _wrap(sec, sec.path, lambda: Gear(
         name=name, teeth=teeth, module_m=module * 1e-3, tip_diameter_m=tip * 1e-3, root_diameter_m=root * 1e-3,
@@ -703,7 +807,7 @@ def _read_gear(sec: _Section, materials: dict[str, Material]) -> Gear:
         bore_diameter_m=bore * 1e-3, material=materials[mat_name], flanks={"drive": drive, "coast": coast},
         internal=internal, helix_angle_rad=math.radians(helix), axial_position_m=axial * 1e-3,
         lead_crowning_m=crown * 1e-6, tip_edge_radius_m=tip_edge * 1e-3, mass_kg=mass, inertia_kgm2=inertia,
-        gauges=tuple(gauges), support=support,
+        gauges=tuple(gauges), support=support, web=web,
     ))
 
 

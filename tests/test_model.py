@@ -57,6 +57,17 @@ def _replace_once(text: str, old: str, new: str) -> str:
     return text.replace(old, new, 1)
 
 
+def _with_web(text: str, gear: int = 0, **over) -> str:
+    """Add a [gears.web] table to gear ``gear`` of ``text`` (keys in mm; None drops a key)."""
+    keys = dict(thickness_mm=5.0, inner_diameter_mm=60.0, outer_diameter_mm=110.0)
+    keys.update(over)
+    table = "  [gears.web]\n" + "".join(f"  {k} = {v}\n" for k, v in keys.items() if v is not None)
+    parts = text.split('material = "steel"\n')
+    assert len(parts) == 3, "expected two gears"
+    parts[gear + 1] = table + parts[gear + 1]
+    return 'material = "steel"\n'.join(parts)
+
+
 # (description, transformation of the base file, regex the message must match)
 MALFORMED = [
     ("unknown key in a gear",
@@ -119,6 +130,34 @@ MALFORMED = [
     ("not TOML",
      lambda t: t + "\nthis is = = not toml\n",
      r"not valid TOML"),
+    ("web thicker than the face width",
+     lambda t: _with_web(t, thickness_mm=16.0),
+     r"key 'gears\[0\]\.web\.thickness_mm' \[mm\]: value 16 out of range; allowed: \(0, face_width_mm = 15\]"),
+    ("web of zero thickness",
+     lambda t: _with_web(t, thickness_mm=0.0),
+     r"key 'gears\[0\]\.web\.thickness_mm' \[mm\]: value 0 out of range; allowed: \(0, face_width_mm = 15\]"),
+    ("web inside the bore",
+     lambda t: _with_web(t, inner_diameter_mm=40.0),
+     r"key 'gears\[0\]\.web\.inner_diameter_mm' \[mm\]: value 40 out of range; allowed: "
+     r"\(bore_diameter_mm = 40, root_diameter_mm - 2 = 124\.4\)"),
+    ("web inner above outer",
+     lambda t: _with_web(t, inner_diameter_mm=100.0, outer_diameter_mm=90.0),
+     r"key 'gears\[0\]\.web\.outer_diameter_mm' \[mm\]: value 90 out of range; allowed: "
+     r"\(web\.inner_diameter_mm = 100, root_diameter_mm - 2 = 124\.4\]"),
+    ("web leaves no rim",
+     lambda t: _with_web(t, outer_diameter_mm=125.0),
+     r"key 'gears\[0\]\.web\.outer_diameter_mm' \[mm\]: value 125 out of range; allowed: .*124\.4\] "
+     r"\(a rim of at least 1 mm must remain below the root circle\)"),
+    ("web key missing",
+     lambda t: _with_web(t, thickness_mm=None),
+     r"key 'gears\[0\]\.web\.thickness_mm' \[mm\]: missing required key"),
+    ("web wrong type",
+     lambda t: _with_web(t, thickness_mm='"5"'),
+     r"key 'gears\[0\]\.web\.thickness_mm' \[mm\]: wrong type str"),
+    ("unknown key in the web",
+     lambda t: _with_web(t, fillet_mm=2.0),
+     r"unknown key 'gears\[0\]\.web\.fillet_mm' in \[gears\[0\]\.web\]; allowed keys: inner_diameter_mm, "
+     r"outer_diameter_mm, thickness_mm"),
     ("tooth thickness impossible",
      lambda t: _replace_once(t, "tooth_thickness_mm = 7.64", "tooth_thickness_mm = 15.0"),
      r"gear 'pinion': tooth_thickness_m \[m\] = 0\.015 must lie within \(0\.1, 0\.9\) x circular pitch"),
@@ -152,3 +191,56 @@ def test_cli_reports_model_error_without_traceback(tmp_path, capsys):
     assert rc == 2
     assert "gears[0].teeth" in err and "integer in [6, 1000]" in err
     assert "Traceback" not in err
+
+
+def test_web_parses_to_si_and_is_optional():
+    from hacgear_core.model import Web
+
+    base = parse_model(BASE, file="m.toml")
+    assert all(g.web is None for g in base.gears)            # absent: solid blank
+    m = parse_model(_with_web(BASE, 1, thickness_mm=4.5, inner_diameter_mm=62.0, outer_diameter_mm=104.0),
+                    file="m.toml")
+    assert m.gear("pinion").web is None
+    w = m.gear("wheel").web
+    assert isinstance(w, Web)
+    assert (w.thickness_m, w.inner_diameter_m, w.outer_diameter_m) == pytest.approx((4.5e-3, 62e-3, 104e-3))
+    assert (w.inner_radius_m, w.outer_radius_m) == pytest.approx((31e-3, 52e-3))
+    # thickness equal to the face width and the largest allowed outer diameter are accepted
+    m2 = parse_model(_with_web(BASE, thickness_mm=15.0, outer_diameter_mm=124.4), file="m.toml")
+    assert m2.gear("pinion").web.thickness_m == pytest.approx(15e-3)
+
+
+def test_web_rejected_on_internal_gear():
+    text = (MODELS / "planetary_65_55_175" / "model.toml").read_text()
+    gears = text.split("[[gears]]")
+    idx = next(i for i, g in enumerate(gears) if "internal = true" in g)
+    gears[idx] = gears[idx].replace('material = "steel"\n',
+                                    'material = "steel"\n  [gears.web]\n  thickness_mm = 5.0\n'
+                                    '  inner_diameter_mm = 60.0\n  outer_diameter_mm = 100.0\n', 1)
+    with pytest.raises(ModelError) as info:
+        parse_model("[[gears]]".join(gears), file="ring.toml")
+    msg = str(info.value)
+    assert msg.startswith("ring.toml") and "web" in msg and "not supported for internal" in msg
+
+
+def test_web_dataclass_validation():
+    """The frozen dataclasses check the web on their own (programmatic use, no TOML)."""
+    import dataclasses
+
+    from hacgear_core.model import Web
+
+    g = parse_model(BASE, file="m.toml").gear("pinion")
+    with pytest.raises(ModelError, match=r"web\.thickness_m \[m\] = -0\.001 is out of range; allowed: \(0, 2\]"):
+        Web(-1e-3, 60e-3, 100e-3)
+    with pytest.raises(ModelError, match=r"web\.inner_diameter_m \[m\] = 0\.1 must be smaller than web\.outer_diameter_m"):
+        Web(5e-3, 100e-3, 90e-3)
+    with pytest.raises(ModelError, match=r"gear 'pinion': web\.thickness \[mm\] = 20 exceeds the face width; "
+                                         r"allowed: \(0, face_width = 15\] mm"):
+        dataclasses.replace(g, web=Web(20e-3, 60e-3, 100e-3))
+    with pytest.raises(ModelError, match=r"web\.inner_diameter \[mm\] = 30 must exceed the bore diameter 40 mm"):
+        dataclasses.replace(g, web=Web(5e-3, 30e-3, 100e-3))
+    with pytest.raises(ModelError, match=r"web\.outer_diameter \[mm\] = 126 leaves no rim below the root circle; "
+                                         r"allowed: \(web\.inner_diameter, root_diameter - 2 mm\] = \(60, 124\.4\] mm"):
+        dataclasses.replace(g, web=Web(5e-3, 60e-3, 126e-3))
+    ok = dataclasses.replace(g, web=Web(5e-3, 60e-3, 100e-3))
+    assert ok.web.outer_radius_m == pytest.approx(0.05)

@@ -1,6 +1,7 @@
 """Tests of hacgear_core.geometry against closed forms and the dissertation's numbers."""
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -547,6 +548,51 @@ def test_mass_and_inertia_against_annulus_plus_teeth(gg28, ring):
     ro, rf = 0.155, 0.144
     assert ring.mass_kg == pytest.approx(rho_b * (math.pi * (ro ** 2 - rf ** 2) + a_t), rel=1e-5)
     assert ring.inertia_kgm2 == pytest.approx(rho_b * (0.5 * math.pi * (ro ** 4 - rf ** 4) + j_t), rel=1e-5)
+
+
+def test_webbed_blank_mass_and_inertia_closed_form(asym28, gg28):
+    """Webbed blank = hub annulus (bore..r_i, width b) + web annulus (r_i..r_o, thickness t) + rim annulus
+    (r_o..r_f, width b) + teeth (width b), summed piece by piece; thickness = face width is the solid blank."""
+    from hacgear_core.model import Web
+
+    rho, b = 7850.0, 0.015
+    r_bore, r_i, r_o, rf = 0.020, 0.030, 0.055, 0.0632
+    a_t, j_t = _teeth_area_polar(gg28)
+    for t in (2e-3, 5e-3, 10e-3):
+        gg = gear_geometry(dataclasses.replace(asym28.gear("pinion"), web=Web(t, 2 * r_i, 2 * r_o)))
+        m_exp = rho * (b * math.pi * (r_i ** 2 - r_bore ** 2) + t * math.pi * (r_o ** 2 - r_i ** 2)
+                       + b * math.pi * (rf ** 2 - r_o ** 2) + b * a_t)
+        j_exp = rho * 0.5 * math.pi * (b * (r_i ** 4 - r_bore ** 4) + t * (r_o ** 4 - r_i ** 4)
+                                       + b * (rf ** 4 - r_o ** 4)) + rho * b * j_t
+        assert gg.mass_kg == pytest.approx(m_exp, rel=1e-5)
+        assert gg.inertia_kgm2 == pytest.approx(j_exp, rel=1e-5)
+        assert (gg.blank_mass_kg, gg.blank_inertia_kgm2) == (gg.mass_kg, gg.inertia_kgm2)
+        # diametral inertia of thin slices: rim/hub/teeth of width b, web of width t
+        m_web = rho * t * math.pi * (r_o ** 2 - r_i ** 2)
+        assert gg.diametral_inertia_kgm2 == pytest.approx(
+            0.5 * j_exp + (m_exp - m_web) * b ** 2 / 12 + m_web * t ** 2 / 12, rel=1e-5)
+        assert gg.mass_kg < gg28.mass_kg and gg.inertia_kgm2 < gg28.inertia_kgm2
+        w = gg.web
+        assert (w.thickness_m, w.inner_radius_m, w.outer_radius_m) == pytest.approx((t, r_i, r_o))
+        assert w.relative_thickness == pytest.approx(t / b)
+    assert gg28.web is None
+    full = gear_geometry(dataclasses.replace(asym28.gear("pinion"), web=Web(b, 2 * r_i, 2 * r_o)))
+    assert (full.mass_kg, full.inertia_kgm2, full.blank_mass_kg, full.blank_inertia_kgm2) == (
+        gg28.mass_kg, gg28.inertia_kgm2, gg28.blank_mass_kg, gg28.blank_inertia_kgm2)
+    assert full.diametral_inertia_kgm2 == pytest.approx(gg28.diametral_inertia_kgm2, rel=1e-14)
+    assert full.web.relative_thickness == 1.0
+
+
+def test_webbed_blank_explicit_mass_and_inertia_win():
+    from hacgear_core.model import Web
+
+    web = Web(5e-3, 60e-3, 110e-3)
+    own = gear_geometry(make_gear(z=28, m=5e-3, web=web))
+    gg = gear_geometry(make_gear(z=28, m=5e-3, web=web, mass_kg=2.5, inertia_kgm2=4e-3))
+    assert (gg.mass_kg, gg.inertia_kgm2) == (2.5, 4e-3)
+    assert (gg.blank_mass_kg, gg.blank_inertia_kgm2) == (own.mass_kg, own.inertia_kgm2)   # the webbed blank's
+    assert own.mass_kg < gear_geometry(make_gear(z=28, m=5e-3)).mass_kg
+    assert gg.diametral_inertia_kgm2 == pytest.approx(0.5 * 4e-3 + 2.5 * 0.015 ** 2 / 12)
 
 
 def test_mass_override(asym28):

@@ -547,3 +547,133 @@ def test_full_round_fillet_gear_mesh_is_periodic():
     assert dist.max() < 1e-9
     assert gm.sector_offset_rad == gg.sector_offset_rad
     assert np.hypot(gm.p[:, 0], gm.p[:, 1]).max() <= gg.tip_radius_m * (1 + 1e-9)
+
+
+# ----------------------------------------------------------------------------- webbed blanks
+WEB_RI, WEB_RO = 20e-3, 30e-3          # synthetic gear: bore 15 mm, root 35 mm
+
+
+def _webbed_synthetic(rel_thickness):
+    """The synthetic gear with a web from r = 20 to 30 mm of relative thickness t/b (None: solid)."""
+    from hacgear_core.geometry import WebGeometry
+
+    g = SyntheticGear()
+    if rel_thickness is not None:
+        g.web = WebGeometry(rel_thickness * g.face_width_m, WEB_RI, WEB_RO, rel_thickness)
+    return g
+
+
+def _torsional_compliance(fe, g):
+    """Rotation per unit torque [rad per N m/m] of the rim relative to the hub: tangential unit loads
+    at the same rim point of every tooth (the sum over teeth of the tooth-0 influence: a pure torque,
+    no net force), read tangentially at that point and divided by its radius."""
+    R = 0.5 * (WEB_RO + g.root_radius_m)
+    p, d = np.array([[R, 0.0]]), np.array([[0.0, 1.0]])
+    disp, _, hub = fe.influence(p, d, p, d, np.zeros((0, 2)), np.zeros((0, 2)))
+    torque = g.z * hub[0, 2]
+    assert torque == pytest.approx(g.z * R, rel=1e-9)          # equilibrium: the hub carries the torque
+    return disp[:, 0, 0].sum() / R / torque
+
+
+def test_web_mesh_conforms_to_web_circles():
+    """The sector mesh has element edges on both web circles (no triangle straddles one), stays periodic,
+    and the web triangles (by gmsh surface) are exactly those whose centroid lies between the circles."""
+    from scipy.spatial import cKDTree
+
+    g = _webbed_synthetic(0.3)
+    gm = mesh_gear(g, COARSE)
+    assert gm.web_radii_m == (WEB_RI, WEB_RO)
+    dist, _ = cKDTree(gm.p).query(gm.p @ rotation(2 * np.pi / g.z).T)
+    assert dist.max() < 1e-9
+    r_node = np.hypot(gm.sector_p[:, 0], gm.sector_p[:, 1])
+    r_tri = r_node[gm.sector_t]
+    for rc in (WEB_RI, WEB_RO):
+        on = np.abs(r_node - rc) < 1e-9 * rc
+        assert on.sum() >= 4                                   # nodes on the arc, including both cut ends
+        tol = 1e-9 * rc
+        assert np.all((r_tri.max(axis=1) <= rc + tol) | (r_tri.min(axis=1) >= rc - tol))
+    cen = np.hypot(*gm.sector_p[gm.sector_t].mean(axis=1).T)
+    in_web = (cen > WEB_RI) & (cen < WEB_RO)
+    np.testing.assert_array_equal(gm.sector_thickness, np.where(in_web, 0.3, 1.0))
+    assert gm.thickness.shape == (gm.t.shape[0],) and np.all(gm.thickness.reshape(g.z, -1) == gm.sector_thickness)
+    # solid blank: no labels, no web circles
+    gs = mesh_gear(SyntheticGear(), COARSE)
+    assert gs.sector_thickness is None and gs.thickness is None and gs.web_radii_m is None
+    # web radii outside (bore, root) are refused
+    bad = _webbed_synthetic(0.3)
+    bad.web = type(bad.web)(3e-3, WEB_RI, 36e-3, 0.3)
+    with pytest.raises(GeometryError, match="web radii"):
+        mesh_gear(bad, COARSE)
+
+
+def test_web_torsion_matches_thin_annulus_closed_form():
+    """Hub-to-rim torsional compliance of an annulus r_h..r_r of thickness t: (1/r_h^2 - 1/r_r^2)/(4 pi G t).
+    Changing only the web thickness changes the gear's torsional compliance by exactly that amount
+    (rim, hub and teeth unchanged); the FE per unit face width has t = relative thickness.  Cyclic and
+    full-gear solvers agree; the web at full thickness equals the solid blank."""
+    G = E / (2 * (1 + NU))
+    c = {}
+    for f in (None, 1.0, 0.5, 0.1):
+        c[f] = _torsional_compliance(build_gear_fe(_webbed_synthetic(f), MAT, COARSE), _webbed_synthetic(f))
+    full = _torsional_compliance(build_gear_fe(_webbed_synthetic(0.1), MAT, COARSE, method="full"),
+                                 _webbed_synthetic(0.1))
+    assert full == pytest.approx(c[0.1], rel=1e-9)
+    assert c[1.0] == pytest.approx(c[None], rel=5e-3)
+    for f1, f2 in ((1.0, 0.5), (1.0, 0.1), (0.5, 0.1)):
+        pred = (1 / WEB_RI ** 2 - 1 / WEB_RO ** 2) / (4 * np.pi * G) * (1 / f2 - 1 / f1)
+        assert (c[f2] - c[f1]) / pred == pytest.approx(1.0, abs=0.02)
+
+
+def test_web_at_full_thickness_equals_solid_blank():
+    """A web as thick as the face width is the solid blank: flank compliances (all teeth), gauge strains
+    and hub forces agree within mesh noise (< 0.5 %); the cache key differs only when a web is present."""
+    res = {}
+    for f in (None, 1.0, 0.3):
+        fc = gear_compliance(_webbed_synthetic(f), MAT, "drive", options=COARSE, gauges=GAUGES, cache=False)
+        res[f] = fc
+    a, b, thin = res[None], res[1.0], res[0.3]
+    scale = np.abs(a.far_field_m2_N).max()
+    assert np.abs(b.far_field_m2_N - a.far_field_m2_N).max() < 5e-3 * scale
+    np.testing.assert_allclose(b.strain_per_N_m, a.strain_per_N_m, rtol=5e-3,
+                               atol=5e-3 * np.abs(a.strain_per_N_m).max())
+    np.testing.assert_allclose(b.hub_force_per_N_m[:, :2], -b.normal, atol=1e-8)        # equilibrium
+    np.testing.assert_allclose(b.hub_force_per_N_m[:, 2], a.hub_force_per_N_m[:, 2], rtol=1e-4)
+    # a thin web makes every tooth more compliant (the blank twists more)
+    i = a.n_samples // 2
+    assert np.all(thin.far_field_m2_N[:, i, i] > b.far_field_m2_N[:, i, i] - 1e-3 * scale)
+    assert thin.far_field_m2_N[0, i, i] > 1.05 * b.far_field_m2_N[0, i, i]
+    keys = {f: fc.info["cache_key"] for f, fc in res.items()}
+    assert len(set(keys.values())) == 3
+    g = SyntheticGear()
+    g.web = None                       # an explicit None keeps the solid blank's key (old caches stay valid)
+    assert gear_compliance(g, MAT, "drive", options=COARSE, gauges=GAUGES, cache=False).info["cache_key"] == keys[None]
+
+
+def _model_with_web(thickness_mm, inner_mm=60.0, outer_mm=110.0):
+    from pathlib import Path
+
+    from hacgear_core.model import parse_model
+
+    root = Path(__file__).resolve().parent.parent
+    text = (root / "models" / "spur_28t_asym" / "model.toml").read_text()
+    if thickness_mm is not None:
+        text = text.replace('material = "steel"\n', f'material = "steel"\n  [gears.web]\n  thickness_mm = {thickness_mm}\n'
+                            f'  inner_diameter_mm = {inner_mm}\n  outer_diameter_mm = {outer_mm}\n')
+    return parse_model(text, file="spur_28t_webbed.toml")
+
+
+def test_thinner_web_lowers_mesh_stiffness(tmp_path, monkeypatch):
+    """28-tooth pair (both gears webbed, 60/110 mm): the mean mesh stiffness falls as the web thins,
+    and a web as thick as the face width gives the solid blank's stiffness (within 0.5 %)."""
+    contact = pytest.importorskip("hacgear_core.contact")
+    from hacgear_core.geometry import mesh_geometry
+
+    monkeypatch.setenv("HACGEAR_CACHE_DIR", str(tmp_path))   # the two identical gears share one FE solve
+    k = {}
+    for t in (None, 15.0, 5.0, 2.5):
+        model = _model_with_web(t)
+        solver = contact.make_mesh_solver(model, "m12")
+        W = 300.0 / mesh_geometry(model, "m12").base_radius_m["pinion"]
+        k[t] = contact.mesh_stiffness_curve(solver, W, positions=8).mean_mesh_stiffness_N_per_m
+    assert k[15.0] == pytest.approx(k[None], rel=5e-3)
+    assert k[None] > 1.15 * k[5.0] > 1.15 * 1.1 * k[2.5]

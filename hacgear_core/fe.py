@@ -9,6 +9,11 @@ What this module does
   ``k`` to a load on tooth ``j`` is the response on tooth ``k-j`` to the same load on
   tooth 0, rotated by ``2 pi j/z``.  Size fields refine the flanks (involute and tip
   rounding) and the fillets.
+* Webbed blanks (``gg.web`` not None: ``inner_radius_m``, ``outer_radius_m``,
+  ``relative_thickness`` = web thickness / face width): the sector is three gmsh surfaces
+  (hub, web, rim + tooth) sharing the two web arcs, so the mesh conforms to both circles and
+  the cuts stay periodic; the stiffness of the web triangles is scaled by
+  ``relative_thickness`` (:attr:`GearMesh.sector_thickness`), rim, hub and teeth keep 1.
 * Assembles 2D linear elasticity with scikit-fem P2 triangles (plane stress by
   default, thickness 1 m: everything is **per unit face width**) and ties every node of
   the hub circle (the bore of an external gear, the rim of an internal one) to a rigid
@@ -34,8 +39,9 @@ contact solver adds, for every loaded contact and every body,
 Geometry input (duck-typed, the contract of :mod:`hacgear_core.geometry`)
 -------------------------------------------------------------------------
 ``gg.z`` (int), ``gg.internal`` (bool), ``gg.bore_radius_m`` (hub circle radius: bore
-of an external gear, outer rim of an internal one), ``gg.tooth_boundary(n_per_flank)``
-(``.xy`` (M,2) from the coast mid-root space to the drive mid-root space, ``.side``,
+of an external gear, outer rim of an internal one), optional ``gg.web`` (None or an object
+with ``inner_radius_m``, ``outer_radius_m``, ``relative_thickness``; external gears only),
+``gg.tooth_boundary(n_per_flank)`` (``.xy`` (M,2) from the coast mid-root space to the drive mid-root space, ``.side``,
 ``.region``), ``gg.flank(side, n)`` (``.xy``, ``.normal`` (outward), ``.s`` (arc length
 from the tip), ``.radius``, ``.region`` (0 root land, 1 fillet, 2 involute, 3 tip
 rounding), ``.roll_angle_rad``, ``.curvature_radius_m``), ordered root to tip.

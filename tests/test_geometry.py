@@ -633,6 +633,7 @@ def test_info_json_keys(capsys):
     assert m["roll_angle_deg"]["SAP"]["pinion"] < m["roll_angle_deg"]["EAP"]["pinion"]
     for g in ("pinion", "wheel"):
         assert d["gears"][g]["mass_kg"] > 0 and d["gears"][g]["inertia_kgm2"] > 0
+        assert d["gears"][g]["web"] is None
     assert main(["info", "planetary_65_55_175"]) == 0
     out = capsys.readouterr()
     assert "ring_planet" in out.out and "contact ratio" in out.out and "[kg]" in out.out
@@ -719,3 +720,22 @@ def test_symmetric_tooth_max_hob_radius_closed_form():
     assert max_hob_tip_radius_m(g) == pytest.approx(expect, rel=1e-6)
     gg = gear_geometry(make_gear(rho=0.999 * expect))
     assert gg.sector_offset_rad == 0.0
+
+
+def test_info_json_reports_a_web(tmp_path, capsys):
+    import json
+
+    from hacgear_core.cli import main
+
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parent.parent / "models" / "spur_28t_asym" / "model.toml").read_text(encoding="utf-8")
+    web = '  [gears.web]\n  thickness_mm = 8.0\n  inner_diameter_mm = 60.0\n  outer_diameter_mm = 110.0\n'
+    text = text.replace('material = "steel"\n', 'material = "steel"\n' + web)
+    (tmp_path / "model.toml").write_text(text, encoding="utf-8")
+    assert main(["info", str(tmp_path / "model.toml"), "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    for g in ("pinion", "wheel"):
+        assert d["gears"][g]["web"] == {"thickness_m": pytest.approx(8e-3), "inner_radius_m": pytest.approx(0.030),
+                                        "outer_radius_m": pytest.approx(0.055)}
+        assert d["gears"][g]["mass_kg"] < 1.4  # lighter than the solid 40 mm-bore blank (1.63 kg)

@@ -59,6 +59,8 @@ def info_dict(model: Any, *, strict: bool = True) -> dict:
             "fillet_root_curvature_radius_m": dict(g.fillet_root_curvature_radius_m),
             "helix_angle_deg": math.degrees(g.helix_angle_rad), "lead_m": g.lead_m,
             "face_width_m": g.face_width_m, "bore_radius_m": g.bore_radius_m,
+            "web": None if g.web is None else {"thickness_m": g.web.thickness_m, "inner_radius_m": g.web.inner_radius_m,
+                                               "outer_radius_m": g.web.outer_radius_m},
             "mass_kg": g.mass_kg, "inertia_kgm2": g.inertia_kgm2, "diametral_inertia_kgm2": g.diametral_inertia_kgm2,
             "blank_mass_kg": g.blank_mass_kg, "blank_inertia_kgm2": g.blank_inertia_kgm2,
             "mass_source": "model" if model.gear(g.name).mass_kg is not None else "blank",

@@ -171,7 +171,7 @@ def figures(out_dir: str) -> int:
               f"tip-edge contacts loaded: {int(np.sum(tip & (load > 0)))}; max peak pressure "
               f"{max(s.solve_load(p, W).peak_pressure_Pa.max() for p in np.linspace(0, 1, 33)) / 1e6:.0f} MPa",
               flush=True)
-        ax[0, col].set_title("unmodified" if not relief else "47 um parabolic tip relief from 28.54 deg")
+        ax[0, col].set_title("unmodified" if not relief else "47 um parabolic tip relief from 28.54 deg", pad=14)
     ax[0, 0].set_ylabel("strain wheel/SG25 [1e-6]")
     ax[1, 0].set_ylabel("tooth load [N]")
     ax[2, 0].set_ylabel("contact on wheel: s from tip [mm]")

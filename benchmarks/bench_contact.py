@@ -86,8 +86,7 @@ def figures(out_dir: str) -> int:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from hacgear_core.contact import (ContactOptions, make_mesh_solver, mesh_stiffness_curve, model_variant,
-                                      root_strain_scan)
+    from hacgear_core.contact import ContactOptions, make_mesh_solver, mesh_stiffness_curve, model_variant
     from hacgear_core.geometry import mesh_geometry
     from hacgear_core.model import load_model
 

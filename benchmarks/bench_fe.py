@@ -101,7 +101,7 @@ def main(argv=None) -> int:
                   f" for {gear.face_width_m * 1e3:g} mm")
             print(f"  identical pair at the pitch point: {row['pair_stiffness_N_per_m']:.4e} N/m; neighbour coupling "
                   f"C[+1]/C[0] = {row['neighbour_coupling_ratio']:.3f}, C[-1]/C[0] = {row['neighbour_coupling_ratio_minus']:.3f}")
-            print(f"  gauge strains at 300 N m, load at pitch point of tooth 0 (on tooth 0): "
+            print("  gauge strains at 300 N m, load at pitch point of tooth 0 (on tooth 0): "
                   + ", ".join(f"{k} {v * 1e6:.1f} ue" for k, v in row["gauge_strain_at_300Nm_pitch"].items()))
     base = rows[0]
     ratio = base["total_s"] / TARGET_S

@@ -34,7 +34,6 @@ OUTPUTS = ["mesh_force", "mesh_deflection", "dte", "mesh_position", "speed1"]
 
 def _fresh_process_first_step(fmu_path: Path, speed: float) -> list[float]:
     """Seconds from fmi2Instantiate to the end of the first doStep in two successive fresh processes."""
-    import json
     import subprocess
 
     code = (

@@ -28,7 +28,6 @@ import argparse
 import contextlib
 import io
 import json
-import math
 import re
 import sys
 import tempfile

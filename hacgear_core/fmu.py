@@ -53,7 +53,6 @@ from pathlib import Path
 from typing import Callable, Sequence
 from xml.etree import ElementTree as ET
 
-import numpy as np
 from pythonfmu import Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Variability, Integer, Real
 from pythonfmu.enums import Fmi2Status
 

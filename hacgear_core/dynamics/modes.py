@@ -138,7 +138,6 @@ def _free_vibration_peaks(system: SpurPairSystem, tau: float, periods: int = 400
     sy = SpurPairSystem(system.params.replace(modal_damping_ratio=0.0), system.table, system.law.name)
     n = sy.n
     s = sy.static_state(tau)
-    fs = sy.params.static_force_N
     xs = max(abs(float(sy.v @ s[:n])), 1e-7)
     f_lo = max(min(sy.natural_frequencies_Hz()), 1.0)
     w_lo = 2 * math.pi * f_lo

@@ -110,8 +110,10 @@ def _plot_sweep(res: dict, title: str, path: Path, extra: dict | None = None) ->
 
 def plot_time_traces(system: str, torque: float, ratios: tuple[float, ...], gauge: str, path: Path) -> dict:
     """Steady-state time traces over three mesh cycles at several ``f_m/f_n`` (dissertation Figs. 3.7-3.9,
-    3.11): mesh deflection, mesh force, root strain of one followed tooth, peak contact pressure; static
-    values dashed.  Returns the dynamic factor (max dynamic / max static strain) per ratio."""
+    3.11, 3.12): mesh deflection, mesh force, root strain of one followed tooth, peak contact pressure and the
+    dynamic mesh stiffness (local slope of the FDF at the dynamic state; static: local slope at the static
+    deflection); static values dashed.  Returns the dynamic factor (max dynamic / max static strain) per
+    ratio."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -124,12 +126,14 @@ def plot_time_traces(system: str, torque: float, ratios: tuple[float, ...], gaug
     sy, params, table = _system(system, torque)
     fn = float(modal_analysis(sy).natural_frequencies_Hz[0])
     st = post.static_mesh_stiffness(table, torque)
-    fig, ax = plt.subplots(4, 1, figsize=(8, 10), sharex=True)
+    fig, ax = plt.subplots(5, 1, figsize=(8, 12), sharex=True)
     tau_s = np.linspace(-1.0, 2.0, 600, endpoint=False)
     xs = np.interp(tau_s % 1.0, st.position, st.deflection_m, period=1.0)
     static_strain = post.dynamic_root_strain(table, gauge, tau_s, xs)
+    k_static = np.interp(tau_s % 1.0, st.position, st.local_slope_N_per_m, period=1.0)
     for a, y in zip(ax, (xs * 1e6, post.interpolate_table(table, table.force_N, tau_s, xs) / 1e3,
-                         static_strain * 1e6, post.dynamic_contact_pressure(table, tau_s, xs) / 1e6)):
+                         static_strain * 1e6, post.dynamic_contact_pressure(table, tau_s, xs) / 1e6,
+                         k_static / 1e6)):
         a.plot(tau_s, y, "k--", lw=1, label="static")
     factors = {}
     for ratio, col in zip(ratios, ("tab:blue", "tab:green", "tab:red", "tab:purple")):
@@ -147,13 +151,16 @@ def plot_time_traces(system: str, torque: float, ratios: tuple[float, ...], gaug
         ax[1].plot(tt, post.interpolate_table(table, table.force_N, tt, xx) / 1e3, color=col)
         ax[2].plot(tt, strain * 1e6, color=col)
         ax[3].plot(tt, post.dynamic_contact_pressure(table, tt, xx) / 1e6, color=col)
+        ax[4].plot(tt, post.dynamic_mesh_stiffness(table, tt, xx) / 1e6, color=col)
         factors[f"{ratio:g}"] = float(np.nanmax(strain) / np.nanmax(static_strain))
-    ax[0].plot(st.position, st.no_load_deflection_m * 1e6, "k:", lw=0.8, label="no-load deflection")
+    ax[0].plot(tau_s, np.interp(tau_s % 1.0, st.position, st.no_load_deflection_m, period=1.0) * 1e6, "k:", lw=0.8,
+               label="no-load deflection")
     ax[0].set_ylabel("mesh deflection [um]")
     ax[1].set_ylabel("mesh force [kN]")
     ax[2].set_ylabel(f"root strain {gauge} [ustrain]")
     ax[3].set_ylabel("peak contact pressure [MPa]")
-    ax[3].set_xlabel("mesh cycle (followed tooth pair at the pitch point at 0)")
+    ax[4].set_ylabel("mesh stiffness [1e6 N/m]\n(local slope of the FDF)")
+    ax[4].set_xlabel("mesh cycle (followed tooth pair at the pitch point at 0)")
     ax[0].legend(fontsize=7, ncol=2)
     ax[0].set_title(f"{system}, {torque:g} N m, FE tables: steady-state dynamic response (f_n = {fn:.0f} Hz)",
                     fontsize=9)

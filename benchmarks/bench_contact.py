@@ -213,7 +213,7 @@ def hob_radius_figure(out_dir: str) -> int:
     fine = MeshOptions(fillet_size_m=0.1e-3)
     variants = {"point, arc 48, fillet mesh 0.1 mm": dict(sampling="arc", n_gauges=48, fe_options=fine),
                 "point, arc 48, default mesh": dict(sampling="arc", n_gauges=48),
-                "point, radius 24, default mesh (default call)": dict(),
+                "point, radius 24, default mesh (the former default)": dict(sampling="radius"),
                 "1 mm gauge grid, arc 24, fillet mesh 0.1 mm": dict(sampling="arc", n_gauges=24, fe_options=fine,
                                                                   gauge_length_m=1e-3)}
     scans: dict = {}

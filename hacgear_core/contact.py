@@ -887,6 +887,25 @@ class MeshContactSolver:
                 out[name] = eps.sum(axis=1) * s.slice_width_m / self.face_width_m
         return out
 
+    def surface_modulus_Pa(self, gauge: str) -> float:
+        """Factor from the surface strain along the profile to the surface stress along it at gauge
+        ``"<gear>/<gauge>"`` [Pa]: at a traction-free surface (normal stress 0) the tangential stress is
+        ``E * eps_t`` in plane stress and ``E / (1 - nu**2) * eps_t`` in plane strain."""
+        for gear, _, name in self.gauges:
+            if name == gauge:
+                fc = self.compliance[gear]
+                e, nu = float(fc.youngs_modulus_Pa), float(fc.poisson_ratio)
+                return e if fc.plane == "stress" else e / (1.0 - nu * nu)
+        raise ModelError(f"no gauge {gauge!r}; gauges: {', '.join(n for _, _, n in self.gauges) or '(none)'}")
+
+    def stresses(self, st: ContactState, offsets: Sequence[int] | None = None,
+                 strains: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
+        """Root surface stress [Pa] along the profile at each gauge (the root bending stress a gauge
+        bonded along the profile measures), from :meth:`strains` (or the given ``strains``) and
+        :meth:`surface_modulus_Pa` → gauge name -> (len(offsets),)."""
+        eps = self.strains(st, offsets) if strains is None else strains
+        return {name: self.surface_modulus_Pa(name) * v for name, v in eps.items()}
+
     def hub_reactions(self, st: ContactState) -> dict[str, np.ndarray]:
         """Generalized mesh force on each gear ``[Fx N, Fy N, Mz N m]`` (resultant of the contact forces
         about the gear centre = what the hub must react), in the global frame: gear_a at the origin,
@@ -918,7 +937,8 @@ class MeshContactSolver:
                               contact_roll_deg=pick(np.degrees(pr["roll_b_rad"]), np.nan),
                               half_width_m=pick(pr["half_width_m"], 0.0),
                               peak_pressure_Pa=pick(pr["peak_pressure_Pa"], 0.0),
-                              strain=self.strains(st), hub_reaction=self.hub_reactions(st))
+                              strain=(eps := self.strains(st)), stress=self.stresses(st, strains=eps),
+                              hub_reaction=self.hub_reactions(st))
 
     def solve_load(self, position: float, mesh_force_N: float):
         """Load control: mesh force [N] → :class:`~hacgear_core.statics.StaticSolution`."""

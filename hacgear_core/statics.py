@@ -99,6 +99,8 @@ class StaticSolution:
         maximum contact pressure of each pair [Pa] (0 where unloaded).
     strain : dict gauge → (Nw,) array
         strain [-] at gauge ``"<gear>/<gauge>"`` on the tooth belonging to pair offset k.
+    stress : dict gauge → (Nw,) array
+        surface stress along the profile [Pa] at the same gauges (empty when the solver gives none).
     hub_reaction : dict gear → (3,) array
         generalized mesh force on each gear ``[Fx N, Fy N, Mz N·m]``.
     """
@@ -115,6 +117,7 @@ class StaticSolution:
     peak_pressure_Pa: np.ndarray
     strain: dict[str, np.ndarray] = field(default_factory=dict)
     hub_reaction: dict[str, np.ndarray] = field(default_factory=dict)
+    stress: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 @runtime_checkable

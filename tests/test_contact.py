@@ -288,6 +288,12 @@ def test_solution_protocol(solver):
     assert info.gauge_names == ("pinion/SG25", "pinion/SG20", "wheel/SG25", "wheel/SG20")
     sol = solver.solve_load(0.2, _force(solver))
     assert sol.success and sol.tooth_load_N.shape == (len(solver.tooth_offsets),)
+    # gauge stresses: surface stress along the profile = E eps_t (plane stress, steel of Table 3.3)
+    assert set(sol.stress) == set(sol.strain)
+    for name in sol.strain:
+        np.testing.assert_allclose(sol.stress[name], 201.5e9 * sol.strain[name], rtol=1e-12)
+    with pytest.raises(ModelError, match="no gauge"):
+        solver.surface_modulus_Pa("pinion/nope")
     assert np.nansum(sol.tooth_load_N) == pytest.approx(_force(solver), rel=0.02)
     assert np.all(sol.half_width_m[sol.tooth_load_N > 0] > 0)
     # 300 N m on 15 mm: contact pressure of a few hundred MPa to ~1.5 GPa

@@ -677,3 +677,32 @@ def test_thinner_web_lowers_mesh_stiffness(tmp_path, monkeypatch):
         k[t] = contact.mesh_stiffness_curve(solver, W, positions=8).mean_mesh_stiffness_N_per_m
     assert k[15.0] == pytest.approx(k[None], rel=5e-3)
     assert k[None] > 1.15 * k[5.0] > 1.15 * 1.1 * k[2.5]
+
+
+def test_root_gauge_is_a_free_surface_so_stress_is_E_times_strain():
+    """The contact solver reports root stress at a gauge as E * (surface strain along the profile), which
+    assumes a traction-free surface (plane stress).  Check it on the real 28-tooth gear with the FE's full
+    strain tensor at the gauge point (strain along t, n and the diagonal) for a load at the pitch point:
+    the normal and shear stresses vanish next to the tangential one, and sigma_t = E eps_t."""
+    from hacgear_core.fe import _gauge_location
+
+    gear, gg = _real_gear()
+    mat = ElasticMaterial(gear.material.youngs_modulus_Pa, gear.material.poisson_ratio)
+    fe = build_gear_fe(gg, mat)
+    prof = gg.flank("drive", 2000)
+    xy, nrm, r = np.asarray(prof.xy), np.asarray(prof.normal), np.asarray(prof.radius)
+    i = int(np.argmin(np.abs(r - gg.pitch_radius_m)))
+    E, nu = mat.youngs_modulus_Pa, mat.poisson_ratio
+    for g in gear.gauges:
+        p, t, n, _, region = _gauge_location(gg, Gauge(g.name, g.flank, g.radius_m), 800)
+        q = p - 2e-6 * n                        # the production reading point, 2 um below the surface
+        d = (t + n) / np.sqrt(2.0)
+        _, S, _ = fe.influence(xy[i:i + 1], -nrm[i:i + 1], np.zeros((0, 2)), np.zeros((0, 2)),
+                               np.stack([q, q, q]), np.stack([t, n, d]))
+        e_t, e_n, e_d = S[0, :, 0]
+        e_tn = e_d - 0.5 * (e_t + e_n)          # tensor shear strain
+        c = E / (1 - nu * nu)
+        s_t, s_n, s_tn = c * (e_t + nu * e_n), c * (e_n + nu * e_t), E / (1 + nu) * e_tn
+        assert abs(s_t) > 0
+        assert abs(s_n) < 0.02 * abs(s_t) and abs(s_tn) < 0.02 * abs(s_t), (g.name, s_t, s_n, s_tn)
+        assert s_t == pytest.approx(E * e_t, rel=0.01)

@@ -938,7 +938,8 @@ class MeshContactSolver:
                               half_width_m=pick(pr["half_width_m"], 0.0),
                               peak_pressure_Pa=pick(pr["peak_pressure_Pa"], 0.0),
                               strain=(eps := self.strains(st)), stress=self.stresses(st, strains=eps),
-                              hub_reaction=self.hub_reactions(st))
+                              hub_reaction=self.hub_reactions(st),
+                              contact_s_m=np.stack([pick(pr["s_a_m"], np.nan), pick(pr["s_b_m"], np.nan)], axis=1))
 
     def solve_load(self, position: float, mesh_force_N: float):
         """Load control: mesh force [N] → :class:`~hacgear_core.statics.StaticSolution`."""

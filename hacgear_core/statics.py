@@ -101,6 +101,9 @@ class StaticSolution:
         strain [-] at gauge ``"<gear>/<gauge>"`` on the tooth belonging to pair offset k.
     stress : dict gauge → (Nw,) array
         surface stress along the profile [Pa] at the same gauges (empty when the solver gives none).
+    contact_s_m : (Nw, 2) array or None
+        profile coordinate of the contact (arc length from the tip) on gear_a's and gear_b's loaded flank
+        [m]; NaN where the pair is unloaded (None when the solver gives none).
     hub_reaction : dict gear → (3,) array
         generalized mesh force on each gear ``[Fx N, Fy N, Mz N·m]``.
     """
@@ -118,6 +121,7 @@ class StaticSolution:
     strain: dict[str, np.ndarray] = field(default_factory=dict)
     hub_reaction: dict[str, np.ndarray] = field(default_factory=dict)
     stress: dict[str, np.ndarray] = field(default_factory=dict)
+    contact_s_m: np.ndarray | None = None
 
 
 @runtime_checkable

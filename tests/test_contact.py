@@ -294,6 +294,12 @@ def test_solution_protocol(solver):
         np.testing.assert_allclose(sol.stress[name], 201.5e9 * sol.strain[name], rtol=1e-12)
     with pytest.raises(ModelError, match="no gauge"):
         solver.surface_modulus_Pa("pinion/nope")
+    # contact location: profile coordinate on both flanks where loaded, NaN where not; the pinion's contact
+    # lies between its tip (s = 0) and the end of its flank
+    loaded = sol.tooth_load_N > 0
+    assert sol.contact_s_m.shape == (len(solver.tooth_offsets), 2)
+    assert np.all(np.isfinite(sol.contact_s_m[loaded])) and np.all(np.isnan(sol.contact_s_m[~loaded]))
+    assert np.all((sol.contact_s_m[loaded] >= 0) & (sol.contact_s_m[loaded] < 0.02))
     assert np.nansum(sol.tooth_load_N) == pytest.approx(_force(solver), rel=0.02)
     assert np.all(sol.half_width_m[sol.tooth_load_N > 0] > 0)
     # 300 N m on 15 mm: contact pressure of a few hundred MPa to ~1.5 GPa

@@ -432,6 +432,18 @@ def test_from_model_maps_the_28_tooth_model():
     m_disk = 7850 * math.pi / 4 * (0.1264**2 - 0.04**2) * 0.015
     m_ring = 7850 * math.pi / 4 * (0.1499**2 - 0.1264**2) * 0.015
     assert m_disk + 0.3 * m_ring < p.mass_kg[0] < m_disk + 0.7 * m_ring
+    # a webbed blank reaches the lumped model: the web annulus (60..110 mm) loses (1 - 8/15) of its mass
+    import dataclasses
+
+    from hacgear_core.model import Web
+
+    base = load_model(path)
+    web = Web(8e-3, 0.060, 0.110)
+    pw = from_model(dataclasses.replace(base, gears=tuple(dataclasses.replace(g, web=web) for g in base.gears)))
+    dm = 7850 * math.pi / 4 * (0.110**2 - 0.060**2) * (0.015 - 0.008)
+    dj = 7850 * math.pi / 32 * (0.110**4 - 0.060**4) * (0.015 - 0.008)
+    assert pw.mass_kg[0] == pytest.approx(p.mass_kg[0] - dm, rel=1e-9)
+    assert pw.inertia_kg_m2[1] == pytest.approx(p.inertia_kg_m2[1] - dj, rel=1e-9)
 
 
 def test_simulator_post_processed_outputs():

@@ -8,21 +8,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hacgear_core.geometry import FlankProfile  # the geometry contract's profile record
+
 
 def _inv(a):
     return np.tan(a) - a
-
-
-@dataclass
-class _Profile:
-    xy: np.ndarray
-    normal: np.ndarray
-    s: np.ndarray
-    radius: np.ndarray
-    region: np.ndarray
-    roll_angle_rad: np.ndarray
-    curvature_radius_m: np.ndarray
-    modification_m: np.ndarray
 
 
 @dataclass
@@ -94,7 +84,7 @@ class SyntheticGear:
             xs = xs * [1, -1]
             normal = normal * [1, -1]
         s = arc[-1] - a
-        return _Profile(xs, normal, s, np.hypot(xs[:, 0], xs[:, 1]), reg, rl, cv, np.zeros(n))
+        return FlankProfile(side, xs, normal, s, np.hypot(xs[:, 0], xs[:, 1]), reg, rl, cv, np.zeros(n))
 
     def tooth_boundary(self, n_per_flank=100):
         d = self.flank("drive", n_per_flank)

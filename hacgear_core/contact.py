@@ -308,7 +308,9 @@ class ContactOptions:
     Parameters
     ----------
     face_slices : int
-        Slices across the face width (1..200).
+        Slices across the face width (1..200).  21 (default) resolves parabolic lead crowning: the
+        mean local-slope mesh stiffness of the 28-tooth pair moves < 0.2 % from 21 to 41/61/81 slices,
+        while 5 slices are off by +0.9 % (docs/static_contact.md, "Face slices").
     face_coupling : {"rigid", "slices"}
         Far-field coupling across the face (see the module docstring); default "rigid".
     pair_window : int
@@ -324,7 +326,7 @@ class ContactOptions:
         Iteration limit of that loop.
     """
 
-    face_slices: int = 5
+    face_slices: int = 21
     face_coupling: str = "rigid"
     pair_window: int = 2
     n_profile: int = 600

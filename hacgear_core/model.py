@@ -441,7 +441,7 @@ class StaticsGrid:
     loads: int = 32
     deflections: int = 64
     max_torque_factor: float = 3.0
-    face_slices: int = 5
+    face_slices: int = 21
     twist_points: int = 1
 
     def __post_init__(self) -> None:
@@ -878,7 +878,7 @@ def parse_model(text: str, *, file: str = "<model>", path: Path | None = None, s
             loads=ssec.integer("loads", 2, 1024, required=False, default=32),
             deflections=ssec.integer("deflections", 4, 4096, required=False, default=64),
             max_torque_factor=ssec.number("max_torque_factor", "-", 1.0, 20.0, required=False, default=3.0),
-            face_slices=ssec.integer("face_slices", 1, 200, required=False, default=5),
+            face_slices=ssec.integer("face_slices", 1, 200, required=False, default=21),
             twist_points=ssec.integer("twist_points", 1, 64, required=False, default=1),
         )
         ssec.done(("positions", "loads", "deflections", "max_torque_factor", "face_slices", "twist_points"))

@@ -259,11 +259,10 @@ def test_relief_raises_max_root_strain(solver, solver_unmod):
 
 def test_mean_mesh_stiffness(model, solver):
     """Dissertation Section 3.6.2: mean mesh stiffness ≈ 150e6 N/m at 300 N m (15 mm face, 15 µm
-    crowning, 47 µm relief).  Measured here: ~166e6 (docs/static_contact.md); asserted within 15 %.
-    Unmodified, uncrowned teeth agree with the prototype FE measurement in DESIGN.md (187e6 N/m,
-    8.3 µm peak-to-peak) within 5 %; relief and crowning lower the mean stiffness."""
+    crowning, 47 µm relief).  Unmodified, uncrowned teeth agree with the prototype FE measurement in
+    DESIGN.md (187e6 N/m, 8.3 µm peak-to-peak) within 5 %; relief and crowning lower the mean
+    stiffness."""
     c = mesh_stiffness_curve(solver, _force(solver), positions=32)
-    assert c.mean_mesh_stiffness_N_per_m == pytest.approx(150e6, rel=0.15)
     assert c.secant_mesh_stiffness_N_per_m < c.mean_mesh_stiffness_N_per_m
     plain = make_mesh_solver(model_variant(model, tip_relief=False, lead_crowning=False), "m12")
     cp = mesh_stiffness_curve(plain, _force(plain), positions=32)
@@ -272,12 +271,30 @@ def test_mean_mesh_stiffness(model, solver):
     assert c.mean_mesh_stiffness_N_per_m < 0.92 * cp.mean_mesh_stiffness_N_per_m
 
 
-@pytest.mark.xfail(strict=True, reason="measured 165.9e6 N/m (+10.6 %) with the model's 40 mm bore; the dissertation "
-                   "gives no blank and a 35 mm bore would give 153.8e6 (docs/validation.md, 'The unspecified blank')")
 def test_mean_mesh_stiffness_within_10_percent_of_150e6(solver):
-    """Issue #3's criterion as asked: dissertation Section 3.6.2, 150e6 N/m +/- 10 % at 300 N m."""
+    """Issue #3's criterion as asked: dissertation Section 3.6.2, 150e6 N/m +/- 10 % at 300 N m.
+
+    Measured 164.5e6 N/m (+9.7 %) with the model's 21 face slices and 40 mm bore: inside the band by
+    only 0.3 points, less than the blank's own uncertainty (docs/validation.md, 'The unspecified
+    blank'); with 5 face slices (under-resolved crowning) it was 165.8e6 (+10.5 %)."""
     c = mesh_stiffness_curve(solver, _force(solver), positions=32)
     assert c.mean_mesh_stiffness_N_per_m == pytest.approx(150e6, rel=0.10)
+
+
+def test_face_slices_resolve_lead_crowning(model):
+    """The face discretisation is converged at the default: 21 vs 41 slices change the mean
+    local-slope stiffness and the mean STE of the crowned 28-tooth pair by < 0.3 %, while 5 slices
+    (one sample of the parabola per 3 mm) are off by more than that."""
+    def curve(ns):
+        s = make_mesh_solver(model, "m12", options=ContactOptions(face_slices=ns))
+        return mesh_stiffness_curve(s, _force(s), positions=32)
+
+    assert model.statics.face_slices == 21
+    c5, c21, c41 = curve(5), curve(21), curve(41)
+    k5, k21, k41 = (c.mean_mesh_stiffness_N_per_m for c in (c5, c21, c41))
+    assert k21 == pytest.approx(k41, rel=0.003)
+    assert np.mean(c21.ste_m) == pytest.approx(np.mean(c41.ste_m), rel=0.003)
+    assert abs(k5 / k41 - 1) > 0.003
 
 
 def test_solution_protocol(solver):

@@ -9,6 +9,7 @@ Prints the times and the ratios time / target (<= 1 passes).
 
     python benchmarks/bench_contact.py [--grid]
     python benchmarks/bench_contact.py --figures docs/figures   # the study in docs/static_contact.md
+    python benchmarks/bench_contact.py --slices-figure docs/figures   # face-slice convergence (~1 min)
 """
 from __future__ import annotations
 
@@ -26,7 +27,11 @@ def main() -> int:
                                                      "DIR/contact_*.png and print its numbers")
     ap.add_argument("--hob-figure", metavar="DIR", help="instead: only the hob tip radius study (Fig. 2.7 analogue), "
                                                         "write DIR/contact_fillet_strain_hob_radius{,_profile}.png")
+    ap.add_argument("--slices-figure", metavar="DIR", help="instead: only the face-slice convergence study, "
+                                                           "write DIR/contact_face_slices.png and print its table")
     args = ap.parse_args()
+    if args.slices_figure:
+        return face_slices_figure(args.slices_figure)
     if args.figures:
         return figures(args.figures)
     if args.hob_figure:
@@ -299,6 +304,58 @@ def hob_radius_figure(out_dir: str) -> int:
     fig.savefig(out / "contact_fillet_strain_hob_radius_profile.png", dpi=120)
     plt.close(fig)
     return 0
+
+
+def face_slices_figure(out_dir: str, slices=(1, 3, 5, 9, 11, 15, 21, 25, 31, 41, 61, 81)) -> int:
+    """Convergence of the crowned 28-tooth pair's stiffness and STE in the number of face slices
+    (docs/static_contact.md, "Face slices")."""
+    from pathlib import Path
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from hacgear_core.contact import ContactOptions, make_mesh_solver, mesh_stiffness_curve
+    from hacgear_core.model import load_model
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    model = load_model("spur_28t_asym")
+    rows = []
+    print("| slices | mean local slope [1e6 N/m] | secant [1e6 N/m] | mean STE [um] | STE p-p [um] |")
+    print("|---|---|---|---|---|")
+    for ns in slices:
+        s = make_mesh_solver(model, "m12", options=ContactOptions(face_slices=ns))
+        c = mesh_stiffness_curve(s, 300.0 / s.base_radius_m[0], positions=64)
+        rows.append((ns, c.mean_mesh_stiffness_N_per_m, c.secant_mesh_stiffness_N_per_m, c.ste_m.mean(),
+                     np.ptp(c.ste_m)))
+        print(f"| {ns} | {rows[-1][1] / 1e6:.2f} | {rows[-1][2] / 1e6:.2f} | {rows[-1][3] * 1e6:.3f} | "
+              f"{rows[-1][4] * 1e6:.3f} |")
+    a = np.array(rows)
+    ref = a[a[:, 0] >= 21, 1:].mean(axis=0)
+    fig, ax = plt.subplots(1, 2, figsize=(10, 3.8))
+    for j, lab in ((1, "mean local slope"), (2, "secant"), (3, "mean STE")):
+        ax[0].plot(a[:, 0], 100 * (a[:, j] / ref[j - 1] - 1), "o-", label=lab)
+    ax[0].axhspan(-0.3, 0.3, color="0.9", label="±0.3 % (test)")
+    ax[0].axvline(model.statics.face_slices, color="k", ls=":", label="model default")
+    ax[0].set_xscale("log")
+    ax[0].set_ylim(-3, 3)
+    ax[0].set_xlabel("face slices")
+    ax[0].set_ylabel("change vs mean of >= 21 slices [%]")
+    ax[0].legend(fontsize=7)
+    ax[1].plot(a[:, 0], a[:, 1] / 1e6, "o-")
+    ax[1].axhspan(135, 165, color="0.9", label="150e6 ± 10 % (dissertation 3.6.2)")
+    ax[1].set_xscale("log")
+    ax[1].set_xlabel("face slices")
+    ax[1].set_ylabel("mean local-slope stiffness [1e6 N/m]")
+    ax[1].legend(fontsize=7)
+    fig.suptitle("spur_28t_asym, 300 N m, 15 um crowning, 47 um relief: face-slice convergence", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(out / "contact_face_slices.png", dpi=120)
+    plt.close(fig)
+    return 0
+
 
 if __name__ == "__main__":
     raise SystemExit(main())

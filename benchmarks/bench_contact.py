@@ -1,4 +1,4 @@
-"""Benchmark of the static contact solver (hacgear_core.contact).
+"""Benchmark of the static contact solver (hacgear_core.statics.contact).
 
 Target (issue 3): after the one-time finite-element factorisation, a load-controlled solve of the
 28-tooth pair (spur_28t_asym, 300 N m) at 64 mesh positions takes <= 30 s on 2 cores.  Also timed:
@@ -37,7 +37,7 @@ def main() -> int:
     if args.hob_figure:
         return hob_radius_figure(args.hob_figure)
 
-    from hacgear_core.contact import make_mesh_solver
+    from hacgear_core.statics import make_mesh_solver
     from hacgear_core.model import load_model
 
     model = load_model("spur_28t_asym")
@@ -91,7 +91,7 @@ def figures(out_dir: str) -> int:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from hacgear_core.contact import ContactOptions, make_mesh_solver, mesh_stiffness_curve, model_variant
+    from hacgear_core.statics import ContactOptions, make_mesh_solver, mesh_stiffness_curve, model_variant
     from hacgear_core.geometry import mesh_geometry
     from hacgear_core.model import load_model
 
@@ -205,8 +205,8 @@ def hob_radius_figure(out_dir: str) -> int:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from hacgear_core.contact import make_mesh_solver, model_variant, root_strain_scan
-    from hacgear_core.fe import MeshOptions
+    from hacgear_core.statics import make_mesh_solver, model_variant, root_strain_scan
+    from hacgear_core.statics.fe import MeshOptions
     from hacgear_core.geometry import gear_geometry
     from hacgear_core.model import load_model
 
@@ -316,7 +316,7 @@ def face_slices_figure(out_dir: str, slices=(1, 3, 5, 9, 11, 15, 21, 25, 31, 41,
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from hacgear_core.contact import ContactOptions, make_mesh_solver, mesh_stiffness_curve
+    from hacgear_core.statics import ContactOptions, make_mesh_solver, mesh_stiffness_curve
     from hacgear_core.model import load_model
 
     out = Path(out_dir)

@@ -21,8 +21,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from hacgear_core.fe import ElasticMaterial, Gauge, MeshOptions, build_gear_fe, gear_compliance  # noqa: E402
-from hacgear_core.nearfield import hertz_line_contact  # noqa: E402
+from hacgear_core.statics.fe import ElasticMaterial, Gauge, MeshOptions, build_gear_fe, gear_compliance  # noqa: E402
+from hacgear_core.statics.nearfield import hertz_line_contact  # noqa: E402
 
 TARGET_S = 10.0
 TORQUE_NM = 300.0

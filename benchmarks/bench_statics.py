@@ -1,7 +1,7 @@
 """Benchmark: wall time of `hacgear statics` on the 28-tooth pair from a cold start on 2 cores.
 
 Judged figure: 64 positions x 32 loads (x the model's deflection grid, 64) with the finite-element
-contact solver (``hacgear_core.contact``), 2 workers pinned to 2 cores, a fresh Python process and an
+contact solver (``hacgear_core.statics.contact``), 2 workers pinned to 2 cores, a fresh Python process and an
 empty on-disk FE cache (imports, meshing and factorisation, solver set-up in the workers, all solves,
 HDF5 writing).  Target: <= 120 s.  Prints the time and the
 ratio time / target (<= 1 passes).
@@ -38,9 +38,9 @@ def main() -> int:
     a = ap.parse_args()
     if a.solver == "fe":
         try:
-            from hacgear_core.contact import make_mesh_solver  # noqa: F401
+            from hacgear_core.statics import make_mesh_solver  # noqa: F401
         except ImportError as exc:
-            print(f"bench_statics: cannot run: the static contact solver hacgear_core.contact.make_mesh_solver is "
+            print(f"bench_statics: cannot run: the static contact solver hacgear_core.statics.contact.make_mesh_solver is "
                   f"not available ({exc}). Run with --solver analytic to time the machinery alone.", file=sys.stderr)
             return 2
     cpus = sorted(os.sched_getaffinity(0))[: a.cores] if hasattr(os, "sched_getaffinity") else None

@@ -69,7 +69,7 @@ def _measure(text: str, folder: Path, name: str) -> dict:
     r_b = info["base_radius_m"]["drive"]
     return {"base_radius_m": r_b, "mass_kg": info["mass_kg"], "inertia_kgm2": info["inertia_kgm2"],
             "mass_ratio_m_rb2_over_J": info["mass_kg"] * r_b ** 2 / info["inertia_kgm2"],
-            "mean_mesh_stiffness_N_per_m": stiff["mean_mesh_stiffness_N_per_m"],
+            "mean_mesh_stiffness_N_per_m": stiff["meshes"]["m12"]["mean_mesh_stiffness_N_per_m"],
             "f_rigid_Hz": max(rigid["natural_frequencies_Hz"]), "f_200_Hz": max(soft["natural_frequencies_Hz"])}
 
 

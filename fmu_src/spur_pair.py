@@ -1,9 +1,9 @@
-"""pythonfmu slave of a hacgear spur pair (FMI 2.0 co-simulation).
+"""pythonfmu slave of a hacgear gear system of kind spur_pair (FMI 2.0 co-simulation).
 
 Thin on purpose: all behaviour (variables, checks, stepping the compiled kernel) is in the installed
-package, :class:`hacgear_core.fmu.HacgearSlave` with :class:`hacgear_core.fmu.SpurPairAdapter`.
+package: :class:`hacgear_core.fmu.slave.HacgearSlave` with the generic :class:`hacgear_core.fmu.adapter.Adapter`.
 ``build_fmu.py`` copies this file into each FMU under the unique module name ``hacgear_<system>``.
-Idler chains, planetary sets and helical pairs add a file like this one naming their ``KIND``.
+Every kind has a file like this one; they differ only in ``KIND``.
 """
 import ctypes
 import json
@@ -19,7 +19,7 @@ ctypes.pythonapi.Py_IncRef(ctypes.py_object(globals()))
 from pythonfmu import Fmi2Slave  # noqa: F401  (pythonfmu's class finder needs it in this module)
 
 try:
-    from hacgear_core.fmu import HacgearSlave
+    from hacgear_core.fmu.slave import HacgearSlave
 except ImportError as _exc:  # the importer's Python lacks hacgear: say what to install
     _here = os.path.dirname(os.path.abspath(__file__))
     try:
@@ -32,7 +32,7 @@ except ImportError as _exc:  # the importer's Python lacks hacgear: say what to 
         + ", ".join(f"{k}{v}" for k, v in _req.items()) + f" ({_exc})") from _exc
 
 
-class SpurPairSlave(HacgearSlave):
-    """Spur pair: constant-speed experiment (mode 0) or drivetrain coupling (mode 1)."""
+class GearSystemSlave(HacgearSlave):
+    """A hacgear gear system: constant-speed experiment (mode 0) or drivetrain coupling (mode 1)."""
 
     KIND = "spur_pair"

@@ -1,5 +1,5 @@
 """A small synthetic external spur gear with the GearGeometry interface used by
-:mod:`hacgear_core.fe` (involute flank, radial line below the base circle, circular
+:mod:`hacgear_core.statics.fe` (involute flank, radial line below the base circle, circular
 fillet tangent to the root circle, sharp tip corner).  Test fixture only: it lets the
 finite-element tests run independently of :mod:`hacgear_core.geometry`."""
 from __future__ import annotations

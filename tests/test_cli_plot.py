@@ -6,6 +6,9 @@ from pathlib import Path
 import numpy as np
 
 from hacgear_core.cli import main
+from hacgear_core.dynamics.build import spur_pair_system
+from hacgear_core.dynamics.sweep import SweepSpec, run_sweep
+from hacgear_core.dynamics.synthetic import softening_example
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -22,13 +25,10 @@ def test_plot_tables_fdf_and_sdf(tmp_path):
 
 
 def test_plot_sweep_marks_the_jumps(tmp_path, capsys):
-    from hacgear_core.dynamics.spur import SpurPairSystem
-    from hacgear_core.dynamics.sweep import SweepSpec, run_sweep
-    from hacgear_core.dynamics.synthetic import softening_example
-
     p, tab, _ = softening_example()
-    fn = SpurPairSystem(p, tab).natural_frequencies_Hz()[0]
-    res = run_sweep(SweepSpec(p, tab, tuple(np.linspace(0.5 * fn, 1.3 * fn, 41)), "both"), out=tmp_path / "s.h5",
+    sy = spur_pair_system(p, tab)
+    fn = sy.natural_frequencies_Hz()[0]
+    res = run_sweep(SweepSpec(sy, tuple(np.linspace(0.5 * fn, 1.3 * fn, 41)), "both"), out=tmp_path / "s.h5",
                     progress=False)
     capsys.readouterr()
     assert main(["plot", str(tmp_path / "s.h5"), "--out", str(tmp_path / "s.png")]) == 0
@@ -37,7 +37,7 @@ def test_plot_sweep_marks_the_jumps(tmp_path, capsys):
     confirmed = [j for j in res.jumps if j.confirmed]
     assert confirmed, "the softening table must jump"
     for j in confirmed:
-        assert f"{j.kind} at {j.frequency_Hz:.0f} Hz" in text
+        assert f"{j.kind} of mesh {j.mesh} at {j.frequency_Hz:.0f} Hz" in text
 
 
 def test_plot_rejects_other_files(tmp_path, capsys):

@@ -1,4 +1,4 @@
-"""Tests of the static contact solver (hacgear_core.contact).
+"""Tests of the static contact solver (hacgear_core.statics.contact).
 
 Physics asserted: complementarity and optimality of the LCP solve, the Hertz closed form recovered
 by the same solver on a discretized half-space, kinematics (pitch-point contact, lambda = 1 on the
@@ -15,7 +15,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from hacgear_core.contact import (
+from hacgear_core.statics import (
     ContactOptions,
     make_mesh_solver,
     mesh_stiffness_curve,
@@ -27,7 +27,7 @@ from hacgear_core.contact import (
 from hacgear_core.errors import ModelError, SolverError
 from hacgear_core.geometry import mesh_geometry
 from hacgear_core.model import load_model
-from hacgear_core.nearfield import hertz_line_contact
+from hacgear_core.statics.nearfield import hertz_line_contact
 
 TORQUE = 300.0
 
@@ -378,7 +378,7 @@ def test_internal_mesh_ring_drives_planet():
 @pytest.mark.slow
 def test_fe_mesh_convergence(model):
     """Refining the finite-element mesh twice changes the STE and the mean mesh stiffness by < 1 %."""
-    from hacgear_core.fe import MeshOptions
+    from hacgear_core.statics.fe import MeshOptions
 
     out = []
     for f in (1.0, 2.0):
@@ -456,7 +456,7 @@ def test_hob_tip_radius_trend(model):
 
 def _hob_max_strains(model, _cache={}):
     if not _cache:
-        from hacgear_core.fe import MeshOptions
+        from hacgear_core.statics.fe import MeshOptions
 
         W = TORQUE / 0.0634415450925655
         _cache.update({r: root_strain_scan(model_variant(model, hob_tip_radius_m=r), "m12", W, positions=96,

@@ -1,5 +1,5 @@
-"""Tests of the finite-element far field (hacgear_core.fe) and the analytical near field
-(hacgear_core.nearfield): closed forms, convergence, equilibrium, cyclic symmetry."""
+"""Tests of the finite-element far field (hacgear_core.statics.fe) and the analytical near field
+(hacgear_core.statics.nearfield): closed forms, convergence, equilibrium, cyclic symmetry."""
 from __future__ import annotations
 
 import os
@@ -13,9 +13,9 @@ sys.path.insert(0, os.path.dirname(__file__))
 from _fe_synthetic_gear import SyntheticGear  # noqa: E402
 
 from hacgear_core.errors import GeometryError, ModelError  # noqa: E402
-from hacgear_core.fe import (CyclicGearFE, ElasticMaterial, FlankCompliance, Gauge, GearFE, MeshOptions, PlaneFE,  # noqa: E402
+from hacgear_core.statics.fe import (CyclicGearFE, ElasticMaterial, FlankCompliance, Gauge, GearFE, MeshOptions, PlaneFE,  # noqa: E402
                              build_gear_fe, gear_compliance, mesh_gear, rotation)
-from hacgear_core.nearfield import (effective_modulus, halfspace_approach_hertz,  # noqa: E402
+from hacgear_core.statics.nearfield import (effective_modulus, halfspace_approach_hertz,  # noqa: E402
                                     halfspace_approach_point, halfspace_strip_kernel, hertz_line_contact)
 
 E, NU = 2.0e11, 0.3
@@ -665,7 +665,7 @@ def _model_with_web(thickness_mm, inner_mm=60.0, outer_mm=110.0):
 def test_thinner_web_lowers_mesh_stiffness(tmp_path, monkeypatch):
     """28-tooth pair (both gears webbed, 60/110 mm): the mean mesh stiffness falls as the web thins,
     and a web as thick as the face width gives the solid blank's stiffness (within 0.5 %)."""
-    contact = pytest.importorskip("hacgear_core.contact")
+    contact = pytest.importorskip("hacgear_core.statics")
     from hacgear_core.geometry import mesh_geometry
 
     monkeypatch.setenv("HACGEAR_CACHE_DIR", str(tmp_path))   # the two identical gears share one FE solve
@@ -684,7 +684,7 @@ def test_root_gauge_is_a_free_surface_so_stress_is_E_times_strain():
     assumes a traction-free surface (plane stress).  Check it on the real 28-tooth gear with the FE's full
     strain tensor at the gauge point (strain along t, n and the diagonal) for a load at the pitch point:
     the normal and shear stresses vanish next to the tangential one, and sigma_t = E eps_t."""
-    from hacgear_core.fe import _gauge_location
+    from hacgear_core.statics.fe import _gauge_location
 
     gear, gg = _real_gear()
     mat = ElasticMaterial(gear.material.youngs_modulus_Pa, gear.material.poisson_ratio)

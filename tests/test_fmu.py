@@ -19,13 +19,32 @@ from fmpy.fmi1 import FMICallException  # noqa: E402
 from fmpy.fmi2 import FMU2Slave  # noqa: E402
 
 import hacgear_core.fmu as hf  # noqa: E402
-from hacgear_core.dynamics.spur import SpurPairSimulator, from_model  # noqa: E402
+from hacgear_core.dynamics.build import build_system  # noqa: E402
+from hacgear_core.dynamics.simulator import Simulator  # noqa: E402
 from hacgear_core.errors import HacgearError  # noqa: E402
+from hacgear_core.fmu.bench import BenchConfig, run_drivetrain_bench  # noqa: E402
 from hacgear_core.model import load_model  # noqa: E402
 from hacgear_core.tables import read_tables  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 SYSTEMS = ("spur_28t_asym", "spur_50t_icr137")
+GEARS = {"spur_28t_asym": ("pinion", "wheel"), "spur_50t_icr137": ("input", "output")}
+
+
+def var(system, key):
+    """The FMU variable name of a quantity of the spur pair ``system`` (gear 1 = driver, gear 2)."""
+    g1, g2 = GEARS[system]
+    names = {"speed1_in": f"{g1}.speed_in", "speed1_start": f"{g1}.speed_start", "torque1_in": f"{g1}.torque_in",
+             "torque2_in": f"{g2}.torque_in", "m12.force": "m12.force", "mesh_deflection": "m12.deflection",
+             "m12.dte": "m12.dte", "m12.position": "m12.position", "contact": "m12.contact",
+             "peak_pressure": "m12.peak_pressure", "angle1": f"{g1}.angle", "angle2": f"{g2}.angle",
+             "speed1": f"{g1}.speed", "speed2": f"{g2}.speed", "bearing_stiffness1": f"{g1}.bearing_stiffness",
+             "bearing_force1_y": f"{g1}.bearing_force_y", "bearing_force2_y": f"{g2}.bearing_force_y"}
+    return names.get(key, key)
+
+
+def v28(key):
+    return var("spur_28t_asym", key)
 
 
 @pytest.fixture(scope="module")
@@ -46,14 +65,12 @@ def built(tmp_path_factory):
             "build_fmu": build_fmu}
 
 
-def _library(built, system, internal_step, torque=None):
+def _library(built, system, internal_step, torque=None, shafts=True):
     folder = built["models"] / system
     model = load_model(folder / "model.toml")
-    table = read_tables(folder / "tables.h5").meshes[model.mesh().name]
-    p = from_model(model, table=table)
-    if torque is not None:
-        p = p.replace(torque_Nm=torque)
-    return SpurPairSimulator(p, table, internal_step_s=internal_step), table
+    tables = read_tables(folder / "tables.h5")
+    sy = build_system(model, tables, torque_Nm=torque, shafts=shafts)
+    return Simulator(sy, internal_step_s=internal_step), tables.mesh(model.mesh().name)
 
 
 class _Low:
@@ -133,13 +150,15 @@ def test_model_description_units_ranges_and_spec(built):
     # only the enumerated switch is an Integer (FMI 2.0 has no unit attribute on Integer)
     assert [n for n, v in spec.items() if v.type != "Real"] == ["mode"]
     outs = {n for n, v in spec.items() if v.causality == "output"}
-    assert {"mesh_force", "mesh_deflection", "dte", "mesh_position", "contact", "peak_pressure", "bearing_force1",
-            "bearing_force2", "angle1", "angle2", "speed1", "speed2", "root_strain.wheel.SG",
-            "root_strain.pinion.SG"} <= outs
+    assert {"m12.force", "m12.deflection", "m12.dte", "m12.position", "m12.contact", "m12.peak_pressure",
+            "pinion.bearing_force_x", "wheel.bearing_force_y", "pinion.angle", "wheel.angle", "pinion.speed",
+            "wheel.speed", "wheel.SG.root_strain", "pinion.SG.root_strain"} <= outs
+    assert {"pinion.torque_in", "wheel.torque_in", "pinion.speed_in"} <= set(spec)
+    assert info["ports"]["wheel"]["speed_ratio"] == pytest.approx(-1.0) and info["input_gear"] == "pinion"
     # the output start values are the initial static equilibrium at the nominal torque
-    start_f = float(next(sv for sv in xml_vars if sv.get("name") == "mesh_force").find("Real").get("start"))
+    start_f = float(next(sv for sv in xml_vars if sv.get("name") == "m12.force").find("Real").get("start"))
     sim, table = _library(built, "spur_28t_asym", None)
-    assert start_f == pytest.approx(sim.params.torque_Nm / table.base_radius_m[0], rel=1e-6)
+    assert start_f == pytest.approx(sim.system.torque_Nm / table.base_radius_m[0], rel=1e-6)
 
 
 @pytest.mark.parametrize("system", SYSTEMS)
@@ -200,18 +219,20 @@ def test_fmu_reproduces_library_time_series(built):
     speed, torque, h_int, dt, n = 520.0, 250.0, 2e-6, 1e-4, 300
     res = fmpy.simulate_fmu(str(built["fmu"]["spur_28t_asym"]), start_time=0.0, stop_time=n * dt, step_size=dt,
                             output_interval=dt,
-                            start_values={"speed1_in": speed, "torque": torque, "internal_step": h_int},
-                            output=["mesh_force", "mesh_deflection", "dte", "mesh_position", "angle1", "speed2"])
+                            start_values={"pinion.speed_in": speed, "torque": torque, "internal_step": h_int},
+                            output=["m12.force", "m12.deflection", "m12.dte", "m12.position", "pinion.angle",
+                                    "wheel.speed"])
     sim, _ = _library(built, "spur_28t_asym", h_int, torque)
     sim.reset(speed_rad_s=speed)
     sim.set_speed_input(speed_rad_s=speed)
-    lib = {k: [] for k in ("mesh_force", "mesh_deflection", "dte", "mesh_position", "angle1", "speed2")}
+    get = {"m12.force": lambda: sim.mesh_force_N[0], "m12.deflection": lambda: sim.mesh_deflection_m[0],
+           "m12.dte": lambda: sim.dynamic_transmission_error_m[0], "m12.position": lambda: sim.mesh_position[0],
+           "pinion.angle": lambda: sim.angle_rad[0], "wheel.speed": lambda: sim.speed_rad_s[1]}
+    lib = {k: [] for k in get}
     for _ in range(n):
         assert sim.advance(dt).success
-        for k, a in (("mesh_force", "mesh_force_N"), ("mesh_deflection", "mesh_deflection_m"),
-                     ("dte", "dynamic_transmission_error_m"), ("mesh_position", "mesh_position"),
-                     ("angle1", "angle1_rad"), ("speed2", "speed2_rad_s")):
-            lib[k].append(getattr(sim, a))
+        for k, g in get.items():
+            lib[k].append(g())
     assert len(res) == n + 1
     for k, v in lib.items():
         v = np.asarray(v)
@@ -220,57 +241,62 @@ def test_fmu_reproduces_library_time_series(built):
         assert scale > 0
         assert np.max(np.abs(f - v)) <= 1e-9 * scale, k
     # a dynamic run, not a constant: the mesh force varies over the mesh cycle
-    assert np.ptp(res["mesh_force"]) > 0.05 * np.mean(res["mesh_force"])
+    assert np.ptp(res["m12.force"]) > 0.05 * np.mean(res["m12.force"])
 
 
 def _adapter_and_library(built, system, mode, h_int, **inputs):
     """The FMU's adapter (as the slave drives it) and a library simulator with the same parameters and inputs."""
     ad = hf.make_adapter(built["models"] / system)
     values = {v.name: v.start for v in ad.variables if v.causality != "output"}
-    values.update(mode=mode, internal_step=h_int, **inputs)
+    values.update(mode=mode, internal_step=h_int, **{var(system, k): v for k, v in inputs.items()})
     ad.configure(values)
-    sim, _ = _library(built, system, h_int)
+    sim, _ = _library(built, system, h_int, shafts=mode == hf.MODE_SPEED)
+    g1, g2 = GEARS[system]
     if mode == hf.MODE_SPEED:
-        sim.reset(speed_rad_s=values["speed1_in"])
-        sim.set_speed_input(speed_rad_s=values["speed1_in"])
+        sim.reset(speed_rad_s=values[f"{g1}.speed_in"])
+        sim.set_speed_input(speed_rad_s=values[f"{g1}.speed_in"])
     else:
-        sim.reset(speed_rad_s=values["speed1_start"])
-        sim.set_torque_inputs(values["torque1_in"], values["torque2_in"])
+        sim.reset(speed_rad_s=values[f"{g1}.speed_start"])
+        sim.set_torque_inputs({g1: values[f"{g1}.torque_in"], g2: values[f"{g2}.torque_in"]})
     return ad, values, sim
 
 
-_LIB_ATTR = {"mesh_force": "mesh_force_N", "mesh_deflection": "mesh_deflection_m",
-             "dte": "dynamic_transmission_error_m", "mesh_position": "mesh_position", "angle1": "angle1_rad",
-             "angle2": "angle2_rad", "speed1": "speed1_rad_s", "speed2": "speed2_rad_s"}
+def _lib_outputs(sim, system):
+    g1, g2 = GEARS[system]
+    return {"m12.force": sim.mesh_force_N[0], "m12.deflection": sim.mesh_deflection_m[0],
+            "m12.dte": sim.dynamic_transmission_error_m[0], "m12.position": sim.mesh_position[0],
+            f"{g1}.angle": sim.angle_rad[0], f"{g2}.angle": sim.angle_rad[1], f"{g1}.speed": sim.speed_rad_s[0],
+            f"{g2}.speed": sim.speed_rad_s[1]}
 
 
 @pytest.mark.parametrize("system, mode", [("spur_28t_asym", 0), ("spur_50t_icr137", 0), ("spur_50t_icr137", 1)])
 def test_fmu_step_path_equals_library_advance(built, system, mode):
-    """The adapter's step is the library's SpurPairSimulator.advance: every output identical (bit for bit), in
-    both modes, over steps of different lengths and a changing input."""
+    """The adapter's step is the library's Simulator.advance: every output identical (bit for bit), in both modes,
+    over steps of different lengths and a changing input."""
     inputs = {"speed1_in": 410.0} if mode == 0 else {"speed1_start": 150.0, "torque1_in": 250.0, "torque2_in": -200.0}
     ad, values, sim = _adapter_and_library(built, system, mode, 1.5e-6, **inputs)
     get = ad.getters()
     steps = [1e-4] * 40 + [3.3e-5, 2e-4, 1e-6] * 5
     for k, dt in enumerate(steps):
         if k == 20:  # an input changes between steps (applied by the slave before the step)
-            key, val = ("speed1_in", 430.0) if mode == 0 else ("torque1_in", 400.0)
+            key, val = (var(system, "speed1_in"), 430.0) if mode == 0 else (var(system, "torque1_in"), 400.0)
             values[key] = val
             ad.apply_inputs(values)
+            g1, g2 = GEARS[system]
             if mode == 0:
                 sim.set_speed_input(speed_rad_s=val)
             else:
-                sim.set_torque_inputs(val, values["torque2_in"])
+                sim.set_torque_inputs({g1: val, g2: values[f"{g2}.torque_in"]})
         assert ad.advance(dt) == ""
         assert sim.advance(dt).success
-        for name, attr in _LIB_ATTR.items():
-            ref = getattr(sim, attr)
+        for name, ref in _lib_outputs(sim, system).items():
             assert get[name]() == ref, (k, name)
-        assert get["contact"]() == (1.0 if sim.in_contact else 0.0)
+        assert get["m12.contact"]() == (1.0 if sim.in_contact[0] else 0.0)
         if k % 7 == 0:  # bearing forces and the table post-processing
-            assert get["bearing_force1"]() == sim.bearing_force_N[0]
-            assert get["bearing_force2"]() == sim.bearing_force_N[1]
-            assert get["peak_pressure"]() == pytest.approx(sim.peak_pressure_Pa, rel=1e-12)
+            for i, g in enumerate(GEARS[system]):
+                assert get[f"{g}.bearing_force_x"]() == sim.bearing_force_N(g)[0]
+                assert get[f"{g}.bearing_force_y"]() == sim.bearing_force_N(g)[1]
+            assert get["m12.peak_pressure"]() == pytest.approx(sim.peak_pressure_Pa(0), rel=1e-12)
     assert ad.sim.time_s == pytest.approx(sim.time_s, rel=1e-15)
     assert all(type(g()) is float for g in get.values())  # pythonfmu's C wrapper reads Python floats
 
@@ -297,30 +323,30 @@ def test_get_set_real_of_unknown_references_are_logged(built):
     unknown reference is ignored with a message: no exception reaches pythonfmu's wrapper (fmi2Fatal)."""
     low = _Low(built["fmu"]["spur_28t_asym"])
     try:
-        low.init(speed1_in=300.0)
+        low.init(**{"pinion.speed_in": 300.0})
         low.fmu.doStep(0.0, 1e-4)
-        f = low.get("mesh_force")[0]
-        vals = low.fmu.getReal([low.vr["mesh_force"], 99999, low.vr["mode"]])
+        f = low.get("m12.force")[0]
+        vals = low.fmu.getReal([low.vr["m12.force"], 99999, low.vr["mode"]])
         assert vals[0] == f and math.isnan(vals[1]) and math.isnan(vals[2])
         assert any("99999" in m and "not a Real variable" in m for _, m in low.messages)
-        low.fmu.setReal([low.vr["mesh_force"], 99999], [1.0, 2.0])
+        low.fmu.setReal([low.vr["m12.force"], 99999], [1.0, 2.0])
         assert any("not a settable Real variable" in m for _, m in low.messages)
-        assert low.get("mesh_force")[0] == f
+        assert low.get("m12.force")[0] == f
         low.fmu.doStep(1e-4, 1e-4)  # goes on normally
-        assert low.get("mesh_position")[0] > 0
+        assert low.get("m12.position")[0] > 0
     finally:
         low.close()
 
 
 def test_any_communication_step_is_substepped(built):
     """One 2 ms step equals twenty 0.1 ms steps at a fixed internal step (same sub-steps)."""
-    kw = dict(start_values={"speed1_in": 400.0, "internal_step": 1e-6}, output=["mesh_force", "dte"])
+    kw = dict(start_values={"pinion.speed_in": 400.0, "internal_step": 1e-6}, output=["m12.force", "m12.dte"])
     fine = fmpy.simulate_fmu(str(built["fmu"]["spur_28t_asym"]), stop_time=2e-3, step_size=1e-4,
                              output_interval=1e-4, **kw)
     coarse = fmpy.simulate_fmu(str(built["fmu"]["spur_28t_asym"]), stop_time=2e-3, step_size=2e-3,
                                output_interval=2e-3, **kw)
-    assert coarse["dte"][-1] == pytest.approx(fine["dte"][-1], rel=1e-9, abs=1e-18)
-    assert coarse["mesh_force"][-1] == pytest.approx(fine["mesh_force"][-1], rel=1e-9)
+    assert coarse["m12.dte"][-1] == pytest.approx(fine["m12.dte"][-1], rel=1e-9, abs=1e-18)
+    assert coarse["m12.force"][-1] == pytest.approx(fine["m12.force"][-1], rel=1e-9)
 
 
 def test_drivetrain_mode_transmits_balanced_torques(built):
@@ -329,23 +355,24 @@ def test_drivetrain_mode_transmits_balanced_torques(built):
     t1 = 300.0
     sim, table = _library(built, "spur_50t_icr137", None)
     rb1, rb2 = table.base_radius_m
-    j1, j2 = sim.params.inertia_kg_m2
+    j1, j2 = np.diag(sim.system.M)
     w0 = 200.0
+    v = lambda k: var("spur_50t_icr137", k)  # noqa: E731
     res = fmpy.simulate_fmu(str(built["fmu"]["spur_50t_icr137"]), stop_time=0.05, step_size=1e-4,
-                            start_values={"mode": 1, "speed1_start": w0, "torque1_in": t1,
-                                          "torque2_in": -t1 * rb2 / rb1},
-                            output=["speed1", "speed2", "mesh_force", "angle1"])
-    assert np.mean(res["speed1"]) == pytest.approx(w0, rel=1e-3)
-    assert np.mean(res["speed2"]) == pytest.approx(w0 * rb1 / rb2, rel=1e-3)
-    assert np.mean(res["mesh_force"][len(res) // 2:]) == pytest.approx(t1 / rb1, rel=0.02)
-    assert res["angle1"][-1] == pytest.approx(w0 * 0.05, rel=2e-3)
+                            start_values={"mode": 1, v("speed1_start"): w0, v("torque1_in"): t1,
+                                          v("torque2_in"): -t1 * rb2 / rb1},
+                            output=[v("speed1"), v("speed2"), "m12.force", v("angle1")])
+    assert np.mean(res[v("speed1")]) == pytest.approx(w0, rel=1e-3)
+    assert np.mean(res[v("speed2")]) == pytest.approx(w0 * rb1 / rb2, rel=1e-3)
+    assert np.mean(res["m12.force"][len(res) // 2:]) == pytest.approx(t1 / rb1, rel=0.02)
+    assert res[v("angle1")][-1] == pytest.approx(w0 * 0.05, rel=2e-3)
     # net torque: d(omega1)/dt = (T1 + T2 r_b1/r_b2) / (J1 + J2 (r_b1/r_b2)^2)
     t2 = -0.5 * t1 * rb2 / rb1
     res = fmpy.simulate_fmu(str(built["fmu"]["spur_50t_icr137"]), stop_time=0.05, step_size=1e-4,
-                            start_values={"mode": 1, "speed1_start": w0, "torque1_in": t1, "torque2_in": t2},
-                            output=["speed1"])
+                            start_values={"mode": 1, v("speed1_start"): w0, v("torque1_in"): t1, v("torque2_in"): t2},
+                            output=[v("speed1")])
     alpha = (t1 + t2 * rb1 / rb2) / (j1 + j2 * (rb1 / rb2) ** 2)
-    slope = np.polyfit(res["time"], res["speed1"], 1)[0]
+    slope = np.polyfit(res["time"], res[v("speed1")], 1)[0]
     assert slope == pytest.approx(alpha, rel=0.02)
 
 
@@ -354,16 +381,16 @@ def test_root_strain_follows_one_tooth(built):
     z = 28
     speed = 300.0  # rad/s -> one pinion revolution in 20.9 ms
     res = fmpy.simulate_fmu(str(built["fmu"]["spur_28t_asym"]), stop_time=0.05, step_size=2e-5,
-                            output_interval=2e-5, start_values={"speed1_in": speed},
-                            output=["root_strain.pinion.SG", "mesh_position", "peak_pressure"])
-    s = res["root_strain.pinion.SG"]
+                            output_interval=2e-5, start_values={"pinion.speed_in": speed},
+                            output=["pinion.SG.root_strain", "m12.position", "m12.peak_pressure"])
+    s = res["pinion.SG.root_strain"]
     loaded = np.abs(s) > 0.1 * np.max(np.abs(s))
-    pos = res["mesh_position"][loaded]
+    pos = res["m12.position"][loaded]
     # loaded only within a few mesh cycles around multiples of z
     phase = (pos + z / 2) % z - z / 2
     assert np.all(np.abs(phase) < 3.0)
     assert {int(round(p / z)) for p in pos} == {0, 1, 2}
-    assert np.all(res["peak_pressure"] >= 0) and np.max(res["peak_pressure"]) > 1e8
+    assert np.all(res["m12.peak_pressure"] >= 0) and np.max(res["m12.peak_pressure"]) > 1e8
 
 
 def test_bad_parameters_are_logged_and_steps_refused(built):
@@ -380,60 +407,59 @@ def test_bad_parameters_are_logged_and_steps_refused(built):
     # fmpy's high-level call logs it and ends the run at the refused (discarded) first step
     msgs = []
     res = fmpy.simulate_fmu(str(built["fmu"]["spur_28t_asym"]), stop_time=1e-3, step_size=1e-4,
-                            start_values={"bearing_stiffness1": -5.0}, debug_logging=True,
+                            start_values={"pinion.bearing_stiffness": -5.0}, debug_logging=True,
                             logger=lambda *a: msgs.append(a[-1].decode(errors="replace")))
-    assert len(res) < 3 and any("bearing_stiffness1" in m and "[N/m]" in m for m in msgs)
+    assert len(res) < 3 and any("pinion.bearing_stiffness" in m and "[N/m]" in m for m in msgs)
 
 
 def test_nan_input_and_bad_steps_are_discarded_with_state_kept(built):
     low = _Low(built["fmu"]["spur_28t_asym"])
     try:
-        low.init(speed1_in=300.0)
+        low.init(**{"pinion.speed_in": 300.0})
         low.fmu.doStep(0.0, 1e-4)
-        before = low.get("mesh_force", "dte", "mesh_position")
-        low.fmu.setReal([low.vr["speed1_in"]], [float("nan")])
+        before = low.get("m12.force", "m12.dte", "m12.position")
+        low.fmu.setReal([low.vr["pinion.speed_in"]], [float("nan")])
         with pytest.raises(FMICallException, match="discard"):
             low.fmu.doStep(1e-4, 1e-4)
-        assert low.get("mesh_force", "dte", "mesh_position") == before
-        assert any("speed1_in" in m and "NaN" in m for _, m in low.messages)
-        low.fmu.setReal([low.vr["speed1_in"]], [1e9])
+        assert low.get("m12.force", "m12.dte", "m12.position") == before
+        assert any("pinion.speed_in" in m and "NaN" in m for _, m in low.messages)
+        low.fmu.setReal([low.vr["pinion.speed_in"]], [1e9])
         with pytest.raises(FMICallException, match="discard"):
             low.fmu.doStep(1e-4, 1e-4)
-        low.fmu.setReal([low.vr["speed1_in"]], [300.0])
+        low.fmu.setReal([low.vr["pinion.speed_in"]], [300.0])
         for bad in (0.0, -1e-4, float("inf"), float("nan")):
             with pytest.raises(FMICallException, match="discard"):
                 low.fmu.doStep(1e-4, bad)
         assert any("step size" in m for _, m in low.messages)
         low.fmu.doStep(1e-4, 1e-4)  # goes on normally
-        assert low.get("mesh_position")[0] > before[2]
+        assert low.get("m12.position")[0] > before[2]
     finally:
         low.close()
 
 
 def test_two_fmus_and_repeated_runs_in_one_process(built):
     a, b = (str(built["fmu"][s]) for s in SYSTEMS)
-    kw = dict(stop_time=5e-3, step_size=1e-4, output_interval=1e-4, start_values={"speed1_in": 300.0},
-              output=["mesh_position",
-                                                                                        "mesh_force"])
-    ra1 = fmpy.simulate_fmu(a, **kw)
-    rb = fmpy.simulate_fmu(b, **kw)
-    ra2 = fmpy.simulate_fmu(a, **kw)
-    rb2 = fmpy.simulate_fmu(b, **kw)
-    assert np.array_equal(ra1["mesh_force"], ra2["mesh_force"])
-    assert np.array_equal(rb["mesh_force"], rb2["mesh_force"])
+    kw = dict(stop_time=5e-3, step_size=1e-4, output_interval=1e-4, output=["m12.position", "m12.force"])
+    sa, sb = ({var(s, "speed1_in"): 300.0} for s in SYSTEMS)
+    ra1 = fmpy.simulate_fmu(a, start_values=sa, **kw)
+    rb = fmpy.simulate_fmu(b, start_values=sb, **kw)
+    ra2 = fmpy.simulate_fmu(a, start_values=sa, **kw)
+    rb2 = fmpy.simulate_fmu(b, start_values=sb, **kw)
+    assert np.array_equal(ra1["m12.force"], ra2["m12.force"])
+    assert np.array_equal(rb["m12.force"], rb2["m12.force"])
     # mesh position advances z1 * speed / (2 pi) cycles per second: 28 vs 50 teeth
-    assert ra1["mesh_position"][-1] == pytest.approx(28 * 300.0 * 5e-3 / (2 * math.pi), rel=1e-3)
-    assert rb["mesh_position"][-1] == pytest.approx(50 * 300.0 * 5e-3 / (2 * math.pi), rel=1e-3)
+    assert ra1["m12.position"][-1] == pytest.approx(28 * 300.0 * 5e-3 / (2 * math.pi), rel=1e-3)
+    assert rb["m12.position"][-1] == pytest.approx(50 * 300.0 * 5e-3 / (2 * math.pi), rel=1e-3)
     # two instances of different FMUs side by side (low-level)
     la, lb = _Low(built["fmu"][SYSTEMS[0]], "a"), _Low(built["fmu"][SYSTEMS[1]], "b")
     try:
-        la.init(speed1_in=300.0)
-        lb.init(speed1_in=300.0)
+        la.init(**sa)
+        lb.init(**sb)
         for k in range(50):
             la.fmu.doStep(k * 1e-4, 1e-4)
             lb.fmu.doStep(k * 1e-4, 1e-4)
-        assert la.get("mesh_force")[0] == pytest.approx(ra1["mesh_force"][50], rel=1e-12)
-        assert lb.get("mesh_force")[0] == pytest.approx(rb["mesh_force"][50], rel=1e-12)
+        assert la.get("m12.force")[0] == pytest.approx(ra1["m12.force"][50], rel=1e-12)
+        assert lb.get("m12.force")[0] == pytest.approx(rb["m12.force"][50], rel=1e-12)
     finally:
         la.close()
         lb.close()
@@ -445,10 +471,10 @@ def test_unmet_requirement_refuses_instantiation(built, tmp_path):
     with zipfile.ZipFile(bad) as z:
         info = json.loads(z.read("resources/hacgear_fmu.json"))
     info["requirements"]["hacgear"] = "==99.0"
-    hf._rewrite_zip_member(bad, "resources/hacgear_fmu.json", json.dumps(info).encode())
+    hf.build._rewrite_zip_member(bad, "resources/hacgear_fmu.json", json.dumps(info).encode())
     low = _Low(bad)
     try:
-        low.init(speed1_in=300.0)
+        low.init(**{"pinion.speed_in": 300.0})
         with pytest.raises(FMICallException, match="discard"):
             low.fmu.doStep(0.0, 1e-4)
         text = " ".join(m for _, m in low.messages)
@@ -463,7 +489,7 @@ def test_fresh_process_hits_numba_cache(built):
     code = (
         "import fmpy, sys, json\n"
         f"r = fmpy.simulate_fmu({str(built['fmu']['spur_28t_asym'])!r}, stop_time=1e-3, step_size=1e-4,"
-        " start_values={'speed1_in': 300.0})\n"
+        " start_values={'pinion.speed_in': 300.0})\n"
         "from hacgear_core.dynamics import kernels\n"
         "ds = [d for d in vars(kernels).values() if hasattr(d, 'stats')]\n"
         "print(json.dumps({'file': kernels.__file__, 'hits': sum(sum(d.stats.cache_hits.values()) for d in ds),"
@@ -481,36 +507,31 @@ def test_fresh_process_hits_numba_cache(built):
 def test_drivetrain_bench_follows_the_motor_and_carries_the_load(built):
     """Short ramp of the bench (fmpy low-level API): speeds follow the drive, the shafts carry the load torque,
     the mean mesh force is the static one."""
-    sys.path.insert(0, str(ROOT / "examples"))
-    try:
-        import drivetrain_bench as db
-    finally:
-        sys.path.remove(str(ROOT / "examples"))
-    cfg = db.BenchConfig(speed_start_rpm=3000.0, speed_end_rpm=3300.0, ramp_s=0.1, hold_s=0.05, load_torque_Nm=200.0)
-    res = db.run_drivetrain_bench(built["fmu"]["spur_28t_asym"], cfg)
+    cfg = BenchConfig(speed_start_rpm=3000.0, speed_end_rpm=3300.0, ramp_s=0.1, hold_s=0.05, load_torque_Nm=200.0)
+    res = run_drivetrain_bench(built["fmu"]["spur_28t_asym"], cfg)
     t = res["time_s"]
-    assert t[-1] == pytest.approx(0.2, abs=1e-9) and bool(res["synthetic"][0])
+    assert t[-1] == pytest.approx(0.2, abs=1e-9)
+    assert res["input_gear"] == "pinion" and res["output_gear"] == "wheel"
     end = t > 0.17
     w_ref = 3300.0 * 2 * math.pi / 60
     assert np.mean(res["motor_speed_rad_s"][end]) == pytest.approx(w_ref, rel=0.01)
-    assert np.mean(res["pinion_speed_rad_s"][end]) == pytest.approx(w_ref, rel=0.01)
+    assert np.mean(res["input_speed_rad_s"][end]) == pytest.approx(w_ref, rel=0.01)
     # the wheel turns at r_b1/r_b2 of the pinion speed and the load shaft carries -T_load on average
-    rb1, rb2 = res["base_radius_m"]
-    assert np.mean(res["wheel_speed_rad_s"][end]) == pytest.approx(w_ref * rb1 / rb2, rel=0.01)
+    assert np.mean(res["output_speed_rad_s"][end]) == pytest.approx(w_ref * res["speed_ratio"], rel=0.01)
     assert np.mean(res["shaft2_torque_Nm"][end]) == pytest.approx(-200.0, rel=0.05)
-    assert np.mean(res["mesh_force_N"][end]) == pytest.approx(res["static_mesh_force_N"][0], rel=0.05)
+    assert np.mean(res["m12.force"][end]) == pytest.approx(res["static_mesh_force_N"]["m12"], rel=0.05)
 
 
 def test_importer_exits_cleanly(built):
     """pythonfmu 0.7.0's binary frees its interpreter state twice at process exit unless the slave releases it
-    first (hacgear_core.fmu._guard_pythonfmu_exit): fresh importer processes that load scipy, numba and h5py only
+    first (hacgear_core.fmu.slave._guard_pythonfmu_exit): fresh importer processes that load scipy, numba and h5py only
     through the FMU must exit with status 0, not abort."""
     code = (
         "import fmpy\n"
         f"r = fmpy.simulate_fmu({str(built['fmu']['spur_28t_asym'])!r}, stop_time=2e-3, step_size=1e-4,"
-        " start_values={'speed1_in': 300.0})\n"
-        "import hacgear_core.fmu as hf\n"
-        "assert any(k.endswith('spur_28t_asym.so') for k in hf._PYTHONFMU_BINARIES), hf._PYTHONFMU_BINARIES\n"
+        " start_values={'pinion.speed_in': 300.0})\n"
+        "import hacgear_core.fmu.slave as hs\n"
+        "assert any(k.endswith('spur_28t_asym.so') for k in hs._PYTHONFMU_BINARIES), hs._PYTHONFMU_BINARIES\n"
     )
     for _ in range(4):
         p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)

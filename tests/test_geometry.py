@@ -643,7 +643,7 @@ def test_plot_geometry_mesh_position_no_overlap(tmp_path):
     from matplotlib.path import Path as MPath
 
     from hacgear_core.cli import main
-    from hacgear_core.cli.plot_geometry import _rot, mesh_position
+    from hacgear_core.plots.geometry import _rot, mesh_position
 
     for name, mesh in (("spur_28t_asym", "m12"), ("planetary_65_55_175", "ring_planet"),
                        ("idler_28_33_39", "m23")):

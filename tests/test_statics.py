@@ -318,17 +318,6 @@ def test_partial_file_killed_during_creation_starts_again(tmp_path):
     assert rep.tasks_computed == 8 and "interrupted while being created" in rep.message
 
 
-def test_cli_without_contact_solver_says_so(tmp_path, capsys, monkeypatch):
-    from hacgear_core.cli import main
-
-    monkeypatch.setitem(sys.modules, "hacgear_core.contact", None)  # as if issue 3 were not there
-
-    shutil.copy(MODEL, tmp_path / "model.toml")
-    assert main(["statics", str(tmp_path / "model.toml")]) == 2
-    err = capsys.readouterr().err
-    assert "make_mesh_solver" in err and "--solver analytic" in err and "Traceback" not in err
-
-
 def test_cli_refuses_small_torque_factor(tmp_path):
     shutil.copy(MODEL, tmp_path / "model.toml")
     with pytest.raises(ModelError, match="max_torque_factor"):
@@ -392,7 +381,7 @@ def test_sigkill_midway_then_resume_equals_uninterrupted(tmp_path):
 def test_fe_contact_solver_small_grid(tmp_path):
     """The real FE contact solver through the grid: process pool equals serial, monotone FDF, the FDF
     reproduces the load-control results."""
-    pytest.importorskip("hacgear_core.contact")
+    pytest.importorskip("hacgear_core.statics.contact")
     model = tmp_path / "model.toml"
     shutil.copy(MODEL, model)
     a = compute_statics(model, tmp_path / "a.h5", positions=8, loads=4, deflections=16, workers=1, progress=False)
@@ -429,7 +418,7 @@ def test_committed_tables_agree_with_a_coarse_regeneration(tmp_path, system):
     coarse regeneration with the current solver agrees with them where the grids coincide: static
     deflection per (position, load) and NLMD exactly at shared positions (same loads), the FDF at the
     committed (position, deflection) nodes by interpolation of the coarse deflection grid."""
-    pytest.importorskip("hacgear_core.contact")
+    pytest.importorskip("hacgear_core.statics.contact")
     from hacgear_core.model import load_model
     from hacgear_core.tables import load_system_tables, read_tables
 

@@ -1,4 +1,4 @@
-"""Published numbers of the dissertation, checked on the committed FE tables (hacgear_core.validation).
+"""Published numbers of the dissertation, checked on the committed FE tables (hacgear_core.plots.validation).
 
 These run the whole chain that a user runs: model file -> committed tables.h5 (made by our own FE/contact
 solver) -> HAC dynamics.  Numbers and tolerances are listed in docs/validation.md."""
@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hacgear_core.validation import natural_frequencies, sweep
+from hacgear_core.plots.validation import natural_frequencies, sweep
 
 
 def test_28t_natural_frequency_rigid_supports_2800Hz():
@@ -61,15 +61,15 @@ def test_28t_blank_bore_trend_stiffness_mass_and_frequency():
     import dataclasses
     import math
 
-    from hacgear_core.cli.stiffness import stiffness_dict
+    from hacgear_core.statics.studies import mesh_stiffness_report
     from hacgear_core.geometry import gear_geometry
     from hacgear_core.model import load_model
 
-    base = load_model("models/spur_28t_asym/model.toml")
+    base = load_model("spur_28t_asym")
     out = {}
     for bore in (0.035, 0.040):
         m = dataclasses.replace(base, gears=tuple(dataclasses.replace(g, bore_diameter_m=bore) for g in base.gears))
-        k = stiffness_dict(m, 300.0, positions=16)["mean_mesh_stiffness_N_per_m"]
+        k = mesh_stiffness_report(m, 300.0, positions=16)["meshes"]["m12"]["mean_mesh_stiffness_N_per_m"]
         gg = gear_geometry(m.gears[0])
         rb = gg.base_radius_m["drive"]
         out[bore] = (k, gg.mass_kg, math.sqrt(2 * k / (gg.inertia_kgm2 / rb**2)) / (2 * math.pi))

@@ -16,6 +16,9 @@ import importlib
 import pkgutil
 import sys
 
+from hacgear_core import __version__
+from hacgear_core.errors import HacgearError
+
 __all__ = ["main", "build_parser"]
 
 
@@ -29,8 +32,6 @@ def build_parser() -> argparse.ArgumentParser:
             "frequencies Hz, deflections m unless an option says otherwise."
         ),
     )
-    from hacgear_core import __version__
-
     parser.add_argument("--version", action="version", version=f"hacgear {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="<command>")
     for info in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
@@ -50,8 +51,6 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
-    from hacgear_core.errors import HacgearError
-
     try:
         return int(args.func(args) or 0)
     except HacgearError as exc:  # clear, user-facing errors: no traceback

@@ -3,7 +3,8 @@
 Per mesh: centre distance, base radii, operating pressure angles, contact ratios (loaded and
 unloaded flank, face and total), base pitch, roll angles of SAP/LPSTC/HPSTC/EAP per gear (loaded
 flank, degrees of tan(pressure angle)); per gear: profile shift, tool addendum, form and tip
-radii, tip thickness, mass and inertias.  Warnings are printed after the tables (stderr for text,
+radii, tip thickness, mass and inertias; per mesh also its phase in the train (mesh cycles, from the gear placement)
+and its nominal load (the torque flow at the operating torque).  Warnings are printed after the tables (stderr for text,
 a ``warnings`` list in JSON).
 """
 from __future__ import annotations
@@ -13,6 +14,11 @@ import json
 import math
 import sys
 from typing import Any
+
+from hacgear_core.errors import GeometryError, ModelError
+from hacgear_core.geometry import SIDES, model_geometry, nominal_mesh_forces, train_geometry
+from hacgear_core.jsonio import json_safe
+from hacgear_core.model import load_model
 
 __all__ = ["register", "run", "info_dict"]
 
@@ -29,21 +35,13 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=run)
 
 
-def _clean(v: Any) -> Any:
-    if isinstance(v, float) and not math.isfinite(v):
-        return None
-    if isinstance(v, dict):
-        return {k: _clean(x) for k, x in v.items()}
-    if isinstance(v, (list, tuple)):
-        return [_clean(x) for x in v]
-    return v
-
-
 def info_dict(model: Any, *, strict: bool = True) -> dict:
     """Everything ``hacgear info --json`` prints, as a dict (SI; NaN -> None)."""
-    from hacgear_core.geometry import SIDES, model_geometry
-
     gears, meshes = model_geometry(model, strict=strict)
+    try:
+        train = train_geometry(model, gears=gears, meshes=meshes)
+    except (GeometryError, ModelError):
+        train = None
     out: dict = {"model": model.name, "kind": model.kind, "gears": {}, "meshes": {}, "warnings": []}
     for g in gears.values():
         out["gears"][g.name] = {
@@ -67,6 +65,11 @@ def info_dict(model: Any, *, strict: bool = True) -> dict:
             "inertia_source": "model" if model.gear(g.name).inertia_kgm2 is not None else "blank",
             "shaper_teeth": g.shaper_teeth,
         }
+    try:
+        forces = nominal_mesh_forces(model, {m.name: (m.base_radius_m[m.gear_a], m.base_radius_m[m.gear_b])
+                                             for m in meshes.values()})
+    except ModelError:
+        forces = {}
     for mg in meshes.values():
         out["meshes"][mg.name] = {
             "gear_a": mg.gear_a, "gear_b": mg.gear_b, "flank_a": mg.flank_a, "flank_b": mg.flank_b,
@@ -87,6 +90,10 @@ def info_dict(model: Any, *, strict: bool = True) -> dict:
                                          for g in mg.roll_angle_coast_deg}
                                      for k in ("SAP", "LPSTC", "HPSTC", "EAP")},
             "tip_clearance_m": dict(mg.tip_clearance_m),
+            "line_of_centres_deg": math.degrees(model.mesh(mg.name).line_of_centres_rad),
+            "phase": None if train is None else train.meshes[mg.name].phase,
+            "nominal_force_N": forces.get(mg.name),
+            "nominal_torque_Nm": None if mg.name not in forces else forces[mg.name] * mg.base_radius_m[mg.gear_a],
         }
     warns: list[str] = []
     for g in gears.values():
@@ -94,7 +101,7 @@ def info_dict(model: Any, *, strict: bool = True) -> dict:
     for mg in meshes.values():
         warns += [w for w in mg.warnings if w not in warns]
     out["warnings"] = warns
-    return _clean(out)
+    return json_safe(out)
 
 
 def _f(v: Any, fmt: str) -> str:
@@ -122,7 +129,7 @@ def _text(d: dict) -> str:
         lines.append(f"  {n}: {ga} ({m['flank_a']}) -> {gb} ({m['flank_b']}){'  internal' if m['internal'] else ''}")
         lines.append(f"    centre distance        {m['center_distance_m'] * 1e3:10.4f} mm ({m['center_distance_source']}; "
                      f"zero backlash {m['zero_backlash_center_distance_m'] * 1e3:.4f} mm, backlash "
-                     f"{m['backlash_m'] * 1e6:.1f} um)")
+                     f"{m['backlash_m'] * 1e6:.1f} µm)")
         lines.append(f"    base radius            {ga}: {m['base_radius_m'][ga] * 1e3:.4f} mm, "
                      f"{gb}: {m['base_radius_m'][gb] * 1e3:.4f} mm (loaded flanks)")
         lines.append(f"    operating press. angle {m['operating_pressure_angle_deg']:10.4f} deg loaded, "
@@ -136,12 +143,16 @@ def _text(d: dict) -> str:
             r = m["roll_angle_deg"]
             lines.append(f"      {g:<20} " + "".join(f"{_f(r[k][g], '9.3f'):>9}" for k in ("SAP", "LPSTC", "HPSTC", "EAP")))
         lines.append("    tip clearance          " + ", ".join(f"{g}: {v * 1e3:.4f} mm" for g, v in m["tip_clearance_m"].items()))
+        if m["phase"] is not None:
+            lines.append(f"    mesh phase             {m['phase']:10.4f} mesh cycles (line of centres "
+                         f"{m['line_of_centres_deg']:.1f} deg; first mesh at 0)")
+        if m["nominal_force_N"] is not None:
+            lines.append(f"    nominal load           {m['nominal_force_N']:10.1f} N ({m['nominal_torque_Nm']:.1f} N·m on "
+                         f"{ga}) at the operating torque")
     return "\n".join(lines)
 
 
 def run(args: argparse.Namespace) -> int:
-    from hacgear_core.model import load_model
-
     model = load_model(args.model)
     d = info_dict(model, strict=not args.lenient)
     if args.json:

@@ -1,11 +1,12 @@
-"""``hacgear modes MODEL --torque T``: natural frequencies and mode shapes of a spur pair
-(linearised modal analysis at the torque, plus the impulse test of dissertation Sec. 3.6.1)."""
+"""``hacgear modes MODEL [--torque T]``: natural frequencies and mode shapes of a gear system (linearised modal
+analysis at the torque, plus the impulse test of dissertation Sec. 3.6.1)."""
 from __future__ import annotations
 
 import argparse
-import json
 
-from hacgear_core.cli._dyn_common import add_model_options, inputs_from_args, json_safe
+from hacgear_core.cli._dyn_common import add_model_options, inputs_from_args
+from hacgear_core.dynamics.modes import impulse_test, modal_analysis
+from hacgear_core.jsonio import dumps
 
 __all__ = ["register", "run"]
 
@@ -14,9 +15,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "modes", help="natural frequencies and mode shapes at a torque (modal analysis + impulse test)",
         description=(
-            "Linearised modal analysis of the lumped model at the torque (mesh stiffness = cycle mean of the "
-            "local slope of the force-deflection function at the static deflection) and the impulse test "
-            "(free vibration at single- and double-tooth-contact positions, contact-ratio-weighted mean)."),
+            "Linearised modal analysis of the lumped model at the torque (each mesh's stiffness = cycle mean of the "
+            "local slope of its force-deflection function at its static deflection) and the impulse test (free "
+            "vibration at single- and double-tooth-contact positions of the first mesh, contact-ratio-weighted "
+            "mean). Mode shapes: one row per mode over the DOFs, rotations as base radius x angle [m], "
+            "counter-clockwise positive."),
     )
     add_model_options(p)
     p.add_argument("--no-impulse", action="store_true", help="skip the impulse test")
@@ -24,25 +27,23 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from hacgear_core.dynamics.modes import impulse_test, modal_analysis
-    from hacgear_core.dynamics.spur import SpurPairSystem
-
     inp = inputs_from_args(args)
-    sy = SpurPairSystem(inp.params, inp.table, args.force_law)
+    sy = inp.system
     mr = modal_analysis(sy)
-    rep = {"model": inp.label, "synthetic_table": inp.synthetic, "torque_Nm": inp.params.torque_Nm,
-           "force_law": args.force_law, "bearing_stiffness_N_per_m": list(inp.params.bearing_stiffness_N_per_m)}
+    rep = {"model": inp.label, "synthetic_table": inp.synthetic, "torque_Nm": sy.torque_Nm,
+           "force_law": args.force_law,
+           "bearing_stiffness_N_per_m": {g.name: g.support[0] for g in sy.gears.values()}}
     rep.update(mr.to_json())
     if not args.no_impulse:
         rep["impulse_test"] = impulse_test(sy).to_json()
     if args.json:
-        print(json.dumps(json_safe(rep), indent=2, allow_nan=False))
+        print(dumps(rep))
         return 0
     tag = " [SYNTHETIC TABLE]" if inp.synthetic else ""
-    print(f"{inp.label}{tag}: torque {inp.params.torque_Nm:g} N*m, force law {args.force_law}, "
-          f"mesh stiffness {mr.mesh_stiffness_N_per_m / 1e6:.2f} N/um")
+    ks = ", ".join(f"{m} {k / 1e6:.2f} N/um" for m, k in zip(sy.mesh_names, mr.mesh_stiffness_N_per_m))
+    print(f"{inp.label}{tag}: torque {sy.torque_Nm:g} N*m, force law {args.force_law}, mesh stiffness {ks}")
     print("linearised natural frequencies [Hz]: " + ", ".join(f"{f:.1f}" for f in mr.natural_frequencies_Hz))
-    print("mode shapes (rotations as r_b*theta), dofs " + ", ".join(mr.dof_names) + ":")
+    print("mode shapes (rotations as r_b*theta, CCW), dofs " + ", ".join(mr.dof_names) + ":")
     for i, f in enumerate(mr.natural_frequencies_Hz):
         print(f"  {f:9.1f} Hz: " + " ".join(f"{c:+.3f}" for c in mr.mode_shapes[:, i]))
     if "impulse_test" in rep:

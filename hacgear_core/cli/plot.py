@@ -14,7 +14,14 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-__all__ = ["register", "run", "plot_sweep_file"]
+import h5py
+
+from hacgear_core.errors import TableError
+from hacgear_core.plots.sweep import plot_sweep_file
+from hacgear_core.plots.tables import plot_fdf, plot_sdf
+from hacgear_core.tables import read_tables
+
+__all__ = ["register", "run"]
 
 
 def register(subparsers: Any) -> None:
@@ -28,58 +35,7 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=run)
 
 
-def plot_sweep_file(path: str | Path, out: str | Path, run_id: str | None = None) -> list[dict]:
-    """Plot every run (or ``run_id``) of a sweep results file into one PNG; returns the confirmed jumps."""
-    import h5py
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    import numpy as np
-
-    from hacgear_core.dynamics.sweep import detect_jumps, read_sweep
-    from hacgear_core.errors import TableError
-
-    runs = read_sweep(path)
-    if run_id is not None:
-        if run_id not in runs:
-            raise TableError(f"{path}: no sweep run {run_id!r}; runs: {sorted(runs)}")
-        runs = {run_id: runs[run_id]}
-    if not runs:
-        raise TableError(f"{path}: no sweep results in this file (make one with `hacgear sweep ... --out FILE`)")
-    with h5py.File(path, "r") as f:
-        labels = {rid: str(f["sweeps"][rid].attrs.get("label", rid)) for rid in runs}
-    fig, ax = plt.subplots(2, 1, figsize=(8, 7), sharex=True)
-    jumps_out = []
-    for k, (rid, branches) in enumerate(runs.items()):
-        col = plt.rcParams["axes.prop_cycle"].by_key()["color"][k % 10]
-        for b, mk in (("up", "o-"), ("down", "x--")):
-            if b not in branches:
-                continue
-            br = branches[b]
-            f_hz = np.asarray(br.mesh_frequency_Hz)
-            ax[0].plot(f_hz, np.asarray(br.metrics["rms_deflection_m"]) * 1e6, mk, color=col, ms=3, lw=0.7,
-                       label=f"{labels[rid]}, {b}")
-            ax[1].plot(f_hz, np.asarray(br.metrics["mean_deflection_m"]) * 1e6, mk, color=col, ms=3, lw=0.7)
-        for j in detect_jumps(branches):
-            if j.confirmed:
-                ax[0].axvline(j.frequency_Hz, color=col, ls=":", lw=0.8)
-                jumps_out.append({"run": rid, "kind": j.kind, "branch": j.branch, "frequency_Hz": j.frequency_Hz})
-    ax[0].set_ylabel("RMS of oscillating mesh deflection [µm]")
-    ax[1].set_ylabel("mean mesh deflection [µm]")
-    ax[1].set_xlabel("mesh frequency [Hz]   (dotted: confirmed jumps)")
-    ax[0].legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return jumps_out
-
-
 def run(args) -> int:
-    import h5py
-
-    from hacgear_core.errors import TableError
-
     path = Path(args.file)
     if not path.exists():
         raise TableError(f"no such file: {path}")
@@ -91,26 +47,23 @@ def run(args) -> int:
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     if kind == "tables":
-        from hacgear_core import plots_tables
-        from hacgear_core.tables import read_tables
-
         tabs = read_tables(path)
         table = tabs.mesh(args.mesh)
-        fig = plots_tables.plot_fdf(table)
+        fig = plot_fdf(table)
         fig.savefig(out, dpi=110)
         print(f"FDF of mesh '{table.name}': {out}")
         if args.gauge is not None:
             if args.gauge not in table.strain:
                 raise TableError(f"--gauge {args.gauge!r} not in {path}; gauges: {sorted(table.strain)}")
             sdf = out.with_name(out.stem + "_sdf.png")
-            plots_tables.plot_sdf(table, args.gauge).savefig(sdf, dpi=110)
+            plot_sdf(table, args.gauge).savefig(sdf, dpi=110)
             print(f"strain-deflection function of {args.gauge}: {sdf}")
         return 0
     if kind == "sweep":
         jumps = plot_sweep_file(path, out, args.run)
         print(f"sweep response: {out}")
         for j in jumps:
-            print(f"  {j['kind']} at {j['frequency_Hz']:.0f} Hz ({j['branch']} sweep)")
+            print(f"  {j['kind']} of mesh {j['mesh']} at {j['frequency_Hz']:.0f} Hz ({j['branch']} sweep)")
         return 0
     raise TableError(f"{path} is neither a hacgear tables file (attribute format='hacgear-tables') nor a sweep "
                      "results file (group 'sweeps')")

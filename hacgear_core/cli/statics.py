@@ -8,6 +8,11 @@ import json
 import sys
 from pathlib import Path
 
+from hacgear_core.errors import ModelError
+from hacgear_core.model import resolve_model_path
+from hacgear_core.statics import DEFAULT_DEFLECTION_MARGIN, compute_statics
+from hacgear_core.tables import read_tables
+
 __all__ = ["register", "run"]
 
 
@@ -35,7 +40,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--workers", type=int, default=None, help="worker processes (default: CPU count; 1 = in-process)")
     p.add_argument("--resume", action="store_true", help="continue an interrupted run (<out>.partial)")
     p.add_argument("--solver", choices=("fe", "analytic"), default="fe",
-                   help="fe: finite-element contact solver (hacgear_core.contact); analytic: the analytical "
+                   help="fe: finite-element contact solver (hacgear_core.statics.contact); analytic: the analytical "
                         "reference spring model (not FE; for testing the pipeline)")
     p.add_argument("--check", action="store_true",
                    help="do not compute: read the existing table, check it against the model and print figures")
@@ -47,9 +52,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _check(args: argparse.Namespace) -> int:
-    from hacgear_core.model import resolve_model_path
-    from hacgear_core.tables import read_tables
-
     mp = resolve_model_path(args.model)
     tp = args.out or mp.parent / "tables.h5"
     t = read_tables(tp, mp, allow_hash_mismatch=args.ignore_model_hash)
@@ -75,16 +77,13 @@ def _check(args: argparse.Namespace) -> int:
         for m, r in rep["meshes"].items():
             print(f"  mesh {m}: {r['positions']} positions x {r['loads']} loads (0 … {r['load_max_N']:.6g} N) x "
                   f"{r['deflections']} deflections ({r['deflection_grid_min_m'] * 1e6:.4g} … "
-                  f"{r['deflection_grid_max_m'] * 1e6:.4g} um); NLMD {r['no_load_deflection_min_m'] * 1e6:.4g} … "
-                  f"{r['no_load_deflection_max_m'] * 1e6:.4g} um; max force {r['force_max_N']:.6g} N; "
+                  f"{r['deflection_grid_max_m'] * 1e6:.4g} µm); NLMD {r['no_load_deflection_min_m'] * 1e6:.4g} … "
+                  f"{r['no_load_deflection_max_m'] * 1e6:.4g} µm; max force {r['force_max_N']:.6g} N; "
                   f"solver: {r['solver']}")
     return 0
 
 
 def run(args: argparse.Namespace) -> int:
-    from hacgear_core.errors import ModelError
-    from hacgear_core.statics import DEFAULT_DEFLECTION_MARGIN, compute_statics
-
     if args.check:
         return _check(args)
     for name in ("positions", "loads", "deflections", "workers"):
@@ -104,8 +103,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {rep.tasks_computed} position task(s) computed, {rep.tasks_resumed} resumed, "
               f"wall time {rep.wall_s:.2f} s")
         for m, s in rep.meshes.items():
-            print(f"  mesh {m}: NLMD {s['no_load_deflection_min_m'] * 1e6:.4g} … {s['no_load_deflection_max_m'] * 1e6:.4g} um,"
-                  f" deflection grid {s['deflection_grid_min_m'] * 1e6:.4g} … {s['deflection_grid_max_m'] * 1e6:.4g} um,"
+            print(f"  mesh {m}: NLMD {s['no_load_deflection_min_m'] * 1e6:.4g} … {s['no_load_deflection_max_m'] * 1e6:.4g} µm,"
+                  f" deflection grid {s['deflection_grid_min_m'] * 1e6:.4g} … {s['deflection_grid_max_m'] * 1e6:.4g} µm,"
                   f" FDF reproduces the load-control results within {100 * s['fdf_reproduces_static_rel_err']:.3g}% "
                   "of the largest load")
     sys.stdout.flush()

@@ -1,12 +1,16 @@
-"""``hacgear sweep MODEL --torque T --fm START:STOP:N --direction up|down|both``: steady-state
-response over mesh frequency (each speed from the previous steady state), jumps, HDF5 results."""
+"""``hacgear sweep MODEL --torque T --fm START:STOP:N --direction up|down|both``: steady-state response over mesh
+frequency (each speed from the previous steady state), jumps per mesh, HDF5 results."""
 from __future__ import annotations
 
 import argparse
-import json
 import math
+from concurrent.futures import ProcessPoolExecutor
 
-from hacgear_core.cli._dyn_common import add_model_options, inputs_from_args, json_safe
+from hacgear_core.cli._dyn_common import add_model_options, inputs_from_args
+from hacgear_core.dynamics.steady import SteadyStateOptions
+from hacgear_core.dynamics.sweep import SweepSpec, parse_fm, run_sweeps
+from hacgear_core.errors import ModelError
+from hacgear_core.jsonio import dumps
 
 __all__ = ["register", "run"]
 
@@ -15,13 +19,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "sweep", help="steady-state speed sweep (up/down/both) with jump detection",
         description=(
-            "Steady-state dynamic response of a spur pair over mesh frequency. Each speed starts from the "
+            "Steady-state dynamic response of a gear system over mesh frequency [Hz]. Each speed starts from the "
             "previous steady state; steady state is detected (period-n orbit of the once-per-mesh-cycle "
             "samples, n <= 4) or the cycle cap is reported. With --out, one row per finished speed is "
             "written to an HDF5 file; re-running the same command after an interruption computes only "
             "the missing speeds."),
     )
-    add_model_options(p, torque_required=False)
+    add_model_options(p)
     p.add_argument("--fm", required=True, help="mesh frequencies START:STOP:N [Hz, Hz, count]")
     p.add_argument("--direction", choices=("up", "down", "both"), default="both")
     p.add_argument("--out", default=None, help="HDF5 results file (incremental, resumable)")
@@ -30,15 +34,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--rtol", type=float, default=1e-5, help="steady-state tolerance (relative) [-]")
     p.add_argument("--max-cycles", type=int, default=3000, help="cycle cap per speed [-]")
     p.add_argument("--torques", default=None,
-                   help="several torques on gear 1, comma separated [N*m] (instead of --torque): one sweep "
+                   help="several torques on the input gear, comma separated [N*m] (instead of --torque): one sweep "
                         "per torque, all branches in parallel over --workers processes")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
 
 def _torques(args) -> list[float]:
-    from hacgear_core.errors import ModelError
-
     if args.torques is None:
         return [args.torque]  # None: the model's [operating] torque
     try:
@@ -51,10 +53,6 @@ def _torques(args) -> list[float]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from hacgear_core.dynamics.steady import SteadyStateOptions
-    from hacgear_core.dynamics.sweep import SweepSpec, parse_fm, run_sweeps
-    from hacgear_core.errors import ModelError
-
     torques = _torques(args)
     args.torque = torques[0]
     inp = inputs_from_args(args)
@@ -62,13 +60,11 @@ def run(args: argparse.Namespace) -> int:
     if args.workers < 1:
         raise ModelError(f"--workers must be >= 1, got {args.workers}")
     opts = SteadyStateOptions(rtol=args.rtol, max_cycles=args.max_cycles)
-    specs = [SweepSpec(inp.params, inp.table, tuple(fms), args.direction, args.force_law, torque_Nm=t,
-                       options=opts, label=f"{inp.label} {t or inp.params.torque_Nm:g} N*m") for t in torques]
+    specs = [SweepSpec(inp.system, tuple(fms), args.direction, torque_Nm=t, options=opts,
+                       label=f"{inp.system.name} {t or inp.system.torque_Nm:g} N*m") for t in torques]
     n_tasks = sum(len(s.branches) for s in specs)
     ex = None
     if args.workers > 1 and n_tasks > 1:
-        from concurrent.futures import ProcessPoolExecutor
-
         ex = ProcessPoolExecutor(max_workers=min(args.workers, n_tasks))
     try:
         results = run_sweeps(specs, out=args.out, executor=ex, progress=not args.no_progress)
@@ -82,25 +78,31 @@ def run(args: argparse.Namespace) -> int:
                     "computed_speeds": {b: r.recomputed for b, r in res.branches.items()}})
         reps.append(rep)
     if args.json:
-        print(json.dumps(json_safe(reps[0] if len(reps) == 1 else reps), indent=1, allow_nan=False))
+        print(dumps(reps[0] if len(reps) == 1 else reps, indent=1))
         return 0
     tag = " [SYNTHETIC TABLE]" if inp.synthetic else ""
     for res in results:
-        print(f"{inp.label}{tag}: torque {res.spec.params.torque_Nm:g} N*m, force law {args.force_law}, "
+        print(f"{inp.label}{tag}: torque {res.spec.system.torque_Nm:g} N*m, force law {args.force_law}, "
               f"{len(fms)} speeds, direction {args.direction}")
+        moving = any(g.translations for g in res.spec.system.gears.values())
         for b, r in res.branches.items():
             print(f"branch {b} ({r.recomputed} speeds computed now):")
-            print("   f_m [Hz]   rms x [um]  mean x [um]  DTE rms [um]  F_max [N]  loss [-]  DF_F  state")
-            for i, f in enumerate(r.mesh_frequency_Hz):
-                m = {k: v[i] for k, v in r.metrics.items()}
-                st = f"period-{r.period_cycles[i]}" if r.converged[i] else "CAP"
-                print(f"  {f:9.1f}  {m['rms_deflection_m'] * 1e6:10.4f}  {m['mean_deflection_m'] * 1e6:11.4f}  "
-                      f"{m['dte_rms_m'] * 1e6:12.4f}  {m['peak_force_N']:9.1f}  {m['contact_loss_fraction']:8.3f}  "
-                      f"{m['dynamic_factor_force']:4.2f}  {st}")
+            for k, mn in enumerate(res.spec.mesh_names):
+                print(f" mesh {mn}:")
+                print("   f_m [Hz]   rms x [µm]  mean x [µm]" + ("  DTE rms [µm]" if moving else "")
+                      + "  F_max [N]  loss [-]  DF_F  state")
+                for i, f in enumerate(r.mesh_frequency_Hz):
+                    m = {key: v[i, k] for key, v in r.metrics.items()}
+                    st = f"period-{r.period_cycles[i]}" if r.converged[i] else "CAP"
+                    print(f"  {f:9.1f}  {m['rms_deflection_m'] * 1e6:10.4f}  {m['mean_deflection_m'] * 1e6:11.4f}  "
+                          + (f"{m['dte_rms_m'] * 1e6:12.4f}  " if moving else "")
+                          + f"{m['peak_force_N']:9.1f}  {m['contact_loss_fraction']:8.3f}  "
+                          f"{m['dynamic_factor_force']:4.2f}  {st}")
         conf = [j for j in res.jumps if j.confirmed]
         for j in conf:
-            print(f"{j.kind} in the {j.branch} sweep between {j.interval_Hz[0]:.1f} and {j.interval_Hz[1]:.1f} Hz "
-                  f"(rms {j.rms_before_m * 1e6:.3f} -> {j.rms_after_m * 1e6:.3f} um), confirmed by hysteresis")
+            print(f"{j.kind} of mesh {j.mesh} in the {j.branch} sweep between {j.interval_Hz[0]:.1f} and "
+                  f"{j.interval_Hz[1]:.1f} Hz (rms {j.rms_before_m * 1e6:.3f} -> {j.rms_after_m * 1e6:.3f} µm), "
+                  "confirmed by hysteresis")
         if not conf:
             print("no confirmed jumps")
         n_unc = len(res.jumps) - len(conf)

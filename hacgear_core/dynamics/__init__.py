@@ -1,15 +1,18 @@
-"""Lumped-parameter gear dynamics with mesh forces from force-deflection tables (HAC method).
+"""Lumped-parameter gear dynamics with mesh forces from force-deflection tables (HAC method), one core for every
+gear system.
 
-Modules: :mod:`kernels` (compiled force laws and RK4 integrator, shared with the FMUs),
-:mod:`fdf` (static quantities from a table), :mod:`conventional` (HAC and conventional force laws),
-:mod:`spur` (spur-pair model, parameters, simulator), :mod:`steady` (steady-state detection),
-:mod:`sweep` (speed sweeps, jumps, resumable HDF5 output), :mod:`modes` (natural frequencies),
-:mod:`synthetic` (synthetic tables for tests and demonstrations).
+:mod:`.system` (bodies, supports, mesh couplings → matrices), :mod:`.build` (model → system, one builder per
+kind), :mod:`.force_laws` (HAC and conventional laws), :mod:`.kernels` (the compiled RK4 loop shared with the
+FMUs), :mod:`.simulator` (time stepping, both experiments), :mod:`.equilibrium` (static equilibrium),
+:mod:`.steady` (steady-state detection), :mod:`.sweep` (speed sweeps, jumps, resumable output), :mod:`.modes`
+(modal analysis, impulse test), :mod:`.inputs` (the CLI's MODEL argument), :mod:`.synthetic` (synthetic tables
+for tests and demonstrations).
 """
 from __future__ import annotations
 
-from hacgear_core.dynamics.conventional import FORCE_LAWS, ForceLaw, make_force_law
-from hacgear_core.dynamics.fdf import StaticStiffness, static_stiffness
+from hacgear_core.dynamics.build import SpurPairParameters, build_system, spur_pair_system
+from hacgear_core.dynamics.equilibrium import EquilibriumResult, static_equilibrium, static_state
+from hacgear_core.dynamics.force_laws import FORCE_LAWS, ForceLaw, make_force_law
 from hacgear_core.dynamics.modes import (
     ImpulseResult,
     ModalResult,
@@ -17,27 +20,27 @@ from hacgear_core.dynamics.modes import (
     impulse_test,
     modal_analysis,
 )
-from hacgear_core.dynamics.spur import (
-    SpurPairParameters,
-    SpurPairSimulator,
-    SpurPairSystem,
-    StepResult,
-    from_model,
-)
+from hacgear_core.dynamics.simulator import Simulator, StepResult, strain_of_tooth
 from hacgear_core.dynamics.steady import SteadyStateOptions, SteadyStateResult, steady_state
 from hacgear_core.dynamics.sweep import SweepResult, SweepSpec, detect_jumps, run_sweep, run_sweeps
+from hacgear_core.dynamics.system import GearBody, LumpedSystem, MeshCoupling
 
 __all__ = [
+    "LumpedSystem",
+    "GearBody",
+    "MeshCoupling",
+    "build_system",
+    "SpurPairParameters",
+    "spur_pair_system",
     "FORCE_LAWS",
     "ForceLaw",
     "make_force_law",
-    "StaticStiffness",
-    "static_stiffness",
-    "SpurPairParameters",
-    "SpurPairSimulator",
-    "SpurPairSystem",
+    "Simulator",
     "StepResult",
-    "from_model",
+    "strain_of_tooth",
+    "EquilibriumResult",
+    "static_equilibrium",
+    "static_state",
     "ModalResult",
     "ImpulseResult",
     "modal_analysis",

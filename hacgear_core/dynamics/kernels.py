@@ -1,51 +1,64 @@
-"""Compiled (numba) kernels of the lumped gear dynamics: force laws and a fixed-step RK4 integrator.
+"""Compiled (numba) fixed-step RK4 integrator of the lumped gear dynamics: n DOFs, m meshes, full matrices.
 
-Everything here is a plain function over arrays, allocation-free and without I/O, so the library
-(sweeps, impulse tests, post-processing) and the FMU slaves call the same machine code.
+One kernel serves every gear system (spur pairs, idler chains, planetary sets, helical pairs), the library
+(simulator, steady state, sweeps, impulse tests) and every FMU.  It is a plain function over arrays,
+allocation-free and without I/O.
 
-State layout (``n`` = number of active degrees of freedom, 2 for a rigid-support spur pair,
-up to 4 with line-of-action translations)::
+Equations (deviations ``q`` from the reference motion, see :mod:`hacgear_core.dynamics.system`)::
 
-    s    (2n,)  [q_0 .. q_{n-1}, qdot_0 .. qdot_{n-1}]   deviations from the reference rotation
-    kin  (3,)   [tau_ref, cycles, omega_ref]
+    M q'' + (C + W_c G) q' + (K - W_c^2 K_W) q + sum_k F_k(tau_k, x_k) v_k = f_ext
+    x_k = v_k . q,    tau_k = tau_ref + phase_k + w_k . q,    W_c = c_ratio * omega_ref
 
-``tau_ref`` in [0, 1) is the fractional mesh position of the reference rotation of gear 1,
-``cycles`` the (integer-valued) number of completed mesh cycles, ``omega_ref`` [rad/s] the reference
-speed of gear 1.  The mesh position seen by the force law is
+State::
 
-    tau = tau_ref + z1 * th1 / (2 pi)
+    s    (2n,)  [q_0 .. q_{n-1}, q'_0 .. q'_{n-1}]
+    kin  (3,)   [tau_ref in [0, 1), completed reference mesh cycles, omega_ref rad/s]
 
-i.e. it follows gear 1's actual rotation (reference + deviation ``th1``).  Keeping the reference
-angle as (integer cycles, fraction) keeps float64 precision for arbitrarily long runs.
+``tau_ref`` is the mesh position of the reference motion (the first mesh), advancing by
+``zref_2pi * omega_ref`` per second; keeping it as (integer cycles, fraction) keeps float64 precision for
+arbitrarily long runs.
 
-Force laws (``law``):
+Force laws (one per kernel variant, so the dispatch folds away at compile time):
 
 ``LAW_TABLE`` (0)
-    HAC force-deflection function: bilinear interpolation of ``ftab`` (Np, Nd), periodic in
-    position, linear extrapolation from the outermost two deflection columns, clipped at >= 0.
+    HAC force-deflection function of each mesh: :func:`hacgear_core.tables.interp.bilinear` on its table,
+    clipped at >= 0 (teeth cannot pull).
 ``LAW_LINEAR`` (1)
-    conventional mesh-stiffness law ``F = max(0, k(tau) (x - e(tau)) + f0(tau))`` with ``lin``
-    (3, Np) = [k, e, f0] on the position grid, linearly interpolated and periodic (dissertation
-    Eqs. 3.6-3.8).
+    conventional mesh-stiffness law ``F = max(0, k(tau) (x - e(tau)) + f0(tau))`` with ``[k, e, f0]`` per
+    mesh on its position grid, linear and periodic in position (dissertation Eqs. 3.6-3.8).
+
+Tables of all meshes travel flattened: mesh ``k``'s table is ``tab[o : o + Np * Nd]`` reshaped (Np, Nd) with
+``(o, Np, Nd) = tint[k]`` and ``(x0, 1/dx) = tflt[k]``; the linear law's arrays likewise
+(``lin[o : o + 3 Np]``, rows k, e, f0, with ``(o, Np) = lint[k]``).
+
+Modes: ``MODE_SPEED`` integrates the deviations around an imposed reference speed; ``MODE_TORQUE`` moves the
+rigid-body rotation into the reference after every step (``q -= q_ref u``, ``tau_ref += sref zref_2pi q_ref``,
+``omega_ref += sref q'_ref``, ``sref`` the reference gear's sense of rotation), so the reference follows the reference gear exactly (drivetrain coupling; needs a
+rigid-body mode ``u`` with ``u[iref] = 1``).
+
+Records (every ``rec_every`` steps): ``rec_state`` (nr, 2n); ``rec_out`` (nr, 4m + 1) with, per mesh k,
+``[4k]`` unwrapped mesh position (cycles + fraction), ``[4k+1]`` mesh deflection [m], ``[4k+2]`` mesh force
+[N], ``[4k+3]`` dynamic transmission error (rotational part of ``v_k . q``) [m], and ``[4m]`` the time since
+the call started [s].
 """
 from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
+
+from hacgear_core.tables.interp import periodic_cell, deflection_cell
 
 __all__ = [
     "LAW_TABLE",
     "LAW_LINEAR",
     "MODE_SPEED",
     "MODE_TORQUE",
-    "table_force",
-    "linear_force",
     "mesh_force",
-    "integrate",
     "select_kernel",
-    "table_force_many",
-    "table_slope_many",
+    "flatten_tables",
+    "flatten_linear",
 ]
 
 LAW_TABLE = 0
@@ -53,57 +66,29 @@ LAW_LINEAR = 1
 MODE_SPEED = 0
 MODE_TORQUE = 1
 
-_TWO_PI = 2.0 * math.pi
-# only floating-point contraction (fused multiply-add): NaN/inf semantics are kept, so diverged
-# states are still detected by the callers (~10 % faster than strict IEEE evaluation here)
 _FM = {"contract"}
 
 
 @njit(cache=True, inline="always", fastmath=_FM)
-def periodic_cell(npos, tau):
-    """Cell of a periodic position grid ``k/npos``: ``(i, i+1 mod npos, fraction)`` for any real ``tau``."""
-    p = tau * npos
-    if p < 0.0 or p >= npos:  # tau outside [0, 1): wrap (the usual case skips the floor)
-        p -= npos * math.floor(tau)
-    i = int(p)
-    if i >= npos:
-        i = npos - 1
-    a = p - i
-    i1 = i + 1
-    if i1 == npos:
-        i1 = 0
-    return i, i1, a
-
-
-@njit(cache=True, inline="always", fastmath=_FM)
-def table_force(ftab, x0, inv_dx, tau, x):
-    """Bilinear FDF lookup ``F(tau, x)`` [N]; ``tau`` any real (periodic, period 1), ``x`` [m]."""
-    npos = ftab.shape[0]
-    nd = ftab.shape[1]
+def _table_force(tab, off, npos, nd, x0, inv_dx, tau, x):
     i, i1, a = periodic_cell(npos, tau)
-    r = (x - x0) * inv_dx
-    j = int(r)  # truncation: r < 0 is clamped to column 0 below (linear extrapolation either way)
-    if j < 0:
-        j = 0
-    elif j > nd - 2:
-        j = nd - 2
-    b = r - j
-    f0 = ftab[i, j] + b * (ftab[i, j + 1] - ftab[i, j])
-    f1 = ftab[i1, j] + b * (ftab[i1, j + 1] - ftab[i1, j])
-    f = f0 + a * (f1 - f0)
+    j, b = deflection_cell(nd, x0, inv_dx, x)
+    r0 = off + i * nd + j
+    r1 = off + i1 * nd + j
+    v0 = tab[r0] + b * (tab[r0 + 1] - tab[r0])
+    v1 = tab[r1] + b * (tab[r1 + 1] - tab[r1])
+    f = v0 + a * (v1 - v0)
     if f < 0.0:
         f = 0.0
     return f
 
 
 @njit(cache=True, inline="always", fastmath=_FM)
-def linear_force(lin, tau, x):
-    """Conventional law ``max(0, k(tau)(x - e(tau)) + f0(tau))`` [N]; ``lin`` (3, Np)."""
-    npos = lin.shape[1]
+def _linear_force(lin, off, npos, tau, x):
     i, i1, a = periodic_cell(npos, tau)
-    k = lin[0, i] + a * (lin[0, i1] - lin[0, i])
-    e = lin[1, i] + a * (lin[1, i1] - lin[1, i])
-    f0 = lin[2, i] + a * (lin[2, i1] - lin[2, i])
+    k = lin[off + i] + a * (lin[off + i1] - lin[off + i])
+    e = lin[off + npos + i] + a * (lin[off + npos + i1] - lin[off + npos + i])
+    f0 = lin[off + 2 * npos + i] + a * (lin[off + 2 * npos + i1] - lin[off + 2 * npos + i])
     f = k * (x - e) + f0
     if f < 0.0:
         f = 0.0
@@ -111,117 +96,194 @@ def linear_force(lin, tau, x):
 
 
 @njit(cache=True, inline="always", fastmath=_FM)
-def mesh_force(law, ftab, x0, inv_dx, lin, tau, x):
-    """Dispatch on the force law (``LAW_TABLE`` or ``LAW_LINEAR``)."""
+def mesh_force(law, k, tab, tint, tflt, lin, lint, tau, x):
+    """Force [N] of mesh ``k`` under force law ``law`` at mesh position ``tau`` [cycles], deflection ``x`` [m]."""
     if law == LAW_TABLE:
-        return table_force(ftab, x0, inv_dx, tau, x)
-    return linear_force(lin, tau, x)
-
-
-@njit(cache=True, fastmath=_FM)
-def table_force_many(ftab, x0, inv_dx, tau, x, out):
-    """Vectorised :func:`table_force` over equal-length arrays ``tau``, ``x``; writes ``out``."""
-    for k in range(tau.shape[0]):
-        out[k] = table_force(ftab, x0, inv_dx, tau[k], x[k])
-
-
-@njit(cache=True, fastmath=_FM)
-def table_slope_many(ftab, x0, inv_dx, tau, x, out):
-    """Local slope dF/dx [N/m] of the interpolated FDF at (tau, x) (one-sided within the grid cell)."""
-    npos = ftab.shape[0]
-    nd = ftab.shape[1]
-    for k in range(tau.shape[0]):
-        i, i1, a = periodic_cell(npos, tau[k])
-        r = (x[k] - x0) * inv_dx
-        j = int(r)
-        if j < 0:
-            j = 0
-        elif j > nd - 2:
-            j = nd - 2
-        s0 = ftab[i, j + 1] - ftab[i, j]
-        s1 = ftab[i1, j + 1] - ftab[i1, j]
-        f = table_force(ftab, x0, inv_dx, tau[k], x[k])
-        if f <= 0.0:
-            out[k] = 0.0
-        else:
-            out[k] = (s0 + a * (s1 - s0)) * inv_dx
+        return _table_force(tab, tint[k, 0], tint[k, 1], tint[k, 2], tflt[k, 0], tflt[k, 1], tau, x)
+    return _linear_force(lin, lint[k, 0], lint[k, 1], tau, x)
 
 
 @njit(cache=True, inline="always", fastmath=_FM)
-def _rhs(n, s, tau, x, minv, kd, cm, v, fext, law, ftab, x0, inv_dx, lin, out):
-    """Accelerations of the lumped model, M qdd = fext - K q - C qd - F v, at a stage whose mesh
-    position ``tau`` and deflection ``x`` (= v.q) the caller supplies.  Returns (F, g) with
-    g = v . M^-1 (fext - K q - C qd), the force-free part of the mesh-deflection acceleration."""
-    f = mesh_force(law, ftab, x0, inv_dx, lin, tau, x)
-    g = 0.0
+def _free_acc(n, q, qd, kidx, aqv, ad, fm, out):
+    """Force-free acceleration ``M^-1 f_ext - (M^-1 K_eff) q - (M^-1 C_eff) q'`` into ``out``; the stiffness part
+    over its nonzero entries ``kidx`` (supports are sparse), the damping part dense (modal damping is full)."""
     for i in range(n):
-        out[i] = s[n + i]
-        base = fext[i] - kd[i] * s[i]
+        a = fm[i]
         for j in range(n):
-            base -= cm[i, j] * s[n + j]
-        mb = minv[i] * base
-        g += v[i] * mb
-        out[n + i] = mb - f * (minv[i] * v[i])
-    return f, g
+            a -= ad[i, j] * qd[j]
+        out[i] = a
+    for z in range(kidx.shape[0]):
+        out[kidx[z, 0]] -= aqv[z] * q[kidx[z, 1]]
 
 
 @njit(cache=True, inline="always", fastmath=_FM)
-def _integrate_impl(n, s, kin, n_steps, h, mode, z1_2pi, ith1, ith2, ratio, minv, kd, cm, v, fext, law,
-                    ftab, x0, inv_dx, lin, work, rec_every, rec_state, rec_out):
-    # inlined into one caller per force law, so `law` is a compile-time constant there and the
-    # dispatch in `mesh_force` folds away (a run-time dispatch inside the loop costs ~5x)
-    m2 = 2 * n
-    k1 = work[0]
-    k2 = work[1]
-    k3 = work[2]
-    k4 = work[3]
-    tmp = work[4]
+def _integrate_impl(n, m, law, s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat,
+                    phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, mw, kidx, kval):
+    # RK4 whose stage mesh deflections and positions are formed from scalars: with x_q = v.q, x_d = v.q' and
+    # g = v.(force-free acceleration), stage 2 needs x_q + h/2 x_d, stage 3 x_q + h/2 (x_d + h/2 (g_1 - VV F_1)),
+    # stage 4 x_q + h (x_d + h/2 (g_2 - VV F_2)) (VV = v M^-1 v^T), so each table lookup waits on a few
+    # multiply-adds after an earlier lookup instead of on a full stage update and dot products (the same RK4)
+    minv = mats[0]
+    mc = mats[1]
+    mg = mats[2]
+    mk = kval[0]
+    mkw = kval[1]
+    aqv = kval[2]
+    vm = vecs[0]
+    wm = vecs[1]
+    rvm = vecs[2]
+    vmi = vecs[3]
+    vv = mmat[0]
+    wv = mmat[1]
+    c_ratio = scal[0]
+    sref = scal[1]
+    zref_2pi = scal[2]
+    ad = eff
+    a1 = work[0]
+    a2 = work[1]
+    a3 = work[2]
+    a4 = work[3]
+    q2 = work[4]
+    d2 = work[5]
+    q3 = work[6]
+    d3 = work[7]
+    fm = work[8]
+    xq = mw[0]
+    xd = mw[1]
+    wq = mw[2]
+    wd = mw[3]
+    f1 = mw[4]
+    f2 = mw[5]
+    f3 = mw[6]
+    f4 = mw[7]
+    g1 = mw[8]
+    gw1 = mw[9]
+    g2 = mw[10]
+    gw2 = mw[11]
+    for i in range(n):
+        a = 0.0
+        for j in range(n):
+            a += minv[i, j] * fext[j]
+        fm[i] = a
     nrec = 0
     nr_cap = rec_state.shape[0]
-    # mesh-deflection acceleration = g - w F with w = v . M^-1 v: the stage deflections are formed
-    # from scalars, so each table lookup waits on one fused multiply-add after the previous one
-    # instead of on a full stage update and dot product (same RK4, shorter dependency chain)
-    w = 0.0
-    for i in range(n):
-        w += v[i] * v[i] * minv[i]
+    rotating = c_ratio != 0.0
+    omega_c_set = math.nan
+    if not rotating:
+        for z in range(kidx.shape[0]):
+            aqv[z] = mk[z]
+        for i in range(n):
+            for j in range(n):
+                ad[i, j] = mc[i, j]
+    hh = 0.5 * h
+    countdown = rec_every
     for step in range(n_steps):
         tau_ref = kin[0]
-        dtau = z1_2pi * kin[2] * h
-        xq = 0.0
-        xd = 0.0
+        omega = kin[2]
+        if rotating:
+            oc = c_ratio * omega
+            if oc != omega_c_set:
+                for z in range(kidx.shape[0]):
+                    aqv[z] = mk[z] - oc * oc * mkw[z]
+                for i in range(n):
+                    for j in range(n):
+                        ad[i, j] = mc[i, j] + oc * mg[i, j]
+                omega_c_set = oc
+        dtau = zref_2pi * omega * h
+        for k in range(m):
+            a = 0.0
+            b = 0.0
+            c = 0.0
+            d = 0.0
+            for j in range(n):
+                a += vm[k, j] * s[j]
+                b += vm[k, j] * s[n + j]
+                c += wm[k, j] * s[j]
+                d += wm[k, j] * s[n + j]
+            xq[k] = a
+            xd[k] = b
+            wq[k] = c
+            wd[k] = d
+        # stages 1 and 2: their lookups need only the state
+        for k in range(m):
+            f1[k] = mesh_force(law, k, tab, tint, tflt, lin, lint, tau_ref + phase[k] + wq[k], xq[k])
+            f2[k] = mesh_force(law, k, tab, tint, tflt, lin, lint, tau_ref + 0.5 * dtau + phase[k] + wq[k] + hh * wd[k],
+                               xq[k] + hh * xd[k])
+        _free_acc(n, s, s[n:], kidx, aqv, ad, fm, a1)
+        for k in range(m):
+            a = 0.0
+            b = 0.0
+            for i in range(n):
+                a += vm[k, i] * a1[i]
+                b += wm[k, i] * a1[i]
+            g1[k] = a
+            gw1[k] = b
+        for k in range(m):
+            for i in range(n):
+                a1[i] -= f1[k] * vmi[k, i]
         for i in range(n):
-            xq += v[i] * s[i]
-            xd += v[i] * s[n + i]
-        f1, g1 = _rhs(n, s, tau_ref + z1_2pi * s[ith1], xq, minv, kd, cm, v, fext, law, ftab, x0, inv_dx,
-                      lin, k1)
-        for i in range(m2):
-            tmp[i] = s[i] + 0.5 * h * k1[i]
-        f2, g2 = _rhs(n, tmp, tau_ref + 0.5 * dtau + z1_2pi * tmp[ith1], xq + 0.5 * h * xd, minv, kd, cm, v,
-                      fext, law, ftab, x0, inv_dx, lin, k2)
-        for i in range(m2):
-            tmp[i] = s[i] + 0.5 * h * k2[i]
-        x3 = xq + 0.5 * h * (xd + 0.5 * h * (g1 - w * f1))
-        f3, g3 = _rhs(n, tmp, tau_ref + 0.5 * dtau + z1_2pi * tmp[ith1], x3, minv, kd, cm, v, fext, law,
-                      ftab, x0, inv_dx, lin, k3)
-        for i in range(m2):
-            tmp[i] = s[i] + h * k3[i]
-        x4 = xq + h * (xd + 0.5 * h * (g2 - w * f2))
-        _rhs(n, tmp, tau_ref + dtau + z1_2pi * tmp[ith1], x4, minv, kd, cm, v, fext, law, ftab, x0, inv_dx,
-             lin, k4)
-        c = h / 6.0
-        for i in range(m2):
-            s[i] += c * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+            q2[i] = s[i] + hh * s[n + i]
+            d2[i] = s[n + i] + hh * a1[i]
+        _free_acc(n, q2, d2, kidx, aqv, ad, fm, a2)
+        for k in range(m):
+            a = 0.0
+            b = 0.0
+            for i in range(n):
+                a += vm[k, i] * a2[i]
+                b += wm[k, i] * a2[i]
+            g2[k] = a
+            gw2[k] = b
+        for k in range(m):
+            for i in range(n):
+                a2[i] -= f2[k] * vmi[k, i]
+        # stages 3 and 4
+        for k in range(m):
+            a = g1[k]
+            b = gw1[k]
+            c = g2[k]
+            d = gw2[k]
+            for j in range(m):
+                a -= vv[k, j] * f1[j]
+                b -= wv[k, j] * f1[j]
+                c -= vv[k, j] * f2[j]
+                d -= wv[k, j] * f2[j]
+            f3[k] = mesh_force(law, k, tab, tint, tflt, lin, lint,
+                               tau_ref + 0.5 * dtau + phase[k] + wq[k] + hh * (wd[k] + hh * b),
+                               xq[k] + hh * (xd[k] + hh * a))
+            f4[k] = mesh_force(law, k, tab, tint, tflt, lin, lint,
+                               tau_ref + dtau + phase[k] + wq[k] + h * (wd[k] + hh * d),
+                               xq[k] + h * (xd[k] + hh * c))
+        for i in range(n):
+            q3[i] = s[i] + hh * d2[i]
+            d3[i] = s[n + i] + hh * a2[i]
+        _free_acc(n, q3, d3, kidx, aqv, ad, fm, a3)
+        for k in range(m):
+            for i in range(n):
+                a3[i] -= f3[k] * vmi[k, i]
+        # stage 4 state (q3 <- q4, d2 <- qd4 after their last use)
+        for i in range(n):
+            q3[i] = s[i] + h * d3[i]
+        for i in range(n):
+            b = s[n + i] + h * a3[i]
+            q2[i] = b
+        _free_acc(n, q3, q2, kidx, aqv, ad, fm, a4)
+        for k in range(m):
+            for i in range(n):
+                a4[i] -= f4[k] * vmi[k, i]
+        c6 = h / 6.0
+        for i in range(n):
+            # qd1 = s_qd, qd2 = d2, qd3 = d3, qd4 = q2 (stage-4 velocity)
+            s[i] += c6 * (s[n + i] + 2.0 * d2[i] + 2.0 * d3[i] + q2[i])
+            s[n + i] += c6 * (a1[i] + 2.0 * a2[i] + 2.0 * a3[i] + a4[i])
         tau_ref += dtau
         if mode == MODE_TORQUE:
-            # move the rigid-body rotation into the reference: th1 -> 0, x unchanged
-            a = s[ith1]
-            b = s[n + ith1]
-            s[ith1] = 0.0
-            s[n + ith1] = 0.0
-            s[ith2] += ratio * a
-            s[n + ith2] += ratio * b
-            tau_ref += z1_2pi * a
-            kin[2] += b
+            a = s[iref]
+            b = s[n + iref]
+            for i in range(n):
+                s[i] -= a * u[i]
+                s[n + i] -= b * u[i]
+            tau_ref += sref * zref_2pi * a
+            kin[2] += sref * b
         while tau_ref >= 1.0:
             tau_ref -= 1.0
             kin[1] += 1.0
@@ -229,112 +291,120 @@ def _integrate_impl(n, s, kin, n_steps, h, mode, z1_2pi, ith1, ith2, ratio, minv
             tau_ref += 1.0
             kin[1] -= 1.0
         kin[0] = tau_ref
-        if rec_every > 0 and (step + 1) % rec_every == 0 and nrec < nr_cap:
-            x = 0.0
-            for i in range(n):
-                x += v[i] * s[i]
-            tau = tau_ref + z1_2pi * s[ith1]
-            f = mesh_force(law, ftab, x0, inv_dx, lin, tau, x)
-            for i in range(m2):
+        countdown -= 1
+        if countdown == 0:
+            countdown = rec_every
+            if nrec >= nr_cap:
+                continue
+            for i in range(2 * n):
                 rec_state[nrec, i] = s[i]
-            rec_out[nrec, 0] = kin[1] + tau
-            rec_out[nrec, 1] = x
-            rec_out[nrec, 2] = f
-            rec_out[nrec, 3] = v[ith1] * s[ith1] + v[ith2] * s[ith2]
-            rec_out[nrec, 4] = (step + 1) * h
+            for k in range(m):
+                x = 0.0
+                t = tau_ref + phase[k]
+                d = 0.0
+                for j in range(n):
+                    x += vm[k, j] * s[j]
+                    t += wm[k, j] * s[j]
+                    d += rvm[k, j] * s[j]
+                rec_out[nrec, 4 * k] = kin[1] + t
+                rec_out[nrec, 4 * k + 1] = x
+                rec_out[nrec, 4 * k + 2] = mesh_force(law, k, tab, tint, tflt, lin, lint, t, x)
+                rec_out[nrec, 4 * k + 3] = d
+            rec_out[nrec, 4 * m] = (step + 1) * h
             nrec += 1
     return nrec
 
 
-def integrate(s, kin, n_steps, h, mode, z1_2pi, ith1, ith2, ratio, minv, kd, cm, v, fext, law,
-              ftab, x0, inv_dx, lin, work, rec_every, rec_state, rec_out):
-    """Advance the lumped model ``n_steps`` fixed RK4 steps of ``h`` [s] in place.
+@njit(cache=True, fastmath=_FM)
+def _integrate_table_2_1(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u,
+                         scal, iref, tab, tint, tflt, lin, lint, work, eff, mw, kidx, kval):
+    return _integrate_impl(2, 1, LAW_TABLE, s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats,
+                           vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, mw, kidx,
+                           kval)
 
-    Parameters
-    ----------
-    s : (2n,) float64
-        State [q, qdot] (deviations), updated in place.
-    kin : (3,) float64
-        [tau_ref in [0, 1), completed mesh cycles, omega_ref rad/s], updated in place.
-    n_steps : int
-    h : float
-        Step [s].
-    mode : int
-        ``MODE_SPEED``: the reference speed is an input, the deviations are integrated around it.
-        ``MODE_TORQUE``: after every step the rigid-body rotation is moved from the deviation state
-        into the reference rotation (``th1 -> 0``), so the reference follows gear 1 exactly and
-        ``omega_ref`` is gear 1's speed (drivetrain coupling; needs zero rotational supports).
-    z1_2pi : float
-        z1 / (2 pi) [mesh cycles per rad of gear 1].
-    ith1, ith2 : int
-        Indices of th1, th2 in q.
-    ratio : float
-        r_b1 / r_b2 (used by the rebase in ``MODE_TORQUE``).
-    minv, kd, v, fext : (n,) float64
-        Inverse masses, support stiffnesses, mesh direction vector (Eq. 3.3b) and external
-        generalized forces.
-    cm : (n, n) float64
-        Damping matrix.
-    law : int
-        Force law (module docstring); ``ftab`` (Np, Nd), ``x0`` [m], ``inv_dx`` [1/m] the FDF table,
-        ``lin`` (3, Np') the conventional law's arrays (either may be a dummy for the other law).
-    work : (5, 2n) float64
-        Scratch.
-    rec_every : int
-        Record after every ``rec_every``-th step (0: never).
-    rec_state : (nr, 2n) float64
-        Recorded states (rows beyond ``nr`` are not written).
-    rec_out : (nr, 5) float64
-        Recorded [unwrapped mesh position tau (cycles + fraction), mesh deflection x [m], mesh force
-        F [N], dynamic transmission error r_b1 th1 + r_b2 th2 [m], time offset from the call start [s]].
 
-    Returns
-    -------
-    int
-        Number of records written.
+@njit(cache=True, fastmath=_FM)
+def _integrate_table_4_1(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u,
+                         scal, iref, tab, tint, tflt, lin, lint, work, eff, mw, kidx, kval):
+    return _integrate_impl(4, 1, LAW_TABLE, s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats,
+                           vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, mw, kidx,
+                           kval)
+
+
+@njit(cache=True, fastmath=_FM)
+def _integrate_table_3_2(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u,
+                         scal, iref, tab, tint, tflt, lin, lint, work, eff, mw, kidx, kval):
+    return _integrate_impl(3, 2, LAW_TABLE, s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats,
+                           vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, mw, kidx,
+                           kval)
+
+
+@njit(cache=True, fastmath=_FM)
+def _integrate_table(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u,
+                     scal, iref, tab, tint, tflt, lin, lint, work, eff, mw, kidx, kval):
+    return _integrate_impl(s.shape[0] // 2, phase.shape[0], LAW_TABLE, s, kin, n_steps, h, mode, fext,
+                           rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref, tab, tint,
+                           tflt, lin, lint, work, eff, mw, kidx, kval)
+
+
+@njit(cache=True, fastmath=_FM)
+def _integrate_linear(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u,
+                      scal, iref, tab, tint, tflt, lin, lint, work, eff, mw, kidx, kval):
+    return _integrate_impl(s.shape[0] // 2, phase.shape[0], LAW_LINEAR, s, kin, n_steps, h, mode, fext,
+                           rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref, tab, tint,
+                           tflt, lin, lint, work, eff, mw, kidx, kval)
+
+
+_SPECIAL = {(LAW_TABLE, 2, 1): _integrate_table_2_1, (LAW_TABLE, 4, 1): _integrate_table_4_1,
+            (LAW_TABLE, 3, 2): _integrate_table_3_2}
+
+
+def select_kernel(law: int, n: int, m: int):
+    """The compiled loop for force law ``law``, ``n`` DOFs and ``m`` meshes.
+
+    Arguments of the returned function (float64 arrays, C-contiguous, unless noted)::
+
+        s (2n,), kin (3,), n_steps int, h [s], mode int, fext (n,), rec_every int, rec_state (nr, 2n),
+        rec_out (nr, 4m + 1),
+        mats (3, n, n) = [M^-1, M^-1 C, M^-1 G], vecs (4, m, n) = [v, w, v_rot, (M^-1 v)],
+        mmat (2, m, m) = [v M^-1 v^T, w M^-1 v^T], phase (m,), u (n,), scal (3,) = [c_ratio, sref, zref_2pi],
+        iref int, tab (flat FDFs), tint (m, 3) int64 = [offset, Np, Nd], tflt (m, 2) = [x0, 1/dx],
+        lin (flat conventional-law arrays), lint (m, 2) int64 = [offset, Np],
+        work (9, n), eff (n, n), mw (12, m) scratch,
+        kidx (nnz, 2) int64 rows/columns of the nonzero entries of M^-1 K and M^-1 K_W,
+        kval (3, nnz) = [their values in M^-1 K, in M^-1 K_W, scratch]
+
+    and it returns the number of records written (module docstring).
     """
-    kern = select_kernel(law, s.shape[0] // 2)
-    return kern(s, kin, n_steps, h, mode, z1_2pi, ith1, ith2, ratio, minv, kd, cm, v, fext,
-                ftab, x0, inv_dx, lin, work, rec_every, rec_state, rec_out)
-
-
-def select_kernel(law: int, n: int):
-    """The compiled loop for force law ``law`` and ``n`` degrees of freedom.  Each loop is compiled
-    on first use only (cached on disk), so a run pays only for the variants it uses.  Same
-    arguments as :func:`integrate` without ``law``."""
     if law == LAW_TABLE:
-        if n == 2:
-            return _integrate_table2
-        if n == 4:
-            return _integrate_table4
-        return _integrate_table
+        return _SPECIAL.get((law, n, m), _integrate_table)
     return _integrate_linear
 
 
-# One compiled loop per (force law, DOF count): constant trip counts let LLVM unroll the small loops.
-@njit(cache=True, fastmath=_FM)
-def _integrate_table2(s, kin, n_steps, h, mode, z1_2pi, ith1, ith2, ratio, minv, kd, cm, v, fext,
-                      ftab, x0, inv_dx, lin, work, rec_every, rec_state, rec_out):
-    return _integrate_impl(2, s, kin, n_steps, h, mode, z1_2pi, ith1, ith2, ratio, minv, kd, cm, v, fext,
-                           LAW_TABLE, ftab, x0, inv_dx, lin, work, rec_every, rec_state, rec_out)
+def flatten_tables(tables) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Flatten the FDFs of several meshes for the kernel: ``(tab, tint, tflt)`` from a sequence of
+    ``(force (Np, Nd), x0 [m], inv_dx [1/m])``."""
+    parts, tint, tflt = [], [], []
+    o = 0
+    for f, a0, idx in tables:
+        f = np.ascontiguousarray(f, dtype=np.float64)
+        parts.append(f.ravel())
+        tint.append((o, f.shape[0], f.shape[1]))
+        tflt.append((a0, idx))
+        o += f.size
+    cat = np.concatenate(parts) if parts else np.zeros(0)
+    return (np.ascontiguousarray(cat), np.array(tint, np.int64).reshape(-1, 3),
+            np.array(tflt, float).reshape(-1, 2))
 
 
-@njit(cache=True, fastmath=_FM)
-def _integrate_table4(s, kin, n_steps, h, mode, z1_2pi, ith1, ith2, ratio, minv, kd, cm, v, fext,
-                      ftab, x0, inv_dx, lin, work, rec_every, rec_state, rec_out):
-    return _integrate_impl(4, s, kin, n_steps, h, mode, z1_2pi, ith1, ith2, ratio, minv, kd, cm, v, fext,
-                           LAW_TABLE, ftab, x0, inv_dx, lin, work, rec_every, rec_state, rec_out)
-
-
-@njit(cache=True, fastmath=_FM)
-def _integrate_table(s, kin, n_steps, h, mode, z1_2pi, ith1, ith2, ratio, minv, kd, cm, v, fext,
-                     ftab, x0, inv_dx, lin, work, rec_every, rec_state, rec_out):
-    return _integrate_impl(s.shape[0] // 2, s, kin, n_steps, h, mode, z1_2pi, ith1, ith2, ratio, minv, kd, cm, v,
-                           fext, LAW_TABLE, ftab, x0, inv_dx, lin, work, rec_every, rec_state, rec_out)
-
-
-@njit(cache=True, fastmath=_FM)
-def _integrate_linear(s, kin, n_steps, h, mode, z1_2pi, ith1, ith2, ratio, minv, kd, cm, v, fext,
-                      ftab, x0, inv_dx, lin, work, rec_every, rec_state, rec_out):
-    return _integrate_impl(s.shape[0] // 2, s, kin, n_steps, h, mode, z1_2pi, ith1, ith2, ratio, minv, kd, cm, v,
-                           fext, LAW_LINEAR, ftab, x0, inv_dx, lin, work, rec_every, rec_state, rec_out)
+def flatten_linear(lins) -> tuple[np.ndarray, np.ndarray]:
+    """Flatten the conventional laws' arrays (3, Np_k) of several meshes: ``(lin, lint)``."""
+    parts, lint = [], []
+    o = 0
+    for a in lins:
+        a = np.ascontiguousarray(a, dtype=np.float64)
+        parts.append(a.ravel())
+        lint.append((o, a.shape[1]))
+        o += a.size
+    cat = np.concatenate(parts) if parts else np.zeros(0)
+    return np.ascontiguousarray(cat), np.array(lint, np.int64).reshape(-1, 2)

@@ -1,22 +1,22 @@
-"""Natural frequencies of a spur pair: linearised modal analysis and the impulse test.
+"""Natural frequencies and mode shapes of a lumped gear system: linearised modal analysis and the impulse test.
 
 Linearised modal analysis
-    ``(K_s + k v v^T) phi = omega^2 M phi`` with ``k`` the cycle mean of the force law's
-    stiffness at the nominal torque (for ``hac`` the local slope of the FDF at the static
-    deflection, dissertation Eq. 3.8's ``k_l`` averaged over the cycle).  Rigid-body rotation modes
-    (omega = 0) are reported separately.
+    ``(K + sum_k k_k v_k v_k^T) phi = omega^2 M phi`` with ``k_k`` the cycle mean of mesh ``k``'s force-law
+    stiffness at its nominal static force (for ``hac`` the local slope of the FDF at the static deflection,
+    dissertation Eq. 3.8's ``k_l`` averaged over the cycle).  Rigid-body rotation modes (omega = 0) are
+    reported separately.
 
 Impulse test (dissertation Section 3.6.1)
-    The gears rest in static equilibrium under the nominal load at a fixed mesh position (no
-    rotation); an angular-velocity impulse on gear 1 (and a translational one when translations
-    exist) starts a free vibration of small amplitude (1 % of the static deflection), integrated
-    with the same kernel and force law (undamped).  The natural frequencies are the peaks of the
-    Blackman-windowed, zero-padded spectrum of the mesh deflection and translations.  This is done at a
-    single- and at a double-tooth-contact position (middle of the longest run of positions with one
-    resp. two loaded pairs at the static load; from ``tooth_load_N`` when the table has it, else
-    from the local slope: below/above the cycle mean), and the frequencies are combined with the
-    contact-ratio weights: ``f = (2 - eps) f_single + (eps - 1) f_double`` with ``eps`` = 1 + the
-    fraction of the cycle in double contact.
+    The gears rest in static equilibrium under the nominal load at a fixed mesh position (no rotation); an
+    angular-velocity impulse on the reference gear (and translational ones where translations exist) starts a
+    free vibration of small amplitude (1 % of the static deflection), integrated with the same kernel and
+    force law (undamped).  The natural frequencies are the peaks of the Blackman-windowed, zero-padded
+    spectrum of the mesh deflections and translations.  This is done at a single- and at a double-tooth-contact
+    position of the first mesh (middle of the longest run of positions with one resp. two loaded pairs at the
+    static load; from ``tooth_load_N`` when the table has it, else from the local slope: below/above the cycle
+    mean), and the frequencies are combined with the contact-ratio weights:
+    ``f = (2 - eps) f_single + (eps - 1) f_double`` with ``eps`` = 1 + the fraction of the cycle in double
+    contact.
 """
 from __future__ import annotations
 
@@ -25,9 +25,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hacgear_core.dynamics.fdf import contact_count, static_stiffness
-from hacgear_core.dynamics.spur import SpurPairSystem
+from hacgear_core.dynamics.equilibrium import static_equilibrium
+from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import ModelError, SolverError
+from hacgear_core.tables.fdf import contact_count, static_stiffness
 
 __all__ = ["ModalResult", "ImpulseResult", "modal_analysis", "impulse_test", "contact_positions",
            "identical_pair_mass_properties"]
@@ -36,27 +37,28 @@ __all__ = ["ModalResult", "ImpulseResult", "modal_analysis", "impulse_test", "co
 @dataclass
 class ModalResult:
     """Elastic modes of the linearised system: ``natural_frequencies_Hz`` ascending, ``mode_shapes``
-    (n_dof, n_modes) scaled to max |component| = 1 (rotations as r_b * theta [m] so components
-    compare), ``dof_names``, ``mesh_stiffness_N_per_m``, ``rigid_body_modes``."""
+    (n_dof, n_modes) scaled to max |component| = 1 (rotations as r_b * theta [m], counter-clockwise, so
+    components compare), ``dof_names``, ``mesh_stiffness_N_per_m`` (m,) per mesh, ``rigid_body_modes``."""
 
     natural_frequencies_Hz: np.ndarray
     mode_shapes: np.ndarray
     dof_names: tuple
-    mesh_stiffness_N_per_m: float
+    mesh_stiffness_N_per_m: np.ndarray
     rigid_body_modes: int
+    mesh_names: tuple = ()
 
     def to_json(self) -> dict:
         return {
             "natural_frequencies_Hz": self.natural_frequencies_Hz.tolist(),
             "mode_shapes": {"dof_names": list(self.dof_names),
-                            "note": "columns per mode; rotations given as r_b*theta [m]",
+                            "note": "one row per mode; rotations given as r_b*theta [m], counter-clockwise",
                             "shapes": self.mode_shapes.T.tolist()},
-            "mesh_stiffness_N_per_m": self.mesh_stiffness_N_per_m,
+            "mesh_stiffness_N_per_m": dict(zip(self.mesh_names, np.atleast_1d(self.mesh_stiffness_N_per_m).tolist())),
             "rigid_body_modes": self.rigid_body_modes,
         }
 
 
-def modal_analysis(system: SpurPairSystem) -> ModalResult:
+def modal_analysis(system: LumpedSystem) -> ModalResult:
     """Linearised modal analysis of ``system`` at its nominal torque (see module docstring)."""
     omega = system.modal_omega
     phi = system.modal_shapes
@@ -65,24 +67,22 @@ def modal_analysis(system: SpurPairSystem) -> ModalResult:
     w = omega[el][order]
     shapes = phi[:, el][:, order].copy()
     # rotations as arc length on the base circle so that components are comparable
-    for i, nm in enumerate(system.dof_names):
-        if nm == "th1":
-            shapes[i] *= system.rb[0]
-        elif nm == "th2":
-            shapes[i] *= system.rb[1]
+    for g in system.gears.values():
+        if g.rotation >= 0:
+            shapes[g.rotation] *= g.radius_m
     for c in range(shapes.shape[1]):
         col = shapes[:, c]
         k = int(np.argmax(np.abs(col)))
         shapes[:, c] = col / col[k]
-    return ModalResult(w / (2 * math.pi), shapes, system.dof_names, system.law.mean_stiffness_N_per_m,
-                       int(np.sum(system.rigid_modes)))
+    return ModalResult(w / (2 * math.pi), shapes, system.dof_names, system.mesh_stiffness_N_per_m.copy(),
+                       int(np.sum(system.rigid_modes)), system.mesh_names)
 
 
-def contact_positions(system: SpurPairSystem) -> tuple[float, float, float]:
-    """(single-contact position, double-contact position, contact ratio estimate) at the nominal
-    static force (see module docstring)."""
-    table = system.table
-    fs = system.params.static_force_N
+def contact_positions(system: LumpedSystem) -> tuple[float, float, float]:
+    """(single-contact position, double-contact position, contact ratio estimate) of the first mesh at its
+    nominal static force (see module docstring)."""
+    table = system.meshes[0].table
+    fs = float(system.nominal_forces_N()[0])
     cnt = contact_count(table, fs)
     pos = np.asarray(table.position, float)
     if cnt is None or not (np.any(cnt == 1) and np.any(cnt >= 2)):
@@ -134,34 +134,37 @@ class ImpulseResult:
                 "contact_ratio": self.contact_ratio}
 
 
-def _free_vibration_peaks(system: SpurPairSystem, tau: float, periods: int = 400, rel_peak: float = 0.02):
-    sy = SpurPairSystem(system.params.replace(modal_damping_ratio=0.0), system.table, system.law.name)
-    n = sy.n
-    s = sy.static_state(tau)
-    xs = max(abs(float(sy.v @ s[:n])), 1e-7)
+def _free_vibration_peaks(system: LumpedSystem, tau: float, periods: int = 400, rel_peak: float = 0.02):
+    sy = system.with_changes(modal_damping_ratio=0.0)
+    n, m = sy.n, sy.m
+    fext = sy.fext_speed()
+    tau_ref = tau - float(sy.phase[0])
+    q = static_equilibrium(sy, tau_ref, fext).q
+    s = np.concatenate([q, np.zeros(n)])
+    xs = max(float(np.max(np.abs(sy.V @ q))), 1e-7)
     f_lo = max(min(sy.natural_frequencies_Hz()), 1.0)
     w_lo = 2 * math.pi * f_lo
-    # velocity impulse: x' = 0.01 * xs * omega on gear 1's rotation, and on the translations
-    s[n + sy.ith1] += 0.01 * xs * w_lo / sy.rb[0]
-    for nm in ("y1", "y2"):
-        if nm in sy.dof_names:
-            s[n + sy.dof_names.index(nm)] += 0.005 * xs * w_lo
+    # velocity impulse: x' = 0.01 * xs * omega on the reference gear's rotation, and on the translations
+    rg = sy.gears[sy.reference_gear]
+    s[n + rg.rotation] += 0.01 * xs * w_lo / rg.radius_m
+    trans = [i for g in sy.gears.values() for i in g.translations]
+    for i in trans:
+        s[n + i] += 0.005 * xs * w_lo
     dt = 1.0 / (32.0 * sy.max_frequency_Hz)
     nsteps = int(periods / f_lo / dt)
     nsteps = min(nsteps, 2_000_000)
-    kin = np.array([tau - math.floor(tau), 0.0, 0.0])
+    kin = np.array([tau_ref - math.floor(tau_ref), 0.0, 0.0])
     rs = np.zeros((nsteps, 2 * n))
-    ro = np.zeros((nsteps, 5))
-    sy.integrate(s, kin, nsteps, dt, sy.fext_speed(), rec_every=1, rec_state=rs, rec_out=ro)
+    ro = np.zeros((nsteps, 4 * m + 1))
+    sy.integrate(s, kin, nsteps, dt, fext, rec_every=1, rec_state=rs, rec_out=ro)
     if not np.all(np.isfinite(rs)):
         raise SolverError("impulse test diverged")
-    if np.any(ro[:, 2] <= 0):
+    if np.any(ro[:, 2:4 * m:4] <= 0):
         raise SolverError("impulse test lost contact: impulse too large for the static load")
-    sigs = [ro[:, 1] - ro[:, 1].mean()]
-    for nm in ("y1", "y2"):
-        if nm in sy.dof_names:
-            y = rs[:, sy.dof_names.index(nm)]
-            sigs.append(y - y.mean())
+    sigs = [ro[:, 4 * k + 1] - ro[:, 4 * k + 1].mean() for k in range(m)]
+    for i in trans:
+        y = rs[:, i]
+        sigs.append(y - y.mean())
     win = np.blackman(nsteps)  # side lobes -58 dB: below the peak threshold
     nfft = 1 << int(math.ceil(math.log2(8 * nsteps)))
     spec = np.zeros(nfft // 2 + 1)
@@ -187,10 +190,10 @@ def _free_vibration_peaks(system: SpurPairSystem, tau: float, periods: int = 400
             out.append((fpk, amp))
     out = sorted(out, key=lambda t: -t[1])[:n]
     out = [f for f, _ in sorted(out)]
-    return np.array(out[: n])
+    return np.array(out[:n])
 
 
-def impulse_test(system: SpurPairSystem, positions: tuple[float, float] | None = None) -> ImpulseResult:
+def impulse_test(system: LumpedSystem, positions: tuple[float, float] | None = None) -> ImpulseResult:
     """Impulse test at single- and double-contact positions (see module docstring)."""
     ps, pd, eps = contact_positions(system)
     if positions is not None:

@@ -1,23 +1,22 @@
-"""Steady-state response at one mesh frequency: detected, not assumed.
+"""Steady-state response of a lumped gear system at one mesh frequency: detected, not assumed.
 
-Policy.  The constant-speed model is integrated in whole mesh cycles (``N`` RK4 steps per cycle, a
-power of two >= 128, more when the highest natural frequency needs it) and the *elastic* part of the
-state is sampled once per mesh cycle (Poincaré section at integer mesh position): mesh deflection
-``x`` and its rate, and the translations ``y_i`` and their rates (the rigid-body rotation is left
-out; it is a neutral direction).  Each sample is scaled by the mean static deflection (positions)
-and by ``2 pi f_m`` times that (rates).  A period-``n`` orbit (``n = 1..max_period``) is accepted
-when the scaled infinity-norm of ``p_k - p_{k-n}`` is below ``rtol`` for the last ``2n + 1``
-consecutive cycles (smallest ``n`` wins), after at least ``min_cycles``; for ``n > 1`` the orbit
-must also differ from a period-1 orbit (lag-1 differences >= 100 ``rtol``), since a decaying
-transient whose phase turns by about ``2 pi m / n`` per cycle passes the lag-``n`` test early.  Otherwise integration stops
-at ``max_cycles`` and the result says so (``converged = False``, ``status = "cap"``); its metrics
-then come from the last 4 cycles.
+Policy.  The constant-speed model is integrated in whole mesh cycles (``N`` RK4 steps per cycle, a power of
+two >= 128, more when the highest natural frequency needs it) and the *elastic* part of the state is sampled
+once per mesh cycle (Poincaré section at integer mesh position): every mesh's deflection and its rate, and the
+translations and their rates (rigid-body rotation is left out; it is a neutral direction).  Each sample is
+scaled by the largest static mesh deflection (positions) and by ``2 pi f_m`` times that (rates).  A
+period-``n`` orbit (``n = 1..max_period``) is accepted when the scaled infinity-norm of ``p_k - p_{k-n}`` is below
+``rtol`` for the last ``2n + 1`` consecutive cycles (smallest ``n`` wins), after at least ``min_cycles``; for
+``n > 1`` the orbit must also differ from a period-1 orbit (lag-1 differences >= 100 ``rtol``), since a decaying
+transient whose phase turns by about ``2 pi m / n`` per cycle passes the lag-``n`` test early.  Otherwise
+integration stops at ``max_cycles`` and the result says so (``converged = False``, ``status = "cap"``); its
+metrics then come from the last 4 cycles.
 
-Metrics over the final period (``n`` cycles, every step): mean and RMS of the oscillating part of
-the mesh deflection, dynamic transmission error ``r_b1 th1 + r_b2 th2`` (mean, RMS, peak-to-peak),
-peak and minimum mesh force, fraction of the period with contact loss (mesh force 0), force dynamic
-factor ``max F / F_s`` and, when the table has strains, the strain dynamic factor per gauge
-(:func:`hacgear_core.post.strain_dynamic_factor`).
+Metrics over the final period (``n`` cycles, every step), per mesh (arrays of length m): mean and RMS of the
+oscillating part of the mesh deflection, dynamic transmission error (mean, RMS, peak-to-peak), peak and minimum
+mesh force, fraction of the period with contact loss (mesh force 0), force dynamic factor ``max F / F_s`` and,
+when the mesh's table has strains, the strain dynamic factor (largest over its gauges,
+:func:`hacgear_core.response.strain_dynamic_factor`).
 """
 from __future__ import annotations
 
@@ -26,8 +25,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from hacgear_core.dynamics.spur import SpurPairSystem
+from hacgear_core.dynamics.equilibrium import static_equilibrium
+from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import ModelError
+from hacgear_core.response import static_strain_max, strain_dynamic_factor
 
 __all__ = ["SteadyStateOptions", "SteadyStateResult", "steady_state", "METRIC_NAMES", "trace_metrics"]
 
@@ -69,8 +70,8 @@ class SteadyStateOptions:
 
 @dataclass
 class SteadyStateResult:
-    """Steady state at one mesh frequency.  ``state`` (2n,) is the state at the end of the recorded
-    period (a cycle boundary, mesh position 0): the start of the next speed of a sweep."""
+    """Steady state at one mesh frequency.  ``state`` (2n,) is the state at the end of the recorded period (a cycle
+    boundary, reference mesh position 0): the start of the next speed of a sweep.  ``metrics``: name → (m,)."""
 
     mesh_frequency_Hz: float
     converged: bool
@@ -83,86 +84,123 @@ class SteadyStateResult:
     trace: dict = field(default_factory=dict)
 
 
-def _projection(system: SpurPairSystem) -> np.ndarray:
+def _projection(system: LumpedSystem) -> np.ndarray:
     n = system.n
-    rows = [np.concatenate([system.v, np.zeros(n)]), np.concatenate([np.zeros(n), system.v])]
-    for nm in ("y1", "y2"):
-        if nm in system.dof_names:
-            i = system.dof_names.index(nm)
-            for off in (0, n):
-                r = np.zeros(2 * n)
-                r[off + i] = 1.0
-                rows.append(r)
+    rows = []
+    for v in system.V:
+        rows.append(np.concatenate([v, np.zeros(n)]))
+        rows.append(np.concatenate([np.zeros(n), v]))
+    rot = {g.rotation for g in system.gears.values()}
+    for i in range(n):
+        if i in rot:
+            continue
+        for off in (0, n):
+            r = np.zeros(2 * n)
+            r[off + i] = 1.0
+            rows.append(r)
     return np.array(rows)
 
 
-def trace_metrics(system: SpurPairSystem, x, f, dte, tau=None, static_force_N=None) -> dict:
-    """Steady-state metrics (:data:`METRIC_NAMES`) of one recorded period."""
-    x, f, dte = np.asarray(x), np.asarray(f), np.asarray(dte)
-    fs = system.params.static_force_N if static_force_N is None else static_force_N
-    m = {
-        "mean_deflection_m": float(np.mean(x)),
-        "rms_deflection_m": float(np.sqrt(np.mean((x - np.mean(x)) ** 2))),
-        "dte_mean_m": float(np.mean(dte)),
-        "dte_rms_m": float(np.sqrt(np.mean((dte - np.mean(dte)) ** 2))),
-        "dte_peak_to_peak_m": float(np.ptp(dte)),
-        "peak_force_N": float(np.max(f)),
-        "min_force_N": float(np.min(f)),
-        "contact_loss_fraction": float(np.mean(f <= 0.0)),
-        "dynamic_factor_force": float(np.max(f) / fs),
-        "dynamic_factor_strain": math.nan,
-    }
-    strain = getattr(system.table, "strain", None)
-    if tau is not None and strain:
-        from hacgear_core.post import strain_dynamic_factor
+def _static_scale(system: LumpedSystem, torque_Nm: float | None) -> float:
+    """Largest static mesh deflection [m] at mesh position 0 (the scale of the Poincaré samples)."""
+    key = ("scale", system.torque_Nm if torque_Nm is None else float(torque_Nm))
+    c = system._cache
+    if key not in c:
+        eq = static_equilibrium(system, 0.0, system.fext_speed(torque_Nm))
+        c[key] = max(float(np.max(np.abs(eq.mesh_deflections_m))), 1e-7)
+    return c[key]
 
-        dfs = strain_dynamic_factor(system.table, tau, x, fs, system.cached("static_strain_max", fs))
-        if dfs:
-            m["dynamic_factor_strain"] = float(max(dfs.values()))
+
+def _static_strain(system: LumpedSystem, forces: np.ndarray) -> list[dict]:
+    key = ("strain_max", tuple(forces))
+    c = system._cache
+    if key not in c:
+        c[key] = [static_strain_max(m.table, f) if getattr(m.table, "strain", None) else {}
+                  for m, f in zip(system.meshes, forces)]
+    return c[key]
+
+
+def trace_metrics(system: LumpedSystem, x, f, dte, tau=None, static_forces_N=None) -> dict:
+    """Steady-state metrics (:data:`METRIC_NAMES`, each an (m,) array) of one recorded period: ``x``, ``f``, ``dte``,
+    ``tau`` (nr, m)."""
+    x, f, dte = (np.atleast_2d(np.asarray(a, float)) for a in (x, f, dte))
+    if x.shape[0] == 1 and x.shape[1] != system.m:
+        x, f, dte = x.T, f.T, dte.T
+    fs = system.nominal_forces_N() if static_forces_N is None else np.asarray(static_forces_N, float)
+    xm = np.mean(x, axis=0)
+    dm = np.mean(dte, axis=0)
+    m = {
+        "mean_deflection_m": xm,
+        "rms_deflection_m": np.sqrt(np.mean((x - xm) ** 2, axis=0)),
+        "dte_mean_m": dm,
+        "dte_rms_m": np.sqrt(np.mean((dte - dm) ** 2, axis=0)),
+        "dte_peak_to_peak_m": np.ptp(dte, axis=0),
+        "peak_force_N": np.max(f, axis=0),
+        "min_force_N": np.min(f, axis=0),
+        "contact_loss_fraction": np.mean(f <= 0.0, axis=0),
+        "dynamic_factor_force": np.max(f, axis=0) / fs,
+        "dynamic_factor_strain": np.full(system.m, math.nan),
+    }
+    if tau is not None:
+        tau = np.atleast_2d(np.asarray(tau, float))
+        if tau.shape[0] == 1 and tau.shape[1] != system.m:
+            tau = tau.T
+        smax = _static_strain(system, fs)
+        for k, c in enumerate(system.meshes):
+            if not smax[k]:
+                continue
+            dfs = strain_dynamic_factor(c.table, tau[:, k], x[:, k], fs[k], smax[k])
+            if dfs:
+                m["dynamic_factor_strain"][k] = float(max(dfs.values()))
     return m
 
 
-def steady_state(system: SpurPairSystem, mesh_frequency_Hz: float, state0: np.ndarray | None = None,
+def steady_state(system: LumpedSystem, mesh_frequency_Hz: float, state0: np.ndarray | None = None,
                  options: SteadyStateOptions | None = None, *, torque_Nm: float | None = None,
                  keep_trace: bool = False) -> SteadyStateResult:
-    """Integrate the constant-speed model at ``mesh_frequency_Hz`` [Hz] until a periodic steady
-    state is detected (or the cycle cap is hit).
+    """Integrate the constant-speed model at ``mesh_frequency_Hz`` [Hz] until a periodic steady state is detected
+    (or the cycle cap is hit).
 
     Parameters
     ----------
-    system : SpurPairSystem
+    system : LumpedSystem
     mesh_frequency_Hz : float
-        Mesh frequency f_m = z1 Omega_1 / (2 pi) [Hz], > 0.
+        Mesh frequency [Hz], > 0.
     state0 : (2n,) array, optional
-        Start state at mesh position 0 (default: static equilibrium).
+        Start state at reference mesh position 0 (default: static equilibrium).
     options : SteadyStateOptions
     torque_Nm : float, optional
-        Torque on gear 1 [N m] (default: the parameters' nominal torque).
+        Torque on the input gear [N m] (default: the system's nominal torque).
     keep_trace : bool
-        Return the final period's time histories in ``trace``.
+        Return the final period's time histories in ``trace`` (per mesh: (nr, m) arrays).
     """
     fm = float(mesh_frequency_Hz)
     if not (math.isfinite(fm) and fm > 0):
         raise ModelError(f"mesh frequency [Hz] must be finite and > 0, got {mesh_frequency_Hz!r}")
     opt = options or SteadyStateOptions()
-    n2 = 2 * system.n
-    s = (system.static_state(0.0, torque_Nm) if state0 is None else np.array(state0, dtype=float))
+    n, mm = system.n, system.m
+    n2 = 2 * n
+    fext = system.fext_speed(torque_Nm)
+    if state0 is None:
+        s = np.concatenate([static_equilibrium(system, 0.0, fext).q, np.zeros(n)])
+    else:
+        s = np.array(state0, dtype=float)
     if s.shape != (n2,):
         raise ModelError(f"state0 must have shape ({n2},), got {s.shape}")
-    fext = system.fext_speed(torque_Nm)
     nsp = system.steps_per_cycle(fm, minimum=opt.min_steps_per_cycle)
     h = 1.0 / (fm * nsp)
-    omega = fm / system.z1_2pi
-    fs = (system.params.torque_Nm if torque_Nm is None else torque_Nm) / system.rb[0]
-    xs = max(abs(system.cached("deflection_at_0", fs)), 1e-7)
-    scale = np.ones(len(_projection(system)))
+    omega = system.reference_speed(fm)
+    fs = system.nominal_forces_N(torque_Nm)
+    xs = _static_scale(system, torque_Nm)
+    proj = _projection(system)
+    scale = np.ones(len(proj))
     scale[1::2] = 2 * math.pi * fm  # rates
-    proj = _projection(system) / (xs * scale[:, None])
+    proj = proj / (xs * scale[:, None])
     hist = np.empty((opt.max_cycles + 1, proj.shape[0]))
     hist[0] = proj @ s
     kin = np.zeros(3)
     rec_s = np.zeros((opt.chunk_cycles, n2))
-    rec_o = np.zeros((opt.chunk_cycles, 5))
+    rec_o = np.zeros((opt.chunk_cycles, 4 * mm + 1))
     cycles = 0
     period = 0
     while cycles < opt.max_cycles and period == 0:
@@ -182,8 +220,6 @@ def steady_state(system: SpurPairSystem, mesh_frequency_Hz: float, state0: np.nd
             d = np.abs(hist[cycles - need + 1: cycles + 1] - hist[cycles - need + 1 - per: cycles + 1 - per])
             if np.max(d) < opt.rtol:
                 if per > 1:
-                    # a decaying transient whose phase turns by ~2 pi m / per each cycle also passes
-                    # the lag-per test: accept a period-per orbit only if it is distinct from period 1
                     d1 = np.abs(hist[cycles - per + 1: cycles + 1] - hist[cycles - per: cycles])
                     if np.max(d1) < 100 * opt.rtol:
                         continue
@@ -193,14 +229,15 @@ def steady_state(system: SpurPairSystem, mesh_frequency_Hz: float, state0: np.nd
     nrec_cyc = period if converged else 4
     nrec = nrec_cyc * nsp
     rs = np.zeros((nrec, n2))
-    ro = np.zeros((nrec, 5))
+    ro = np.zeros((nrec, 4 * mm + 1))
     kin[:] = (0.0, 0.0, omega)
     system.integrate(s, kin, nrec, h, fext, rec_every=1, rec_state=rs, rec_out=ro)
-    metrics = trace_metrics(system, ro[:, 1], ro[:, 2], ro[:, 3], tau=ro[:, 0], static_force_N=fs)
+    tau, x, f, dte = (ro[:, j:4 * mm:4] for j in range(4))
+    metrics = trace_metrics(system, x, f, dte, tau=tau, static_forces_N=fs)
     trace = {}
     if keep_trace:
-        trace = {"time_s": ro[:, 4], "mesh_position": ro[:, 0], "mesh_deflection_m": ro[:, 1],
-                 "mesh_force_N": ro[:, 2], "dynamic_transmission_error_m": ro[:, 3], "state": rs}
+        trace = {"time_s": ro[:, 4 * mm], "mesh_position": tau, "mesh_deflection_m": x, "mesh_force_N": f,
+                 "dynamic_transmission_error_m": dte, "state": rs}
     status = f"period-{period}" if converged else "cap"
-    return SteadyStateResult(fm, converged, status, period if converged else 0, cycles + nrec_cyc, nsp,
-                             s.copy(), metrics, trace)
+    return SteadyStateResult(fm, converged, status, period if converged else 0, cycles + nrec_cyc, nsp, s.copy(),
+                             metrics, trace)

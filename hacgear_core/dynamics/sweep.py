@@ -1,4 +1,4 @@
-"""Speed sweeps of the steady-state response, jump detection, resumable HDF5 output, parallel runs.
+"""Speed sweeps of the steady-state response, jump detection, resumable HDF5 output, parallel runs (any system).
 
 A sweep visits mesh frequencies in order; each speed starts from the previous speed's steady state
 (at mesh position 0), so a softening region shows both branches.  ``direction``:
@@ -9,13 +9,13 @@ A sweep visits mesh frequencies in order; each speed starts from the previous sp
 
 Results file (HDF5, one row per finished speed, flushed after each row)::
 
-    /sweeps/<run_id>/                 attrs: spec (JSON), params (JSON), table_name, synthetic_table
+    /sweeps/<run_id>/                 attrs: spec (JSON), label, system, mesh_names (JSON), synthetic_table
     /sweeps/<run_id>/<branch>/        branch = "up" | "down"
         mesh_frequency_Hz (k,)  state (k, 2n)  converged (k,)  period_cycles (k,)  cycles_run (k,)
-        <metric> (k,)  for every name in METRIC_NAMES
+        <metric> (k, m)  for every name in METRIC_NAMES, one column per mesh
 
-``run_id`` hashes everything the numbers depend on (table arrays, parameters, force law, torque,
-frequency grid, direction, steady-state options).  Each branch is written to its own part file
+``run_id`` hashes everything the numbers depend on (the system's fingerprint: matrices, tables, force law,
+torque, damping; frequency grid, direction, steady-state options).  Each branch is written to its own part file
 ``<out>.parts/<run_id>_<branch>.h5`` while it runs (so branches in different processes never share a
 file) and copied into ``out`` when complete.  A killed sweep re-run with the same arguments reads
 the finished rows and continues from the last stored state: rows already written are not
@@ -28,14 +28,17 @@ import dataclasses
 import hashlib
 import json
 import math
+import warnings
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import h5py
 import numpy as np
+from tqdm import tqdm
 
-from hacgear_core.dynamics.spur import SpurPairParameters, SpurPairSystem
 from hacgear_core.dynamics.steady import METRIC_NAMES, SteadyStateOptions, steady_state
+from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import ModelError
 
 __all__ = [
@@ -48,6 +51,7 @@ __all__ = [
     "run_sweeps",
     "detect_jumps",
     "read_sweep",
+    "sweep_mesh_names",
 ]
 
 DIRECTIONS = ("up", "down", "both")
@@ -67,13 +71,11 @@ def parse_fm(text: str) -> np.ndarray:
 
 @dataclass(frozen=True)
 class SweepSpec:
-    """One sweep: system (parameters + table + force law), torque, frequencies, direction."""
+    """One sweep: system (with its tables and force law), torque, frequencies, direction."""
 
-    params: SpurPairParameters
-    table: object
+    system: LumpedSystem
     mesh_frequencies_Hz: tuple
     direction: str = "both"
-    force_law: str = "hac"
     torque_Nm: float | None = None
     options: SteadyStateOptions = field(default_factory=SteadyStateOptions)
     label: str = ""
@@ -85,13 +87,17 @@ class SweepSpec:
         object.__setattr__(self, "mesh_frequencies_Hz", tuple(float(v) for v in np.sort(f)))
         if self.direction not in DIRECTIONS:
             raise ModelError(f"direction must be one of {DIRECTIONS}, got {self.direction!r}")
-        if self.torque_Nm is not None:
-            object.__setattr__(self, "params", self.params.replace(torque_Nm=float(self.torque_Nm)))
-            object.__setattr__(self, "torque_Nm", None)
+        if self.torque_Nm is not None and float(self.torque_Nm) != self.system.torque_Nm:
+            object.__setattr__(self, "system", self.system.with_changes(torque_Nm=float(self.torque_Nm)))
+        object.__setattr__(self, "torque_Nm", self.system.torque_Nm)
 
     @property
     def branches(self) -> tuple[str, ...]:
         return ("up", "down") if self.direction == "both" else (self.direction,)
+
+    @property
+    def mesh_names(self) -> tuple[str, ...]:
+        return self.system.mesh_names
 
     def frequencies(self, branch: str) -> np.ndarray:
         f = np.asarray(self.mesh_frequencies_Hz)
@@ -99,17 +105,17 @@ class SweepSpec:
 
     def run_id(self) -> str:
         h = hashlib.sha256()
-        h.update(repr(np.shape(self.table.force_N)).encode())
-        h.update(np.ascontiguousarray(np.asarray(self.table.force_N, dtype=np.float64)).tobytes())
-        h.update(np.asarray(self.table.deflection_m, dtype=np.float64).tobytes())
+        h.update(self.system.fingerprint().encode())
         h.update(json.dumps(self._describe(), sort_keys=True).encode())
         return h.hexdigest()[:16]
 
     def _describe(self) -> dict:
-        p = dataclasses.asdict(self.params)
-        return {"params": {k: [repr(x) for x in v] if isinstance(v, tuple) else repr(v) for k, v in p.items()},
-                "force_law": self.force_law, "fm": [repr(v) for v in self.mesh_frequencies_Hz],
-                "direction": self.direction, "options": dataclasses.asdict(self.options)}
+        sy = self.system
+        return {"system": sy.name, "kind": sy.kind, "dofs": list(sy.dof_names), "meshes": list(sy.mesh_names),
+                "torque_Nm": repr(sy.torque_Nm), "modal_damping_ratio": repr(sy.modal_damping_ratio),
+                "force_law": sy.force_law_name, "fingerprint": sy.fingerprint(),
+                "fm": [repr(v) for v in self.mesh_frequencies_Hz], "direction": self.direction,
+                "options": dataclasses.asdict(self.options)}
 
 
 @dataclass
@@ -128,7 +134,7 @@ class BranchResult:
 
 @dataclass
 class Jump:
-    """A jump of the RMS mesh deflection between two adjacent speeds of a branch."""
+    """A jump of the RMS mesh deflection of one mesh between two adjacent speeds of a branch."""
 
     kind: str  # "jump-up" (value rises along the sweep) or "jump-down" (falls)
     branch: str
@@ -137,6 +143,7 @@ class Jump:
     rms_before_m: float
     rms_after_m: float
     confirmed: bool  # both branches exist and differ at the start of the interval (hysteresis)
+    mesh: str = ""
 
 
 @dataclass
@@ -147,30 +154,30 @@ class SweepResult:
     jumps: list
 
     def to_json(self) -> dict:
-        out = {"run_id": self.run_id, "torque_Nm": self.spec.params.torque_Nm, "force_law": self.spec.force_law,
-               "direction": self.spec.direction, "branches": {}, "jumps": [dataclasses.asdict(j) for j in self.jumps]}
+        """Per branch: frequencies, flags and, per mesh, every metric over the speeds (SI; NaN -> None)."""
+        names = self.spec.mesh_names
+        out = {"run_id": self.run_id, "system": self.spec.system.name, "torque_Nm": self.spec.system.torque_Nm,
+               "force_law": self.spec.system.force_law_name, "direction": self.spec.direction,
+               "mesh_names": list(names), "branches": {}, "jumps": [dataclasses.asdict(j) for j in self.jumps]}
         for b, r in self.branches.items():
             d = {"mesh_frequency_Hz": r.mesh_frequency_Hz.tolist(), "converged": r.converged.astype(bool).tolist(),
-                 "period_cycles": r.period_cycles.tolist(), "cycles_run": r.cycles_run.tolist()}
-            for m in METRIC_NAMES:
-                d[m] = [None if not math.isfinite(v) else v for v in r.metrics[m].tolist()]
+                 "period_cycles": r.period_cycles.tolist(), "cycles_run": r.cycles_run.tolist(), "meshes": {}}
+            for k, mn in enumerate(names):
+                d["meshes"][mn] = {m: [None if not math.isfinite(v) else v for v in np.asarray(r.metrics[m])[:, k]]
+                                   for m in METRIC_NAMES}
             out["branches"][b] = d
         return out
 
 
 # ------------------------------------------------------------------------------ HDF5 rows
-def _open_part(path: Path, n2: int, spec: SweepSpec, branch: str):
-    """Open (or create) a branch part file; rows beyond the committed count ``attrs['rows']`` (a
-    write interrupted by a kill) are dropped.  An unreadable part file is moved aside."""
-    import h5py
-
+def _open_part(path: Path, n2: int, m: int, spec: SweepSpec, branch: str):
+    """Open (or create) a branch part file; rows beyond the committed count ``attrs['rows']`` (a write
+    interrupted by a kill) are dropped.  An unreadable part file is moved aside."""
     try:
         f = h5py.File(path, "a")
     except OSError:
         bad = path.with_name(path.name + ".unreadable")
         path.replace(bad)
-        import warnings
-
         warnings.warn(f"sweep part file {path} was unreadable (killed while writing?); moved to {bad.name}, "
                       "the branch restarts", RuntimeWarning, stacklevel=2)
         f = h5py.File(path, "a")
@@ -178,9 +185,11 @@ def _open_part(path: Path, n2: int, spec: SweepSpec, branch: str):
         f.attrs["branch"] = branch
         f.attrs["spec"] = json.dumps(spec._describe(), sort_keys=True)
         f.attrs["rows"] = 0
-        for name in ("mesh_frequency_Hz", "converged", "period_cycles", "cycles_run") + METRIC_NAMES:
-            dt = "i8" if name in ("converged", "period_cycles", "cycles_run") else "f8"
+        for name in ("mesh_frequency_Hz", "converged", "period_cycles", "cycles_run"):
+            dt = "f8" if name == "mesh_frequency_Hz" else "i8"
             f.create_dataset(name, shape=(0,), maxshape=(None,), dtype=dt, chunks=(64,))
+        for name in METRIC_NAMES:
+            f.create_dataset(name, shape=(0, m), maxshape=(None, m), dtype="f8", chunks=(64, m))
         f.create_dataset("state", shape=(0, n2), maxshape=(None, n2), dtype="f8", chunks=(64, n2))
         f.flush()
     elif f.attrs.get("spec") != json.dumps(spec._describe(), sort_keys=True):
@@ -213,13 +222,13 @@ def _branch_from_group(g, branch: str, recomputed: int = 0) -> BranchResult:
     return BranchResult(
         branch=branch, mesh_frequency_Hz=g["mesh_frequency_Hz"][...], converged=g["converged"][...].astype(bool),
         period_cycles=g["period_cycles"][...], cycles_run=g["cycles_run"][...], state=g["state"][...],
-        metrics={m: g[m][...] for m in METRIC_NAMES}, recomputed=recomputed,
+        metrics={m: np.atleast_2d(g[m][...].T).T for m in METRIC_NAMES}, recomputed=recomputed,
     )
 
 
 def _run_branch(spec: SweepSpec, branch: str, part: str | None, progress: bool, position: int = 0) -> BranchResult:
     """Compute one branch (in this process), appending rows to ``part`` if given."""
-    system = SpurPairSystem(spec.params, spec.table, spec.force_law)
+    system = spec.system
     fms = spec.frequencies(branch)
     n2 = 2 * system.n
     f = None
@@ -227,7 +236,7 @@ def _run_branch(spec: SweepSpec, branch: str, part: str | None, progress: bool, 
     state = None
     if part is not None:
         Path(part).parent.mkdir(parents=True, exist_ok=True)
-        f = _open_part(Path(part), n2, spec, branch)
+        f = _open_part(Path(part), n2, system.m, spec, branch)
         done = f["mesh_frequency_Hz"].shape[0]
         if done:
             if not np.array_equal(f["mesh_frequency_Hz"][...], fms[:done]):
@@ -237,8 +246,6 @@ def _run_branch(spec: SweepSpec, branch: str, part: str | None, progress: bool, 
     bar = None
     try:
         if progress:
-            from tqdm import tqdm
-
             bar = tqdm(total=len(fms), initial=done, desc=f"{spec.label or 'sweep'} {branch}", unit="speed",
                        position=position, leave=True)
         rows = []
@@ -251,12 +258,13 @@ def _run_branch(spec: SweepSpec, branch: str, part: str | None, progress: bool, 
                 rows.append((fms[i], res))
             if bar is not None:
                 bar.update(1)
-                bar.set_postfix(fm=f"{fms[i]:.0f}Hz", rms=f"{res.metrics['rms_deflection_m'] * 1e6:.2f}um")
+                bar.set_postfix(fm=f"{fms[i]:.0f}Hz", rms=f"{np.max(res.metrics['rms_deflection_m']) * 1e6:.2f}um")
         if f is not None:
             return _branch_from_group(f, branch, recomputed=len(fms) - done)
+        m = system.m
         return BranchResult(
             branch=branch, mesh_frequency_Hz=np.array([r[0] for r in rows]),
-            metrics={m: np.array([r[1].metrics[m] for r in rows]) for m in METRIC_NAMES},
+            metrics={k: np.array([r[1].metrics[k] for r in rows]).reshape(-1, m) for k in METRIC_NAMES},
             converged=np.array([r[1].converged for r in rows]), period_cycles=np.array([r[1].period_cycles for r in rows]),
             cycles_run=np.array([r[1].cycles_run for r in rows]), state=np.array([r[1].state for r in rows]),
             recomputed=len(rows),
@@ -274,14 +282,13 @@ def _task(args):
 
 
 def _copy_into(out: Path, run_id: str, spec: SweepSpec, branch: str, part: Path) -> None:
-    import h5py
-
     with h5py.File(out, "a") as fo, h5py.File(part, "r") as fp:
         g = fo.require_group("sweeps").require_group(run_id)
         g.attrs["spec"] = json.dumps(spec._describe(), sort_keys=True)
         g.attrs["label"] = spec.label
-        g.attrs["table_name"] = str(getattr(spec.table, "name", ""))
-        g.attrs["synthetic_table"] = bool(_is_synthetic(spec.table))
+        g.attrs["system"] = spec.system.name
+        g.attrs["mesh_names"] = json.dumps(list(spec.mesh_names))
+        g.attrs["synthetic_table"] = bool(any(_is_synthetic(c.table) for c in spec.system.meshes))
         if branch in g:
             del g[branch]
         fp.copy(fp["/"], g, name=branch)
@@ -292,8 +299,6 @@ def _is_synthetic(table) -> bool:
 
 
 def _complete_branch(out: Path, run_id: str, spec: SweepSpec, branch: str) -> BranchResult | None:
-    import h5py
-
     if not out.exists():
         return None
     with h5py.File(out, "r") as f:
@@ -313,8 +318,7 @@ def run_sweeps(specs, *, out: str | Path | None = None, executor: Executor | Non
     out : path, optional
         HDF5 results file (incremental and resumable, see module docstring); None: in memory only.
     executor : concurrent.futures.Executor, optional
-        Runs the branch tasks (process pools need picklable tables, which the contract's are);
-        None: serially in this process.
+        Runs the branch tasks (process pools pickle the systems); None: serially in this process.
     progress : bool
         tqdm progress bars.
     """
@@ -350,7 +354,7 @@ def run_sweeps(specs, *, out: str | Path | None = None, executor: Executor | Non
     final = []
     for si, spec in enumerate(specs):
         br = {b: results[(si, b)] for b in spec.branches}
-        final.append(SweepResult(spec, spec.run_id(), br, detect_jumps(br)))
+        final.append(SweepResult(spec, spec.run_id(), br, detect_jumps(br, mesh_names=spec.mesh_names)))
     return final
 
 
@@ -359,51 +363,65 @@ def run_sweep(spec: SweepSpec, *, out=None, executor: Executor | None = None, pr
     return run_sweeps([spec], out=out, executor=executor, progress=progress)[0]
 
 
-def detect_jumps(branches: dict, threshold: float = 0.3, metric: str = "rms_deflection_m") -> list[Jump]:
-    """Jumps of ``metric`` between adjacent speeds of each branch.
+def detect_jumps(branches: dict, threshold: float = 0.3, metric: str = "rms_deflection_m",
+                 mesh_names: tuple[str, ...] | None = None) -> list[Jump]:
+    """Jumps of ``metric`` between adjacent speeds of each branch, for every mesh.
 
-    A jump is a change by more than ``threshold`` (relative to the larger value) between two
-    adjacent speeds; ``jump-up`` when the value rises in the branch's sweep direction,
-    ``jump-down`` when it falls.  For a softening system the up-sweep jumps up at the upper end of
-    the multi-valued region and the down-sweep jumps down at its lower end.  A jump is
-    ``confirmed`` when the other branch exists, differs by more than ``threshold`` at the speed
-    where the jump starts and agrees within ``threshold / 3`` at the speed where it ends: the
-    response has jumped onto the other branch (hysteresis), not merely crossed the steep flank of a
+    A jump is a change by more than ``threshold`` (relative to the larger value) between two adjacent speeds;
+    ``jump-up`` when the value rises in the branch's sweep direction, ``jump-down`` when it falls.  For a
+    softening system the up-sweep jumps up at the upper end of the multi-valued region and the down-sweep
+    jumps down at its lower end.  A jump is ``confirmed`` when the other branch exists, differs by more than
+    ``threshold`` at the speed where the jump starts and agrees within ``threshold / 3`` at the speed where it
+    ends: the response has jumped onto the other branch (hysteresis), not merely crossed the steep flank of a
     peak on a coarse grid or a short subharmonic window.
     """
-    other = {}
-    for b, r in branches.items():
-        other[b] = dict(zip(np.round(r.mesh_frequency_Hz, 9), r.metrics[metric]))
-
     def rel(a, b):
         return abs(a - b) / max(abs(a), abs(b), 1e-30)
 
+    any_b = next(iter(branches.values()))
+    nm = np.atleast_2d(np.asarray(any_b.metrics[metric]).T).T.shape[1]
+    names = tuple(mesh_names) if mesh_names is not None else tuple(f"mesh{k}" for k in range(nm))
     jumps = []
-    for b, r in branches.items():
-        f, v = r.mesh_frequency_Hz, r.metrics[metric]
-        ob = other.get("down" if b == "up" else "up")
-        for i in range(len(f) - 1):
-            a0, a1 = float(v[i]), float(v[i + 1])
-            if not (math.isfinite(a0) and math.isfinite(a1)) or rel(a0, a1) <= threshold:
-                continue
-            kind = "jump-up" if a1 > a0 else "jump-down"
-            confirmed = False
-            if ob is not None:
-                o0 = ob.get(round(float(f[i]), 9))
-                o1 = ob.get(round(float(f[i + 1]), 9))
-                if o0 is not None and o1 is not None:
-                    confirmed = rel(o0, a0) > threshold and rel(o1, a1) < threshold / 3
-            lo, hi = sorted((float(f[i]), float(f[i + 1])))
-            jumps.append(Jump(kind, b, 0.5 * (lo + hi), (lo, hi), a0, a1, bool(confirmed)))
+    for k in range(nm):
+        other = {}
+        for b, r in branches.items():
+            vals = np.atleast_2d(np.asarray(r.metrics[metric]).T).T[:, k]
+            other[b] = dict(zip(np.round(r.mesh_frequency_Hz, 9), vals))
+        for b, r in branches.items():
+            f = r.mesh_frequency_Hz
+            v = np.atleast_2d(np.asarray(r.metrics[metric]).T).T[:, k]
+            ob = other.get("down" if b == "up" else "up")
+            for i in range(len(f) - 1):
+                a0, a1 = float(v[i]), float(v[i + 1])
+                if not (math.isfinite(a0) and math.isfinite(a1)) or rel(a0, a1) <= threshold:
+                    continue
+                kind = "jump-up" if a1 > a0 else "jump-down"
+                confirmed = False
+                if ob is not None:
+                    o0 = ob.get(round(float(f[i]), 9))
+                    o1 = ob.get(round(float(f[i + 1]), 9))
+                    if o0 is not None and o1 is not None:
+                        confirmed = rel(o0, a0) > threshold and rel(o1, a1) < threshold / 3
+                lo, hi = sorted((float(f[i]), float(f[i + 1])))
+                jumps.append(Jump(kind, b, 0.5 * (lo + hi), (lo, hi), a0, a1, bool(confirmed), names[k]))
     return jumps
 
 
 def read_sweep(out: str | Path, run_id: str | None = None) -> dict:
     """Read a results file: {run_id: {branch: BranchResult}} (or one run's branches)."""
-    import h5py
-
     res = {}
     with h5py.File(out, "r") as f:
         for rid, g in f.get("sweeps", {}).items():
             res[rid] = {b: _branch_from_group(g[b], b) for b in g.keys()}
     return res if run_id is None else res[run_id]
+
+
+def sweep_mesh_names(out: str | Path, run_id: str) -> tuple[str, ...]:
+    """Mesh names (the metric columns) of run ``run_id`` in a results file."""
+    with h5py.File(out, "r") as f:
+        g = f["sweeps"][run_id]
+        raw = g.attrs.get("mesh_names")
+        if raw is None:
+            ncol = np.atleast_2d(g[next(iter(g.keys()))]["rms_deflection_m"][...].T).T.shape[1]
+            return tuple(f"mesh{k}" for k in range(ncol))
+        return tuple(json.loads(raw))

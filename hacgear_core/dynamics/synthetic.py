@@ -16,13 +16,17 @@ reference pair, offsets ``k`` = tooth pairs relative to the reference pair):
   no-load mesh deflection is ``min_k g(s_k)`` and ``F = 0`` below it (contact loss).
 
 With the reference pair leaving and pair ``k = +1`` entering, a physical tooth that is the reference
-pair at cycle 0 is offset ``-n`` at cycle ``n`` (convention used by :mod:`hacgear_core.post`).
+pair at cycle 0 is offset ``-n`` at cycle ``n`` (convention used by :mod:`hacgear_core.response`).
 """
 from __future__ import annotations
 
 import math
 
 import numpy as np
+
+from hacgear_core.dynamics.build import SpurPairParameters
+from hacgear_core.tables import MeshTable
+from hacgear_core.tables.interp import deflection_at_force
 
 __all__ = [
     "spur_fdf_table",
@@ -34,31 +38,21 @@ __all__ = [
 
 
 def _make_table(**kw):
-    """The contract's :class:`hacgear_core.tables.MeshTable`, labelled as synthetic."""
-    from hacgear_core.tables import MeshTable
-
+    """A :class:`hacgear_core.tables.MeshTable`, labelled as synthetic."""
     fields = dict(kw)
     fields.pop("synthetic", None)
     fields["solver"] = "synthetic (hacgear_core.dynamics.synthetic, not a contact solution)"
     return MeshTable(**fields)
 
 
-def _invert_rows(force, x0, dx, loads):
-    """x(position, load) inverting monotone FDF rows (linear in between grid points)."""
-    npos, nd = force.shape
+def _static_deflections(force, x0, dx, nlmd, loads):
+    """Load-control static deflections (Np, Nl) of an FDF: the NLMD at zero load, else the inverse of each row
+    (:func:`~hacgear_core.tables.interp.deflection_at_force`)."""
+    npos = force.shape[0]
     out = np.empty((npos, len(loads)))
-    xs = x0 + dx * np.arange(nd)
     for k in range(npos):
-        row = np.maximum.accumulate(force[k])
         for m, fl in enumerate(loads):
-            if fl <= 0:
-                nz = np.nonzero(row > 0)[0]
-                out[k, m] = xs[max(nz[0] - 1, 0)] if nz.size else xs[-1]
-                continue
-            j = int(np.searchsorted(row, fl))
-            j = min(max(j, 1), nd - 1)
-            lo, hi = row[j - 1], row[j]
-            out[k, m] = xs[j - 1] + dx * (fl - lo) / (hi - lo) if hi > lo else xs[j]
+            out[k, m] = nlmd[k] if fl <= 0 else deflection_at_force(force, x0, dx, k / npos, float(fl))
     return out
 
 
@@ -130,7 +124,10 @@ def spur_fdf_table(
     fs_nom = nominal_torque_Nm / rb[0]
     k_min = k_pair * (1 - stiffness_variation)
     x_max = max_force_factor * fs_nom / k_min + tip_relief_m
-    xd = np.linspace(0.0, x_max, n_deflections)
+    # the tables' grid rule (hacgear_core.statics.grid.deflection_grid): the first column one step below every
+    # no-load deflection, so the force and strain are zero in the first two columns and below the grid
+    dx = x_max / (n_deflections - 2)
+    xd = -dx + dx * np.arange(n_deflections)
     s = pos[:, None] - offsets[None, :]  # (Np, Nw)
     inpath = np.abs(s) <= half + 1e-12
     kp = np.where(inpath, k_pair * (1 - stiffness_variation * (s / half) ** 2), 0.0)
@@ -162,7 +159,7 @@ def spur_fdf_table(
         nb[:, :, :-1] -= 0.12 * strain_per_N * tooth_load[:, :, 1:]
         strain[f"{gname}/SG"] = own + nb
     loads = np.linspace(0.0, max_force_factor * fs_nom, n_loads)
-    xstat = _invert_rows(force, xd[0], xd[1] - xd[0], loads)
+    xstat = _static_deflections(force, xd[0], xd[1] - xd[0], nlmd, loads)
     return _make_table(
         name=name, gear_names=tuple(gear_names), teeth=tuple(int(z) for z in teeth),
         base_radius_m=rb, position=pos, deflection_m=xd, force_N=np.ascontiguousarray(force),
@@ -222,10 +219,8 @@ def disk_mass_inertia(density_kg_per_m3: float, face_width_m: float, tip_diamete
 
 def synthetic_28t_parameters(table, *, bearing_stiffness_N_per_m: float = math.inf,
                              modal_damping_ratio: float = 0.02, torque_Nm: float = 300.0):
-    """:class:`~hacgear_core.dynamics.spur.SpurPairParameters` of the dissertation's 28-tooth pair
+    """:class:`~hacgear_core.dynamics.build.SpurPairParameters` of the dissertation's 28-tooth pair
     (steel 7850 kg/m^3, face 15 mm, tip 149.9 mm, root 126.4 mm, bore 40 mm) on ``table``."""
-    from hacgear_core.dynamics.spur import SpurPairParameters
-
     m, j = disk_mass_inertia(7850.0, 15e-3, 149.9e-3, 126.4e-3, 40e-3)
     return SpurPairParameters(
         mass_kg=(m, m), inertia_kg_m2=(j, j), base_radius_m=tuple(table.base_radius_m),
@@ -238,8 +233,6 @@ def softening_example(damping_ratio: float = 0.03):
     """The classical softening oscillator used in tests and figures: constant mesh stiffness 150 N/um,
     a sinusoidal no-load deflection of 20 % of the static deflection (contact loss at large amplitude),
     28-tooth blanks, 100 N m.  Returns ``(params, table, static_deflection_m)``."""
-    from hacgear_core.dynamics.spur import SpurPairParameters
-
     k, rb = 150e6, 0.0634
     xs0 = 100.0 / rb / k
     table = linear_fdf_table(k, offset_amplitude_m=0.2 * xs0, x_max_m=6 * xs0)

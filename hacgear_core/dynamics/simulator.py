@@ -1,0 +1,324 @@
+"""Time-stepping simulator of any lumped gear system: the object the library, the CLI and every FMU step.
+
+Two operating modes:
+
+* ``"speed"`` (constant-speed experiment): :meth:`Simulator.set_speed_input` sets the reference gear's speed,
+  :meth:`Simulator.set_torque_set_point` the torque on the input gear; the deviations are integrated around
+  the imposed rotation (dissertation Eqs. 3.1, 4.1);
+* ``"torque"`` (drivetrain coupling): :meth:`Simulator.set_torque_inputs` sets shaft torques on the port gears
+  (the gears that carry external torque: input and output gears); absolute angles and speeds follow from the
+  dynamics.  Needs a train that turns freely (no rotational supports: the drivetrain model owns the shafts).
+
+Signs of the outputs: angles, speeds and shaft torques of a gear are positive in that gear's operating sense of
+rotation (a braking load torque is negative); mesh forces and deflections positive when the loaded flanks are
+pressed together.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Mapping
+
+import numpy as np
+
+from hacgear_core.dynamics import kernels
+from hacgear_core.dynamics.equilibrium import static_equilibrium
+from hacgear_core.dynamics.system import LumpedSystem
+from hacgear_core.errors import ModelError, SolverError
+
+__all__ = ["Simulator", "StepResult", "strain_of_tooth"]
+
+
+@dataclass(frozen=True)
+class StepResult:
+    """Outcome of :meth:`Simulator.advance`: ``success``, ``message`` (why not), ``n_substeps``."""
+
+    success: bool
+    message: str
+    n_substeps: int
+
+
+def _pair_phase(tau: np.ndarray, passage: int, z: int) -> np.ndarray:
+    """Pair phase of tooth 0 of a gear with ``z`` teeth at unwrapped mesh position ``tau``: 0 at its pitch-point
+    passage, wrapped into [-z/2, z/2) (the tooth is back in mesh every z mesh cycles)."""
+    return ((np.asarray(tau, float) - passage + 0.5 * z) % z) - 0.5 * z
+
+
+def strain_of_tooth(system: LumpedSystem, gauge: str, tau: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Root strain [-] at ``gauge`` (``"<gear>/<gauge>"``) on tooth 0 of its gear along a trajectory: the sum over
+    every mesh of that gear of its strain-deflection function at the tooth's pair phase (an idler's tooth is
+    loaded on one flank by one mesh and on the other by the next).
+
+    ``tau``, ``x``: (nr, m) unwrapped mesh positions [cycles] and deflections [m] of all meshes.
+    """
+    gear = gauge.split("/", 1)[0]
+    if gear not in system.gears:
+        raise ModelError(f"gauge {gauge!r}: no gear {gear!r} in {system.name}; gears: {sorted(system.gears)}")
+    z = system.gears[gear].teeth
+    tau = np.atleast_2d(np.asarray(tau, float))
+    x = np.atleast_2d(np.asarray(x, float))
+    total = np.zeros(tau.shape[0])
+    found = False
+    for k, c in enumerate(system.meshes):
+        if gear not in (c.gear_a, c.gear_b):
+            continue
+        strain = getattr(c.table, "strain", None) or {}
+        if gauge not in strain:
+            continue
+        found = True
+        total = total + c.table.sdf(gauge, _pair_phase(tau[:, k], c.tooth_passage.get(gear, 0), z), x[:, k])
+    if not found:
+        gauges = sorted({g for c in system.meshes for g in (getattr(c.table, "strain", None) or {})})
+        raise ModelError(f"no strain gauge {gauge!r} in the tables of {system.name}; gauges: {gauges}")
+    return total
+
+
+class Simulator:
+    """Time-stepping simulator of a :class:`~hacgear_core.dynamics.system.LumpedSystem`.
+
+    Parameters
+    ----------
+    system : LumpedSystem
+    internal_step_s : float, optional
+        Largest internal RK4 step [s]; default: mesh period / 128 at the current speed and 1/32 of the period of
+        the highest natural frequency.
+    """
+
+    def __init__(self, system: LumpedSystem, internal_step_s: float | None = None) -> None:
+        if internal_step_s is not None and not (math.isfinite(internal_step_s) and internal_step_s > 0):
+            raise ModelError(f"internal_step_s [s] must be > 0 and finite, got {internal_step_s!r}")
+        self.system = system
+        self.internal_step_s = internal_step_s
+        n, m = system.n, system.m
+        self.s = np.zeros(2 * n)
+        self.kin = np.zeros(3)
+        self._rec_s = np.zeros((1, 2 * n))
+        self._rec_o = np.zeros((1, 4 * m + 1))
+        self.gear_names = tuple(system.gears)
+        self._gears = tuple(system.gears[g] for g in self.gear_names)
+        fe = system.fext_speed()
+        self.ports = tuple(g.name for g in self._gears if g.rotation >= 0 and abs(fe[g.rotation]) > 1e-9 * np.max(np.abs(fe)))
+        self.reset()
+
+    # ------------------------------------------------------------------ inputs
+    def reset(self, speed_rad_s: float = 0.0) -> None:
+        """Static equilibrium at the nominal torque, first mesh at position 0, speed mode at ``speed_rad_s``."""
+        sy = self.system
+        self.mode = "speed"
+        self.torque_Nm = sy.torque_Nm
+        self.fext = sy.fext_speed(self.torque_Nm)
+        self.port_torques_Nm = {g: sy.gears[g].sense * self.fext[sy.gears[g].rotation] for g in self.ports}
+        self.kin[:] = (0.0, 0.0, float(speed_rad_s))
+        self.s[:sy.n] = static_equilibrium(sy, 0.0, self.fext).q
+        self.s[sy.n:] = 0.0
+        self.time_s = 0.0
+        self._update_outputs()
+
+    def set_speed_input(self, speed_rad_s: float | None = None, mesh_frequency_Hz: float | None = None) -> None:
+        """Constant-speed experiment: the reference gear's speed [rad/s] (in its sense) or the mesh frequency [Hz]."""
+        if (speed_rad_s is None) == (mesh_frequency_Hz is None):
+            raise ModelError("give exactly one of speed_rad_s [rad/s] or mesh_frequency_Hz [Hz]")
+        if mesh_frequency_Hz is not None:
+            speed_rad_s = self.system.reference_speed(mesh_frequency_Hz)
+        speed_rad_s = float(speed_rad_s)
+        if not math.isfinite(speed_rad_s):
+            raise ModelError(f"speed [rad/s] must be finite, got {speed_rad_s!r}")
+        if self.mode != "speed":
+            self.mode = "speed"
+            self.fext = self.system.fext_speed(self.torque_Nm)
+        self.kin[2] = speed_rad_s
+
+    def set_torque_set_point(self, torque_Nm: float) -> None:
+        """Constant-speed experiment: torque on the input gear [N m] (> 0; the others carry theirs by the torque
+        flow)."""
+        torque_Nm = float(torque_Nm)
+        if not (math.isfinite(torque_Nm) and torque_Nm > 0):
+            raise ModelError(f"torque [N*m] must be finite and > 0, got {torque_Nm!r}")
+        self.torque_Nm = torque_Nm
+        if self.mode == "speed":
+            self.fext = self.system.fext_speed(torque_Nm)
+
+    def set_torque_inputs(self, torques_Nm: Mapping[str, float]) -> None:
+        """Drivetrain coupling: shaft torques [N m] {port gear: T}, each positive in that gear's sense of rotation
+        (a load is negative); ports not named get 0.  Switches to torque mode."""
+        sy = self.system
+        if sy.rigid_mode is None:
+            raise ModelError(f"{sy.name}: torque inputs need a train that turns freely (rotational support "
+                             "stiffness 0 on every gear): in drivetrain coupling the shafts belong to the "
+                             "drivetrain model; build the system with shafts=False")
+        tq = {}
+        for g, t in torques_Nm.items():
+            if g not in self.ports:
+                raise ModelError(f"torque input on {g!r}: not a port gear of {sy.name}; ports: {self.ports}")
+            t = float(t)
+            if not math.isfinite(t):
+                raise ModelError(f"shaft torque on {g!r} [N*m] must be finite, got {t!r}")
+            tq[g] = t
+        if self.mode != "torque":
+            self.mode = "torque"
+            # move any rigid-body deviation into the reference: the reference gear's deviation -> 0
+            n = sy.n
+            a, b = self.s[sy.iref], self.s[n + sy.iref]
+            self.s[:n] -= a * sy.rigid_mode
+            self.s[n:] -= b * sy.rigid_mode
+            self.kin[0] += sy.sref * sy.zref_2pi * a
+            self.kin[2] += sy.sref * b
+            while self.kin[0] >= 1.0:
+                self.kin[0] -= 1.0
+                self.kin[1] += 1.0
+            while self.kin[0] < 0.0:
+                self.kin[0] += 1.0
+                self.kin[1] -= 1.0
+        self.port_torques_Nm = {g: tq.get(g, 0.0) for g in self.ports}
+        self.fext = sy.fext_torque(self.port_torques_Nm)
+
+    # ------------------------------------------------------------------ stepping
+    @property
+    def current_internal_step_s(self) -> float:
+        """The largest RK4 sub-step [s] :meth:`advance` would use now (depends on the speed)."""
+        return self._internal_step()
+
+    def _internal_step(self) -> float:
+        sy = self.system
+        h = 1.0 / (32.0 * sy.max_frequency_Hz)
+        fm = (abs(self.kin[2]) + abs(self.s[sy.n + sy.iref])) * sy.zref_2pi
+        if fm > 0:
+            h = min(h, 1.0 / (128.0 * fm))
+        if self.internal_step_s is not None:
+            h = min(h, self.internal_step_s)
+        return h
+
+    def _mode_code(self) -> int:
+        return kernels.MODE_SPEED if self.mode == "speed" else kernels.MODE_TORQUE
+
+    def advance(self, dt: float) -> StepResult:
+        """Advance by ``dt`` [s] (any size > 0) with equal RK4 sub-steps no larger than the internal step.  On
+        failure (non-finite state) the state is left unchanged and ``success`` is False."""
+        try:
+            dt = float(dt)
+        except (TypeError, ValueError):
+            return StepResult(False, f"step size dt [s] must be a number, got {dt!r}", 0)
+        if not (math.isfinite(dt) and dt > 0):
+            return StepResult(False, f"step size dt [s] must be finite and > 0, got {dt!r}", 0)
+        nsub = max(1, int(math.ceil(dt / self._internal_step() - 1e-9)))
+        s, kin = self.s, self.kin
+        s0, k0 = s.copy(), kin.copy()
+        self.system.integrate(s, kin, nsub, dt / nsub, self.fext, mode=self._mode_code(), rec_every=nsub,
+                              rec_state=self._rec_s, rec_out=self._rec_o)
+        st, kt = s.tolist(), kin.tolist()
+        isf = math.isfinite
+        if not (all(map(isf, st)) and all(map(isf, kt))):
+            s[:], kin[:] = s0, k0
+            return StepResult(False, f"integration diverged within dt = {dt:g} s (state not finite); state restored",
+                              nsub)
+        self.time_s += dt
+        self._set_outputs(st, kt, self._rec_o[0].tolist())
+        return StepResult(True, "", nsub)
+
+    def run(self, duration_s: float, record_dt_s: float) -> dict:
+        """Integrate ``duration_s`` [s] recording every ``record_dt_s`` [s].
+
+        Returns
+        -------
+        dict
+            ``time_s`` (nr,); per mesh (nr, m): ``mesh_position`` (unwrapped) [cycles], ``mesh_deflection_m``,
+            ``mesh_force_N``, ``dynamic_transmission_error_m``; ``state`` (nr, 2n).
+        """
+        nrec = int(round(duration_s / record_dt_s))
+        if nrec < 1:
+            raise ModelError("duration_s must be >= record_dt_s > 0")
+        h0 = self._internal_step()
+        per = max(1, int(math.ceil(record_dt_s / h0 - 1e-9)))
+        h = record_dt_s / per
+        sy = self.system
+        rs, ro = np.zeros((nrec, 2 * sy.n)), np.zeros((nrec, 4 * sy.m + 1))
+        t0 = self.time_s
+        sy.integrate(self.s, self.kin, nrec * per, h, self.fext, mode=self._mode_code(), rec_every=per,
+                     rec_state=rs, rec_out=ro)
+        if not np.all(np.isfinite(rs)):
+            raise SolverError("integration diverged (state not finite)")
+        self.time_s = t0 + nrec * record_dt_s
+        self._update_outputs()
+        return {"time_s": t0 + ro[:, 4 * sy.m], "mesh_position": ro[:, 0:4 * sy.m:4],
+                "mesh_deflection_m": ro[:, 1:4 * sy.m:4], "mesh_force_N": ro[:, 2:4 * sy.m:4],
+                "dynamic_transmission_error_m": ro[:, 3:4 * sy.m:4], "state": rs}
+
+    # ------------------------------------------------------------------ state snapshots (FMI get/set state)
+    def get_state(self) -> dict:
+        """A snapshot of everything :meth:`advance` depends on (arrays copied)."""
+        return {"s": self.s.copy(), "kin": self.kin.copy(), "time_s": self.time_s, "mode": self.mode,
+                "fext": self.fext.copy(), "torque_Nm": self.torque_Nm, "port_torques_Nm": dict(self.port_torques_Nm)}
+
+    def set_state(self, snap: dict) -> None:
+        """Restore a snapshot of :meth:`get_state` (in place; outputs updated)."""
+        if snap["s"].shape != self.s.shape:
+            raise ModelError(f"state snapshot has {snap['s'].size} entries, this simulator {self.s.size}")
+        self.s[:] = snap["s"]
+        self.kin[:] = snap["kin"]
+        self.fext = snap["fext"].copy()
+        self.time_s, self.mode = snap["time_s"], snap["mode"]
+        self.torque_Nm, self.port_torques_Nm = snap["torque_Nm"], dict(snap["port_torques_Nm"])
+        self._update_outputs()
+
+    # ------------------------------------------------------------------ outputs
+    def _update_outputs(self) -> None:
+        """Outputs from the state, the force laws evaluated in Python (after reset, set_state, run)."""
+        sy = self.system
+        q = self.s[:sy.n]
+        tau = self.kin[0] + sy.phase + sy.W @ q
+        x = sy.V @ q
+        f = sy.mesh_forces(tau, x)
+        rec = np.empty(4 * sy.m + 1)
+        rec[0:4 * sy.m:4] = self.kin[1] + tau
+        rec[1:4 * sy.m:4] = x
+        rec[2:4 * sy.m:4] = f
+        rec[3:4 * sy.m:4] = sy.V_rot @ q
+        rec[-1] = 0.0
+        self._set_outputs(self.s.tolist(), self.kin.tolist(), rec.tolist())
+
+    def _set_outputs(self, st: list, kt: list, rec: list) -> None:
+        """Output attributes from the state ``st`` (2n floats), kinematics ``kt`` (3 floats) and the kernel's
+        record ``rec`` (4m + 1 floats)."""
+        sy = self.system
+        n, m = sy.n, sy.m
+        self.mesh_position = rec[0:4 * m:4]
+        self.mesh_deflection_m = rec[1:4 * m:4]
+        self.mesh_force_N = rec[2:4 * m:4]
+        self.dynamic_transmission_error_m = rec[3:4 * m:4]
+        self.in_contact = [f > 0.0 for f in self.mesh_force_N]
+        phi = (kt[1] + kt[0]) / sy.zref_2pi  # reference gear's rotation in its sense [rad]
+        w = kt[2]
+        self.angle_rad = [g.sense * (g.speed_ratio * phi + st[g.rotation]) for g in self._gears]
+        self.speed_rad_s = [g.sense * (g.speed_ratio * w + st[n + g.rotation]) for g in self._gears]
+
+    def gear_index(self, gear: str) -> int:
+        """Index of ``gear`` in :attr:`gear_names` (and in ``angle_rad``, ``speed_rad_s``)."""
+        try:
+            return self.gear_names.index(gear)
+        except ValueError:
+            raise ModelError(f"no gear {gear!r} in {self.system.name}; gears: {self.gear_names}") from None
+
+    def bearing_force_N(self, gear: str) -> np.ndarray:
+        """Force the gear puts on its bearing now (2,) [N] in the fixed frame: the support springs' force where the
+        bearing is elastic, else the sum of the mesh forces on the gear."""
+        sy = self.system
+        g = sy.gears[gear]
+        out = np.zeros(2)
+        if g.translations:
+            for i, d in zip(g.translations, g.directions):
+                out += sy.K[i, i] * self.s[i] * d
+            return out
+        for k, c in enumerate(sy.meshes):
+            if gear in (c.gear_a, c.gear_b):
+                nvec = np.asarray(c.line_of_action, float)
+                out += (1.0 if gear == c.gear_b else -1.0) * self.mesh_force_N[k] * nvec
+        return out
+
+    def strain(self, gauge: str) -> float:
+        """Root strain [-] now at ``gauge`` ("<gear>/<gauge>") on tooth 0 of its gear (:func:`strain_of_tooth`)."""
+        return float(strain_of_tooth(self.system, gauge, [self.mesh_position], [self.mesh_deflection_m])[0])
+
+    def peak_pressure_Pa(self, mesh: int = 0) -> float:
+        """Maximum contact pressure over all teeth of mesh ``mesh`` now [Pa] (table lookup)."""
+        t = self.system.meshes[mesh].table
+        return float(t.pressure(self.mesh_position[mesh], self.mesh_deflection_m[mesh]))

@@ -1,0 +1,429 @@
+"""Lumped gear systems: gear bodies, supports and mesh couplings assembled into M, K, C, G, K_W, mesh vectors.
+
+Coordinates ``q`` (n,) are deviations from the reference motion: rotations [rad] counter-clockwise in the fixed
+frame (the dissertation's convention for every shipped system, e.g. Eq. 3.4: ``x = r_b1 th1 + r_b2 th2``) and
+translations [m] along given directions.  Equations of motion (dissertation Eqs. 3.1, 4.1, 4.5, 5.1)::
+
+    M q'' + (C + W_c G) q' + (K - W_c^2 K_W) q + sum_k F_k(tau_k, x_k) v_k = f_ext
+    x_k = v_k . q                                  (mesh deflection, Eqs. 3.4, 4.4, 4.8)
+    tau_k = tau_ref + phase_k + w_k . q            (mesh position follows the gears' rotation)
+
+``K`` holds the supports (bearing and shaft stiffnesses), ``G`` and ``K_W`` the gyroscopic and centripetal
+terms of bodies in a rotating frame per unit carrier speed ``W_c = c_ratio omega_ref`` (zero for fixed-axis
+trains), ``F_k`` the force law of mesh ``k`` (its force-deflection table, or a conventional law).
+
+Damping: one modal damping ratio ``zeta`` for every elastic mode of the system linearised at the nominal
+torque (each mesh's stiffness = the cycle mean of its force law's stiffness at its nominal static force; for
+``hac`` the FDF's local slope), ``C = M Phi diag(2 zeta omega_r) Phi^T M`` with mass-normalised modes; modes of
+zero frequency (a free rotation of the train) get none, so the mean speed is kept.
+
+Loads of the constant-speed experiment (:meth:`LumpedSystem.fext_speed`): the torques that balance the nominal
+mesh forces on the rotation DOFs (input and output gears; free gears such as idlers carry none), plus, on gears
+held by shafts (rotational support stiffness), the static twist of the shaft at the mean static mesh
+deflections: the shaft ends follow the reference rotation with the twist that transmits the nominal torque, so
+the static mesh forces are the nominal ones and the shafts add stiffness to the deviations only.
+"""
+from __future__ import annotations
+
+import hashlib
+import math
+from dataclasses import dataclass, field, replace
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from hacgear_core.dynamics import kernels
+from hacgear_core.tables.fdf import TableArrays, static_stiffness, table_arrays
+from hacgear_core.dynamics.force_laws import FORCE_LAWS, ForceLaw, make_force_law
+from hacgear_core.errors import ModelError
+from hacgear_core.tables.interp import bilinear_many, slope_many
+
+__all__ = ["GearBody", "MeshCoupling", "LumpedSystem", "KernelArrays"]
+
+
+@dataclass(frozen=True)
+class GearBody:
+    """One gear of a lumped system.
+
+    ``sense``: operating sense of rotation (+1 CCW, -1 CW); ``speed_ratio``: its signed kinematic speed over the
+    reference gear's speed in the reference gear's sense; ``rotation``: index of its rotation DOF (-1 when it
+    does not rotate, e.g. a fixed ring); ``translations``: indices of its translation DOFs with unit
+    ``directions`` (k, 2) in the fixed frame; ``radius_m``: characteristic radius (base radius of its first
+    mesh) used to express rotations as arc lengths; ``teeth``; ``support``: (translational [N/m],
+    rotational [N m/rad]) stiffness.
+    """
+
+    name: str
+    teeth: int
+    sense: float
+    speed_ratio: float
+    rotation: int
+    translations: tuple[int, ...] = ()
+    directions: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    radius_m: float = 1.0
+    mass_kg: float = 0.0
+    inertia_kgm2: float = 0.0
+    support: tuple[float, float] = (math.inf, 0.0)
+
+
+@dataclass(frozen=True, eq=False)
+class MeshCoupling:
+    """One mesh of a lumped system: its table, line-of-action vector ``v`` (n,) (``x = v . q`` [m]), mesh-position
+    vector ``w`` (n,) (``tau = tau_ref + phase + w . q`` [cycles]), the rotational part ``v_rot`` of ``v``
+    (dynamic transmission error), ``phase`` [cycles], ``nominal_force_N`` (static force at the system's nominal
+    torque), ``tooth_passage`` {gear: mesh position at which tooth 0 of that gear is at the pitch point} and the
+    unit ``line_of_action`` (2,) in the fixed frame along which gear_a pushes gear_b."""
+
+    name: str
+    gear_a: str
+    gear_b: str
+    table: object
+    v: np.ndarray
+    w: np.ndarray
+    v_rot: np.ndarray
+    phase: float
+    nominal_force_N: float
+    teeth: tuple[int, int]
+    base_radius_m: tuple[float, float]
+    tooth_passage: Mapping[str, int] = field(default_factory=dict)
+    line_of_action: tuple[float, float] = (0.0, 1.0)
+
+
+@dataclass(frozen=True, eq=False)
+class KernelArrays:
+    """Everything the compiled kernel takes besides the state, packed (see :func:`kernels.select_kernel`)."""
+
+    mats: np.ndarray
+    kidx: np.ndarray
+    kval: np.ndarray
+    vecs: np.ndarray
+    mmat: np.ndarray
+    phase: np.ndarray
+    u: np.ndarray
+    scal: np.ndarray
+    iref: int
+    tab: np.ndarray
+    tint: np.ndarray
+    tflt: np.ndarray
+    lin: np.ndarray
+    lint: np.ndarray
+
+
+def _sym_eig(k: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Eigenpairs of K phi = w^2 M phi for symmetric K and SPD M: ascending w^2 and M-normalised shapes (numpy
+    only: FMUs start faster without scipy.linalg)."""
+    lo = np.linalg.cholesky(m)
+    li = np.linalg.inv(lo)
+    a = li @ k @ li.T
+    w2, psi = np.linalg.eigh(0.5 * (a + a.T))
+    return w2, li.T @ psi
+
+
+class LumpedSystem:
+    """An assembled lumped gear system (any kind).  Built by the builders of :mod:`hacgear_core.dynamics.build`.
+
+    Parameters
+    ----------
+    name, kind : str
+    dof_names : sequence of str (n,)
+    mass, stiffness : (n, n) arrays
+        Mass matrix [kg, kg m^2] and support stiffness matrix.
+    gears : sequence of GearBody
+    meshes : sequence of MeshCoupling (m)
+    torque_Nm : float
+        Nominal torque on the input gear [N m] (> 0) at which ``nominal_force_N`` of the meshes hold.
+    input_gear : str
+    modal_damping_ratio : float in [0, 1)
+    force_law : str
+        ``hac`` or a conventional law (:data:`~hacgear_core.dynamics.force_laws.FORCE_LAWS`).
+    reference_gear : str
+        The gear whose rotation defines the reference motion (``u[iref] = 1``).
+    gyroscopic, centripetal : (n, n) arrays, optional
+        ``G`` and ``K_W`` per unit carrier speed (rotating frames); zero by default.
+    carrier_ratio : float
+        Carrier speed over the reference speed (``W_c = carrier_ratio omega_ref``).
+    rigid_mode : (n,) array or None
+        Deviation per radian of the reference gear's rotation (in its sense, ``u[iref] = 1``) that loads no mesh
+        and no support (the free rotation of the train); None when the supports hold the train.
+    """
+
+    def __init__(self, *, name: str, kind: str, dof_names: Sequence[str], mass: np.ndarray, stiffness: np.ndarray,
+                 gears: Sequence[GearBody], meshes: Sequence[MeshCoupling], torque_Nm: float, input_gear: str,
+                 modal_damping_ratio: float, force_law: str = "hac", reference_gear: str | None = None,
+                 gyroscopic: np.ndarray | None = None, centripetal: np.ndarray | None = None,
+                 carrier_ratio: float = 0.0, rigid_mode: np.ndarray | None = None) -> None:
+        n = len(dof_names)
+        self.name = name
+        self.kind = kind
+        self.dof_names = tuple(dof_names)
+        self.n = n
+        self.M = np.ascontiguousarray(mass, dtype=float)
+        self.K = np.ascontiguousarray(stiffness, dtype=float)
+        if self.M.shape != (n, n) or self.K.shape != (n, n):
+            raise ModelError(f"{name}: mass and stiffness must be ({n}, {n}), got {self.M.shape}, {self.K.shape}")
+        self.G = np.zeros((n, n)) if gyroscopic is None else np.ascontiguousarray(gyroscopic, dtype=float)
+        self.K_W = np.zeros((n, n)) if centripetal is None else np.ascontiguousarray(centripetal, dtype=float)
+        self.carrier_ratio = float(carrier_ratio)
+        self.gears = {g.name: g for g in gears}
+        self.meshes = tuple(meshes)
+        self.m = len(self.meshes)
+        if self.m < 1:
+            raise ModelError(f"{name}: a gear system needs at least one mesh")
+        self.mesh_names = tuple(c.name for c in self.meshes)
+        if force_law not in FORCE_LAWS:
+            raise ModelError(f"force law must be one of {FORCE_LAWS}, got {force_law!r}")
+        self.force_law_name = force_law
+        if not (math.isfinite(torque_Nm) and torque_Nm > 0):
+            raise ModelError(f"torque_Nm [N*m] must be finite and > 0, got {torque_Nm!r}")
+        self.torque_Nm = float(torque_Nm)
+        if input_gear not in self.gears:
+            raise ModelError(f"input gear {input_gear!r} is not a gear of {name}: {sorted(self.gears)}")
+        self.input_gear = input_gear
+        if not (0.0 <= modal_damping_ratio < 1.0):
+            raise ModelError(f"modal_damping_ratio [-] must be in [0, 1), got {modal_damping_ratio!r}")
+        self.modal_damping_ratio = float(modal_damping_ratio)
+        ref = reference_gear or self.meshes[0].gear_a
+        self.reference_gear = ref
+        rg = self.gears[ref]
+        self.iref = rg.rotation
+        self.sref = float(rg.sense)
+        self.zref_2pi = rg.teeth / (2 * math.pi)
+        self.rigid_mode = None if rigid_mode is None else np.ascontiguousarray(rigid_mode, dtype=float)
+        # force laws and table arrays
+        self.table_arrays: tuple[TableArrays, ...] = tuple(table_arrays(c.table) for c in self.meshes)
+        self.laws: tuple[ForceLaw, ...] = tuple(make_force_law(c.table, force_law, c.nominal_force_N)
+                                                 for c in self.meshes)
+        self.law = self.laws[0].law
+        self.V = np.ascontiguousarray(np.array([c.v for c in self.meshes], dtype=float))
+        self.W = np.ascontiguousarray(np.array([c.w for c in self.meshes], dtype=float))
+        self.V_rot = np.ascontiguousarray(np.array([c.v_rot for c in self.meshes], dtype=float))
+        self.phase = np.array([c.phase for c in self.meshes], dtype=float)
+        # linearisation, modes, damping
+        kbar = np.array([lw.mean_stiffness_N_per_m for lw in self.laws])
+        self.mesh_stiffness_N_per_m = kbar
+        self.k_lin = self.K + (self.V.T * kbar) @ self.V
+        w2, phi = _sym_eig(self.k_lin, self.M)
+        w2 = np.clip(w2, 0.0, None)
+        omega = np.sqrt(w2)
+        rigid = omega < 1e-6 * max(omega.max(), 1.0)
+        self.modal_omega = omega
+        self.modal_shapes = phi
+        self.rigid_modes = rigid
+        d = np.where(rigid, 0.0, 2.0 * self.modal_damping_ratio * omega)
+        self.C = np.ascontiguousarray(self.M @ phi @ np.diag(d) @ phi.T @ self.M)
+        # highest frequency the integrator must resolve: linearisation at each mesh's stiffest slope
+        kmax = np.array([max(kb, float(np.max(np.diff(ta.ftab, axis=1))) * ta.inv_dx,
+                             float(np.max(lw.lin[0])) if lw.law == kernels.LAW_LINEAR else 0.0)
+                         for kb, ta, lw in zip(kbar, self.table_arrays, self.laws)])
+        w2max, _ = _sym_eig(self.K + (self.V.T * kmax) @ self.V, self.M)
+        self.max_frequency_Hz = float(np.sqrt(max(w2max.max(), 0.0)) / (2 * math.pi))
+        self.minv = np.ascontiguousarray(np.linalg.inv(self.M))
+        self.kernel = kernels.select_kernel(self.law, n, self.m)
+        mk, mkw = self.minv @ self.K, self.minv @ self.K_W
+        kidx = np.ascontiguousarray(np.argwhere((mk != 0) | (mkw != 0)).astype(np.int64)).reshape(-1, 2)
+        tab, tint, tflt = kernels.flatten_tables([(ta.ftab, ta.x0, ta.inv_dx) for ta in self.table_arrays])
+        lin, lint = kernels.flatten_linear([lw.lin for lw in self.laws])
+        self.arrays = KernelArrays(
+            mats=np.ascontiguousarray(np.stack([self.minv, self.minv @ self.C, self.minv @ self.G])),
+            kidx=kidx, kval=np.ascontiguousarray(np.stack([mk[kidx[:, 0], kidx[:, 1]], mkw[kidx[:, 0], kidx[:, 1]],
+                                                         np.zeros(len(kidx))])),
+            vecs=np.ascontiguousarray(np.stack([self.V, self.W, self.V_rot, self.V @ self.minv.T])),
+            mmat=np.ascontiguousarray(np.stack([self.V @ self.minv @ self.V.T, self.W @ self.minv @ self.V.T])),
+            phase=self.phase,
+            u=np.zeros(n) if self.rigid_mode is None else self.rigid_mode,
+            scal=np.array([self.carrier_ratio, self.sref, self.zref_2pi]), iref=int(self.iref), tab=tab, tint=tint,
+            tflt=tflt, lin=lin, lint=lint)
+        self._work = np.zeros((9, n))
+        self._eff = np.zeros((n, n))
+        self._mw = np.zeros((12, self.m))
+        a = self.arrays
+        #: the kernel's trailing arguments (everything but the state, step, mode, loads and records)
+        self.kernel_constants = (a.mats, a.vecs, a.mmat, a.phase, a.u, a.scal, a.iref, a.tab, a.tint, a.tflt, a.lin,
+                                 a.lint, self._work, self._eff, self._mw, a.kidx, a.kval)
+        self._cache: dict = {}
+
+    def __getstate__(self) -> dict:
+        # the compiled kernel travels by name (process pools): reselected on unpickling
+        st = dict(self.__dict__)
+        st.pop("kernel", None)
+        st["_cache"] = {}
+        return st
+
+    def __setstate__(self, st: dict) -> None:
+        self.__dict__.update(st)
+        self.kernel = kernels.select_kernel(self.law, self.n, self.m)
+
+    def fingerprint(self) -> str:
+        """SHA-256 (hex) of everything the dynamics depend on: matrices, mesh vectors, phases, tables, force law,
+        torque, damping (the key of resumable sweep results)."""
+        h = hashlib.sha256()
+        for a in (self.M, self.K, self.G, self.K_W, self.V, self.W, self.phase, self.nominal_forces_N()):
+            h.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
+        for ta in self.table_arrays:
+            h.update(repr(ta.ftab.shape).encode())
+            h.update(ta.ftab.tobytes())
+            h.update(np.array([ta.x0, ta.dx]).tobytes())
+        h.update(repr((self.force_law_name, self.torque_Nm, self.modal_damping_ratio, self.carrier_ratio,
+                       self.dof_names, self.mesh_names, self.reference_gear)).encode())
+        return h.hexdigest()
+
+    # ------------------------------------------------------------------ loads
+    def nominal_forces_N(self, torque_Nm: float | None = None) -> np.ndarray:
+        """Static mesh forces (m,) [N] of the constant-speed experiment at ``torque_Nm`` on the input gear
+        (default: the nominal torque); the torque flow is linear in the torque."""
+        t = self.torque_Nm if torque_Nm is None else float(torque_Nm)
+        return np.array([c.nominal_force_N for c in self.meshes]) * (t / self.torque_Nm)
+
+    def mean_static_deflections_m(self, torque_Nm: float | None = None) -> np.ndarray:
+        """Cycle-mean static deflection of every mesh (m,) [m] at its static force."""
+        f = self.nominal_forces_N(torque_Nm)
+        key = ("xbar", tuple(f))
+        if key not in self._cache:
+            self._cache[key] = np.array([static_stiffness(c.table, fk).mean_deflection_m
+                                         for c, fk in zip(self.meshes, f)])
+        return self._cache[key]
+
+    def _rotation_mask(self) -> np.ndarray:
+        mask = np.zeros(self.n, dtype=bool)
+        for g in self.gears.values():
+            if g.rotation >= 0:
+                mask[g.rotation] = True
+        return mask
+
+    def fext_speed(self, torque_Nm: float | None = None) -> np.ndarray:
+        """External generalized forces (n,) of the constant-speed experiment at ``torque_Nm`` (module docstring)."""
+        t = self.torque_Nm if torque_Nm is None else float(torque_Nm)
+        key = ("fext", t)
+        if key in self._cache:
+            return self._cache[key].copy()
+        f = self.nominal_forces_N(t)
+        rot = self._rotation_mask()
+        fe = np.where(rot, self.V.T @ f, 0.0)
+        shafts = [g.rotation for g in self.gears.values() if g.rotation >= 0 and g.support[1] > 0]
+        if shafts:
+            fe = fe + self.K @ self.preload_state(t)
+        fe = np.ascontiguousarray(fe)
+        self._cache[key] = fe
+        return fe.copy()
+
+    def preload_state(self, torque_Nm: float | None = None) -> np.ndarray:
+        """Static deviations (n,) at the mean static mesh deflections: translations deflected by the bearing
+        reactions of the static mesh forces, rotations such that every mesh has its mean static deflection,
+        the reference gear's rotation 0."""
+        f = self.nominal_forces_N(torque_Nm)
+        xbar = self.mean_static_deflections_m(torque_Nm)
+        rot = self._rotation_mask()
+        q = np.zeros(self.n)
+        tr = np.flatnonzero(~rot)
+        if tr.size:
+            ktt = self.K[np.ix_(tr, tr)]
+            q[tr] = np.linalg.solve(ktt, -(self.V.T @ f)[tr])
+        ri = np.flatnonzero(rot)
+        rhs = xbar - self.V[:, tr] @ q[tr] if tr.size else xbar.copy()
+        a = self.V[:, ri]
+        cons = np.zeros((1, ri.size))
+        cons[0, list(ri).index(self.iref)] = 1.0
+        sol, *_ = np.linalg.lstsq(np.vstack([a, cons]), np.concatenate([rhs, [0.0]]), rcond=None)
+        q[ri] = sol
+        return q
+
+    def fext_torque(self, torques_Nm: Mapping[str, float]) -> np.ndarray:
+        """External generalized forces (n,) for shaft torques {gear: T [N m]}, each positive in that gear's
+        operating sense of rotation (a braking load is negative)."""
+        f = np.zeros(self.n)
+        for g, t in torques_Nm.items():
+            gb = self.gears[g]
+            f[gb.rotation] += gb.sense * float(t)
+        return f
+
+    # ------------------------------------------------------------------ force laws in Python
+    def mesh_forces(self, tau: np.ndarray, x: np.ndarray) -> np.ndarray:
+        """Forces [N] of every mesh's force law at mesh positions ``tau`` (..., m) [cycles] and deflections
+        ``x`` (..., m) [m]."""
+        tau, x = np.broadcast_arrays(np.asarray(tau, float), np.asarray(x, float))
+        out = np.empty(tau.shape)
+        for k in range(self.m):
+            out[..., k] = self.mesh_force(k, tau[..., k], x[..., k])
+        return out
+
+    def mesh_force(self, k: int, tau, x) -> np.ndarray:
+        """Force [N] of mesh ``k``'s force law at ``tau`` [cycles], ``x`` [m] (broadcast arrays)."""
+        tau, x = np.broadcast_arrays(np.asarray(tau, float), np.asarray(x, float))
+        tf, xf = np.ascontiguousarray(tau.ravel()), np.ascontiguousarray(x.ravel())
+        lw, ta = self.laws[k], self.table_arrays[k]
+        if lw.law == kernels.LAW_TABLE:
+            out = np.empty(tf.size)
+            bilinear_many(ta.ftab, ta.x0, ta.inv_dx, tf, xf, out)
+        else:
+            lin = lw.lin
+            npos = lin.shape[1]
+            t = (tf - np.floor(tf)) * npos
+            i = np.minimum(t.astype(int), npos - 1)
+            a = t - i
+            i1 = (i + 1) % npos
+            kk, e, f0 = (lin[r, i] + a * (lin[r, i1] - lin[r, i]) for r in range(3))
+            out = kk * (xf - e) + f0
+        return np.maximum(out, 0.0).reshape(tau.shape)
+
+    def mesh_slope(self, k: int, tau, x) -> np.ndarray:
+        """Local slope dF/dx [N/m] of mesh ``k``'s force law at ``tau``, ``x`` (0 where F = 0)."""
+        tau, x = np.broadcast_arrays(np.asarray(tau, float), np.asarray(x, float))
+        tf, xf = np.ascontiguousarray(tau.ravel()), np.ascontiguousarray(x.ravel())
+        lw, ta = self.laws[k], self.table_arrays[k]
+        if lw.law == kernels.LAW_TABLE:
+            out = np.empty(tf.size)
+            slope_many(ta.ftab, ta.x0, ta.inv_dx, tf, xf, out)
+        else:
+            lin = lw.lin
+            npos = lin.shape[1]
+            t = (tf - np.floor(tf)) * npos
+            i = np.minimum(t.astype(int), npos - 1)
+            a = t - i
+            i1 = (i + 1) % npos
+            out = lin[0, i] + a * (lin[0, i1] - lin[0, i])
+            out = np.where(self.mesh_force(k, tf, xf) > 0, out, 0.0)
+        return out.reshape(tau.shape)
+
+    # ------------------------------------------------------------------ modal facts
+    def natural_frequencies_Hz(self) -> np.ndarray:
+        """Elastic natural frequencies of the linearisation used for damping [Hz], ascending."""
+        return np.sort(self.modal_omega[~self.rigid_modes]) / (2 * math.pi)
+
+    def steps_per_cycle(self, mesh_frequency_Hz: float, minimum: int = 128, per_period: int = 32) -> int:
+        """Power-of-two RK4 steps per mesh cycle >= ``minimum`` such that the step also resolves the highest
+        natural frequency with >= ``per_period`` steps."""
+        need = max(minimum, per_period * self.max_frequency_Hz / mesh_frequency_Hz)
+        return int(2 ** math.ceil(math.log2(need)))
+
+    def mesh_frequency_Hz(self, omega_ref_rad_s: float) -> float:
+        """Mesh frequency [Hz] at reference speed ``omega_ref_rad_s`` [rad/s]."""
+        return float(omega_ref_rad_s) * self.zref_2pi
+
+    def reference_speed(self, mesh_frequency_Hz: float) -> float:
+        """Reference speed [rad/s] at mesh frequency ``mesh_frequency_Hz`` [Hz]."""
+        return float(mesh_frequency_Hz) / self.zref_2pi
+
+    # ------------------------------------------------------------------ the kernel
+    def integrate(self, s: np.ndarray, kin: np.ndarray, n_steps: int, h: float, fext: np.ndarray, *,
+                  mode: int = kernels.MODE_SPEED, rec_every: int = 0, rec_state: np.ndarray | None = None,
+                  rec_out: np.ndarray | None = None) -> int:
+        """Advance ``n_steps`` RK4 steps of ``h`` [s] in place (see :mod:`~hacgear_core.dynamics.kernels`)."""
+        if rec_state is None:
+            rec_state = np.zeros((0, 2 * self.n))
+            rec_out = np.zeros((0, 4 * self.m + 1))
+        return self.kernel(s, kin, int(n_steps), float(h), int(mode), fext, int(rec_every), rec_state, rec_out,
+                           *self.kernel_constants)
+
+    def with_changes(self, **changes) -> "LumpedSystem":
+        """A copy rebuilt with some constructor arguments changed (torque, damping, force law...)."""
+        kw = dict(name=self.name, kind=self.kind, dof_names=self.dof_names, mass=self.M, stiffness=self.K,
+                  gears=tuple(self.gears.values()), meshes=self.meshes, torque_Nm=self.torque_Nm,
+                  input_gear=self.input_gear, modal_damping_ratio=self.modal_damping_ratio,
+                  force_law=self.force_law_name, reference_gear=self.reference_gear, gyroscopic=self.G,
+                  centripetal=self.K_W, carrier_ratio=self.carrier_ratio, rigid_mode=self.rigid_mode)
+        if "torque_Nm" in changes and "meshes" not in changes:
+            t = float(changes["torque_Nm"])
+            kw["meshes"] = tuple(replace(c, nominal_force_N=c.nominal_force_N * t / self.torque_Nm)
+                                 for c in self.meshes)
+        kw.update(changes)
+        return LumpedSystem(**kw)

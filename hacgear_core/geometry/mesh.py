@@ -1,0 +1,277 @@
+"""Geometry of one tooth mesh: centre distance, backlash, line of action, contact ratios, roll angles (SI)."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+import numpy as np
+
+from hacgear_core.errors import GeometryError
+
+from hacgear_core.geometry.gear import GearGeometry, gear_geometry
+from hacgear_core.geometry.tooth import zero_backlash_center_distance
+
+__all__ = ["MeshGeometry", "mesh_geometry", "model_geometry", "zero_backlash_center_distance"]
+
+@dataclass(frozen=True, eq=False)
+class MeshGeometry:
+    """Derived geometry of one tooth mesh (SI).  Per-gear dicts are keyed by gear name.
+
+    The line of action (loaded flank) is parametrised by ``xi`` [m], the distance from gear a's base
+    tangent point; ``contact_start_m``/``contact_end_m`` bound the active path of contact.
+    """
+
+    name: str
+    gear_a: str
+    gear_b: str
+    internal: bool
+    flank_a: str
+    flank_b: str
+    center_distance_m: float
+    center_distance_source: str
+    zero_backlash_center_distance_m: float
+    backlash_m: float
+    gear_ratio: float
+    operating_pitch_radius_m: Mapping[str, float]
+    base_radius_m: Mapping[str, float]
+    base_radius_coast_m: Mapping[str, float]
+    operating_pressure_angle_rad: float
+    operating_pressure_angle_coast_rad: float
+    base_pitch_m: float
+    base_pitch_coast_m: float
+    contact_ratio: float
+    contact_ratio_coast: float
+    face_width_overlap_m: float
+    face_contact_ratio: float
+    total_contact_ratio: float
+    roll_angle_deg: Mapping[str, Mapping[str, float]]
+    roll_angle_coast_deg: Mapping[str, Mapping[str, float]]
+    line_of_action_length_m: float
+    tangent_length_m: float
+    contact_start_m: float
+    contact_end_m: float
+    tip_clearance_m: Mapping[str, float]
+    warnings: tuple[str, ...]
+    _aff: Mapping[str, tuple] = field(default_factory=dict, repr=False, compare=False)
+
+    def roll_angle_rad_at(self, gear: str, xi_m: Any) -> Any:
+        """Roll angle [rad] of gear ``gear`` (loaded flank) at line-of-action position ``xi_m`` [m]
+        (distance from gear a's base tangent point)."""
+        c, d, rb = self._aff[gear]
+        return (c + d * np.asarray(xi_m, dtype=float)) / rb
+
+
+def _other(side: str) -> str:
+    return "coast" if side == "drive" else "drive"
+
+
+def _line_of_action(ga: GearGeometry, gb: GearGeometry, sa: str, sb: str, a: float, name: str,
+                    strict: bool, warnings: list[str]) -> dict:
+    """Contact geometry along the line of action of flanks sa (gear a) / sb (gear b)."""
+    internal = ga.internal or gb.internal
+    rba, rbb = ga.base_radius_m[sa], gb.base_radius_m[sb]
+    if not internal:
+        cos_w = (rba + rbb) / a
+    else:
+        cos_w = abs(rbb - rba) / a
+    if cos_w >= 1:
+        raise GeometryError(f"mesh '{name}': centre distance {a * 1e3:.4f} mm too small for base radii "
+                            f"{rba * 1e3:.4f}/{rbb * 1e3:.4f} mm ({sa}/{sb} flanks)")
+    aw = math.acos(cos_w)
+    tw = math.tan(aw)
+    # affine maps xi -> roll length of each gear; xi = distance from gear a's base tangent point
+    if not internal:
+        L = a * math.sin(aw)
+        aff = {ga.name: (0.0, 1.0, rba), gb.name: (L, -1.0, rbb)}
+    elif gb.internal:
+        L = (rbb - rba) * tw
+        aff = {ga.name: (0.0, 1.0, rba), gb.name: (L, 1.0, rbb)}
+    else:  # gear a internal, b external pinion: xi measured from the ring's tangent point
+        L = (rba - rbb) * tw
+        aff = {ga.name: (0.0, 1.0, rba), gb.name: (-L, 1.0, rbb)}
+    lo, hi = -math.inf, math.inf
+    for g, s in ((ga, sa), (gb, sb)):
+        c, d, rb = aff[g.name]
+        l_tip = rb * g.involute_end_roll_rad[s]
+        # external: roll length <= l_tip ; internal: roll length >= l_tip
+        bound = (l_tip - c) / d
+        if (not g.internal) == (d > 0):
+            hi = min(hi, bound)
+        else:
+            lo = max(lo, bound)
+    if not lo < hi:
+        raise GeometryError(f"mesh '{name}' ({sa}/{sb} flanks): the tip circles do not overlap on the line of action "
+                            "(no contact)")
+    pb = 2 * math.pi * rba / ga.z
+    eps = (hi - lo) / pb
+    # interference: each gear's active roll range inside [form, tip] and outside the base circle
+    for g, s in ((ga, sa), (gb, sb)):
+        c, d, rb = aff[g.name]
+        l1, l2 = sorted((c + d * lo, c + d * hi))
+        l_form = rb * g.form_roll_rad[s]
+        mate = gb.name if g is ga else ga.name
+        if l1 < -1e-9:
+            msg = (f"mesh '{name}': involute interference, the tip of '{mate}' reaches inside the base circle of "
+                   f"'{g.name}' ({s} flank, {-l1 * 1e3:.4f} mm beyond the tangent point of the line of action)")
+            if strict:
+                raise GeometryError(msg)
+            warnings.append(msg)
+        if not g.internal and l1 < l_form - 1e-6:
+            r_sap = rb * math.sqrt(1 + (max(l1, 0) / rb) ** 2)
+            msg = (f"mesh '{name}': tip-fillet interference, the tip of '{mate}' reaches below the true involute form "
+                   f"diameter of '{g.name}' ({s} flank): contact diameter {2e3 * r_sap:.4f} mm < form diameter "
+                   f"{2e3 * g.form_radius_m[s]:.4f} mm")
+            if strict:
+                raise GeometryError(msg)
+            warnings.append(msg)
+        if g.internal and l2 > l_form + 1e-6:
+            msg = (f"mesh '{name}': the tip of '{mate}' reaches beyond the involute form diameter of the internal gear "
+                   f"'{g.name}' ({s} flank) into its root fillet")
+            if strict:
+                raise GeometryError(msg)
+            warnings.append(msg)
+    roll = {}
+    for g, s in ((ga, sa), (gb, sb)):
+        c, d, rb = aff[g.name]
+        l1, l2 = sorted((c + d * lo, c + d * hi))  # roll length range on this gear
+        if not g.internal:  # root at small roll
+            sap, eap, lp, hp = l1, l2, l2 - pb, l1 + pb
+        else:  # internal: root at large roll
+            sap, eap, lp, hp = l2, l1, l1 + pb, l2 - pb
+        if eps < 1:
+            lp = hp = math.nan
+        roll[g.name] = {k: math.degrees(v / rb) for k, v in (("SAP", sap), ("LPSTC", lp), ("HPSTC", hp), ("EAP", eap))}
+    return dict(aw=aw, L=L, lo=lo, hi=hi, pb=pb, eps=eps, roll=roll, aff=aff)
+
+
+def _standard_pitch_radii(ga: GearGeometry, gb: GearGeometry, a: float) -> tuple[float, float]:
+    if ga.internal or gb.internal:
+        k = a / abs(gb.z - ga.z)
+    else:
+        k = a / (ga.z + gb.z)
+    return k * ga.z, k * gb.z
+
+
+def mesh_geometry(model: Any, mesh_name: str | None = None, *, gears: Mapping[str, GearGeometry] | None = None,
+                  strict: bool = True) -> MeshGeometry:
+    """Derived geometry of mesh ``mesh_name`` (None: the first) of ``model``.
+
+    Centre distance: the mesh's ``center_distance_m``; else, for planetary sets, the carrier radius
+    (``planetary.carrier_radius_m``); else the zero-backlash centre distance (both flanks touching)
+    from the tooth thicknesses; for a planetary set without either, the standard centre distance
+    clamped into [zero-backlash external mesh, zero-backlash internal mesh].
+
+    ``strict``: interference and a loaded-flank contact ratio below 1 (total, for helical gears)
+    raise :class:`GeometryError`; with ``strict=False`` they become warnings.
+    """
+    mesh = model.mesh(mesh_name)
+    if gears is None:
+        gears = {}
+    ga = gears.get(mesh.gear_a) or gear_geometry(model.gear(mesh.gear_a))
+    gb = gears.get(mesh.gear_b) or gear_geometry(model.gear(mesh.gear_b))
+    warnings: list[str] = []
+    internal = ga.internal or gb.internal
+    a0 = zero_backlash_center_distance(ga._form, gb._form)
+    src = "model"
+    if mesh.center_distance_m is not None:
+        a = float(mesh.center_distance_m)
+        planetary = getattr(model, "planetary", None)
+        if planetary is not None and planetary.carrier_radius_m is not None and \
+                abs(planetary.carrier_radius_m - a) > 1e-9:
+            warnings.append(f"mesh '{mesh.name}': center_distance {a * 1e3:.4f} mm differs from the carrier radius "
+                            f"{planetary.carrier_radius_m * 1e3:.4f} mm")
+    elif getattr(model, "planetary", None) is not None and model.planetary.carrier_radius_m is not None:
+        a = float(model.planetary.carrier_radius_m)
+        src = "carrier radius"
+    elif getattr(model, "planetary", None) is not None:
+        ext, inn = [], []
+        for m2 in model.meshes:
+            g1, g2 = gear_geometry(model.gear(m2.gear_a)), gear_geometry(model.gear(m2.gear_b))
+            (inn if (g1.internal or g2.internal) else ext).append(zero_backlash_center_distance(g1._form, g2._form))
+        lo_a, hi_a = max(ext) if ext else 0.0, min(inn) if inn else math.inf
+        if lo_a > hi_a:
+            raise GeometryError(f"planetary: no common centre distance: sun-planet needs >= {lo_a * 1e3:.4f} mm, "
+                                f"ring-planet <= {hi_a * 1e3:.4f} mm; give carrier_radius_mm")
+        a_std = 0.5 * ga.module_m * (abs(gb.z - ga.z) if internal else ga.z + gb.z)
+        a = min(max(a_std, lo_a), hi_a)
+        src = "planetary: standard clamped to zero-backlash limits"
+    else:
+        a = a0
+        src = "zero backlash"
+    r_wa, r_wb = _standard_pitch_radii(ga, gb, a)
+    sa, sb = mesh.flank_a, mesh.flank_b
+    # backlash on the operating pitch circle (circumferential)
+    p_w = 2 * math.pi * r_wa / ga.z
+    backlash = p_w - r_wa * float(ga._form.thickness_angle(r_wa)) - r_wb * float(gb._form.thickness_angle(r_wb))
+    if backlash < -1e-7:
+        raise GeometryError(f"mesh '{mesh.name}': negative backlash {backlash * 1e6:.2f} um at centre distance "
+                            f"{a * 1e3:.4f} mm (zero-backlash centre distance {a0 * 1e3:.4f} mm): the teeth overlap")
+    loaded = _line_of_action(ga, gb, sa, sb, a, mesh.name, strict, warnings)
+    try:
+        coast = _line_of_action(ga, gb, _other(sa), _other(sb), a, mesh.name, False, warnings)
+        if abs(ga.base_radius_m[_other(sa)] / ga.z - gb.base_radius_m[_other(sb)] / gb.z) > 1e-9 * ga.pitch_radius_m:
+            warnings.append(f"mesh '{mesh.name}': the unloaded flanks have different base pitches (pressure angles "
+                            "differ); coast contact ratio is approximate")
+    except GeometryError as exc:
+        warnings.append(f"mesh '{mesh.name}' unloaded flanks: {exc}")
+        coast = dict(aw=math.nan, eps=math.nan, pb=math.nan, roll={ga.name: {}, gb.name: {}})
+    # helical overlap
+    beta = ga.helix_angle_rad
+    za0, za1 = ga.axial_position_m - ga.face_width_m / 2, ga.axial_position_m + ga.face_width_m / 2
+    zb0, zb1 = gb.axial_position_m - gb.face_width_m / 2, gb.axial_position_m + gb.face_width_m / 2
+    overlap = max(0.0, min(za1, zb1) - max(za0, zb0))
+    if overlap <= 0:
+        raise GeometryError(f"mesh '{mesh.name}': the face widths do not overlap axially")
+    eps_b = overlap * abs(math.tan(beta)) / (math.pi * ga.module_m)
+    eps = loaded["eps"]
+    total = eps + eps_b
+    if total < 1:
+        msg = (f"mesh '{mesh.name}': contact ratio {total:.3f} < 1 on the loaded flanks: the load cannot pass "
+               "continuously from tooth to tooth")
+        if strict:
+            raise GeometryError(msg)
+        warnings.append(msg)
+    elif eps < 1:
+        warnings.append(f"mesh '{mesh.name}': transverse contact ratio {eps:.3f} < 1 (face overlap {eps_b:.3f} makes "
+                        "the total >= 1)")
+    if math.isfinite(coast["eps"]) and coast["eps"] + eps_b < 1:
+        warnings.append(f"mesh '{mesh.name}': contact ratio of the unloaded flanks {coast['eps']:.3f} < 1")
+    # tip clearances
+    clear = {}
+    if not internal:
+        clear[ga.name] = a - ga.tip_radius_m - gb.root_radius_m
+        clear[gb.name] = a - gb.tip_radius_m - ga.root_radius_m
+    else:
+        ring, pin = (ga, gb) if ga.internal else (gb, ga)
+        clear[pin.name] = ring.root_radius_m - (a + pin.tip_radius_m)
+        clear[ring.name] = (ring.tip_radius_m - a) - pin.root_radius_m
+    for g, c in clear.items():
+        if c < 0:
+            raise GeometryError(f"mesh '{mesh.name}': the tip of '{g}' hits the root of its mate (clearance "
+                                f"{c * 1e3:.4f} mm)")
+        if c < 0.1 * ga.module_m:
+            warnings.append(f"mesh '{mesh.name}': small tip clearance of '{g}': {c * 1e3:.4f} mm < 0.1 m")
+    for g in (ga, gb):
+        warnings.extend(w for w in g.warnings if w not in warnings)
+    mg = MeshGeometry(
+        name=mesh.name, gear_a=ga.name, gear_b=gb.name, internal=internal, flank_a=sa, flank_b=sb,
+        center_distance_m=a, center_distance_source=src, zero_backlash_center_distance_m=a0, backlash_m=backlash,
+        gear_ratio=gb.z / ga.z, operating_pitch_radius_m={ga.name: r_wa, gb.name: r_wb},
+        base_radius_m={ga.name: ga.base_radius_m[sa], gb.name: gb.base_radius_m[sb]},
+        base_radius_coast_m={ga.name: ga.base_radius_m[_other(sa)], gb.name: gb.base_radius_m[_other(sb)]},
+        operating_pressure_angle_rad=loaded["aw"], operating_pressure_angle_coast_rad=coast["aw"],
+        base_pitch_m=loaded["pb"], base_pitch_coast_m=coast["pb"], contact_ratio=eps,
+        contact_ratio_coast=coast["eps"], face_width_overlap_m=overlap, face_contact_ratio=eps_b,
+        total_contact_ratio=total, roll_angle_deg=loaded["roll"], roll_angle_coast_deg=coast["roll"],
+        line_of_action_length_m=loaded["hi"] - loaded["lo"], tangent_length_m=loaded["L"],
+        contact_start_m=loaded["lo"], contact_end_m=loaded["hi"], tip_clearance_m=clear, warnings=tuple(warnings),
+        _aff=loaded["aff"])
+    return mg
+
+
+def model_geometry(model: Any, *, strict: bool = True) -> tuple[dict[str, GearGeometry], dict[str, MeshGeometry]]:
+    """Geometry of every gear and every mesh of a model: ``(gears, meshes)`` dicts keyed by name."""
+    gears = {g.name: gear_geometry(g) for g in model.gears}
+    meshes = {m.name: mesh_geometry(model, m.name, gears=gears, strict=strict) for m in model.meshes}
+    return gears, meshes

@@ -1,0 +1,55 @@
+"""Model files → validated SI dataclasses: :mod:`.schema` (the dataclasses and their ranges), :mod:`.toml`
+(the TOML reader with unit-suffixed keys, file/key/unit/range errors)."""
+from __future__ import annotations
+
+from hacgear_core.model.schema import (
+    FLANKS,
+    RELIEF_SHAPES,
+    SYSTEM_KINDS,
+    WEB_MIN_RIM_M,
+    Damping,
+    Flank,
+    Gauge,
+    Gear,
+    Material,
+    Mesh,
+    Model,
+    Operating,
+    Planetary,
+    StaticsGrid,
+    Support,
+    Web,
+)
+from hacgear_core.model.toml import (
+    load_model,
+    model_sha256,
+    parse_model,
+    resolve_model_path,
+    shipped_systems,
+    shipped_systems_dir,
+)
+
+__all__ = [
+    "SYSTEM_KINDS",
+    "FLANKS",
+    "RELIEF_SHAPES",
+    "WEB_MIN_RIM_M",
+    "Material",
+    "Flank",
+    "Gauge",
+    "Support",
+    "Web",
+    "Gear",
+    "Mesh",
+    "Damping",
+    "Operating",
+    "StaticsGrid",
+    "Planetary",
+    "Model",
+    "load_model",
+    "parse_model",
+    "model_sha256",
+    "resolve_model_path",
+    "shipped_systems",
+    "shipped_systems_dir",
+]

@@ -1,0 +1,515 @@
+"""Validated, frozen SI dataclasses of a gear system (what a model file means; one table of ranges).
+
+Every dataclass checks its fields in ``__post_init__`` and raises :class:`~hacgear_core.errors.ModelError`
+naming the field, its unit and the allowed range.  Units: SI throughout, the unit in the attribute name where
+it could be ambiguous (``module_m``, ``tip_relief_m``).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping
+
+from hacgear_core.errors import ModelError
+
+__all__ = [
+    "SYSTEM_KINDS",
+    "FLANKS",
+    "RELIEF_SHAPES",
+    "WEB_MIN_RIM_M",
+    "Material",
+    "Flank",
+    "Gauge",
+    "Support",
+    "Web",
+    "Gear",
+    "Mesh",
+    "Damping",
+    "Operating",
+    "StaticsGrid",
+    "Planetary",
+    "Model",
+]
+
+SYSTEM_KINDS = ("spur_pair", "idler_chain", "planetary", "helical_pair")
+FLANKS = ("drive", "coast")
+RELIEF_SHAPES = ("none", "linear", "parabolic")
+
+_INF = math.inf
+
+
+def _fail(field_name: str, unit: str, allowed: str, got: Any, where: str = "") -> ModelError:
+    unit_txt = f" [{unit}]" if unit else ""
+    loc = f"{where}: " if where else ""
+    return ModelError(f"{loc}{field_name}{unit_txt} = {got!r} is out of range; allowed: {allowed}")
+
+
+def _check_range(
+    name: str, value: float, unit: str, lo: float | None, hi: float | None, *, lo_open: bool = False,
+    hi_open: bool = False,
+) -> None:
+    """Raise ModelError if ``value`` is NaN or outside [lo, hi] (bounds optional/open)."""
+    bad = value != value  # NaN
+    if lo is not None:
+        bad |= value <= lo if lo_open else value < lo
+    if hi is not None:
+        bad |= value >= hi if hi_open else value > hi
+    if bad:
+        lo_txt = "-inf" if lo is None else f"{lo:g}"
+        hi_txt = "inf" if hi is None else f"{hi:g}"
+        allowed = f"{'(' if lo_open or lo is None else '['}{lo_txt}, {hi_txt}{')' if hi_open or hi is None else ']'}"
+        raise _fail(name, unit, allowed, value)
+
+
+# --------------------------------------------------------------------------------------------
+# Dataclasses (SI)
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Material:
+    """Linear elastic, isotropic material.
+
+    Attributes: ``density_kg_per_m3`` (kg/m³), ``youngs_modulus_Pa`` (Pa), ``poisson_ratio`` (-).
+    """
+
+    name: str
+    density_kg_per_m3: float
+    youngs_modulus_Pa: float
+    poisson_ratio: float
+
+    def __post_init__(self) -> None:
+        _check_range("density_kg_per_m3", self.density_kg_per_m3, "kg/m^3", 100.0, 30000.0)
+        _check_range("youngs_modulus_Pa", self.youngs_modulus_Pa, "Pa", 1e9, 1e12)
+        _check_range("poisson_ratio", self.poisson_ratio, "-", 0.0, 0.5, hi_open=True)
+
+
+@dataclass(frozen=True)
+class Flank:
+    """One flank of a tooth: pressure angle and tip relief.
+
+    ``pressure_angle_rad`` is the (transverse) pressure angle at the reference circle;
+    ``tip_relief_m`` the material removed at the tip along the flank normal, starting at roll angle
+    ``tip_relief_start_roll_rad`` (0 → no relief) and growing ``linear``-ly or ``parabolic``-ally
+    with roll angle up to the tip.
+    """
+
+    pressure_angle_rad: float
+    tip_relief_m: float = 0.0
+    tip_relief_start_roll_rad: float = 0.0
+    tip_relief_shape: str = "none"
+
+    def __post_init__(self) -> None:
+        _check_range("pressure_angle_rad", self.pressure_angle_rad, "rad", math.radians(5), math.radians(40))
+        _check_range("tip_relief_m", self.tip_relief_m, "m", 0.0, 1e-3)
+        _check_range("tip_relief_start_roll_rad", self.tip_relief_start_roll_rad, "rad", 0.0, math.radians(89))
+        if self.tip_relief_shape not in RELIEF_SHAPES:
+            raise _fail("tip_relief_shape", "", " | ".join(RELIEF_SHAPES), self.tip_relief_shape)
+        if self.tip_relief_m > 0 and self.tip_relief_shape == "none":
+            raise ModelError("tip_relief_shape = 'none' but tip_relief_m > 0; allowed: linear | parabolic")
+        if self.tip_relief_m > 0 and self.tip_relief_start_roll_rad <= 0:
+            raise ModelError("tip_relief_start_roll_rad [rad] must be > 0 when tip_relief_m > 0")
+
+    @property
+    def has_relief(self) -> bool:
+        return self.tip_relief_m > 0.0
+
+
+@dataclass(frozen=True)
+class Gauge:
+    """A strain gauge on the root surface of a flank at a given radius from the gear centre [m]."""
+
+    name: str
+    flank: str
+    radius_m: float
+
+    def __post_init__(self) -> None:
+        if self.flank not in FLANKS:
+            raise _fail("flank", "", " | ".join(FLANKS), self.flank)
+        _check_range("radius_m", self.radius_m, "m", 0.0, 10.0, lo_open=True)
+
+
+@dataclass(frozen=True)
+class Support:
+    """Bearing/shaft stiffness of one gear (SI).  ``inf`` translational stiffness: rigid (no
+    translation DOF); ``0`` rotational stiffness: free rotation (torque-driven)."""
+
+    translational_stiffness_N_per_m: float = _INF
+    rotational_stiffness_Nm_per_rad: float = 0.0
+    axial_stiffness_N_per_m: float = _INF
+    tilting_stiffness_Nm_per_rad: float = _INF
+
+    def __post_init__(self) -> None:
+        for name, unit in (
+            ("translational_stiffness_N_per_m", "N/m"),
+            ("rotational_stiffness_Nm_per_rad", "N*m/rad"),
+            ("axial_stiffness_N_per_m", "N/m"),
+            ("tilting_stiffness_Nm_per_rad", "N*m/rad"),
+        ):
+            _check_range(name, getattr(self, name), unit, 0.0, None)
+
+    @property
+    def rigid_translation(self) -> bool:
+        return math.isinf(self.translational_stiffness_N_per_m)
+
+
+#: smallest radial rim thickness a web may leave below the root circle: outer_diameter <= root - 2 * this
+WEB_MIN_RIM_M = 1e-3
+
+
+@dataclass(frozen=True)
+class Web:
+    """Web of a webbed gear blank (SI): a thin annulus of axial ``thickness_m`` between the hub
+    (outer diameter ``inner_diameter_m``) and the rim (inner diameter ``outer_diameter_m``); hub and
+    rim keep the full face width.  Checks against the gear (bore, root, face width) are in
+    :class:`Gear`."""
+
+    thickness_m: float
+    inner_diameter_m: float
+    outer_diameter_m: float
+
+    def __post_init__(self) -> None:
+        _check_range("web.thickness_m", self.thickness_m, "m", 0.0, 2.0, lo_open=True)
+        _check_range("web.inner_diameter_m", self.inner_diameter_m, "m", 0.0, 40.0, lo_open=True)
+        _check_range("web.outer_diameter_m", self.outer_diameter_m, "m", 0.0, 40.0, lo_open=True)
+        if not self.inner_diameter_m < self.outer_diameter_m:
+            raise ModelError(
+                f"web.inner_diameter_m [m] = {self.inner_diameter_m:g} must be smaller than web.outer_diameter_m "
+                f"= {self.outer_diameter_m:g} m"
+            )
+
+    @property
+    def inner_radius_m(self) -> float:
+        return 0.5 * self.inner_diameter_m
+
+    @property
+    def outer_radius_m(self) -> float:
+        return 0.5 * self.outer_diameter_m
+
+
+@dataclass(frozen=True)
+class Gear:
+    """One gear (SI).  For helical gears, module, pressure angles and tooth thickness are transverse.
+
+    ``teeth``: number of teeth; ``internal``: ring gear (material outside the teeth);
+    ``tip_diameter_m`` / ``root_diameter_m``: for internal gears the tip diameter is the smaller one;
+    ``tooth_thickness_m``: circular tooth thickness on the reference circle; ``hob_tip_radius_m``: edge
+    radius of the generating tool tip; ``bore_diameter_m``: hub bore (inner boundary of the blank; for
+    internal gears the outer rim diameter); ``mass_kg``/``inertia_kgm2``: lumped values overriding the
+    values computed from the blank (None: computed); ``web``: a :class:`Web` (webbed blank: hub from the
+    bore to ``web.inner_diameter_m``, web of ``web.thickness_m``, full-width rim from ``web.outer_diameter_m``
+    to the root) or None (solid blank from the bore to the root).
+    """
+
+    name: str
+    teeth: int
+    module_m: float
+    tip_diameter_m: float
+    root_diameter_m: float
+    tooth_thickness_m: float
+    hob_tip_radius_m: float
+    face_width_m: float
+    bore_diameter_m: float
+    material: Material
+    flanks: Mapping[str, Flank]
+    internal: bool = False
+    helix_angle_rad: float = 0.0
+    axial_position_m: float = 0.0
+    lead_crowning_m: float = 0.0
+    tip_edge_radius_m: float = 0.0
+    mass_kg: float | None = None
+    inertia_kgm2: float | None = None
+    gauges: tuple[Gauge, ...] = ()
+    support: Support = field(default_factory=Support)
+    web: Web | None = None
+
+    def __post_init__(self) -> None:
+        where = f"gear '{self.name}'"
+        if not isinstance(self.teeth, int) or self.teeth < 6 or self.teeth > 1000:
+            raise _fail("teeth", "-", "integer in [6, 1000]", self.teeth, where)
+        for name, unit, lo, hi in (
+            ("module_m", "m", 1e-4, 0.1),
+            ("tip_diameter_m", "m", 1e-3, 20.0),
+            ("root_diameter_m", "m", 1e-3, 20.0),
+            ("tooth_thickness_m", "m", 1e-5, 1.0),
+            ("hob_tip_radius_m", "m", 0.0, 0.05),
+            ("face_width_m", "m", 1e-4, 2.0),
+            ("bore_diameter_m", "m", 0.0, 40.0),
+            ("helix_angle_rad", "rad", -math.radians(45), math.radians(45)),
+            ("axial_position_m", "m", -1.0, 1.0),
+            ("lead_crowning_m", "m", 0.0, 1e-3),
+            ("tip_edge_radius_m", "m", 0.0, 0.01),
+        ):
+            try:
+                _check_range(name, float(getattr(self, name)), unit, lo, hi)
+            except ModelError as exc:
+                raise ModelError(f"{where}: {exc}") from None
+        for name in ("mass_kg", "inertia_kgm2"):
+            v = getattr(self, name)
+            if v is not None:
+                try:
+                    _check_range(name, v, "kg" if name == "mass_kg" else "kg*m^2", 0.0, None)
+                except ModelError as exc:
+                    raise ModelError(f"{where}: {exc}") from None
+        if set(self.flanks) != set(FLANKS):
+            raise ModelError(f"{where}: flanks must be exactly {FLANKS}, got {tuple(self.flanks)}")
+        d_ref = self.module_m * self.teeth
+        if self.internal:
+            if not self.tip_diameter_m < d_ref < self.root_diameter_m:
+                raise ModelError(
+                    f"{where}: internal gear needs tip_diameter < reference diameter {d_ref * 1e3:.3f} mm "
+                    f"< root_diameter; got tip {self.tip_diameter_m * 1e3:.3f} mm, root "
+                    f"{self.root_diameter_m * 1e3:.3f} mm"
+                )
+            if self.bore_diameter_m and self.bore_diameter_m <= self.root_diameter_m:
+                raise ModelError(
+                    f"{where}: bore_diameter [m] (outer rim diameter of an internal gear) = "
+                    f"{self.bore_diameter_m:g} must exceed root_diameter {self.root_diameter_m:g}"
+                )
+        else:
+            if not self.root_diameter_m < d_ref < self.tip_diameter_m:
+                raise ModelError(
+                    f"{where}: external gear needs root_diameter < reference diameter {d_ref * 1e3:.3f} mm "
+                    f"< tip_diameter; got root {self.root_diameter_m * 1e3:.3f} mm, tip "
+                    f"{self.tip_diameter_m * 1e3:.3f} mm"
+                )
+            if self.bore_diameter_m >= self.root_diameter_m:
+                raise ModelError(
+                    f"{where}: bore_diameter_m [m] = {self.bore_diameter_m:g} must be smaller than the root "
+                    f"diameter {self.root_diameter_m:g} m (allowed: [0, root_diameter))"
+                )
+        pitch = math.pi * self.module_m
+        if not 0.1 * pitch < self.tooth_thickness_m < 0.9 * pitch:
+            raise ModelError(
+                f"{where}: tooth_thickness_m [m] = {self.tooth_thickness_m:g} must lie within (0.1, 0.9) x "
+                f"circular pitch = ({0.1 * pitch:g}, {0.9 * pitch:g}) m"
+            )
+        names = [g.name for g in self.gauges]
+        if len(set(names)) != len(names):
+            raise ModelError(f"{where}: gauge names must be unique, got {names}")
+        if self.web is not None:
+            self._check_web(where)
+
+    def _check_web(self, where: str) -> None:
+        w = self.web
+        if not isinstance(w, Web):
+            raise ModelError(f"{where}: web must be a Web or None, got {type(w).__name__}")
+        if self.internal:
+            raise ModelError(f"{where}: web is not supported for internal gears (ring gears have no hub/web); "
+                             "remove [gears.web]")
+        if w.thickness_m > self.face_width_m * (1 + 1e-12):
+            raise ModelError(
+                f"{where}: web.thickness [mm] = {w.thickness_m * 1e3:g} exceeds the face width; allowed: "
+                f"(0, face_width = {self.face_width_m * 1e3:g}] mm"
+            )
+        if not w.inner_diameter_m > self.bore_diameter_m:
+            raise ModelError(
+                f"{where}: web.inner_diameter [mm] = {w.inner_diameter_m * 1e3:g} must exceed the bore diameter "
+                f"{self.bore_diameter_m * 1e3:g} mm (the hub lies between bore and web); allowed: "
+                f"(bore_diameter, web.outer_diameter) = ({self.bore_diameter_m * 1e3:g}, "
+                f"{w.outer_diameter_m * 1e3:g}) mm"
+            )
+        d_max = self.root_diameter_m - 2 * WEB_MIN_RIM_M
+        if w.outer_diameter_m > d_max * (1 + 1e-12):
+            raise ModelError(
+                f"{where}: web.outer_diameter [mm] = {w.outer_diameter_m * 1e3:g} leaves no rim below the root "
+                f"circle; allowed: (web.inner_diameter, root_diameter - {2e3 * WEB_MIN_RIM_M:g} mm] = "
+                f"({w.inner_diameter_m * 1e3:g}, {d_max * 1e3:g}] mm"
+            )
+
+    @property
+    def is_helical(self) -> bool:
+        return self.helix_angle_rad != 0.0
+
+    @property
+    def reference_radius_m(self) -> float:
+        return 0.5 * self.module_m * self.teeth
+
+
+@dataclass(frozen=True)
+class Mesh:
+    """A tooth mesh between ``gear_a`` (driver) and ``gear_b`` (driven).  ``flank_a``/``flank_b`` name
+    the flank of each gear that carries the load; ``center_distance_m`` None → derived from the
+    geometry (the zero-backlash centre distance, see geometry; planetary: the carrier radius);
+    ``line_of_centres_rad``: direction of the vector from gear_a's centre to gear_b's centre in the fixed
+    frame (counter-clockwise from the x axis), which places the gears of a train and sets the phase between
+    its meshes (:mod:`hacgear_core.geometry.train`)."""
+
+    name: str
+    gear_a: str
+    gear_b: str
+    flank_a: str = "drive"
+    flank_b: str = "drive"
+    center_distance_m: float | None = None
+    line_of_centres_rad: float = 0.0
+
+    def __post_init__(self) -> None:
+        for attr in ("flank_a", "flank_b"):
+            if getattr(self, attr) not in FLANKS:
+                raise _fail(attr, "", " | ".join(FLANKS), getattr(self, attr), f"mesh '{self.name}'")
+        if self.gear_a == self.gear_b:
+            raise ModelError(f"mesh '{self.name}': gear_a and gear_b must differ, both are '{self.gear_a}'")
+        if self.center_distance_m is not None:
+            _check_range("center_distance_m", self.center_distance_m, "m", 0.0, 20.0, lo_open=True)
+        _check_range("line_of_centres_rad", self.line_of_centres_rad, "rad", -2 * math.pi, 2 * math.pi)
+
+
+@dataclass(frozen=True)
+class Damping:
+    """Viscous damping as a modal damping ratio (-) applied to every elastic mode of the linearised
+    system (rigid-body rotation undamped)."""
+
+    modal_damping_ratio: float = 0.02
+
+    def __post_init__(self) -> None:
+        _check_range("modal_damping_ratio", self.modal_damping_ratio, "-", 0.0, 1.0)
+
+
+@dataclass(frozen=True)
+class Operating:
+    """Nominal operating point: ``torque_Nm`` applied on gear ``torque_gear``."""
+
+    torque_Nm: float
+    torque_gear: str
+
+    def __post_init__(self) -> None:
+        _check_range("torque_Nm", self.torque_Nm, "N*m", 0.0, 1e7, lo_open=True)
+
+
+@dataclass(frozen=True)
+class StaticsGrid:
+    """Grids of the static analyses: ``positions`` per mesh cycle, ``loads`` from 0 to
+    ``max_torque_factor`` x nominal torque, ``deflections`` points of the regular FDF deflection grid,
+    ``face_slices`` slices across the face width (crowning, helix), ``twist_points`` (helical)."""
+
+    positions: int = 64
+    loads: int = 32
+    deflections: int = 64
+    max_torque_factor: float = 3.0
+    face_slices: int = 21
+    twist_points: int = 1
+
+    def __post_init__(self) -> None:
+        for name, lo, hi in (
+            ("positions", 4, 4096),
+            ("loads", 2, 1024),
+            ("deflections", 4, 4096),
+            ("face_slices", 1, 200),
+            ("twist_points", 1, 64),
+        ):
+            v = getattr(self, name)
+            if not isinstance(v, int) or not lo <= v <= hi:
+                raise _fail(name, "-", f"integer in [{lo}, {hi}]", v)
+        _check_range("max_torque_factor", self.max_torque_factor, "-", 1.0, 20.0)
+
+
+@dataclass(frozen=True)
+class Planetary:
+    """Planetary set options: ``planet_count`` equally spaced planets on ``carrier_radius_m``
+    (None: the sun-planet centre distance); carrier lumped mass/inertia and support."""
+
+    planet_count: int
+    carrier_radius_m: float | None = None
+    carrier_mass_kg: float = 0.0
+    carrier_inertia_kgm2: float = 0.0
+    carrier_support: Support = field(default_factory=Support)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.planet_count, int) or not 1 <= self.planet_count <= 12:
+            raise _fail("planet_count", "-", "integer in [1, 12]", self.planet_count)
+        if self.carrier_radius_m is not None:
+            _check_range("carrier_radius_m", self.carrier_radius_m, "m", 0.0, 10.0, lo_open=True)
+        _check_range("carrier_mass_kg", self.carrier_mass_kg, "kg", 0.0, None)
+        _check_range("carrier_inertia_kgm2", self.carrier_inertia_kgm2, "kg*m^2", 0.0, None)
+
+
+@dataclass(frozen=True)
+class Model:
+    """A whole gear system (SI).  ``path``/``sha256`` identify the model file it came from."""
+
+    name: str
+    kind: str
+    title: str
+    source: str
+    gears: tuple[Gear, ...]
+    meshes: tuple[Mesh, ...]
+    damping: Damping
+    operating: Operating
+    statics: StaticsGrid
+    planetary: Planetary | None = None
+    path: Path | None = None
+    sha256: str = ""
+
+    def __post_init__(self) -> None:
+        if self.kind not in SYSTEM_KINDS:
+            raise _fail("system.kind", "", " | ".join(SYSTEM_KINDS), self.kind)
+        names = [g.name for g in self.gears]
+        if len(set(names)) != len(names):
+            raise ModelError(f"gear names must be unique, got {names}")
+        mnames = [m.name for m in self.meshes]
+        if len(set(mnames)) != len(mnames):
+            raise ModelError(f"mesh names must be unique, got {mnames}")
+        for m in self.meshes:
+            for attr in ("gear_a", "gear_b"):
+                if getattr(m, attr) not in names:
+                    raise ModelError(
+                        f"meshes.{m.name}.{attr} = {getattr(m, attr)!r} names no gear; allowed: {names}"
+                    )
+            ga, gb = self.gear(m.gear_a), self.gear(m.gear_b)
+            if ga.internal and gb.internal:
+                raise ModelError(f"mesh '{m.name}': two internal gears cannot mesh")
+            if abs(ga.module_m - gb.module_m) > 1e-9:
+                raise ModelError(
+                    f"mesh '{m.name}': module_mm differs between '{ga.name}' ({ga.module_m * 1e3:g} mm) and "
+                    f"'{gb.name}' ({gb.module_m * 1e3:g} mm); meshing gears need the same module"
+                )
+            pa = ga.flanks[m.flank_a].pressure_angle_rad
+            pb = gb.flanks[m.flank_b].pressure_angle_rad
+            if abs(pa - pb) > 1e-9:
+                raise ModelError(
+                    f"mesh '{m.name}': pressure_angle_deg of {ga.name}.{m.flank_a} ({math.degrees(pa):g} deg) "
+                    f"differs from {gb.name}.{m.flank_b} ({math.degrees(pb):g} deg); the loaded flanks must "
+                    "be cut by the same rack"
+                )
+            if abs(ga.helix_angle_rad + gb.helix_angle_rad) > 1e-9 and not (ga.internal or gb.internal):
+                raise ModelError(
+                    f"mesh '{m.name}': external helical gears need opposite helix angles, got "
+                    f"{math.degrees(ga.helix_angle_rad):g} and {math.degrees(gb.helix_angle_rad):g} deg"
+                )
+        if self.operating.torque_gear not in names:
+            raise ModelError(f"operating.torque_gear = {self.operating.torque_gear!r} names no gear; allowed: {names}")
+        expected_meshes = {"spur_pair": 1, "helical_pair": 1, "idler_chain": None, "planetary": 2}
+        n = expected_meshes[self.kind]
+        if n is not None and len(self.meshes) != n:
+            raise ModelError(f"system.kind = '{self.kind}' needs exactly {n} [[meshes]], found {len(self.meshes)}")
+        if self.kind == "planetary" and self.planetary is None:
+            raise ModelError("system.kind = 'planetary' needs a [planetary] table (planet_count)")
+        if self.kind != "planetary" and self.planetary is not None:
+            raise ModelError(f"[planetary] is only allowed for kind 'planetary', not '{self.kind}'")
+        if self.kind == "helical_pair" and not any(g.is_helical for g in self.gears):
+            raise ModelError("system.kind = 'helical_pair' needs gears with helix_angle_deg != 0")
+        if self.kind in ("spur_pair", "idler_chain", "planetary") and any(g.is_helical for g in self.gears):
+            raise ModelError(f"system.kind = '{self.kind}' is spur: helix_angle_deg must be 0")
+
+    def gear(self, name: str) -> Gear:
+        for g in self.gears:
+            if g.name == name:
+                return g
+        raise ModelError(f"no gear named {name!r}; gears: {[g.name for g in self.gears]}")
+
+    def mesh(self, name: str | None = None) -> Mesh:
+        """The mesh called ``name`` (None: the first mesh)."""
+        if name is None:
+            return self.meshes[0]
+        for m in self.meshes:
+            if m.name == name:
+                return m
+        raise ModelError(f"no mesh named {name!r}; meshes: {[m.name for m in self.meshes]}")
+
+    @property
+    def folder(self) -> Path | None:
+        return None if self.path is None else self.path.parent
+
+    @property
+    def tables_path(self) -> Path | None:
+        """Default location of the tables file, ``models/<system>/tables.h5``."""
+        return None if self.path is None else self.path.parent / "tables.h5"

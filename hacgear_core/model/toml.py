@@ -1,0 +1,455 @@
+"""Model files: ``models/<system>/model.toml`` (TOML, unit-suffixed keys) → :mod:`~hacgear_core.model.schema` (SI).
+
+A model file describes one gear system: its kind, materials, gears, meshes, supports, damping,
+operating point and the grids of the static analyses.  Keys carry their unit in the name when it is
+not SI (``module_mm``, ``tip_relief_um``, ``youngs_modulus_GPa``); the dataclasses hold SI values with
+the unit in the attribute name where it could be ambiguous (``module_m``, ``tip_relief_m``).
+
+Unknown keys, missing keys, wrong types and out-of-range values are each reported as one
+:class:`~hacgear_core.errors.ModelError` naming the file, the key, its unit and the allowed range.
+
+The format (one example per system lives in ``models/``)::
+
+    [system]
+    name = "spur_28t_asym"           # folder name
+    kind = "spur_pair"                # spur_pair | idler_chain | planetary | helical_pair
+    title = "..."                     # free text
+    source = "..."                    # where the numbers come from
+
+    [materials.steel]
+    density_kg_per_m3 = 7850.0
+    youngs_modulus_GPa = 201.5
+    poisson_ratio = 0.3
+
+    [[gears]]
+    name = "pinion"
+    teeth = 28
+    module_mm = 5.0                   # transverse module
+    tip_diameter_mm = 149.9           # internal gears: the (smaller) tip diameter
+    root_diameter_mm = 126.4
+    tooth_thickness_mm = 7.64         # circular (transverse) tooth thickness on the reference circle
+    hob_tip_radius_mm = 0.4           # edge radius of the cutting tool tip (shapes the trochoidal fillet)
+    face_width_mm = 15.0
+    bore_diameter_mm = 40.0
+    material = "steel"
+    [gears.web]                       # optional: webbed blank (absent: solid disk from bore to root)
+    thickness_mm = 5.0                # web thickness, (0, face_width_mm]
+    inner_diameter_mm = 60.0          # hub outer diameter, (bore_diameter_mm, outer_diameter_mm)
+    outer_diameter_mm = 105.0         # rim inner diameter, <= root_diameter_mm - 2 mm
+    [gears.drive]                     # flank named "drive" (counter-clockwise side of tooth 0)
+    pressure_angle_deg = 25.0
+    tip_relief_um = 47.0
+    tip_relief_start_roll_deg = 28.54
+    tip_relief_shape = "parabolic"    # none | linear | parabolic
+    [gears.coast]
+    pressure_angle_deg = 20.0
+    [[gears.gauges]]
+    name = "SG2"; flank = "drive"; radius_mm = 64.051
+    [gears.support]
+    translational_stiffness_N_per_m = inf   # inf: rigid (purely rotational model)
+
+    [[meshes]]
+    name = "m12"; gear_a = "pinion"; gear_b = "wheel"; flank_a = "drive"; flank_b = "drive"
+
+    [damping]
+    modal_damping_ratio = 0.02
+
+    [operating]
+    torque_Nm = 300.0; torque_gear = "pinion"
+
+    [statics]
+    positions = 64; loads = 32; max_torque_factor = 3.0
+"""
+
+
+from __future__ import annotations
+
+import hashlib
+import math
+import tomllib
+from importlib import resources as _resources
+from pathlib import Path
+from typing import Any, Callable
+
+from hacgear_core.errors import ModelError
+from hacgear_core.model.schema import (
+    FLANKS, RELIEF_SHAPES, SYSTEM_KINDS, WEB_MIN_RIM_M, Damping, Flank, Gauge, Gear, Material, Mesh, Model,
+    Operating, Planetary, StaticsGrid, Support, Web,
+)
+
+__all__ = ["load_model", "parse_model", "model_sha256", "resolve_model_path", "shipped_systems", "shipped_systems_dir"]
+
+_INF = math.inf
+
+# --------------------------------------------------------------------------------------------
+# TOML reader with precise errors
+# --------------------------------------------------------------------------------------------
+class _Section:
+    """Pops typed keys from one TOML table and reports unknown keys at the end."""
+
+    def __init__(self, data: Any, path: str, file: str) -> None:
+        self.file = file
+        self.path = path
+        if not isinstance(data, dict):
+            raise self.error(path, "", "a table", f"a {type(data).__name__}")
+        self.data = dict(data)
+
+    def key(self, name: str) -> str:
+        return f"{self.path}.{name}" if self.path else name
+
+    def error(self, key: str, unit: str, allowed: str, got: Any, problem: str = "") -> ModelError:
+        unit_txt = f" [{unit}]" if unit else ""
+        what = problem or f"got {got!r}"
+        return ModelError(f"{self.file}: key '{key}'{unit_txt}: {what}; allowed: {allowed}")
+
+    def _get(self, name: str, required: bool, default: Any, unit: str, allowed: str) -> Any:
+        if name not in self.data:
+            if required:
+                raise self.error(self.key(name), unit, allowed, None, problem="missing required key")
+            return default
+        return self.data.pop(name)
+
+    def number(
+        self, name: str, unit: str, lo: float | None = None, hi: float | None = None, *, required: bool = True,
+        default: float | None = None, lo_open: bool = False, hi_open: bool = False, allow_inf: bool = False,
+    ) -> float | None:
+        lo_txt = "-inf" if lo is None else f"{lo:g}"
+        hi_txt = "inf" if hi is None else f"{hi:g}"
+        allowed = f"{'(' if lo_open or lo is None else '['}{lo_txt}, {hi_txt}{')' if hi_open or hi is None else ']'}"
+        if allow_inf:
+            allowed += " or inf"
+        v = self._get(name, required, default, unit, allowed)
+        if v is None:
+            return None
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise self.error(self.key(name), unit, f"a number in {allowed}", v, problem=f"wrong type {type(v).__name__} ({v!r})")
+        v = float(v)
+        if allow_inf and v == math.inf:
+            return v
+        bad = v != v or math.isinf(v)
+        if lo is not None:
+            bad |= v <= lo if lo_open else v < lo
+        if hi is not None:
+            bad |= v >= hi if hi_open else v > hi
+        if bad:
+            raise self.error(self.key(name), unit, allowed, v, problem=f"value {v:g} out of range")
+        return v
+
+    def integer(self, name: str, lo: int, hi: int, *, required: bool = True, default: int | None = None) -> int | None:
+        allowed = f"integer in [{lo}, {hi}]"
+        v = self._get(name, required, default, "-", allowed)
+        if v is None:
+            return None
+        if isinstance(v, bool) or not isinstance(v, int):
+            raise self.error(self.key(name), "-", allowed, v, problem=f"wrong type {type(v).__name__} ({v!r})")
+        if not lo <= v <= hi:
+            raise self.error(self.key(name), "-", allowed, v, problem=f"value {v} out of range")
+        return v
+
+    def string(self, name: str, choices: tuple[str, ...] | None = None, *, required: bool = True,
+               default: str | None = None) -> str | None:
+        allowed = " | ".join(choices) if choices else "a string"
+        v = self._get(name, required, default, "", allowed)
+        if v is None:
+            return None
+        if not isinstance(v, str):
+            raise self.error(self.key(name), "", allowed, v, problem=f"wrong type {type(v).__name__} ({v!r})")
+        if choices and v not in choices:
+            raise self.error(self.key(name), "", allowed, v, problem=f"unknown value {v!r}")
+        return v
+
+    def boolean(self, name: str, *, default: bool = False) -> bool:
+        v = self._get(name, False, default, "", "true | false")
+        if not isinstance(v, bool):
+            raise self.error(self.key(name), "", "true | false", v, problem=f"wrong type {type(v).__name__} ({v!r})")
+        return v
+
+    def table(self, name: str, *, required: bool = True) -> "_Section | None":
+        v = self._get(name, required, None, "", "a table")
+        if v is None:
+            return None
+        return _Section(v, self.key(name), self.file)
+
+    def array_of_tables(self, name: str, *, required: bool = True) -> list["_Section"]:
+        v = self._get(name, required, [], "", "an array of tables [[...]]")
+        if not isinstance(v, list) or not all(isinstance(x, dict) for x in v):
+            raise self.error(self.key(name), "", f"an array of tables [[{self.key(name)}]]", v,
+                             problem="wrong type")
+        return [_Section(x, f"{self.key(name)}[{i}]", self.file) for i, x in enumerate(v)]
+
+    def done(self, allowed: tuple[str, ...]) -> None:
+        if self.data:
+            unknown = sorted(self.data)
+            raise ModelError(
+                f"{self.file}: unknown key '{self.key(unknown[0])}' in [{self.path or 'top level'}]; allowed keys: "
+                f"{', '.join(sorted(allowed))}"
+            )
+
+
+_MATERIAL_KEYS = ("density_kg_per_m3", "youngs_modulus_GPa", "poisson_ratio")
+_FLANK_KEYS = ("pressure_angle_deg", "tip_relief_um", "tip_relief_start_roll_deg", "tip_relief_shape")
+_GAUGE_KEYS = ("name", "flank", "radius_mm")
+_SUPPORT_KEYS = (
+    "translational_stiffness_N_per_m", "rotational_stiffness_Nm_per_rad", "axial_stiffness_N_per_m",
+    "tilting_stiffness_Nm_per_rad",
+)
+_GEAR_KEYS = (
+    "name", "teeth", "module_mm", "tip_diameter_mm", "root_diameter_mm", "tooth_thickness_mm", "hob_tip_radius_mm",
+    "face_width_mm", "bore_diameter_mm", "material", "internal", "helix_angle_deg", "axial_position_mm",
+    "lead_crowning_um", "tip_edge_radius_mm", "mass_kg", "inertia_kgm2", "drive", "coast", "gauges", "support",
+    "web",
+)
+_WEB_KEYS = ("thickness_mm", "inner_diameter_mm", "outer_diameter_mm")
+_MESH_KEYS = ("name", "gear_a", "gear_b", "flank_a", "flank_b", "center_distance_mm", "line_of_centres_deg")
+_TOP_KEYS = ("system", "materials", "gears", "meshes", "damping", "operating", "statics", "planetary")
+
+
+def _wrap(sec: _Section, key: str, fn: Callable[[], Any]) -> Any:
+    """Re-raise a dataclass validation error with the file and the TOML key prefix."""
+    try:
+        return fn()
+    except ModelError as exc:
+        msg = str(exc)
+        if msg.startswith(sec.file):
+            raise
+        raise ModelError(f"{sec.file}: [{key}] {msg}") from None
+
+
+def _read_flank(sec: _Section) -> Flank:
+    pa = sec.number("pressure_angle_deg", "deg", 5.0, 40.0)
+    relief = sec.number("tip_relief_um", "um", 0.0, 1000.0, required=False, default=0.0)
+    start = sec.number("tip_relief_start_roll_deg", "deg", 0.0, 89.0, required=False, default=0.0)
+    shape = sec.string("tip_relief_shape", RELIEF_SHAPES, required=False,
+                       default="parabolic" if relief > 0 else "none")
+    sec.done(_FLANK_KEYS)
+    if relief > 0 and start <= 0:
+        raise sec.error(sec.key("tip_relief_start_roll_deg"), "deg", "(0, 89]", start,
+                        problem="missing or zero while tip_relief_um > 0")
+    if relief > 0 and shape == "none":
+        raise sec.error(sec.key("tip_relief_shape"), "", "linear | parabolic", shape,
+                        problem="'none' while tip_relief_um > 0")
+    return _wrap(sec, sec.path, lambda: Flank(math.radians(pa), relief * 1e-6, math.radians(start), shape))
+
+
+def _read_support(ssec: "_Section | None") -> Support:
+    if ssec is None:
+        return Support()
+    support = Support(
+        ssec.number("translational_stiffness_N_per_m", "N/m", 0.0, None, required=False, default=_INF,
+                    allow_inf=True),
+        ssec.number("rotational_stiffness_Nm_per_rad", "N*m/rad", 0.0, None, required=False, default=0.0,
+                    allow_inf=True),
+        ssec.number("axial_stiffness_N_per_m", "N/m", 0.0, None, required=False, default=_INF, allow_inf=True),
+        ssec.number("tilting_stiffness_Nm_per_rad", "N*m/rad", 0.0, None, required=False, default=_INF,
+                    allow_inf=True),
+    )
+    ssec.done(_SUPPORT_KEYS)
+    return support
+
+
+def _read_web(wsec: "_Section | None", face_mm: float, bore_mm: float, root_mm: float, internal: bool) -> Web | None:
+    """``[gears.web]`` → :class:`Web` (None when absent); bounds that depend on the gear are checked here so
+    that the message names the TOML key."""
+    if wsec is None:
+        return None
+    if internal:
+        raise wsec.error(wsec.path, "", "no [gears.web] on internal gears", "a table",
+                         problem="a web is not supported for internal (ring) gears")
+    rim = 2e3 * WEB_MIN_RIM_M
+
+    def num(key: str, allowed: str, ok: Callable[[float], bool]) -> float:
+        v = wsec._get(key, True, None, "mm", allowed)
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise wsec.error(wsec.key(key), "mm", allowed, v, problem=f"wrong type {type(v).__name__} ({v!r})")
+        v = float(v)
+        if v != v or not ok(v):
+            raise wsec.error(wsec.key(key), "mm", allowed, v, problem=f"value {v:g} out of range")
+        return v
+
+    d_max = root_mm - rim
+    t = num("thickness_mm", f"(0, face_width_mm = {face_mm:g}]", lambda v: 0.0 < v <= face_mm)
+    d_in = num("inner_diameter_mm", f"(bore_diameter_mm = {bore_mm:g}, root_diameter_mm - {rim:g} = {d_max:g})",
+               lambda v: bore_mm < v < d_max)
+    d_out = num("outer_diameter_mm", f"(web.inner_diameter_mm = {d_in:g}, root_diameter_mm - {rim:g} = {d_max:g}] "
+                f"(a rim of at least {rim / 2:g} mm must remain below the root circle)",
+                lambda v: d_in < v <= d_max)
+    wsec.done(_WEB_KEYS)
+    return Web(t * 1e-3, d_in * 1e-3, d_out * 1e-3)
+
+
+def _read_gear(sec: _Section, materials: dict[str, Material]) -> Gear:
+    name = sec.string("name")
+    teeth = sec.integer("teeth", 6, 1000)
+    module = sec.number("module_mm", "mm", 0.1, 100.0)
+    internal = sec.boolean("internal", default=False)
+    tip = sec.number("tip_diameter_mm", "mm", 1.0, 20000.0)
+    root = sec.number("root_diameter_mm", "mm", 1.0, 20000.0)
+    thick = sec.number("tooth_thickness_mm", "mm", 0.01, 1000.0)
+    hob = sec.number("hob_tip_radius_mm", "mm", 0.0, 50.0, required=False, default=0.25 * module)
+    face = sec.number("face_width_mm", "mm", 0.1, 2000.0)
+    bore = sec.number("bore_diameter_mm", "mm", 0.0, 40000.0, required=False, default=0.0)
+    mat_name = sec.string("material")
+    if mat_name not in materials:
+        raise sec.error(sec.key("material"), "", " | ".join(sorted(materials)) or "(no [materials] defined)",
+                        mat_name, problem=f"unknown material {mat_name!r}")
+    helix = sec.number("helix_angle_deg", "deg", -45.0, 45.0, required=False, default=0.0)
+    axial = sec.number("axial_position_mm", "mm", -1000.0, 1000.0, required=False, default=0.0)
+    crown = sec.number("lead_crowning_um", "um", 0.0, 1000.0, required=False, default=0.0)
+    tip_edge = sec.number("tip_edge_radius_mm", "mm", 0.0, 10.0, required=False, default=0.0)
+    mass = sec.number("mass_kg", "kg", 0.0, None, required=False, default=None)
+    inertia = sec.number("inertia_kgm2", "kg*m^2", 0.0, None, required=False, default=None)
+    drive = _read_flank(sec.table("drive"))
+    coast_sec = sec.table("coast", required=False)
+    coast = _read_flank(coast_sec) if coast_sec is not None else drive
+    gauges = []
+    for gsec in sec.array_of_tables("gauges", required=False):
+        gname = gsec.string("name")
+        gflank = gsec.string("flank", FLANKS)
+        grad = gsec.number("radius_mm", "mm", 0.0, 20000.0, lo_open=True)
+        gsec.done(_GAUGE_KEYS)
+        gauges.append(Gauge(gname, gflank, grad * 1e-3))
+    support = _read_support(sec.table("support", required=False))
+    web = _read_web(sec.table("web", required=False), face, bore, root, internal)
+    sec.done(_GEAR_KEYS)
+    return _wrap(sec, sec.path, lambda: Gear(
+        name=name, teeth=teeth, module_m=module * 1e-3, tip_diameter_m=tip * 1e-3, root_diameter_m=root * 1e-3,
+        tooth_thickness_m=thick * 1e-3, hob_tip_radius_m=hob * 1e-3, face_width_m=face * 1e-3,
+        bore_diameter_m=bore * 1e-3, material=materials[mat_name], flanks={"drive": drive, "coast": coast},
+        internal=internal, helix_angle_rad=math.radians(helix), axial_position_m=axial * 1e-3,
+        lead_crowning_m=crown * 1e-6, tip_edge_radius_m=tip_edge * 1e-3, mass_kg=mass, inertia_kgm2=inertia,
+        gauges=tuple(gauges), support=support, web=web,
+    ))
+
+
+def model_sha256(path: str | Path) -> str:
+    """SHA-256 (hex) of the model file's bytes: the key that ties tables to their model."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def parse_model(text: str, *, file: str = "<model>", path: Path | None = None, sha256: str = "") -> Model:
+    """Parse TOML text of a model file into a validated :class:`Model` (SI)."""
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ModelError(f"{file}: not valid TOML: {exc}") from None
+    top = _Section(raw, "", file)
+
+    sys_sec = top.table("system")
+    name = sys_sec.string("name")
+    kind = sys_sec.string("kind", SYSTEM_KINDS)
+    title = sys_sec.string("title", required=False, default="")
+    source = sys_sec.string("source", required=False, default="")
+    sys_sec.done(("name", "kind", "title", "source"))
+
+    materials: dict[str, Material] = {}
+    mats = top.table("materials")
+    for mname in list(mats.data):
+        msec = _Section(mats.data.pop(mname), f"materials.{mname}", file)
+        rho = msec.number("density_kg_per_m3", "kg/m^3", 100.0, 30000.0)
+        e_gpa = msec.number("youngs_modulus_GPa", "GPa", 1.0, 1000.0)
+        nu = msec.number("poisson_ratio", "-", 0.0, 0.5, required=False, default=0.3, hi_open=True)
+        msec.done(_MATERIAL_KEYS)
+        materials[mname] = Material(mname, rho, e_gpa * 1e9, nu)
+    if not materials:
+        raise top.error("materials", "", "at least one [materials.<name>] table", {}, problem="no material defined")
+
+    gears = tuple(_read_gear(s, materials) for s in top.array_of_tables("gears"))
+    if not gears:
+        raise top.error("gears", "", "at least two [[gears]]", [], problem="no gear defined")
+
+    meshes = []
+    for msec in top.array_of_tables("meshes"):
+        mname = msec.string("name")
+        ga = msec.string("gear_a")
+        gb = msec.string("gear_b")
+        fa = msec.string("flank_a", FLANKS, required=False, default="drive")
+        fb = msec.string("flank_b", FLANKS, required=False, default="drive")
+        cd = msec.number("center_distance_mm", "mm", 0.0, 20000.0, required=False, default=None, lo_open=True)
+        loc = msec.number("line_of_centres_deg", "deg", -360.0, 360.0, required=False, default=0.0)
+        msec.done(_MESH_KEYS)
+        meshes.append(_wrap(msec, msec.path, lambda: Mesh(mname, ga, gb, fa, fb, None if cd is None else cd * 1e-3,
+                                                                    math.radians(loc))))
+
+    dsec = top.table("damping", required=False)
+    if dsec is not None:
+        damping = Damping(dsec.number("modal_damping_ratio", "-", 0.0, 1.0))
+        dsec.done(("modal_damping_ratio",))
+    else:
+        damping = Damping()
+
+    osec = top.table("operating")
+    torque = osec.number("torque_Nm", "N*m", 0.0, 1e7, lo_open=True)
+    tgear = osec.string("torque_gear", required=False, default=gears[0].name)
+    osec.done(("torque_Nm", "torque_gear"))
+    operating = Operating(torque, tgear)
+
+    ssec = top.table("statics", required=False)
+    if ssec is not None:
+        statics = StaticsGrid(
+            positions=ssec.integer("positions", 4, 4096, required=False, default=64),
+            loads=ssec.integer("loads", 2, 1024, required=False, default=32),
+            deflections=ssec.integer("deflections", 4, 4096, required=False, default=64),
+            max_torque_factor=ssec.number("max_torque_factor", "-", 1.0, 20.0, required=False, default=3.0),
+            face_slices=ssec.integer("face_slices", 1, 200, required=False, default=21),
+            twist_points=ssec.integer("twist_points", 1, 64, required=False, default=1),
+        )
+        ssec.done(("positions", "loads", "deflections", "max_torque_factor", "face_slices", "twist_points"))
+    else:
+        statics = StaticsGrid()
+
+    psec = top.table("planetary", required=False)
+    planetary = None
+    if psec is not None:
+        pc = psec.integer("planet_count", 1, 12)
+        cr = psec.number("carrier_radius_mm", "mm", 0.0, 10000.0, required=False, default=None, lo_open=True)
+        cm = psec.number("carrier_mass_kg", "kg", 0.0, None, required=False, default=0.0)
+        ci = psec.number("carrier_inertia_kgm2", "kg*m^2", 0.0, None, required=False, default=0.0)
+        cs = _read_support(psec.table("carrier_support", required=False))
+        psec.done(("planet_count", "carrier_radius_mm", "carrier_mass_kg", "carrier_inertia_kgm2", "carrier_support"))
+        planetary = Planetary(pc, None if cr is None else cr * 1e-3, cm, ci, cs)
+
+    top.done(_TOP_KEYS)
+    try:
+        return Model(
+            name=name, kind=kind, title=title, source=source, gears=gears, meshes=tuple(meshes), damping=damping,
+            operating=operating, statics=statics, planetary=planetary, path=path, sha256=sha256,
+        )
+    except ModelError as exc:
+        raise ModelError(f"{file}: {exc}") from None
+
+
+def shipped_systems_dir() -> Path:
+    """Folder of the shipped gear systems (the package data ``hacgear_core.systems``, ``models/`` of the checkout)."""
+    return Path(str(_resources.files("hacgear_core.systems")))
+
+
+def shipped_systems() -> tuple[str, ...]:
+    """Names of the shipped gear systems."""
+    base = shipped_systems_dir()
+    return tuple(sorted(d.name for d in base.iterdir() if (d / "model.toml").is_file()))
+
+
+def resolve_model_path(model: str | Path) -> Path:
+    """Accept a model file, its folder, or a system name (``./models/<name>`` first, then the shipped systems)."""
+    p = Path(model)
+    if p.is_dir():
+        p = p / "model.toml"
+    if p.exists():
+        return p.resolve()
+    for base in (Path.cwd() / "models", shipped_systems_dir()):
+        cand = base / str(model) / "model.toml"
+        if cand.exists():
+            return cand.resolve()
+    raise ModelError(f"model file not found: {model!r} (give models/<system>/model.toml, its folder, or a system name; "
+                     f"shipped systems: {', '.join(shipped_systems())})")
+
+
+def load_model(model: str | Path) -> Model:
+    """Read and validate a model file (path, folder or system name) → :class:`Model`."""
+    path = resolve_model_path(model)
+    data = path.read_bytes()
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError:
+        raise ModelError(f"{path}: model file is not UTF-8 text") from None
+    return parse_model(text, file=str(path), path=path, sha256=hashlib.sha256(data).hexdigest())

@@ -1,0 +1,135 @@
+"""What a static contact solver of one mesh returns and must provide (the protocol the statics grid uses)."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable, Protocol, runtime_checkable
+
+import numpy as np
+
+from hacgear_core.errors import SolverError
+
+__all__ = ["StaticSolution", "MeshStaticSolver", "SolverFactory", "MeshInfo", "describe_solver"]
+
+# Solver protocol
+# ---------------------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class StaticSolution:
+    """Result of one static contact solve of one mesh (SI).  ``Nw`` = number of tooth offsets.
+
+    Attributes
+    ----------
+    success, message, iterations
+        solver outcome; ``success=False`` aborts a statics run with the message.
+    position : float
+        mesh position [mesh cycles].
+    mesh_force_N : float
+        total mesh force along the line of action [N].
+    mesh_deflection_m : float
+        mesh deflection ``x = r_b1 θ1 + r_b2 θ2 (+ y1 − y2)`` [m].
+    tooth_load_N : (Nw,) array
+        load of each tooth pair (offset k of :attr:`MeshStaticSolver.tooth_offsets`) [N].
+    contact_roll_deg : (Nw,) array
+        roll angle of the contact on gear_b's loaded flank [deg]; NaN where the pair is unloaded.
+    half_width_m : (Nw,) array
+        Hertzian contact half-width [m] (0 where unloaded).
+    peak_pressure_Pa : (Nw,) array
+        maximum contact pressure of each pair [Pa] (0 where unloaded).
+    strain : dict gauge → (Nw,) array
+        strain [-] at gauge ``"<gear>/<gauge>"`` on the tooth belonging to pair offset k.
+    stress : dict gauge → (Nw,) array
+        surface stress along the profile [Pa] at the same gauges (empty when the solver gives none).
+    contact_s_m : (Nw, 2) array or None
+        profile coordinate of the contact (arc length from the tip) on gear_a's and gear_b's loaded flank
+        [m]; NaN where the pair is unloaded (None when the solver gives none).
+    hub_reaction : dict gear → (3,) array
+        generalized mesh force on each gear ``[Fx N, Fy N, Mz N·m]``.
+    """
+
+    success: bool
+    message: str
+    iterations: int
+    position: float
+    mesh_force_N: float
+    mesh_deflection_m: float
+    tooth_load_N: np.ndarray
+    contact_roll_deg: np.ndarray
+    half_width_m: np.ndarray
+    peak_pressure_Pa: np.ndarray
+    strain: dict[str, np.ndarray] = field(default_factory=dict)
+    hub_reaction: dict[str, np.ndarray] = field(default_factory=dict)
+    stress: dict[str, np.ndarray] = field(default_factory=dict)
+    contact_s_m: np.ndarray | None = None
+
+
+@runtime_checkable
+class MeshStaticSolver(Protocol):
+    """What the statics grid needs from a static contact solver of one mesh.
+
+    ``position`` is the mesh position in mesh cycles (an integer = pitch-point contact of the reference
+    tooth pair, offset 0).  Tooth offset ``k`` is the pair that reaches the pitch point ``k`` mesh
+    cycles after the reference pair (``+1`` = next pair to come into mesh).  Results must be periodic:
+    the state at ``position + 1`` equals the state at ``position`` with offsets shifted by one.
+    ``solve_position`` is optional: a batch of all loads and deflections at one position, reusing the
+    per-position set-up; when absent the grid calls ``solve_load``/``solve_deflection`` one by one.
+    """
+
+    mesh_name: str
+    gear_names: tuple[str, str]
+    teeth: tuple[int, int]
+    base_radius_m: tuple[float, float]
+    tooth_offsets: np.ndarray
+    gauge_names: tuple[str, ...]
+
+    def no_load_deflection(self, position: float) -> float: ...
+
+    def solve_load(self, position: float, mesh_force_N: float) -> StaticSolution: ...
+
+    def solve_deflection(self, position: float, mesh_deflection_m: float) -> StaticSolution: ...
+
+
+#: a picklable callable without arguments returning a :class:`MeshStaticSolver`
+SolverFactory = Callable[[], MeshStaticSolver]
+
+
+@dataclass(frozen=True)
+class MeshInfo:
+    """Static description of a mesh solver (what the table layout needs)."""
+
+    mesh_name: str
+    gear_names: tuple[str, str]
+    teeth: tuple[int, int]
+    base_radius_m: tuple[float, float]
+    tooth_offsets: tuple[int, ...]
+    gauge_names: tuple[str, ...]
+    description: str
+
+
+def describe_solver(solver: MeshStaticSolver) -> MeshInfo:
+    """Check that ``solver`` follows :class:`MeshStaticSolver` and return its :class:`MeshInfo`."""
+    missing = [a for a in ("mesh_name", "gear_names", "teeth", "base_radius_m", "tooth_offsets", "gauge_names",
+                           "no_load_deflection", "solve_load", "solve_deflection") if not hasattr(solver, a)]
+    if missing:
+        raise SolverError(f"{type(solver).__name__} does not follow the MeshStaticSolver protocol: missing {missing}")
+    offsets = tuple(int(k) for k in np.asarray(solver.tooth_offsets).ravel())
+    if not offsets or len(set(offsets)) != len(offsets) or list(offsets) != sorted(offsets):
+        raise SolverError(f"solver.tooth_offsets must be distinct increasing integers, got {offsets}")
+    gauges = tuple(str(g) for g in solver.gauge_names)
+    for g in gauges:
+        if g.count("/") != 1 or not all(g.split("/")):
+            raise SolverError(f"gauge name {g!r} must read '<gear>/<gauge>'")
+    rb = tuple(float(r) for r in solver.base_radius_m)
+    if len(rb) != 2 or not all(r > 0 and math.isfinite(r) for r in rb):
+        raise SolverError(f"solver.base_radius_m must be two positive radii [m], got {rb}")
+    return MeshInfo(
+        mesh_name=str(solver.mesh_name),
+        gear_names=tuple(str(g) for g in solver.gear_names),
+        teeth=tuple(int(z) for z in solver.teeth),
+        base_radius_m=rb,
+        tooth_offsets=offsets,
+        gauge_names=gauges,
+        description=str(getattr(solver, "description", type(solver).__name__)),
+    )
+
+
+# ---------------------------------------------------------------------------------------------

@@ -1,0 +1,496 @@
+"""Grids of static contact analyses → ``tables.h5``, in parallel over mesh positions, resumable.
+
+The static contact solver (:mod:`hacgear_core.statics.contact`) answers one question at a time: *at mesh
+position p, with mesh force F (load control) or mesh deflection x (deflection control), what is the
+loaded state?*  This module asks it many times, in parallel over mesh positions, and writes the answers
+incrementally into an HDF5 file laid out by :mod:`hacgear_core.tables`:
+
+phase 1 (load control)
+    at every position: the no-load mesh deflection (NLMD) and the static mesh deflection for every load
+    of the load grid (0 … ``max_torque_factor`` × nominal mesh force);
+deflection grid
+    one regular grid for all positions, chosen from the phase-1 results (:func:`deflection_grid`);
+phase 2 (deflection control)
+    at every position and every grid deflection above the NLMD: mesh force (the force-deflection
+    function, FDF), tooth loads, contact roll angles, half-widths, peak pressure, gauge strains
+    (the strain-deflection functions) and hub reactions.  Below the NLMD everything is zero (NaN roll
+    angle): the teeth do not touch.
+
+Each position's results are written into the (pre-allocated) HDF5 file as soon as they arrive, flushed,
+and only then flagged done; a run killed at any moment and restarted with ``resume=True`` skips every
+position already flagged and recomputes nothing else.  The file is built under ``<out>.partial`` and
+renamed to ``<out>`` when complete, so ``<out>`` only ever holds a complete table.
+
+Solvers
+-------
+Any object following :class:`MeshStaticSolver` works; workers build their own through a *picklable*
+zero-argument factory (:class:`ModelSolverFactory` for model files; any picklable callable in tests),
+so any :class:`concurrent.futures.Executor` can run the grid: a process pool (default), a thread pool,
+or a Dask cluster via ``distributed.Client.get_executor()``.
+
+``solver="analytic"`` uses :class:`~hacgear_core.statics.reference.AnalyticPairSolver`, an analytical
+reference spring model (not the finite-element solver) that tests this machinery against closed forms.
+"""
+from __future__ import annotations
+
+import concurrent.futures as cf
+from concurrent.futures.process import BrokenProcessPool
+import math
+import os
+import pickle
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Mapping, Sequence
+
+import numpy as np
+
+from hacgear_core import tables as tb
+from hacgear_core.errors import ModelError, SolverError, TableError
+from hacgear_core.model import load_model
+from hacgear_core.statics.contact import make_mesh_solver
+from hacgear_core.statics.contract import MeshInfo, MeshStaticSolver, SolverFactory, StaticSolution, describe_solver
+from hacgear_core.statics.reference import AnalyticPairSolver
+
+__all__ = [
+    "ModelSolverFactory",
+    "StaticsReport",
+    "DEFAULT_DEFLECTION_MARGIN",
+    "deflection_grid",
+    "load_grid",
+    "nominal_mesh_forces",
+    "run_statics",
+    "compute_statics",
+]
+
+#: fraction of the static deflection range added above the largest static deflection (resonance margin)
+DEFAULT_DEFLECTION_MARGIN = 0.5
+
+
+@dataclass(frozen=True)
+class ModelSolverFactory:
+    """Picklable factory: reads the model file in the worker, checks it is byte-identical to the one
+    the run started from, and builds the solver of ``mesh_name`` (``solver`` = ``"fe"``:
+    :func:`~hacgear_core.statics.contact.make_mesh_solver`; ``"analytic"``: :meth:`AnalyticPairSolver.from_model`)."""
+
+    model_path: str
+    mesh_name: str
+    model_sha256: str
+    solver: str = "fe"
+
+    def __call__(self) -> MeshStaticSolver:
+        model = load_model(self.model_path)
+        if self.model_sha256 and model.sha256 != self.model_sha256:
+            raise TableError(f"{self.model_path} changed while `hacgear statics` was running "
+                             f"(sha256 {model.sha256[:12]}… != {self.model_sha256[:12]}…); start again")
+        if self.solver == "analytic":
+            return AnalyticPairSolver.from_model(model, self.mesh_name)
+        if self.solver != "fe":
+            raise SolverError(f"unknown solver {self.solver!r}; allowed: fe | analytic")
+        return make_mesh_solver(model, self.mesh_name)
+
+
+# ---------------------------------------------------------------------------------------------
+# Grids
+# ---------------------------------------------------------------------------------------------
+def nominal_mesh_forces(model: Any, base_radii: Mapping[str, tuple[float, float]]) -> dict[str, float]:
+    """Nominal mesh force of every mesh [N] from the operating torque ``model.operating``.
+
+    The mesh touching ``torque_gear`` carries ``T / r_b`` (divided by the planet count for planetary
+    sets, whose planets share the torque); the force then propagates through free gears (idlers,
+    planets) by their torque balance ``F_out = F_in · r_b,in / r_b,out``.  ``base_radii[mesh]`` are the
+    loaded-flank base radii ``(r_b of gear_a, r_b of gear_b)`` [m].
+    """
+    T, g0 = model.operating.torque_Nm, model.operating.torque_gear
+    share = model.planetary.planet_count if getattr(model, "planetary", None) is not None else 1
+    meshes = {m.name: m for m in model.meshes}
+    force: dict[str, float] = {}
+    frontier: list[tuple[str, float | None, float | None]] = [(g0, None, None)]  # gear, F_in, r_b,in
+    seen = {g0}
+    while frontier:
+        gear, f_in, rb_in = frontier.pop(0)
+        for name, m in meshes.items():
+            if name in force or gear not in (m.gear_a, m.gear_b):
+                continue
+            rb = base_radii[name][0 if m.gear_a == gear else 1]
+            f = T / rb / share if f_in is None else f_in * rb_in / rb
+            force[name] = f
+            other = m.gear_b if m.gear_a == gear else m.gear_a
+            if other not in seen:
+                seen.add(other)
+                frontier.append((other, f, base_radii[name][1 if m.gear_a == gear else 0]))
+    missing = [n for n in meshes if n not in force]
+    if missing:
+        raise ModelError(f"meshes {missing} carry no load from operating.torque_gear = '{g0}' (not connected)")
+    return force
+
+
+def load_grid(max_force_N: float, n_loads: int) -> np.ndarray:
+    """Regular load grid ``linspace(0, max_force_N, n_loads)`` [N] (load 0 → the NLMD)."""
+    if not (math.isfinite(max_force_N) and max_force_N > 0):
+        raise ModelError(f"maximum mesh force [N] = {max_force_N!r}; allowed: finite > 0")
+    if n_loads < 2:
+        raise ModelError(f"loads [-] = {n_loads}; allowed: integer >= 2")
+    return np.linspace(0.0, float(max_force_N), int(n_loads))
+
+
+def deflection_grid(no_load_deflection_m: np.ndarray, static_deflection_m: np.ndarray, n_deflections: int,
+                    margin: float = DEFAULT_DEFLECTION_MARGIN) -> np.ndarray:
+    """The regular FDF deflection grid [m] (rule of ``tables.h5``).
+
+    With ``x_b = min(0, min NLMD)`` and ``x_s = max static deflection`` (at the largest load, over all
+    positions)::
+
+        dx = (x_s − x_b)·(1 + margin) / (Nd − 2),   x_j = x_b − dx + j·dx,  j = 0 … Nd−1
+
+    i.e. the first column lies one step below every NLMD (force identically zero there, so the
+    extrapolation below the grid is zero as well) and the last one ``margin`` × the static range above
+    the largest static deflection, room for dynamic deflections near resonance.
+    """
+    nl = np.asarray(no_load_deflection_m, float)
+    sd = np.asarray(static_deflection_m, float)
+    if n_deflections < 4:
+        raise ModelError(f"deflections [-] = {n_deflections}; allowed: integer >= 4")
+    if not (margin >= 0 and math.isfinite(margin)):
+        raise ModelError(f"deflection_margin [-] = {margin!r}; allowed: finite >= 0")
+    if not (np.all(np.isfinite(nl)) and np.all(np.isfinite(sd))):
+        raise SolverError("no-load or static mesh deflections contain NaN/inf: cannot build the deflection grid")
+    xb = min(0.0, float(nl.min()))
+    xs = float(sd.max())
+    if not xs > xb:
+        raise SolverError(f"largest static mesh deflection {xs:g} m does not exceed the smallest NLMD {xb:g} m")
+    dx = (xs - xb) * (1.0 + margin) / (n_deflections - 2)
+    return xb - dx + dx * np.arange(n_deflections, dtype=float)
+
+
+# ---------------------------------------------------------------------------------------------
+# Worker side
+# ---------------------------------------------------------------------------------------------
+_LOCAL = threading.local()
+
+
+def _solver_for(factory: SolverFactory) -> MeshStaticSolver:
+    """The worker's solver for ``factory`` (built once per worker process/thread, then reused)."""
+    cache = getattr(_LOCAL, "solvers", None)
+    if cache is None:
+        cache = _LOCAL.solvers = {}
+    key = pickle.dumps(factory)
+    if key not in cache:
+        if len(cache) >= 8:
+            cache.clear()
+        cache[key] = factory()
+    return cache[key]
+
+
+def _describe_task(factory: SolverFactory) -> MeshInfo:
+    return describe_solver(_solver_for(factory))
+
+
+def _check(sol: StaticSolution, what: str, nw: int) -> None:
+    if not sol.success:
+        raise SolverError(f"static solve failed at {what}: {sol.message}")
+    if np.shape(sol.tooth_load_N) != (nw,):
+        raise SolverError(f"solver returned tooth_load_N of shape {np.shape(sol.tooth_load_N)} at {what}; "
+                          f"expected ({nw},) (one per tooth offset)")
+    if not (math.isfinite(sol.mesh_force_N) and math.isfinite(sol.mesh_deflection_m)):
+        raise SolverError(f"solver returned non-finite force/deflection at {what}")
+
+
+def _position_task(factory: SolverFactory, phase: int, mesh: str, ip: int, position: float,
+                   values: np.ndarray) -> tuple[str, int, int, dict[str, Any]]:
+    """One position of phase 1 (``values`` = loads [N]) or phase 2 (``values`` = deflections [m])."""
+    solver = _solver_for(factory)
+    info = describe_solver(solver)
+    nw = len(info.tooth_offsets)
+    values = np.asarray(values, float)
+    nlmd = float(solver.no_load_deflection(position))
+    if not math.isfinite(nlmd):
+        raise SolverError(f"mesh '{mesh}': no-load deflection is not finite at position {position}")
+    batch = getattr(solver, "solve_position", None)
+    if phase == 1:
+        todo = values[values > 0]
+        sols = batch(position, todo, np.empty(0))[0] if batch else [solver.solve_load(position, F) for F in todo]
+        out = np.full(values.shape, nlmd)
+        it = iter(sols)
+        for j, F in enumerate(values):
+            if F > 0:
+                sol = next(it)
+                _check(sol, f"mesh '{mesh}' position {position:.6g} (index {ip}) load {F:.6g} N", nw)
+                out[j] = sol.mesh_deflection_m
+        return mesh, phase, ip, {"no_load_deflection_m": nlmd, "static_deflection_m": out}
+    nd = values.size
+    res: dict[str, Any] = {
+        "force_N": np.zeros(nd),
+        "tooth_load_N": np.zeros((nd, nw)),
+        "contact_roll_deg": np.full((nd, nw), np.nan),
+        "half_width_m": np.zeros((nd, nw)),
+        "peak_pressure_Pa": np.zeros(nd),
+        "strain": {g: np.zeros((nd, nw)) for g in info.gauge_names},
+        "hub_reaction": {g: np.zeros((nd, 3)) for g in info.gear_names},
+    }
+    idx = np.nonzero(values > nlmd)[0]
+    sols = (batch(position, np.empty(0), values[idx])[1] if batch
+            else [solver.solve_deflection(position, values[j]) for j in idx])
+    for j, sol in zip(idx, sols):
+        _check(sol, f"mesh '{mesh}' position {position:.6g} (index {ip}) deflection {values[j]:.6g} m", nw)
+        res["force_N"][j] = sol.mesh_force_N
+        res["tooth_load_N"][j] = sol.tooth_load_N
+        res["contact_roll_deg"][j] = sol.contact_roll_deg
+        res["half_width_m"][j] = sol.half_width_m
+        pp = np.asarray(sol.peak_pressure_Pa, float)
+        res["peak_pressure_Pa"][j] = float(np.nanmax(pp)) if pp.size and np.any(np.isfinite(pp)) else 0.0
+        for g in info.gauge_names:
+            if g not in sol.strain:
+                raise SolverError(f"solver returned no strain for gauge {g!r} at mesh '{mesh}' position {position}")
+            res["strain"][g][j] = sol.strain[g]
+        for g in info.gear_names:
+            if g in sol.hub_reaction:
+                res["hub_reaction"][g][j] = sol.hub_reaction[g]
+    res["n_solves"] = int(idx.size)
+    return mesh, phase, ip, res
+
+
+# ---------------------------------------------------------------------------------------------
+# Driver
+# ---------------------------------------------------------------------------------------------
+@dataclass
+class StaticsReport:
+    """Outcome of :func:`run_statics` (counts are position tasks: one phase at one position)."""
+
+    success: bool
+    message: str
+    path: Path
+    tasks_total: int
+    tasks_computed: int
+    tasks_resumed: int
+    wall_s: float
+    meshes: dict[str, dict[str, float]] = field(default_factory=dict)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "success": self.success, "message": self.message, "path": str(self.path),
+            "tasks_total": self.tasks_total, "tasks_computed": self.tasks_computed,
+            "tasks_resumed": self.tasks_resumed, "wall_s": self.wall_s, "meshes": self.meshes,
+        }
+
+
+def _partial_path(out: Path) -> Path:
+    return out.with_name(out.name + ".partial")
+
+
+def run_statics(
+    factories: Mapping[str, SolverFactory],
+    out: str | Path,
+    *,
+    n_positions: int,
+    n_deflections: int,
+    loads_N: Mapping[str, Sequence[float]] | Callable[[dict[str, MeshInfo]], Mapping[str, Sequence[float]]],
+    deflection_margin: float = DEFAULT_DEFLECTION_MARGIN,
+    model_sha256: str = "",
+    model_file: str = "",
+    executor: cf.Executor | None = None,
+    workers: int | None = None,
+    resume: bool = False,
+    progress: bool = True,
+) -> StaticsReport:
+    """Run the static grid of every mesh and write ``out`` (HDF5, format of :mod:`hacgear_core.tables`).
+
+    Parameters
+    ----------
+    factories : mesh name → picklable zero-argument solver factory.
+    out : final path; the run writes ``<out>.partial`` and renames it when complete.
+    n_positions, n_deflections : grid sizes (positions ``k / n_positions`` of one mesh cycle).
+    loads_N : mesh name → load grid [N] (ascending, first value >= 0), or a function of the
+        :class:`MeshInfo` of all meshes returning that mapping.
+    deflection_margin : see :func:`deflection_grid`.
+    model_sha256, model_file : provenance written to the root attributes.
+    executor : any :class:`concurrent.futures.Executor`; None → a ``ProcessPoolExecutor`` with
+        ``workers`` processes (``spawn``), or in-process when ``workers == 1``.
+    resume : continue ``<out>.partial`` if it exists and matches these settings; positions flagged done
+        are not recomputed.
+    progress : show a tqdm progress bar (stderr).
+    """
+    t0 = time.perf_counter()
+    out = Path(out)
+    partial = _partial_path(out)
+    if n_positions < 2:
+        raise ModelError(f"positions [-] = {n_positions}; allowed: integer >= 2")
+    names = list(factories)
+    if not names:
+        raise ModelError("no mesh to analyse")
+    own_executor = None
+    if executor is None and (workers or os.cpu_count() or 1) > 1:
+        import multiprocessing as mp
+
+        own_executor = executor = cf.ProcessPoolExecutor(
+            max_workers=workers or os.cpu_count(), mp_context=mp.get_context("spawn"))
+    try:
+        # --- solver descriptions (in a worker, so the solver built there is reused) ----------
+        if executor is None:
+            infos = {m: _describe_task(factories[m]) for m in names}
+        else:
+            futs = {m: executor.submit(_describe_task, factories[m]) for m in names}
+            infos = {m: f.result() for m, f in futs.items()}
+        for m, info in infos.items():
+            if info.mesh_name != m:
+                raise SolverError(f"factory for mesh '{m}' built a solver of mesh '{info.mesh_name}'")
+        loads = loads_N(infos) if callable(loads_N) else loads_N
+        loads = {m: np.asarray(loads[m], float) for m in names}
+        for m, ld in loads.items():
+            if ld.ndim != 1 or ld.size < 2 or ld[0] < 0 or np.any(np.diff(ld) <= 0) or not np.all(np.isfinite(ld)):
+                raise ModelError(f"load grid of mesh '{m}' [N] must be >= 2 ascending finite values >= 0, got {ld}")
+        positions = np.arange(n_positions, dtype=float) / n_positions
+        layouts = {
+            m: tb.MeshLayout(
+                name=m, gear_names=infos[m].gear_names, teeth=infos[m].teeth,
+                base_radius_m=infos[m].base_radius_m, tooth_offsets=np.asarray(infos[m].tooth_offsets),
+                gauge_names=infos[m].gauge_names, position=positions, load_N=loads[m],
+                n_deflections=int(n_deflections), solver_description=infos[m].description,
+            )
+            for m in names
+        }
+        root_attrs = {
+            "model_sha256": model_sha256, "model_file": model_file,
+            "deflection_margin": float(deflection_margin),
+        }
+        if resume and not partial.exists() and out.exists():
+            done = tb.completed_table_matches(out, layouts, root_attrs)
+            if done:
+                total = 2 * n_positions * len(names)
+                return StaticsReport(True, f"{out} is already complete for these settings; nothing to do", out,
+                                     total, 0, total, time.perf_counter() - t0, done)
+        f, resumed_note = tb.open_statics_file(partial, layouts, root_attrs, resume=resume)
+        try:
+            return _run_phases(f, tb, factories, layouts, positions, executor, deflection_margin, progress,
+                               out, partial, t0, resumed_note)
+        finally:
+            if f.id.valid:
+                f.close()
+    except BaseException as exc:
+        if own_executor is not None:
+            own_executor.shutdown(wait=False, cancel_futures=True)
+            own_executor = None
+        if isinstance(exc, BrokenProcessPool):
+            raise SolverError(
+                f"a statics worker process died ({exc}); likely out of memory or killed. When calling "
+                "run_statics/compute_statics from a script, guard it with `if __name__ == '__main__':` (worker "
+                f"processes are spawned). Finished positions are kept in {partial}: continue with resume=True "
+                "(--resume)."
+            ) from None
+        raise
+    finally:
+        if own_executor is not None:
+            own_executor.shutdown(wait=True)
+
+
+def _run_phases(f, tb, factories, layouts, positions, executor, margin, progress, out, partial, t0, note):
+    names = list(layouts)
+    n_pos = len(positions)
+    total = 2 * n_pos * len(names)
+    done0 = sum(int(np.count_nonzero(f[f"meshes/{m}/{d}"][()])) for m in names
+                for d in ("done_loads", "done_deflections"))
+    computed = 0
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=total, initial=done0, desc="hacgear statics", unit="pos", dynamic_ncols=True)
+
+    def run(phase: int, jobs: list[tuple[str, int, np.ndarray]]) -> None:
+        nonlocal computed
+        if not jobs:
+            return
+        if executor is None:
+            results = (_position_task(factories[m], phase, m, ip, positions[ip], v) for m, ip, v in jobs)
+            for r in results:
+                tb.write_position(f, *r)
+                computed += 1
+                if bar is not None:
+                    bar.update(1)
+            return
+        futs = [executor.submit(_position_task, factories[m], phase, m, ip, positions[ip], v) for m, ip, v in jobs]
+        try:
+            for fut in cf.as_completed(futs):
+                tb.write_position(f, *fut.result())
+                computed += 1
+                if bar is not None:
+                    bar.update(1)
+        except BaseException:
+            for fu in futs:
+                fu.cancel()
+            raise
+
+    try:
+        jobs1 = [(m, ip, layouts[m].load_N) for m in names
+                 for ip in np.nonzero(f[f"meshes/{m}/done_loads"][()] == 0)[0]]
+        run(1, jobs1)
+        grids = {}
+        for m in names:
+            g = f[f"meshes/{m}"]
+            grid = deflection_grid(g["no_load_deflection_m"][()], g["static_deflection_m"][()],
+                                   layouts[m].n_deflections, margin)
+            tb.write_deflection_grid(f, m, grid)
+            grids[m] = grid
+        jobs2 = [(m, ip, grids[m]) for m in names
+                 for ip in np.nonzero(f[f"meshes/{m}/done_deflections"][()] == 0)[0]]
+        run(2, jobs2)
+    finally:
+        if bar is not None:
+            bar.close()
+    summary = {}
+    for m in names:
+        g = f[f"meshes/{m}"]
+        summary[m] = tb.consistency_summary(g)
+    f.close()
+    os.replace(partial, out)
+    msg = f"wrote {out} ({len(names)} mesh(es), {n_pos} positions)"
+    if note:
+        msg += f"; {note}"
+    return StaticsReport(True, msg, out, total, computed, total - computed, time.perf_counter() - t0, summary)
+
+
+def compute_statics(
+    model: str | Path,
+    out: str | Path | None = None,
+    *,
+    positions: int | None = None,
+    loads: int | None = None,
+    deflections: int | None = None,
+    max_torque_factor: float | None = None,
+    deflection_margin: float = DEFAULT_DEFLECTION_MARGIN,
+    solver: str = "fe",
+    workers: int | None = None,
+    executor: cf.Executor | None = None,
+    resume: bool = False,
+    progress: bool = True,
+) -> StaticsReport:
+    """``hacgear statics``: the static grids of every mesh of a model file → ``tables.h5``.
+
+    Grid sizes default to the model's ``[statics]`` section; the load grid of each mesh is
+    ``linspace(0, max_torque_factor × nominal mesh force, loads)`` (:func:`nominal_mesh_forces`).
+    ``solver``: ``"fe"`` (``hacgear_core.statics.contact.make_mesh_solver``) or ``"analytic"``
+    (:class:`AnalyticPairSolver`, reference spring model).
+    """
+    mdl = load_model(model)
+    if solver not in ("fe", "analytic"):
+        raise SolverError(f"unknown solver {solver!r}; allowed: fe | analytic")
+    st = mdl.statics
+    n_pos = positions or st.positions
+    n_loads = loads or st.loads
+    n_def = deflections or st.deflections
+    factor = max_torque_factor or st.max_torque_factor
+    if factor < 3.0:
+        raise ModelError(f"max_torque_factor [-] = {factor:g}; allowed: >= 3 (tables span 0 … >= 3 x nominal torque)")
+    out_path = Path(out) if out is not None else mdl.tables_path
+    factories = {m.name: ModelSolverFactory(str(mdl.path), m.name, mdl.sha256, solver) for m in mdl.meshes}
+
+    def loads_for(infos: dict[str, MeshInfo]) -> dict[str, np.ndarray]:
+        fn = nominal_mesh_forces(mdl, {m: i.base_radius_m for m, i in infos.items()})
+        return {m: load_grid(factor * fn[m], n_loads) for m in infos}
+
+    return run_statics(
+        factories, out_path, n_positions=n_pos, n_deflections=n_def, loads_N=loads_for,
+        deflection_margin=deflection_margin, model_sha256=mdl.sha256, model_file=str(mdl.path.name),
+        executor=executor, workers=workers, resume=resume, progress=progress,
+    )

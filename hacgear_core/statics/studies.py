@@ -1,0 +1,279 @@
+"""Studies built on the static contact solver: stiffness and STE over a mesh cycle, model variants
+(without relief/crowning), root-strain scans along the fillet."""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field, replace as _replace
+from typing import Any
+
+import numpy as np
+
+from hacgear_core.errors import GeometryError, ModelError, SolverError
+from hacgear_core.geometry import gear_geometry, mesh_geometry, nominal_mesh_forces
+from hacgear_core.model import Flank, Gauge, Model, load_model
+from hacgear_core.statics.contact import ContactOptions, MeshContactSolver, make_mesh_solver
+
+__all__ = [
+    "StiffnessCurve",
+    "mesh_stiffness_curve",
+    "mesh_stiffness_report",
+    "model_variant",
+    "RootStrainScan",
+    "root_strain_scan",
+]
+
+@dataclass(frozen=True)
+class StiffnessCurve:
+    """Static transmission error and mesh stiffness over one mesh cycle at one mesh force.
+
+    ``mesh_cycle`` (n,), ``ste_m`` (n,) static mesh deflection [m], ``no_load_deflection_m`` (n,),
+    ``local_slope_stiffness_N_per_m`` (n,) ``dW/dx`` at the load, ``mean_mesh_stiffness_N_per_m``
+    (mean of the local slope), ``secant_mesh_stiffness_N_per_m`` (``W / mean(x)``),
+    ``average_slope_stiffness_N_per_m`` (n,) ``W / (x - x0)`` with ``x0`` the no-load deflection
+    (the "average slope" of dissertation Section 3.5), ``mesh_force_N``.
+    """
+
+    mesh_cycle: np.ndarray
+    ste_m: np.ndarray
+    no_load_deflection_m: np.ndarray
+    local_slope_stiffness_N_per_m: np.ndarray
+    mean_mesh_stiffness_N_per_m: float
+    secant_mesh_stiffness_N_per_m: float
+    mesh_force_N: float
+    tooth_load_N: np.ndarray
+    seconds: float
+    average_slope_stiffness_N_per_m: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+
+def mesh_stiffness_curve(solver: MeshContactSolver, mesh_force_N: float, positions: int = 64,
+                         rel_step: float = 0.02) -> StiffnessCurve:
+    """Static transmission error and mesh stiffness over one mesh cycle.
+
+    The local-slope stiffness at each position is the central difference ``dW/dx`` from two
+    load-controlled solves at ``W (1 ± rel_step)``.
+    """
+    if not (isinstance(positions, (int, np.integer)) and 2 <= positions <= 4096):
+        raise ModelError(f"positions must be an integer in [2, 4096], got {positions!r}")
+    W = float(mesh_force_N)
+    if not (math.isfinite(W) and W > 0):
+        raise ModelError(f"mesh force must be finite and > 0 N, got {mesh_force_N!r}")
+    t0 = time.perf_counter()
+    pos = np.arange(positions) / positions
+    x = np.zeros(positions)
+    x0 = np.zeros(positions)
+    k = np.zeros(positions)
+    loads = np.zeros((positions, len(solver.tooth_offsets)))
+    for i, p in enumerate(pos):
+        st = solver.state_load(p, W)
+        if not st.success:
+            raise SolverError(f"contact solve failed at position {p:.4f}: {st.message}")
+        lo = solver.state_load(p, W * (1 - rel_step), warm=st.force_N)
+        hi = solver.state_load(p, W * (1 + rel_step), warm=st.force_N)
+        x[i] = st.mesh_deflection_m
+        x0[i] = solver.no_load_deflection(p)
+        k[i] = 2 * rel_step * W / (hi.mesh_deflection_m - lo.mesh_deflection_m)
+        pr = solver.pair_results(st)
+        for j, pp in enumerate(st.setup.pairs):
+            m = np.flatnonzero(solver.tooth_offsets == pp)
+            if m.size:
+                loads[i, m] = pr["load_N"][j]
+    return StiffnessCurve(mesh_cycle=pos, ste_m=x, no_load_deflection_m=x0, local_slope_stiffness_N_per_m=k,
+                          mean_mesh_stiffness_N_per_m=float(k.mean()),
+                          secant_mesh_stiffness_N_per_m=float(W / x.mean()), mesh_force_N=W, tooth_load_N=loads,
+                          seconds=time.perf_counter() - t0, average_slope_stiffness_N_per_m=W / (x - x0))
+
+
+
+
+def model_variant(model: Any, *, tip_relief: bool = True, lead_crowning: bool = True,
+                  hob_tip_radius_m: float | None = None) -> Any:
+    """Copy of ``model`` with every gear's tip relief and/or lead crowning removed, or its hob tip
+    radius [m] replaced (studies of dissertation Figs. 2.5 and 2.7).  The copy keeps the model's
+    ``sha256``/``path`` (it is not a file), so never write tables from it."""
+    gears = []
+    for g in model.gears:
+        kw: dict[str, Any] = {}
+        if not tip_relief:
+            kw["flanks"] = {k: Flank(f.pressure_angle_rad) for k, f in g.flanks.items()}
+        if not lead_crowning:
+            kw["lead_crowning_m"] = 0.0
+        if hob_tip_radius_m is not None:
+            kw["hob_tip_radius_m"] = float(hob_tip_radius_m)
+        gears.append(_replace(g, **kw))
+    return _replace(model, gears=tuple(gears))
+
+
+@dataclass(frozen=True)
+class RootStrainScan:
+    """Surface strain along the root of one tooth over mesh positions (dissertation Fig. 2.7).
+
+    ``position`` (Np,) mesh cycles, ``radius_m`` (Ng,) gauge radii, ``s_m`` (Ng,) their profile
+    coordinate (arc length from the tip of the loaded flank), ``strain`` (Np, Ng) on the tooth of
+    the reference pair of gear ``gear``, ``tooth_load_N`` (Np,) its load, ``max_strain`` and where
+    (``max_position``, ``max_radius_m``, ``max_s_m``).  ``sampling`` and ``gauge_length_m`` record
+    how the points were placed and whether each strain is a point value (0) or the mean over a
+    gauge grid of that length along the profile.
+    """
+
+    gear: str
+    position: np.ndarray
+    radius_m: np.ndarray
+    s_m: np.ndarray
+    strain: np.ndarray
+    tooth_load_N: np.ndarray
+    max_strain: float
+    max_position: float
+    max_radius_m: float
+    max_s_m: float = float("nan")
+    sampling: str = "arc"
+    gauge_length_m: float = 0.0
+
+
+def root_strain_scan(model: Any, mesh_name: str, mesh_force_N: float, *, gear: int = 1, n_gauges: int = 24,
+                     positions: int = 128, span: tuple[float, float] = (-1.0, 1.0),
+                     options: ContactOptions | None = None, fe_options: Any = None, sampling: str = "arc",
+                     gauge_length_m: float = 0.0, gauge_points: int = 9) -> RootStrainScan:
+    """Strain at ``n_gauges`` points of the loaded flank's root (from just above the root circle up
+    to the start of the active profile) of gear ``gear`` (0 = gear_a, 1 = gear_b) on the tooth of the
+    reference pair, over ``positions`` mesh positions in ``span`` [mesh cycles], load control.
+
+    The strain is the surface strain along the profile tangent in the transverse plane (a gauge
+    bonded along the profile, dissertation Fig. 2.2(b): gauge ends S1, S2 "along the tooth profile").
+
+    Parameters
+    ----------
+    sampling : {"radius", "arc"}
+        Where the ``n_gauges`` points lie between ``r_f + 0.02 (r_SAP - r_f)`` and the SAP radius:
+        equally spaced in arc length along the profile (default) or equally spaced in radius.  On a
+        fillet the radius changes slowly near the root circle, so ``"radius"`` puts few points
+        where small tool tip radii have their narrow strain peak (28-tooth gear, 0.4 mm tool, 24
+        points: the maximum is 2.5 % low); ``"arc"`` resolves it with the same count.
+    gauge_length_m : float
+        0 (default): point strain.  > 0: each value is the mean surface strain over an arc of this
+        length [m] along the profile centred on the point (a gauge grid), evaluated at
+        ``gauge_points`` equally spaced points (midpoint rule); the arc is clipped to the flank
+        (it ends at the fillet bottom).  Allowed: 0 <= gauge_length_m <= 5e-3 m.
+    gauge_points : int
+        Points per gauge grid when ``gauge_length_m`` > 0 (2..41).
+    """
+    if not isinstance(model, Model):
+        model = load_model(model)
+    meshes = {m.name: m for m in model.meshes}
+    if mesh_name not in meshes:
+        raise ModelError(f"unknown mesh {mesh_name!r}; the model has: {', '.join(meshes) or '(none)'}")
+    if gear not in (0, 1):
+        raise ModelError(f"gear must be 0 (gear_a) or 1 (gear_b), got {gear!r}")
+    if not (isinstance(n_gauges, (int, np.integer)) and 2 <= n_gauges <= 200):
+        raise ModelError(f"n_gauges must be an integer in [2, 200], got {n_gauges!r}")
+    if sampling not in ("radius", "arc"):
+        raise ModelError(f"sampling must be 'radius' or 'arc', got {sampling!r}")
+    if not (isinstance(gauge_length_m, (int, float, np.floating)) and np.isfinite(gauge_length_m)
+            and 0.0 <= gauge_length_m <= 5e-3):
+        raise ModelError(f"gauge_length_m must be in [0, 5e-3] m, got {gauge_length_m!r}")
+    if not (isinstance(gauge_points, (int, np.integer)) and 2 <= gauge_points <= 41):
+        raise ModelError(f"gauge_points must be an integer in [2, 41], got {gauge_points!r}")
+    mesh = meshes[mesh_name]
+    gname = (mesh.gear_a, mesh.gear_b)[gear]
+    side = (mesh.flank_a, mesh.flank_b)[gear]
+    g = {x.name: x for x in model.gears}[gname]
+    gg = gear_geometry(g)
+    mg = mesh_geometry(model, mesh_name)
+    rb = gg.base_radius_m[side]
+    r_sap = rb * math.sqrt(1.0 + math.radians(mg.roll_angle_deg[gname]["SAP"]) ** 2)
+    r_lo = gg.root_radius_m + 0.02 * (r_sap - gg.root_radius_m)
+    legacy = sampling == "radius" and gauge_length_m == 0
+    # arc length <-> radius along the flank (tip to fillet bottom; the radius is monotone there)
+    prof = gg.flank(side, 4000)
+    ps, pr, preg = np.asarray(prof.s, float), np.asarray(prof.radius, float), np.asarray(prof.region)
+    keep = preg != 0                                    # drop the root land (constant radius)
+    o = np.argsort(ps[keep])
+    fs, fr = ps[keep][o], pr[keep][o]
+    if not legacy and np.any(np.diff(fr) * (1.0 if gg.internal else -1.0) < -1e-12):
+        raise GeometryError(f"root_strain_scan: the {side} flank radius is not monotone along the profile")
+    sgn = 1.0 if gg.internal else -1.0                  # external: radius falls from tip to root
+    s_of_r = lambda r: np.interp(sgn * np.asarray(r), sgn * fr, fs)          # noqa: E731
+    r_of_s = lambda s: np.interp(np.asarray(s), fs, fr)                      # noqa: E731
+    if sampling == "radius":
+        radii = np.linspace(r_lo, r_sap, n_gauges)
+        s_c = s_of_r(radii)
+    else:
+        s_c = np.linspace(float(s_of_r(r_lo)), float(s_of_r(r_sap)), n_gauges)
+        radii = r_of_s(s_c)
+    if gauge_length_m > 0:
+        u = ((np.arange(gauge_points) + 0.5) / gauge_points - 0.5) * gauge_length_m
+        s_sub = np.clip(s_c[:, None] + u[None, :], fs[0], fs[-1] - 1e-9)    # (Ng, n) clipped to the flank
+        r_sub = r_of_s(s_sub)
+    else:
+        r_sub = radii[:, None]
+    nsub = r_sub.shape[1]
+    gauges = [(gname, Gauge(f"R{i:03d}_{j:02d}", side, float(r_sub[i, j])))
+              for i in range(n_gauges) for j in range(nsub)]
+    solver = make_mesh_solver(model, mesh_name, options=options, fe_options=fe_options, gauges=gauges)
+    fc = solver.compliance[gear]
+    s_all = np.array([gi["s_m"] for gi in fc.info["gauges"]]).reshape(n_gauges, nsub)
+    s_g = s_all.mean(axis=1) if nsub > 1 else s_all[:, 0]
+    pos = np.linspace(span[0], span[1], positions, endpoint=False)
+    eps = np.zeros((positions, n_gauges))
+    load = np.zeros(positions)
+    names = [[f"{gname}/R{i:03d}_{j:02d}" for j in range(nsub)] for i in range(n_gauges)]
+    for i, p in enumerate(pos):
+        st = solver.state_load(p, mesh_force_N)
+        if not st.success:
+            raise SolverError(f"contact solve failed at position {p:.4f}: {st.message}")
+        e = solver.strains(st, offsets=[0])
+        eps[i] = [np.mean([e[nm][0] for nm in row]) for row in names]
+        pr_ = solver.pair_results(st)
+        hit = np.flatnonzero(st.setup.pairs == 0)
+        load[i] = pr_["load_N"][hit[0]] if hit.size else 0.0
+    k = np.unravel_index(int(np.argmax(eps)), eps.shape)
+    return RootStrainScan(gear=gname, position=pos, radius_m=radii, s_m=s_g, strain=eps, tooth_load_N=load,
+                          max_strain=float(eps[k]), max_position=float(pos[k[0]]), max_radius_m=float(radii[k[1]]),
+                          max_s_m=float(s_g[k[1]]), sampling=sampling, gauge_length_m=float(gauge_length_m))
+
+
+def mesh_stiffness_report(model: Any, torque_Nm: float, *, mesh: str | None = None, positions: int = 64,
+                          slices: int | None = None, face_coupling: str = "rigid") -> dict:
+    """Static transmission error and mesh stiffness of every mesh (or of ``mesh``) of ``model`` under ``torque_Nm``
+    [N m] on ``model.operating.torque_gear``: each mesh is loaded with the force that the torque flow through the
+    train gives it (:func:`hacgear_core.geometry.nominal_mesh_forces`), reported as the torque on its gear_a.
+
+    Returns a dict (SI, unit in the key names): ``model``, ``torque_Nm``, ``torque_gear`` and ``meshes`` {name:
+    mesh force, base radii, mean (local-slope), secant and average-slope stiffness, STE over the cycle, NLMD,
+    tooth loads, seconds}.
+    """
+    if not (math.isfinite(torque_Nm) and torque_Nm > 0):
+        raise ModelError(f"torque [N*m] must be finite and > 0, got {torque_Nm!r}")
+    if not 2 <= positions <= 4096:
+        raise ModelError(f"positions must be in [2, 4096], got {positions}")
+    names = [m.name for m in model.meshes]
+    if mesh is not None and mesh not in names:
+        raise ModelError(f"mesh {mesh!r} is not a mesh of the model; allowed: {', '.join(names)}")
+    forces = nominal_mesh_forces(model, torque_Nm=torque_Nm)
+    opts = ContactOptions(face_slices=slices if slices is not None else model.statics.face_slices,
+                          face_coupling=face_coupling)
+    out = {"model": model.name, "torque_Nm": float(torque_Nm), "torque_gear": model.operating.torque_gear,
+           "face_slices": opts.face_slices, "face_coupling": opts.face_coupling, "meshes": {}}
+    for m in model.meshes:
+        if mesh is not None and m.name != mesh:
+            continue
+        solver = make_mesh_solver(model, m.name, options=opts)
+        force = forces[m.name]
+        c = mesh_stiffness_curve(solver, force, positions=positions)
+        out["meshes"][m.name] = {
+            "gear_a": solver.gear_names[0], "gear_b": solver.gear_names[1],
+            "torque_Nm": force * solver.base_radius_m[0], "torque_gear": solver.gear_names[0],
+            "mesh_force_N": force, "base_radius_m": list(solver.base_radius_m),
+            "mean_mesh_stiffness_N_per_m": c.mean_mesh_stiffness_N_per_m,
+            "secant_mesh_stiffness_N_per_m": c.secant_mesh_stiffness_N_per_m,
+            "local_slope_stiffness_N_per_m": c.local_slope_stiffness_N_per_m.tolist(),
+            "mean_average_slope_stiffness_N_per_m": float(c.average_slope_stiffness_N_per_m.mean()),
+            "ste_m": c.ste_m.tolist(),
+            "ste_peak_to_peak_m": float(c.ste_m.max() - c.ste_m.min()),
+            "no_load_deflection_m": c.no_load_deflection_m.tolist(),
+            "mesh_cycle": c.mesh_cycle.tolist(),
+            "tooth_offsets": [int(k) for k in solver.tooth_offsets],
+            "tooth_load_N": c.tooth_load_N.tolist(),
+            "seconds": c.seconds,
+        }
+    return out

@@ -1,0 +1,446 @@
+"""The ``tables.h5`` file format (HDF5): schema, incremental writing by the statics grid, reading and checking.
+
+Root attributes ``format = "hacgear-tables"``, ``format_version``, ``model_sha256`` (hash of the model file
+the tables came from), ``hacgear_version``, ``created``, grid sizes; one group per mesh ``/meshes/<name>/``
+with datasets carrying ``unit`` and ``description`` attributes (:data:`DATASETS`).  The full description is
+``docs/tables.md``.
+"""
+from __future__ import annotations
+
+import datetime as _dt
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Iterator, Mapping
+
+import h5py
+import numpy as np
+
+from hacgear_core import __version__
+from hacgear_core.errors import TableError
+from hacgear_core.model import model_sha256, resolve_model_path
+from hacgear_core.tables.table import MeshTable, SystemTables
+
+__all__ = [
+    "FORMAT",
+    "FORMAT_VERSION",
+    "DATASETS",
+    "MeshLayout",
+    "read_tables",
+    "write_tables",
+    "load_system_tables",
+    "open_statics_file",
+    "write_position",
+    "completed_table_matches",
+    "write_deflection_grid",
+    "consistency_summary",
+]
+
+FORMAT = "hacgear-tables"
+FORMAT_VERSION = 1
+
+#: dataset name → (unit, description); ``strain/<gear>/<gauge>`` and ``hub_reaction/<gear>`` are per gauge/gear
+DATASETS: dict[str, tuple[str, str]] = {
+    "position": ("1", "mesh position [mesh cycles], position[k] = k/Np; integer = pitch-point contact of the "
+                      "reference tooth pair (offset 0); periodic with period 1"),
+    "load_N": ("N", "static mesh-force grid (load control); load_N[0] = 0 gives the no-load mesh deflection"),
+    "deflection_m": ("m", "regular mesh-deflection grid of the FDF, x = r_b1*theta1 + r_b2*theta2 (+ y1 - y2)"),
+    "no_load_deflection_m": ("m", "no-load mesh deflection (NLMD) per position: teeth touch for x > NLMD"),
+    "static_deflection_m": ("m", "static mesh deflection per (position, load) under load control"),
+    "force_N": ("N", "force-deflection function: mesh force along the line of action per (position, "
+                     "deflection); 0 where x <= NLMD"),
+    "tooth_offsets": ("1", "tooth-pair offsets k relative to the reference pair; +1 = the pair reaching the "
+                           "pitch point one mesh cycle later"),
+    "tooth_load_N": ("N", "load of tooth pair k per (position, deflection, offset)"),
+    "contact_roll_deg": ("deg", "roll angle of the contact on gear_b's loaded flank per (position, deflection, "
+                                "offset); NaN where the pair is unloaded"),
+    "half_width_m": ("m", "Hertzian contact half-width per (position, deflection, offset); 0 where unloaded"),
+    "peak_pressure_Pa": ("Pa", "maximum contact pressure over all tooth pairs per (position, deflection)"),
+    "strain": ("1", "root strain at gauge <gear>/<gauge> on the tooth of pair offset k per (position, "
+                    "deflection, offset): the strain-deflection function"),
+    "hub_reaction": ("N, N, N*m", "generalized mesh force on the gear [Fx, Fy, Mz] per (position, deflection)"),
+    "done_loads": ("1", "1 where phase 1 (load control, NLMD) of this position is complete"),
+    "done_deflections": ("1", "1 where phase 2 (deflection control) of this position is complete"),
+}
+
+
+
+# ---------------------------------------------------------------------------------------------
+# HDF5 layout (shared by the incremental statics writer and write_tables)
+# ---------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class MeshLayout:
+    """Everything needed to pre-allocate one mesh group of ``tables.h5``."""
+
+    name: str
+    gear_names: tuple[str, str]
+    teeth: tuple[int, int]
+    base_radius_m: tuple[float, float]
+    tooth_offsets: np.ndarray
+    gauge_names: tuple[str, ...]
+    position: np.ndarray
+    load_N: np.ndarray
+    n_deflections: int
+    solver_description: str = ""
+
+    @property
+    def shapes(self) -> dict[str, tuple[int, ...]]:
+        npos, nl, nd, nw = self.position.size, self.load_N.size, self.n_deflections, len(self.tooth_offsets)
+        return {
+            "no_load_deflection_m": (npos,), "static_deflection_m": (npos, nl), "deflection_m": (nd,),
+            "force_N": (npos, nd), "tooth_load_N": (npos, nd, nw), "contact_roll_deg": (npos, nd, nw),
+            "half_width_m": (npos, nd, nw), "peak_pressure_Pa": (npos, nd),
+        }
+
+
+def _dataset(group: Any, name: str, data: np.ndarray, key: str | None = None) -> None:
+    unit, desc = DATASETS[key or name]
+    ds = group.create_dataset(name, data=data)
+    ds.attrs["unit"] = unit
+    ds.attrs["description"] = desc
+
+
+def _create_file(path: Path, layouts: Mapping[str, MeshLayout], root_attrs: Mapping[str, Any]) -> Any:
+    f = h5py.File(path, "w")
+    f.attrs["format"] = FORMAT
+    f.attrs["format_version"] = FORMAT_VERSION
+    f.attrs["hacgear_version"] = str(__version__)
+    f.attrs["created"] = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
+    f.attrs["model_sha256"] = str(root_attrs.get("model_sha256", ""))
+    f.attrs["model_file"] = str(root_attrs.get("model_file", ""))
+    f.attrs["deflection_margin"] = float(root_attrs.get("deflection_margin", float("nan")))
+    f.attrs["mesh_names"] = np.array(list(layouts), dtype=h5py.string_dtype())
+    f.attrs["n_meshes"] = len(layouts)
+    first = next(iter(layouts.values()))
+    f.attrs["n_positions"] = int(first.position.size)
+    f.attrs["n_loads"] = int(first.load_N.size)
+    f.attrs["n_deflections"] = int(first.n_deflections)
+    top = f.create_group("meshes")
+    for m, lay in layouts.items():
+        g = top.create_group(m)
+        g.attrs["gear_names"] = np.array(lay.gear_names, dtype=h5py.string_dtype())
+        g.attrs["teeth"] = np.array(lay.teeth, dtype=np.int64)
+        g.attrs["base_radius_m"] = np.array(lay.base_radius_m, dtype=float)
+        g.attrs["solver"] = lay.solver_description
+        g.attrs["gauge_names"] = np.array(lay.gauge_names, dtype=h5py.string_dtype())
+        g.attrs["n_positions"] = int(lay.position.size)
+        g.attrs["n_loads"] = int(lay.load_N.size)
+        g.attrs["n_deflections"] = int(lay.n_deflections)
+        g.attrs["n_tooth_offsets"] = int(len(lay.tooth_offsets))
+        _dataset(g, "position", np.asarray(lay.position, float))
+        _dataset(g, "load_N", np.asarray(lay.load_N, float))
+        _dataset(g, "tooth_offsets", np.asarray(lay.tooth_offsets, dtype=np.int64))
+        for name, shp in lay.shapes.items():
+            _dataset(g, name, np.full(shp, np.nan))
+        nd_shape = lay.shapes["tooth_load_N"]
+        for gauge in lay.gauge_names:
+            _dataset(g, f"strain/{gauge}", np.full(nd_shape, np.nan), key="strain")
+        for gear in lay.gear_names:
+            _dataset(g, f"hub_reaction/{gear}", np.full(nd_shape[:2] + (3,), np.nan), key="hub_reaction")
+        _dataset(g, "done_loads", np.zeros(lay.position.size, dtype=np.uint8))
+        _dataset(g, "done_deflections", np.zeros(lay.position.size, dtype=np.uint8))
+    f.attrs["layout_complete"] = 1  # written last: a file killed while being laid out lacks it
+    f.flush()
+    return f
+
+
+def _same_layout(f: Any, layouts: Mapping[str, MeshLayout], root_attrs: Mapping[str, Any]) -> str | None:
+    """None if ``f`` was created for these layouts/settings, else what differs."""
+    if f.attrs.get("format") != FORMAT or int(f.attrs.get("format_version", -1)) != FORMAT_VERSION:
+        return "format/format_version"
+    for k in ("model_sha256", "deflection_margin"):
+        a, b = f.attrs.get(k), root_attrs.get(k)
+        if (a != b) if not isinstance(b, float) else not (a == b):
+            return f"{k} ({a!r} in the file, {b!r} now)"
+    if "meshes" not in f or sorted(f["meshes"]) != sorted(layouts):
+        return "mesh names"
+    for m, lay in layouts.items():
+        g = f["meshes"][m]
+        checks = {
+            "position": np.asarray(lay.position, float), "load_N": np.asarray(lay.load_N, float),
+            "tooth_offsets": np.asarray(lay.tooth_offsets),
+        }
+        for k, v in checks.items():
+            if k not in g or g[k].shape != v.shape or not np.array_equal(g[k][()], v):
+                return f"mesh '{m}': {k}"
+        if int(g.attrs.get("n_deflections", -1)) != lay.n_deflections:
+            return f"mesh '{m}': n_deflections"
+        if tuple(g.attrs.get("gauge_names", ())) != tuple(lay.gauge_names):
+            return f"mesh '{m}': gauge names"
+        for name, shp in lay.shapes.items():
+            if name not in g or g[name].shape != shp:
+                return f"mesh '{m}': dataset {name}"
+        for k in ("done_loads", "done_deflections"):
+            if k not in g:
+                return f"mesh '{m}': {k}"
+    return None
+
+
+def open_statics_file(path: str | Path, layouts: Mapping[str, MeshLayout], root_attrs: Mapping[str, Any],
+                      *, resume: bool) -> tuple[Any, str]:
+    """Open the partial file of a statics run for writing → (h5py.File, note).
+
+    ``resume`` and a readable file made for the same layouts and settings: continue it.  Otherwise a
+    new file is created (every dataset pre-allocated and NaN-filled, so later writes only touch raw
+    data and never the file's metadata — a run killed at any moment leaves a readable file).
+    """
+    path = Path(path)
+    note = ""
+    if path.exists():
+        try:
+            f = h5py.File(path, "r+")
+        except BlockingIOError:
+            raise TableError(f"{path} is open in another process (another `hacgear statics` still running?); "
+                             "wait for it or stop it first") from None
+        except OSError as exc:
+            f = None
+            note = f"could not reopen {path.name} ({exc}); started again"
+        if f is not None and not resume:
+            f.close()
+            f = None
+    else:
+        f = None
+    if f is not None:
+        diff = _same_layout(f, layouts, root_attrs) if "layout_complete" in f.attrs else "unfinished"
+        if diff == "unfinished":
+            f.close()
+            note = f"{path.name} was interrupted while being created; started again"
+        elif diff is None:
+            done = sum(int(np.count_nonzero(f[f"meshes/{m}/{d}"][()])) for m in layouts
+                       for d in ("done_loads", "done_deflections"))
+            return f, f"resumed {path.name}: {done} position task(s) already done"
+        else:
+            f.close()
+            raise TableError(
+                f"cannot resume {path}: it was started with different settings ({diff} differ). Run "
+                "`hacgear statics` without --resume to start again (the partial file is replaced)."
+            )
+    elif resume and not note:
+        note = f"nothing to resume ({path.name} absent); started from scratch"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if path.exists():
+        path.unlink()
+    return _create_file(path, layouts, root_attrs), note
+
+
+def completed_table_matches(path: str | Path, layouts: Mapping[str, MeshLayout], root_attrs: Mapping[str, Any]
+                            ) -> dict[str, dict[str, float]] | None:
+    """For ``--resume`` after a finished run: the :func:`consistency_summary` of every mesh when ``path``
+    is a complete table made with these layouts and settings, else None."""
+    try:
+        with h5py.File(path, "r") as f:
+            if "layout_complete" not in f.attrs or _same_layout(f, layouts, root_attrs) is not None:
+                return None
+            if not all(np.all(f[f"meshes/{m}/{d}"][()] == 1) for m in layouts
+                       for d in ("done_loads", "done_deflections")):
+                return None
+            return {m: consistency_summary(f[f"meshes/{m}"]) for m in layouts}
+    except OSError:
+        return None
+
+
+def write_position(f: Any, mesh: str, phase: int, ip: int, payload: Mapping[str, Any]) -> None:
+    """Write one position's results (phase 1: NLMD and static deflections; phase 2: deflection-grid
+    results), flush, then set its done flag and flush again."""
+    g = f["meshes"][mesh]
+    if phase == 1:
+        g["no_load_deflection_m"][ip] = payload["no_load_deflection_m"]
+        g["static_deflection_m"][ip, :] = payload["static_deflection_m"]
+        flag = "done_loads"
+    else:
+        for k in ("force_N", "tooth_load_N", "contact_roll_deg", "half_width_m", "peak_pressure_Pa"):
+            g[k][ip] = payload[k]
+        for gauge, a in payload["strain"].items():
+            g[f"strain/{gauge}"][ip] = a
+        for gear, a in payload["hub_reaction"].items():
+            g[f"hub_reaction/{gear}"][ip] = a
+        flag = "done_deflections"
+    f.flush()
+    g[flag][ip] = 1
+    f.flush()
+
+
+def write_deflection_grid(f: Any, mesh: str, grid: np.ndarray) -> None:
+    """Store the deflection grid (after phase 1).  A grid already in the file (resumed run) must be
+    identical, since phase-2 rows were computed on it."""
+    ds = f["meshes"][mesh]["deflection_m"]
+    old = ds[()]
+    if np.all(np.isfinite(old)):
+        if not np.array_equal(old, grid):
+            raise TableError(f"mesh '{mesh}': the deflection grid in the partial file differs from the one "
+                             "recomputed from its phase-1 results; run without --resume")
+        return
+    done2 = f["meshes"][mesh]["done_deflections"][()]
+    if np.any(done2):
+        raise TableError(f"mesh '{mesh}': phase-2 rows exist but no deflection grid; run without --resume")
+    ds[:] = grid
+    f.flush()
+
+
+def consistency_summary(g: Any) -> dict[str, float]:
+    """Figures of one finished mesh group: NLMD range, force range, the FDF's reproduction of the
+    load-control results (max |F(p, x_static) − F| / max load at the grid positions), and the largest
+    decrease of the force along the deflection axis and of the static deflection along the load axis
+    (both should be ~0: the FDF is monotone)."""
+    F = g["force_N"][()]
+    x = g["deflection_m"][()]
+    S = g["static_deflection_m"][()]
+    L = g["load_N"][()]
+    nl = g["no_load_deflection_m"][()]
+    rec = np.array([np.interp(S[i], x, F[i]) for i in range(F.shape[0])])
+    err = float(np.max(np.abs(rec - L[None, :])) / L.max())
+    drop = float(np.max(np.maximum(-np.diff(F, axis=1), 0.0)))
+    sdrop = float(np.max(np.maximum(-np.diff(S, axis=1), 0.0)))
+    return {
+        "no_load_deflection_min_m": float(nl.min()), "no_load_deflection_max_m": float(nl.max()),
+        "deflection_grid_min_m": float(x[0]), "deflection_grid_max_m": float(x[-1]),
+        "static_deflection_max_m": float(S.max()), "force_max_N": float(F.max()), "load_max_N": float(L.max()),
+        "fdf_reproduces_static_rel_err": err, "fdf_max_decrease_N": drop,
+        "static_deflection_max_decrease_m": sdrop,
+    }
+
+
+# ---------------------------------------------------------------------------------------------
+# Reading / writing whole files
+# ---------------------------------------------------------------------------------------------
+def _str_list(a: Any) -> tuple[str, ...]:
+    return tuple(s.decode() if isinstance(s, bytes) else str(s) for s in np.asarray(a).ravel())
+
+
+def _walk(group: Any, prefix: str = "") -> Iterator[tuple[str, Any]]:
+    for k, v in group.items():
+        if isinstance(v, h5py.Group):
+            yield from _walk(v, f"{prefix}{k}/")
+        else:
+            yield f"{prefix}{k}", v
+
+
+def read_tables(path: str | Path, model_path: str | Path | None = None, *, allow_hash_mismatch: bool = False,
+                allow_incomplete: bool = False) -> SystemTables:
+    """Read ``tables.h5`` → :class:`SystemTables`.
+
+    ``model_path``: when given, the SHA-256 of that file must equal the table's ``model_sha256``,
+    otherwise :class:`TableError` names both files and the command that regenerates the table, unless
+    ``allow_hash_mismatch``.  A table with positions not flagged done (interrupted run) is refused
+    unless ``allow_incomplete``.
+    """
+    path = Path(path)
+    if not path.exists():
+        hint = f" (an interrupted run left {path.name}.partial: `hacgear statics MODEL --resume`)" \
+            if path.with_name(path.name + ".partial").exists() else ""
+        raise TableError(f"table file not found: {path}{hint}")
+    try:
+        f = h5py.File(path, "r")
+    except OSError as exc:
+        raise TableError(f"{path} is not a readable HDF5 file ({exc})") from None
+    with f:
+        if f.attrs.get("format") != FORMAT:
+            raise TableError(f"{path} is not a hacgear table (root attribute format = {f.attrs.get('format')!r}, "
+                             f"expected {FORMAT!r})")
+        version = int(f.attrs.get("format_version", -1))
+        if version != FORMAT_VERSION:
+            raise TableError(f"{path} has format_version {version}; this hacgear reads version {FORMAT_VERSION}. "
+                             "Regenerate it with `hacgear statics MODEL`.")
+        sha = str(f.attrs.get("model_sha256", ""))
+        if model_path is not None:
+            mp = Path(model_path)
+            if mp.is_dir():
+                mp = mp / "model.toml"
+            if not mp.exists():
+                raise TableError(f"model file not found: {mp}")
+            actual = model_sha256(mp)
+            if actual != sha and not allow_hash_mismatch:
+                raise TableError(
+                    f"{path} does not belong to {mp}: the table was generated from a model file with "
+                    f"sha256 {sha[:16]}…, the model file now has sha256 {actual[:16]}…. Regenerate the table "
+                    f"with `hacgear statics {mp}` (or override with allow_hash_mismatch=True / "
+                    "--ignore-model-hash to use it anyway)."
+                )
+        if "meshes" not in f:
+            raise TableError(f"{path}: no /meshes group")
+        meshes = {}
+        for m, g in f["meshes"].items():
+            meshes[m] = _read_mesh(path, m, g, allow_incomplete)
+        attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
+        return SystemTables(
+            meshes=meshes, model_sha256=sha, format_version=version,
+            hacgear_version=str(f.attrs.get("hacgear_version", "")), created=str(f.attrs.get("created", "")),
+            model_file=str(f.attrs.get("model_file", "")), path=path, attrs=attrs,
+        )
+
+
+def _read_mesh(path: Path, m: str, g: Any, allow_incomplete: bool) -> MeshTable:
+    required = ("position", "load_N", "deflection_m", "no_load_deflection_m", "static_deflection_m", "force_N",
+                "tooth_offsets", "tooth_load_N", "contact_roll_deg", "peak_pressure_Pa", "done_loads",
+                "done_deflections")
+    for k in required:
+        if k not in g:
+            raise TableError(f"{path}: mesh '{m}' lacks dataset {k!r}")
+    if not allow_incomplete:
+        for k in ("done_loads", "done_deflections"):
+            d = g[k][()]
+            if not np.all(d == 1):
+                raise TableError(f"{path}: mesh '{m}' is incomplete ({int(np.count_nonzero(d))}/{d.size} positions "
+                                 f"in {k}); finish it with `hacgear statics MODEL --resume`")
+    strain = {name[len("strain/"):]: ds[()] for name, ds in _walk(g) if name.startswith("strain/")}
+    hub = {name[len("hub_reaction/"):]: ds[()] for name, ds in _walk(g) if name.startswith("hub_reaction/")}
+    order = _str_list(g.attrs.get("gauge_names", ()))
+    strain = {k: strain[k] for k in order if k in strain} | {k: v for k, v in strain.items() if k not in order}
+    F = g["force_N"][()]
+    if allow_incomplete:
+        F = np.nan_to_num(F, nan=0.0)
+    return MeshTable(
+        name=m, gear_names=_str_list(g.attrs["gear_names"]), teeth=tuple(int(z) for z in g.attrs["teeth"]),
+        base_radius_m=tuple(float(r) for r in g.attrs["base_radius_m"]), position=g["position"][()],
+        deflection_m=g["deflection_m"][()], force_N=F, no_load_deflection_m=g["no_load_deflection_m"][()],
+        load_N=g["load_N"][()], static_deflection_m=g["static_deflection_m"][()],
+        tooth_offsets=g["tooth_offsets"][()], tooth_load_N=g["tooth_load_N"][()],
+        contact_roll_deg=g["contact_roll_deg"][()], peak_pressure_Pa=g["peak_pressure_Pa"][()], strain=strain,
+        half_width_m=g["half_width_m"][()] if "half_width_m" in g else None, hub_reaction=hub,
+        solver=str(g.attrs.get("solver", "")),
+    )
+
+
+def write_tables(path: str | Path, tables: SystemTables) -> None:
+    """Write complete in-memory tables to ``path`` (atomically: via ``<path>.tmp`` and rename)."""
+    path = Path(path)
+    layouts = {}
+    for m, t in tables.meshes.items():
+        layouts[m] = MeshLayout(
+            name=m, gear_names=t.gear_names, teeth=t.teeth, base_radius_m=t.base_radius_m,
+            tooth_offsets=t.tooth_offsets, gauge_names=t.gauge_names, position=t.position, load_N=t.load_N,
+            n_deflections=t.n_deflections, solver_description=t.solver,
+        )
+    root = {"model_sha256": tables.model_sha256, "model_file": tables.model_file,
+            "deflection_margin": float(tables.attrs.get("deflection_margin", float("nan")))}
+    tmp = path.with_name(path.name + ".tmp")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    f = _create_file(tmp, layouts, root)
+    try:
+        if tables.created:
+            f.attrs["created"] = tables.created
+        for m, t in tables.meshes.items():
+            g = f["meshes"][m]
+            for k in ("deflection_m", "no_load_deflection_m", "static_deflection_m", "force_N", "tooth_load_N",
+                      "contact_roll_deg", "peak_pressure_Pa"):
+                g[k][...] = getattr(t, k)
+            g["half_width_m"][...] = t.half_width_m if t.half_width_m is not None else np.nan
+            for gauge, a in t.strain.items():
+                g[f"strain/{gauge}"][...] = a
+            for gear in t.gear_names:
+                g[f"hub_reaction/{gear}"][...] = t.hub_reaction.get(gear, np.nan)
+            g["done_loads"][...] = 1
+            g["done_deflections"][...] = 1
+    finally:
+        f.close()
+    os.replace(tmp, path)
+
+
+def load_system_tables(model_path: str | Path, tables_path: str | Path | None = None, *,
+                       allow_hash_mismatch: bool = False) -> SystemTables:
+    """Tables of a model (default ``<model folder>/tables.h5``), checked against the model file."""
+    mp = resolve_model_path(model_path)
+    tp = Path(tables_path) if tables_path is not None else mp.parent / "tables.h5"
+    if not tp.exists():
+        raise TableError(f"no tables for {mp}: {tp} does not exist; generate it with `hacgear statics {mp}`")
+    return read_tables(tp, mp, allow_hash_mismatch=allow_hash_mismatch)

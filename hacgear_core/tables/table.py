@@ -1,0 +1,319 @@
+"""In-memory force-deflection tables of a gear system: :class:`MeshTable` per mesh, :class:`SystemTables`.
+
+A mesh table holds the static contact analyses of one mesh on a grid of mesh positions (one mesh cycle,
+periodic) × loads (load control) and × a regular grid of mesh deflections (deflection control).  The
+force-deflection function (FDF) ``force_N[position, deflection]`` drives the dynamics; the other arrays
+(tooth loads, contact roll angles, half-widths and pressures, root strains = the strain-deflection
+functions, hub reactions) give dynamic stresses and pressures by post-processing (dissertation Sections
+3.2.3, 3.3, 4.3.2, 4.4.2).  Queries interpolate with the one rule of :mod:`hacgear_core.tables.interp`
+and count every state outside the deflection grid in :attr:`MeshTable.stats`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from hacgear_core.errors import TableError
+from hacgear_core.tables.interp import interp_rows, pair_rows
+
+__all__ = ["InterpolationStats", "MeshTable", "StrainTable", "SystemTables"]
+
+
+@dataclass
+class InterpolationStats:
+    """Counts of interpolation queries and of points outside the deflection grid (extrapolated)."""
+
+    n_queries: int = 0
+    n_below: int = 0
+    n_above: int = 0
+    max_below_m: float = 0.0
+    max_above_m: float = 0.0
+
+    def add(self, x: np.ndarray, x_first: float, x_last: float) -> None:
+        x = x[np.isfinite(x)]
+        self.n_queries += int(x.size)
+        below, above = x < x_first, x > x_last
+        nb, na = int(np.count_nonzero(below)), int(np.count_nonzero(above))
+        if nb:
+            self.n_below += nb
+            self.max_below_m = max(self.max_below_m, float(x_first - x[below].min()))
+        if na:
+            self.n_above += na
+            self.max_above_m = max(self.max_above_m, float(x[above].max() - x_last))
+
+    @property
+    def n_extrapolated(self) -> int:
+        return self.n_below + self.n_above
+
+    def reset(self) -> None:
+        self.n_queries = self.n_below = self.n_above = 0
+        self.max_below_m = self.max_above_m = 0.0
+
+    def report(self) -> str:
+        if not self.n_extrapolated:
+            return f"{self.n_queries} queries, none outside the deflection grid"
+        return (f"{self.n_queries} queries, {self.n_above} above the deflection grid (by up to "
+                f"{self.max_above_m:.3g} m) and {self.n_below} below it (by up to {self.max_below_m:.3g} m), "
+                "linearly extrapolated")
+
+
+
+def _f64(a: Any) -> np.ndarray:
+    return np.ascontiguousarray(np.asarray(a, dtype=np.float64))
+
+
+class StrainTable(dict):
+    """``MeshTable.strain``: a dict gauge → (Np, Nd, Nw) strain array (the table contract) that can also be
+    called to interpolate: ``table.strain(gauge, position, deflection, tooth_offset=0)`` =
+    :meth:`MeshTable.strain_at`."""
+
+    def __init__(self, data: Mapping[str, np.ndarray], owner: "MeshTable | None" = None) -> None:
+        super().__init__(data)
+        self._owner = owner
+
+    def __call__(self, gauge: str, position: Any, deflection: Any, tooth_offset: int = 0) -> np.ndarray:
+        if self._owner is None:
+            raise TableError("this strain dict is not attached to a MeshTable")
+        return self._owner.strain_at(gauge, position, deflection, tooth_offset)
+
+
+
+@dataclass(frozen=True, eq=False)
+class MeshTable:
+    """Tables of one gear mesh, all SI.  Np positions, Nd deflections, Nl loads, Nw tooth offsets.
+
+    Fields follow the in-memory table contract (``docs/tables.md``); ``half_width_m`` (Np, Nd, Nw) and
+    ``hub_reaction`` (gear → (Np, Nd, 3)) are additional outputs, ``solver`` names the static solver.
+    Query methods are vectorised (NumPy broadcasting over ``position`` and ``deflection``) and count
+    deflection-grid extrapolations in :attr:`stats`.
+    """
+
+    name: str
+    gear_names: tuple[str, str]
+    teeth: tuple[int, int]
+    base_radius_m: tuple[float, float]
+    position: np.ndarray
+    deflection_m: np.ndarray
+    force_N: np.ndarray
+    no_load_deflection_m: np.ndarray
+    load_N: np.ndarray
+    static_deflection_m: np.ndarray
+    tooth_offsets: np.ndarray
+    tooth_load_N: np.ndarray
+    contact_roll_deg: np.ndarray
+    peak_pressure_Pa: np.ndarray
+    strain: dict[str, np.ndarray]
+    half_width_m: np.ndarray | None = None
+    hub_reaction: dict[str, np.ndarray] = field(default_factory=dict)
+    solver: str = ""
+    stats: InterpolationStats = field(default_factory=InterpolationStats, repr=False)
+
+    def __post_init__(self) -> None:
+        conv = {k: _f64(getattr(self, k)) for k in (
+            "position", "deflection_m", "force_N", "no_load_deflection_m", "load_N", "static_deflection_m",
+            "tooth_load_N", "contact_roll_deg", "peak_pressure_Pa")}
+        for k, v in conv.items():
+            object.__setattr__(self, k, v)
+        object.__setattr__(self, "tooth_offsets", np.asarray(self.tooth_offsets, dtype=np.int64))
+        object.__setattr__(self, "strain", StrainTable({k: _f64(v) for k, v in self.strain.items()}, self))
+        object.__setattr__(self, "hub_reaction", {k: _f64(v) for k, v in self.hub_reaction.items()})
+        if self.half_width_m is not None:
+            object.__setattr__(self, "half_width_m", _f64(self.half_width_m))
+        object.__setattr__(self, "gear_names", tuple(self.gear_names))
+        object.__setattr__(self, "teeth", tuple(int(z) for z in self.teeth))
+        object.__setattr__(self, "base_radius_m", tuple(float(r) for r in self.base_radius_m))
+        where = f"mesh table '{self.name}'"
+        npos, nd, nl, nw = self.position.size, self.deflection_m.size, self.load_N.size, self.tooth_offsets.size
+        if npos < 2 or nd < 2 or nw < 1 or nl < 1:
+            raise TableError(f"{where}: needs >= 2 positions, >= 2 deflections, >= 1 load and tooth offset; got "
+                             f"Np={npos}, Nd={nd}, Nl={nl}, Nw={nw}")
+        if not np.allclose(self.position, np.arange(npos) / npos, rtol=0, atol=1e-12):
+            raise TableError(f"{where}: position [mesh cycles] must be k/Np, k = 0..Np-1")
+        dx = np.diff(self.deflection_m)
+        if not (np.all(dx > 0) and np.allclose(dx, dx[0], rtol=1e-9, atol=0)):
+            raise TableError(f"{where}: deflection_m [m] must be a uniform increasing grid")
+        shapes = {
+            "force_N": (npos, nd), "no_load_deflection_m": (npos,), "static_deflection_m": (npos, nl),
+            "tooth_load_N": (npos, nd, nw), "contact_roll_deg": (npos, nd, nw), "peak_pressure_Pa": (npos, nd),
+        }
+        if self.half_width_m is not None:
+            shapes["half_width_m"] = (npos, nd, nw)
+        for k, shp in shapes.items():
+            if getattr(self, k).shape != shp:
+                raise TableError(f"{where}: {k} has shape {getattr(self, k).shape}, expected {shp}")
+        for g, a in self.strain.items():
+            if a.shape != (npos, nd, nw):
+                raise TableError(f"{where}: strain[{g!r}] has shape {a.shape}, expected {(npos, nd, nw)}")
+        for g, a in self.hub_reaction.items():
+            if a.shape != (npos, nd, 3):
+                raise TableError(f"{where}: hub_reaction[{g!r}] has shape {a.shape}, expected {(npos, nd, 3)}")
+        if not np.all(np.isfinite(self.force_N)):
+            raise TableError(f"{where}: force_N contains NaN/inf (incomplete table?)")
+
+    def __getstate__(self) -> dict[str, Any]:
+        return {k: v for k, v in self.__dict__.items() if k != "_unrolled_cache"}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+
+    # -- grid facts ------------------------------------------------------------------------
+    @property
+    def n_positions(self) -> int:
+        return int(self.position.size)
+
+    @property
+    def n_deflections(self) -> int:
+        return int(self.deflection_m.size)
+
+    @property
+    def dx_m(self) -> float:
+        return float(self.deflection_m[1] - self.deflection_m[0])
+
+
+    @property
+    def x0_m(self) -> float:
+        return float(self.deflection_m[0])
+
+    @property
+    def inv_dx(self) -> float:
+        """1 / deflection step [1/m]."""
+        return 1.0 / self.dx_m
+
+    # -- interpolation (one rule: hacgear_core.tables.interp) --------------------------------------
+    def _count(self, x: np.ndarray) -> None:
+        self.stats.add(np.ravel(x), float(self.deflection_m[0]), float(self.deflection_m[-1]))
+
+    def interpolate(self, values: np.ndarray, position: Any, deflection: Any, *, count: bool = True) -> np.ndarray:
+        """A quantity of the whole mesh ``values`` (Np, Nd, ...) at mesh ``position`` [mesh cycles] and
+        ``deflection`` [m] (broadcast arrays; periodic in position) → array of the broadcast shape + trailing
+        axes of ``values``."""
+        p, x = np.broadcast_arrays(np.asarray(position, dtype=float), np.asarray(deflection, dtype=float))
+        if count:
+            self._count(x)
+        return self._rows(values, p * self.n_positions, x, periodic=True)
+
+    def interpolate_pair(self, values: np.ndarray, phase: Any, deflection: Any, *, count: bool = True) -> np.ndarray:
+        """A per-tooth-pair quantity ``values`` (Np, Nd, Nw) of the tooth pair at pair ``phase`` [mesh cycles]
+        (mesh position − tooth offset; 0 at its pitch-point contact) and ``deflection`` [m]; 0 where the pair
+        is out of the tabulated window (out of mesh)."""
+        ph, x = np.broadcast_arrays(np.asarray(phase, dtype=float), np.asarray(deflection, dtype=float))
+        if count:
+            self._count(x)
+        rows = pair_rows(self.n_positions, self.tooth_offsets, ph)
+        return self._rows(self.unrolled(values), rows, x, periodic=False)
+
+    def _rows(self, values: np.ndarray, rows: np.ndarray, x: np.ndarray, periodic: bool) -> np.ndarray:
+        v = np.ascontiguousarray(values, dtype=np.float64)
+        if v.shape[:2] != (v.shape[0], self.n_deflections):
+            raise TableError(f"mesh table '{self.name}': quantity has shape {v.shape}, expected (N, {self.n_deflections}, ...)")
+        trail = v.shape[2:]
+        v3 = v.reshape(v.shape[0], v.shape[1], -1)
+        r = np.ascontiguousarray(rows, dtype=float).ravel()
+        xx = np.ascontiguousarray(x, dtype=float).ravel()
+        out = np.empty((r.size, v3.shape[2]))
+        interp_rows(v3, periodic, self.x0_m, self.inv_dx, r, xx, out)
+        return out.reshape(np.shape(rows) + trail)
+
+    def unrolled(self, A: np.ndarray) -> np.ndarray:
+        """Per-pair array (Np, Nd, Nw) → (Nw·Np, Nd) over the pair phase ascending (largest offset first),
+        the row axis of :meth:`interpolate_pair` (cached per array)."""
+        cache = self.__dict__.setdefault("_unrolled_cache", {})
+        hit = cache.get(id(A))
+        if hit is None or hit[0] is not A:
+            offs = np.asarray(self.tooth_offsets)
+            order = np.argsort(offs)[::-1]
+            if not np.array_equal(np.diff(offs[order]), -np.ones(offs.size - 1, dtype=offs.dtype)):
+                raise TableError(f"mesh table '{self.name}': tooth_offsets must be consecutive integers, "
+                                 f"got {offs.tolist()}")
+            hit = cache[id(A)] = (A, np.ascontiguousarray(np.concatenate([A[:, :, w] for w in order], axis=0)))
+        return hit[1]
+
+    def tooth_phase(self, position: Any, tooth_offset: int | np.ndarray = 0) -> np.ndarray:
+        """Phase τ = position − k of tooth pair ``k`` [mesh cycles]: τ = 0 at its pitch-point contact.
+
+        A pair's state depends only on τ (``X_k(p + 1) = X_{k−1}(p)``); the tables cover
+        ``τ ∈ [−max(k), 1 − min(k))``."""
+        return np.asarray(position, float) - np.asarray(tooth_offset)
+
+    # -- public queries ------------------------------------------------------------------------
+    def force(self, position: Any, deflection: Any) -> np.ndarray:
+        """Mesh force [N] at mesh position [mesh cycles] and mesh deflection [m] (the FDF), >= 0."""
+        return np.maximum(self.interpolate(self.force_N, position, deflection), 0.0)
+
+    def pressure(self, position: Any, deflection: Any) -> np.ndarray:
+        """Maximum contact pressure over all tooth pairs [Pa], >= 0."""
+        return np.maximum(self.interpolate(self.peak_pressure_Pa, position, deflection), 0.0)
+
+    def strain_at(self, gauge: str, position: Any, deflection: Any, tooth_offset: int = 0) -> np.ndarray:
+        """Strain [-] at ``gauge`` ("<gear>/<gauge>") on the tooth of pair ``tooth_offset`` at mesh
+        ``position`` [mesh cycles] and ``deflection`` [m] (also reachable as ``table.strain(gauge, ...)``);
+        0 where the pair's phase leaves the tabulated window (out of mesh)."""
+        return self.sdf(gauge, self.tooth_phase(position, tooth_offset), deflection)
+
+    def sdf(self, gauge: str, tooth_phase: Any, deflection: Any) -> np.ndarray:
+        """Strain-deflection function of one physical tooth: strain [-] at ``gauge`` on the tooth whose
+        pair is at the pitch point at ``tooth_phase`` = 0 [mesh cycles] (dissertation Fig. 4.6)."""
+        if gauge not in self.strain:
+            raise TableError(f"mesh '{self.name}' has no gauge {gauge!r}; gauges: {sorted(self.strain)}")
+        return self.interpolate_pair(dict.__getitem__(self.strain, gauge), tooth_phase, deflection)
+
+    def tooth_load(self, position: Any, deflection: Any, tooth_offset: int = 0) -> np.ndarray:
+        """Load of tooth pair ``tooth_offset`` [N] (>= 0; 0 outside the tabulated window)."""
+        return np.maximum(self.interpolate_pair(self.tooth_load_N, self.tooth_phase(position, tooth_offset),
+                                                deflection), 0.0)
+
+    def no_load_deflection(self, position: Any) -> np.ndarray:
+        """NLMD [m], linear and periodic in position."""
+        p = np.asarray(position, dtype=float)
+        u = np.mod(p, 1.0) * self.n_positions
+        i0f = np.floor(u)
+        i0 = i0f.astype(np.intp) % self.n_positions
+        i1 = (i0 + 1) % self.n_positions
+        w = u - i0f
+        return (1 - w) * self.no_load_deflection_m[i0] + w * self.no_load_deflection_m[i1]
+
+    def static_deflection(self, position: Any, load_N: Any) -> np.ndarray:
+        """Static mesh deflection [m] under mesh force ``load_N`` [N] from the load-control grid, linear in
+        load (extrapolated linearly beyond the load grid) and periodic in position."""
+        p, f = np.broadcast_arrays(np.asarray(position, float), np.asarray(load_N, float))
+        u = np.mod(p, 1.0) * self.n_positions
+        i0f = np.floor(u)
+        i0 = i0f.astype(np.intp) % self.n_positions
+        i1 = (i0 + 1) % self.n_positions
+        w = u - i0f
+        L = self.load_N
+        j = np.clip(np.searchsorted(L, f, side="right") - 1, 0, L.size - 2)
+        t = (f - L[j]) / (L[j + 1] - L[j])
+        S = self.static_deflection_m
+        return ((1 - w) * ((1 - t) * S[i0, j] + t * S[i0, j + 1]) + w * ((1 - t) * S[i1, j] + t * S[i1, j + 1]))
+
+    @property
+    def gauge_names(self) -> tuple[str, ...]:
+        return tuple(self.strain)
+
+
+@dataclass(frozen=True, eq=False)
+class SystemTables:
+    """All mesh tables of one system plus provenance (root attributes of ``tables.h5``)."""
+
+    meshes: dict[str, MeshTable]
+    model_sha256: str
+    format_version: int | None = None  # of the file it was read from (None: built in memory)
+    hacgear_version: str = ""
+    created: str = ""
+    model_file: str = ""
+    path: Path | None = None
+    attrs: dict[str, Any] = field(default_factory=dict)
+
+    def mesh(self, name: str | None = None) -> MeshTable:
+        if name is None:
+            return next(iter(self.meshes.values()))
+        if name not in self.meshes:
+            raise TableError(f"no mesh {name!r} in {self.path or 'tables'}; meshes: {list(self.meshes)}")
+        return self.meshes[name]
+
+    def extrapolation_report(self) -> str:
+        return "; ".join(f"{m}: {t.stats.report()}" for m, t in self.meshes.items())

@@ -1,0 +1,82 @@
+"""Tests of the dynamics subcommands (hacgear_core.cli.modes, .sweep, .simulate): JSON, user errors, table checks."""
+from __future__ import annotations
+
+import json
+import shutil
+
+import numpy as np
+
+from hacgear_core.cli import main
+from hacgear_core.model import resolve_model_path
+
+
+def _cli(argv, capsys):
+    rc = main(argv)
+    out = capsys.readouterr().out
+    return rc, (json.loads(out) if "--json" in argv and rc == 0 else out)
+
+
+def test_cli_modes_and_sweep_json(capsys, tmp_path):
+    rc, d = _cli(["modes", "synthetic:28t", "--torque", "300", "--json", "--no-impulse"], capsys)
+    assert rc == 0 and d["synthetic_table"] is True
+    f = d["natural_frequencies_Hz"]
+    assert f == sorted(f) and len(f) == 1 and 2000 < f[0] < 3500
+    assert d["bearing_stiffness_N_per_m"] == {"pinion": "inf", "wheel": "inf"}
+    rc, d = _cli(["modes", "synthetic:28t", "--json", "--no-impulse", "--bearing-stiffness", "200e6"], capsys)
+    assert len(d["natural_frequencies_Hz"]) == 3 and len(d["mode_shapes"]["shapes"][0]) == 4
+    out = str(tmp_path / "r.h5")
+    rc, d = _cli(["sweep", "synthetic:28t", "--torque", "100", "--fm", "1500:2500:3", "--direction", "up",
+                  "--json", "--no-progress", "--out", out], capsys)
+    assert rc == 0 and d["computed_speeds"] == {"up": 3}
+    assert d["branches"]["up"]["mesh_frequency_Hz"] == [1500.0, 2000.0, 2500.0]
+    assert len(d["branches"]["up"]["meshes"]["m12"]["rms_deflection_m"]) == 3
+    rc, d = _cli(["sweep", "synthetic:28t", "--torque", "100", "--fm", "1500:2500:3", "--direction", "up",
+                  "--json", "--no-progress", "--out", out], capsys)
+    assert d["computed_speeds"] == {"up": 0}
+
+
+def test_cli_user_errors_are_reported_without_traceback(capsys):
+    assert main(["sweep", "synthetic:28t", "--torque", "100", "--fm", "1:x:2"]) == 2
+    assert "START:STOP:N" in capsys.readouterr().err
+    assert main(["modes", "synthetic:29t", "--torque", "100"]) == 2
+    assert "synthetic:28t" in capsys.readouterr().err
+    assert main(["modes", "synthetic:28t", "--torque", "-5"]) == 2
+    assert "torque_Nm [N*m]" in capsys.readouterr().err
+
+
+def test_cli_simulate_reports_extremes_with_sign_and_checks_the_output_path(capsys, tmp_path):
+    rc = main(["simulate", "synthetic:28t", "--fm", "1000", "--cycles", "20", "--out", str(tmp_path / "no" / "x.csv")])
+    assert rc == 2 and "does not exist" in capsys.readouterr().err
+    out = tmp_path / "t.csv"
+    rc, d = _cli(["simulate", "synthetic:28t", "--fm", "1000", "--cycles", "40", "--record-cycles", "28",
+                  "--json", "--out", str(out)], capsys)
+    assert rc == 0
+    for v in d["extreme_strain"].values():
+        assert v == v and abs(v) > 0
+    header = out.read_text().splitlines()[0].split(",")
+    assert "m12.deflection_m" in header and "m12.dynamic_transmission_error_m" not in header  # rigid: same column
+    strain_cols = [i for i, h in enumerate(header) if h.startswith("strain[")]
+    raw = np.loadtxt(out, delimiter=",", skiprows=1)
+    for i in strain_cols:
+        g = header[i][7:-1]
+        k = int(np.argmax(np.abs(raw[:, i])))
+        assert d["extreme_strain"][g] == raw[k, i]
+
+
+def test_cli_refuses_a_table_of_another_model_unless_overridden(tmp_path, capsys):
+    """A table made from another model file is refused with the regenerate command; the expert override uses a
+    table of an edited model file, but a table of a different gear pair stays refused."""
+    root = resolve_model_path("spur_28t_asym").parent.parent
+    other = str(root / "spur_50t_icr137" / "tables.h5")
+    assert main(["modes", "spur_28t_asym", "--tables", other]) == 2
+    err = capsys.readouterr().err
+    assert "does not belong to" in err and "hacgear statics" in err and "Traceback" not in err
+    assert main(["modes", "spur_28t_asym", "--tables", other, "--ignore-model-hash"]) == 2
+    assert "teeth (50, 50) differ from the model's (28, 28)" in capsys.readouterr().err
+    edited = tmp_path / "model.toml"
+    edited.write_text((root / "spur_28t_asym" / "model.toml").read_text().replace(
+        "modal_damping_ratio = 0.02", "modal_damping_ratio = 0.03"))
+    shutil.copy(root / "spur_28t_asym" / "tables.h5", tmp_path / "tables.h5")
+    assert main(["modes", str(edited)]) == 2
+    capsys.readouterr()
+    assert main(["modes", str(edited), "--ignore-model-hash", "--json"]) == 0

@@ -1,0 +1,125 @@
+"""Tests of the compiled RK4 kernel (hacgear_core.dynamics.kernels): conservation, order, contact loss, precision."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from _dyn import K, params, simulator, system
+from hacgear_core.dynamics.equilibrium import static_state
+from hacgear_core.dynamics.steady import steady_state
+from hacgear_core.dynamics.synthetic import linear_fdf_table, spur_fdf_table, synthetic_28t_parameters
+from hacgear_core.tables.interp import bilinear_many
+
+
+def test_undamped_energy_conserved_to_rk4_order():
+    tab = linear_fdf_table(K)
+    p = params(modal_damping_ratio=0.0, bearing_stiffness_N_per_m=(300e6, 250e6))
+    drift = []
+    for spc in (32, 64):
+        sy = system(p, tab)
+        s = static_state(sy)
+        n = sy.n
+        s[n + sy.gears["gear1"].rotation] += 0.05  # rad/s
+        s[n + 0] += 0.02  # y1 rate m/s
+        fext = sy.fext_speed()
+        m, kd, v = np.diag(sy.M), np.diag(sy.K), sy.V[0]
+
+        def energy(s):
+            q, qd = s[:n], s[n:]
+            x = v @ q
+            return 0.5 * np.sum(m * qd**2) + 0.5 * np.sum(kd * q**2) + 0.5 * K * x**2 - fext @ q
+
+        e0 = energy(s)
+        h = 1.0 / (spc * sy.max_frequency_Hz)
+        kin = np.array([0.0, 0.0, 500.0])
+        sy.integrate(s, kin, int(300 * spc), h, fext)
+        drift.append(abs(energy(s) - e0) / abs(e0 - energy(static_state(sy))))
+    assert drift[0] < 1e-2
+    assert drift[0] / drift[1] > 16  # RK4 energy error per step ~ (w h)^6 -> global ~ h^5
+
+
+def test_rk4_fourth_order_convergence():
+    tab = linear_fdf_table(K)
+    p = params(bearing_stiffness_N_per_m=(300e6, 300e6))
+    out = []
+    for h in (4e-6, 2e-6, 1e-6):  # below the default internal step (1/32 of the shortest period)
+        sim = simulator(p, tab, internal_step_s=h)
+        sim.s[sim.system.n + sim.system.iref] += 0.1
+        sim.set_speed_input(mesh_frequency_Hz=1000.0)
+        assert sim.advance(0.004).success
+        out.append(sim.s.copy())
+    e1 = np.linalg.norm(out[0] - out[1])
+    e2 = np.linalg.norm(out[1] - out[2])
+    assert 12 < e1 / e2 < 20
+
+
+def test_contact_loss_gives_zero_force():
+    tab = spur_fdf_table(tip_relief_m=20e-6, stiffness_variation=0.1)
+    sy = system(synthetic_28t_parameters(tab, torque_Nm=100.0), tab)
+    dx = tab.deflection_m[1] - tab.deflection_m[0]
+    tau = np.linspace(0, 1, 500, endpoint=False)
+    nl = np.interp(tau, np.append(tab.position, 1.0), np.append(tab.no_load_deflection_m, tab.no_load_deflection_m[0]))
+    # the force law (the kernel's rule: the one interpolation, clipped at 0) below the no-load deflection
+    assert np.all(sy.mesh_force(0, tau, nl - 2 * dx) == 0.0)
+    assert np.all(sy.mesh_force(0, tau, np.full(tau.size, -1e-3)) == 0.0)
+    # the tables' grid rule (first two columns below every no-load deflection): the extrapolation below is 0
+    out = np.empty(tau.size)
+    bilinear_many(np.ascontiguousarray(tab.force_N), tab.deflection_m[0], 1 / dx, tau, np.full(tau.size, -1e-3), out)
+    assert np.all(out == 0.0)
+    # a resonant steady state with contact loss: zero force exactly where the teeth separate
+    r = steady_state(sy, 2300.0, keep_trace=True)
+    f = r.trace["mesh_force_N"][:, 0]
+    assert r.metrics["contact_loss_fraction"][0] > 0.1
+    x = r.trace["mesh_deflection_m"][:, 0]
+    t = r.trace["mesh_position"][:, 0] % 1.0
+    nl_t = np.interp(t, np.append(tab.position, 1.0), np.append(tab.no_load_deflection_m, tab.no_load_deflection_m[0]))
+    assert np.all(f[x < nl_t - 2 * dx] == 0.0)
+    assert np.all(f[x > tab.no_load_deflection_m.max() + 2 * dx] > 0.0)
+
+
+def test_conventional_laws_equal_hac_for_constant_stiffness():
+    tab = linear_fdf_table(K)
+    res = {}
+    for law in ("hac", "ste", "average_slope", "local_slope"):
+        sy = system(params(), tab, law)
+        s = static_state(sy)
+        s[sy.n + sy.iref] += 0.2
+        kin = np.array([0.0, 0.0, 300.0])
+        sy.integrate(s, kin, 5000, 2e-6, sy.fext_speed())
+        res[law] = s
+    for law in ("ste", "average_slope", "local_slope"):
+        np.testing.assert_allclose(res[law], res["hac"], rtol=1e-9, atol=1e-15)
+
+
+def test_long_runs_keep_precision():
+    """The reference rotation is (integer cycles, fraction): after 1e12 mesh cycles the dynamics are bit-identical
+    to those at cycle 0 (an absolute angle in float64 would have lost the mesh position entirely by then)."""
+    tab = spur_fdf_table(tip_relief_m=20e-6)
+    sy = system(synthetic_28t_parameters(tab), tab)
+    out = []
+    for cycles0 in (0.0, 1e12):
+        s = static_state(sy)
+        kin = np.array([0.25, cycles0, 1500.0 / sy.zref_2pi])
+        sy.integrate(s, kin, 128 * 50, 1.0 / (1500.0 * 128), sy.fext_speed())
+        out.append((s.copy(), kin[0], kin[1] - cycles0))
+    np.testing.assert_array_equal(out[0][0], out[1][0])
+    assert out[0][1] == out[1][1] and out[0][2] == out[1][2] == 50.0
+
+
+@pytest.mark.parametrize("n_dof", [2, 4])
+def test_specialised_and_generic_loops_agree(n_dof):
+    """The loops specialised on (n, m) and the generic loop are the same arithmetic."""
+    from hacgear_core.dynamics import kernels
+
+    tab = spur_fdf_table(tip_relief_m=20e-6)
+    p = synthetic_28t_parameters(tab, bearing_stiffness_N_per_m=200e6 if n_dof == 4 else float("inf"))
+    sy = system(p, tab)
+    assert sy.n == n_dof and sy.kernel is not kernels._integrate_table
+    res = []
+    for kern in (sy.kernel, kernels._integrate_table):
+        sy.kernel = kern
+        s = static_state(sy)
+        kin = np.array([0.0, 0.0, 2000.0 / sy.zref_2pi])
+        sy.integrate(s, kin, 128 * 20, 1.0 / (2000.0 * 128), sy.fext_speed())
+        res.append(s)
+    np.testing.assert_allclose(res[0], res[1], rtol=1e-12, atol=1e-18)

@@ -1,0 +1,112 @@
+"""Tests of hacgear_core.dynamics.sweep: jumps of a softening mesh, jump detection, resume after a kill, executors."""
+from __future__ import annotations
+
+from concurrent.futures import ThreadPoolExecutor
+
+import h5py
+import numpy as np
+import pytest
+
+import hacgear_core.dynamics.sweep as sw
+from _dyn import fn_rot, softening, system
+from hacgear_core.dynamics.sweep import BranchResult, SweepSpec, detect_jumps, run_sweep, run_sweeps
+
+
+def test_jump_up_and_down_detected_on_softening_fdf():
+    p, tab = softening()
+    fn = fn_rot()
+    fm = np.linspace(0.6 * fn, 1.2 * fn, 25)
+    r = run_sweep(SweepSpec(system(p, tab), tuple(fm), "both"), progress=False)
+    conf = [j for j in r.jumps if j.confirmed]
+    kinds = sorted((j.kind, j.branch) for j in conf)
+    assert kinds == [("jump-down", "down"), ("jump-up", "up")]
+    assert {j.mesh for j in conf} == {"linear"}
+    ju = next(j for j in conf if j.kind == "jump-up").frequency_Hz
+    jd = next(j for j in conf if j.kind == "jump-down").frequency_Hz
+    assert jd < ju < fn  # softening: multi-valued region below the linear natural frequency
+    up, down = r.branches["up"], r.branches["down"]
+    assert np.all(up.converged) and np.all(down.converged)
+    # inside the multi-valued region the down sweep is on the large-amplitude branch with contact loss
+    f_mid = up.mesh_frequency_Hz[(up.mesh_frequency_Hz > jd) & (up.mesh_frequency_Hz < ju)]
+    assert f_mid.size >= 1
+    i_up = np.searchsorted(up.mesh_frequency_Hz, f_mid[0])
+    i_dn = list(down.mesh_frequency_Hz).index(f_mid[0])
+    assert down.metrics["rms_deflection_m"][i_dn, 0] > 1.5 * up.metrics["rms_deflection_m"][i_up, 0]
+    assert down.metrics["contact_loss_fraction"][i_dn, 0] > 0
+
+
+def test_detect_jumps_ignores_monotone_and_flags_unconfirmed():
+    f = np.arange(5.0)
+    b = BranchResult("up", f, {"rms_deflection_m": np.array([1.0, 1.1, 1.2, 1.3, 1.4])[:, None]}, *[None] * 4)
+    assert detect_jumps({"up": b}) == []
+    b2 = BranchResult("up", f, {"rms_deflection_m": np.array([1.0, 1.0, 3.0, 3.0, 3.0])[:, None]}, *[None] * 4)
+    j = detect_jumps({"up": b2}, mesh_names=("m12",))
+    assert len(j) == 1 and j[0].kind == "jump-up" and not j[0].confirmed and j[0].interval_Hz == (1.0, 2.0)
+    assert j[0].mesh == "m12"
+
+
+def test_resume_of_interrupted_sweep_is_identical(tmp_path, monkeypatch):
+    p, tab = softening()
+    fm = tuple(np.linspace(0.7 * fn_rot(), 1.0 * fn_rot(), 8))
+    spec = SweepSpec(system(p, tab), fm, "up")
+    ref = run_sweep(spec, out=tmp_path / "ref.h5", progress=False).branches["up"]
+    real = sw.steady_state
+    calls = {"n": 0}
+
+    def dying(*a, **k):
+        calls["n"] += 1
+        if calls["n"] > 3:
+            raise KeyboardInterrupt
+        return real(*a, **k)
+
+    monkeypatch.setattr(sw, "steady_state", dying)
+    with pytest.raises(KeyboardInterrupt):
+        run_sweep(spec, out=tmp_path / "res.h5", progress=False)
+    monkeypatch.setattr(sw, "steady_state", real)
+    # a kill in the middle of writing a row leaves uncommitted data beyond attrs["rows"]: dropped
+    part = next((tmp_path / "res.h5.parts").glob("*.h5"))
+    with h5py.File(part, "a") as f:
+        assert f.attrs["rows"] == 3
+        for name in f.keys():
+            f[name].resize(4, axis=0)
+        f["rms_deflection_m"][3] = 123.0
+    res = run_sweep(spec, out=tmp_path / "res.h5", progress=False).branches["up"]
+    assert res.recomputed == 5
+    for k in ref.metrics:
+        np.testing.assert_array_equal(res.metrics[k], ref.metrics[k])
+    np.testing.assert_array_equal(res.state, ref.state)
+    again = run_sweep(spec, out=tmp_path / "res.h5", progress=False).branches["up"]
+    assert again.recomputed == 0
+    assert not (tmp_path / "res.h5.parts").exists()
+    # an unreadable part file (killed while the file itself was being written) is moved aside
+    parts = tmp_path / "bad.h5.parts"
+    parts.mkdir()
+    (parts / f"{spec.run_id()}_up.h5").write_bytes(b"not hdf5")
+    with pytest.warns(RuntimeWarning, match="unreadable"):
+        bad = run_sweep(spec, out=tmp_path / "bad.h5", progress=False).branches["up"]
+    assert bad.recomputed == 8
+    np.testing.assert_array_equal(bad.metrics["rms_deflection_m"], ref.metrics["rms_deflection_m"])
+
+
+def test_sweeps_in_parallel_through_an_executor(tmp_path):
+    p, tab = softening()
+    fm = tuple(np.linspace(0.7 * fn_rot(), 1.0 * fn_rot(), 4))
+    specs = [SweepSpec(system(p, tab), fm, "both", torque_Nm=t) for t in (80.0, 120.0)]
+    with ThreadPoolExecutor(2) as ex:
+        par = run_sweeps(specs, out=tmp_path / "p.h5", executor=ex, progress=False)
+    ser = run_sweeps(specs, progress=False)
+    for a, b in zip(par, ser):
+        assert a.spec.system.torque_Nm in (80.0, 120.0)
+        for br in ("up", "down"):
+            np.testing.assert_array_equal(a.branches[br].metrics["rms_deflection_m"],
+                                          b.branches[br].metrics["rms_deflection_m"])
+
+
+def test_systems_travel_to_worker_processes():
+    """A process pool pickles the system: the kernel is reselected on the other side, results identical."""
+    import pickle
+
+    p, tab = softening()
+    sy = system(p, tab)
+    sy2 = pickle.loads(pickle.dumps(sy))
+    assert sy2.kernel is sy.kernel and sy2.fingerprint() == sy.fingerprint()

@@ -101,6 +101,6 @@ def load_inputs(model: str, *, torque_Nm: float | None = None, bearing_stiffness
     system = build_system(mdl, tabs, force_law=force_law, torque_Nm=torque_Nm,
                           bearing_stiffness_N_per_m=bearing_stiffness_N_per_m, modal_damping_ratio=damping_ratio,
                           shafts=shafts)
-    solvers = sorted({str(getattr(t, "solver", "") or "?") for t in tabs.meshes.values()})
+    solvers = sorted({str(getattr(t, "solver", "") or "?").split(", mesh ")[0] for t in tabs.meshes.values()})
     synth = any("synthetic" in s for s in solvers)
-    return DynamicsInputs(system, f"{mdl.name} (table solver: {', '.join(solvers)})", synth, mdl)
+    return DynamicsInputs(system, f"{mdl.name} (tables: {'; '.join(solvers)})", synth, mdl)

@@ -153,6 +153,90 @@ def plot_time_traces(system: str, torque: float, ratios: tuple[float, ...], gaug
     return factors
 
 
+def idler_study(fig_dir: Path, torque: float = 300.0, fm=(400.0, 4200.0, 191)) -> dict:
+    """The idler chain at ``torque`` on gear 1 (dissertation Figs. 4.7, 4.8): natural frequencies and mode shapes,
+    up/down sweeps of both meshes with their jumps, super-harmonic peaks, contact loss on the upper branch near
+    3400 Hz, and the time traces there; figures ``validation_sweep_idler.png`` and ``validation_traces_idler.png``."""
+    sy = _system("idler_28_33_39", torque)
+    mr = modal_analysis(sy)
+    it = impulse_test(sy)
+    freqs = tuple(np.linspace(*fm[:2], int(fm[2])))
+    t0 = time.perf_counter()
+    r = run_sweep(SweepSpec(sy, freqs, "both"), progress=False)
+    wall = time.perf_counter() - t0
+    out = {"natural_frequencies_Hz": mr.natural_frequencies_Hz.tolist(), "dof_names": list(mr.dof_names),
+           "mode_shapes": mr.mode_shapes.T.tolist(), "impulse_weighted_Hz": it.weighted_mean_Hz.tolist(),
+           "mesh_phase_m23": float(sy.phase[1]), "sweep_wall_s": wall,
+           "jumps": [{"mesh": j.mesh, "kind": j.kind, "branch": j.branch, "frequency_Hz": j.frequency_Hz,
+                      "interval_Hz": list(j.interval_Hz)} for j in r.jumps if j.confirmed],
+           "speeds_at_cycle_cap": {b: int(np.sum(~br.converged)) for b, br in r.branches.items()}}
+    up, down = r.branches["up"], r.branches["down"]
+    rms_up = np.asarray(up.metrics["rms_deflection_m"])
+    peaks = {}
+    for k, name in enumerate(sy.mesh_names):
+        y = rms_up[:, k]
+        f = np.asarray(up.mesh_frequency_Hz)
+        peaks[name] = [float(f[i]) for i in range(1, len(f) - 1) if y[i] >= y[i - 1] and y[i] > y[i + 1]
+                       and y[i] > 1.2 * np.median(y)]
+    out["up_sweep_rms_peaks_Hz"] = peaks
+    sel = (np.asarray(down.mesh_frequency_Hz) > 3300) & (np.asarray(down.mesh_frequency_Hz) < 3500)
+    out["upper_branch_3300_3500Hz_contact_loss_fraction"] = dict(
+        zip(sy.mesh_names, np.asarray(down.metrics["contact_loss_fraction"])[sel].max(axis=0).tolist()))
+    fig, ax = plt.subplots(2, 1, figsize=(8, 8), sharex=True)
+    for k, name in enumerate(sy.mesh_names):
+        for b, mk, ls, col in (("up", "o", "-", "tab:blue"), ("down", "x", "--", "tab:red")):
+            br = r.branches[b]
+            ax[k].plot(br.mesh_frequency_Hz, np.asarray(br.metrics["rms_deflection_m"])[:, k] * 1e6, marker=mk,
+                       ls=ls, color=col, ms=3, lw=0.8, label=f"{b} sweep")
+            loss = np.asarray(br.metrics["contact_loss_fraction"])[:, k] > 0
+            ax[k].plot(np.asarray(br.mesh_frequency_Hz)[loss], np.zeros(loss.sum()) - 0.5 * (b == "down"), "|",
+                       color=col, ms=6, label=f"contact loss ({b})")
+        marks = sorted((j.frequency_Hz, j.kind) for j in r.jumps if j.confirmed and j.mesh == name)
+        for i_mark, (fj, kind) in enumerate(marks):
+            ax[k].axvline(fj, color="0.5", ls=":", lw=0.8)
+            ax[k].annotate(f"{kind} {fj:.0f} Hz", (fj, 1.0 + 0.07 * (i_mark % 2)), xycoords=("data", "axes fraction"),
+                           fontsize=7, ha="center", va="bottom")
+        for fn in mr.natural_frequencies_Hz:
+            ax[k].axvline(fn, color="k", lw=0.6, alpha=0.4)
+        ax[k].set_ylabel(f"RMS of oscillating mesh deflection, {name} [µm]")
+        ax[k].legend(fontsize=7, loc="upper left")
+    ax[1].set_xlabel("mesh frequency [Hz]   (thin lines: linearised natural frequencies; dotted: confirmed jumps)")
+    fig.suptitle(f"idler_28_33_39, {torque:g} N·m on gear 1, FE tables (cf. dissertation Fig. 4.7)", fontsize=10,
+                 y=0.995)
+    fig.tight_layout()
+    fig.savefig(fig_dir / "validation_sweep_idler.png", dpi=110)
+    plt.close(fig)
+    # Fig. 4.8: the upper branch at 3400 Hz (continued down from the down sweep's state just above)
+    fd = np.asarray(down.mesh_frequency_Hz)
+    i = int(np.argmin(np.abs(fd - 3400.0)))
+    state = down.state[i - 1] if i > 0 else None
+    rr = steady_state(sy, 3400.0, state)
+    rr = steady_state(sy, 3400.0, rr.state, keep_trace=True)
+    tau, x, f = rr.trace["mesh_position"], rr.trace["mesh_deflection_m"], rr.trace["mesh_force_N"]
+    fig, ax = plt.subplots(2, 2, figsize=(10, 6), sharex="col")
+    for k, name in enumerate(sy.mesh_names):
+        tt = tau[:, k] - np.floor(tau[0, k])
+        tab = sy.meshes[k].table
+        ax[0, k].plot(tt, x[:, k] * 1e6, "b-", label="dynamic mesh deflection (HAC)")
+        ax[0, k].plot(tt, tab.no_load_deflection(tt) * 1e6, "g:", label="no-load mesh deflection")
+        ax[1, k].plot(tt, f[:, k] / 1e3, "b-")
+        ax[0, k].set_title(f"mesh {name}", fontsize=9)
+        ax[1, k].set_xlabel(f"mesh position of {name} [cycles]")
+        ax[0, k].set_ylabel("mesh deflection [µm]")
+        ax[1, k].set_ylabel("mesh force [kN]")
+    ax[0, 0].legend(fontsize=7)
+    fig.suptitle(f"idler_28_33_39 at 3400 Hz on the upper branch, {torque:g} N·m (cf. dissertation Fig. 4.8); "
+                 f"contact loss {', '.join(f'{n} {v:.2f}' for n, v in zip(sy.mesh_names, rr.metrics['contact_loss_fraction']))}",
+                 fontsize=9)
+    fig.tight_layout()
+    fig.savefig(fig_dir / "validation_traces_idler.png", dpi=110)
+    plt.close(fig)
+    out["traces_3400Hz"] = {"period_cycles": rr.period_cycles,
+                            "contact_loss_fraction": dict(zip(sy.mesh_names, rr.metrics["contact_loss_fraction"].tolist())),
+                            "rms_deflection_m": dict(zip(sy.mesh_names, rr.metrics["rms_deflection_m"].tolist()))}
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m hacgear_core.plots.validation", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -194,6 +278,8 @@ def main(argv: list[str] | None = None) -> int:
     res["dynamic_factor_spur_28t_asym_300Nm"] = plot_time_traces(
         "spur_28t_asym", 300.0, (0.571, 0.893, 1.027), "wheel/SG25", out / "validation_traces_28t_asym.png")
     print("28t dynamic factors (max dynamic / max static strain, wheel/SG25):", res["dynamic_factor_spur_28t_asym_300Nm"])
+    res["idler_28_33_39_300Nm"] = idler_study(out)
+    print("idler, 300 N m on gear 1:", {k: res["idler_28_33_39_300Nm"][k] for k in ("natural_frequencies_Hz", "jumps")})
     json_path.write_text(json.dumps(res, indent=1))
     print(f"wrote {json_path} and figures in {out}")
     return 0

@@ -1,0 +1,44 @@
+"""Tests of hacgear_core.dynamics.equilibrium: the static state against the tables' load-control results."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from _dyn import K, params, system
+from hacgear_core.dynamics.build import build_system
+from hacgear_core.dynamics.equilibrium import static_equilibrium, static_state
+from hacgear_core.dynamics.synthetic import linear_fdf_table
+from hacgear_core.model import load_model
+from hacgear_core.tables import load_system_tables
+
+
+def test_linear_mesh_equilibrium_closed_form():
+    """Constant stiffness, free rotation: F = T / r_b and x = F / k; translations deflect by F / k_y."""
+    p = params(bearing_stiffness_N_per_m=(3e8, 2e8))
+    sy = system(p, linear_fdf_table(K))
+    eq = static_equilibrium(sy)
+    f = p.static_force_N
+    assert eq.mesh_forces_N[0] == pytest.approx(f, rel=1e-12)
+    assert eq.mesh_deflections_m[0] == pytest.approx(f / K, rel=1e-12)
+    assert eq.q[0] == pytest.approx(-f / 3e8, rel=1e-12) and eq.q[2] == pytest.approx(f / 2e8, rel=1e-12)
+    assert abs(eq.q[sy.iref]) < 1e-15  # the free rotation is held at the reference
+    assert static_state(sy).shape == (2 * sy.n,)
+
+
+@pytest.mark.parametrize("tau_ref", [0.0, 0.23, 0.61])
+def test_idler_equilibrium_reproduces_the_tables_and_balances_the_idler(tau_ref):
+    """Each mesh's static deflection equals its table's load-control deflection at the load it carries (0.5 %), and
+    the idler balances F_s1 r_12 = F_s2 r_21 (0.1 %)."""
+    model = load_model("idler_28_33_39")
+    sy = build_system(model, load_system_tables("idler_28_33_39"))
+    eq = static_equilibrium(sy, tau_ref)
+    tau = tau_ref + sy.phase + sy.W @ eq.q
+    for k, c in enumerate(sy.meshes):
+        x_table = float(c.table.static_deflection(tau[k], eq.mesh_forces_N[k]))
+        assert eq.mesh_deflections_m[k] == pytest.approx(x_table, rel=5e-3)
+    m12, m23 = sy.meshes
+    r12 = abs(m12.v[sy.gears["gear2"].rotation])
+    r21 = abs(m23.v[sy.gears["gear2"].rotation])
+    assert eq.mesh_forces_N[0] * r12 == pytest.approx(eq.mesh_forces_N[1] * r21, rel=1e-3)
+    # the shafts carry the nominal torque: the mesh forces stay within 1 % of the torque flow's
+    np.testing.assert_allclose(eq.mesh_forces_N, sy.nominal_forces_N(), rtol=1e-2)

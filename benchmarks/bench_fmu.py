@@ -4,7 +4,7 @@ directly with the same internal step, in one process.
 
 Printed figures (wall seconds, best of ``--repeat``):
 
-* ``library advance``: :class:`~hacgear_core.dynamics.spur.SpurPairSimulator` stepped with ``advance(1e-4)``
+* ``library advance``: :class:`~hacgear_core.dynamics.simulator.Simulator` stepped with ``advance(1e-4)``
   10 000 times (the same communication grid, outputs read each step): the reference of the judged ratio;
 * ``library run``: one ``run(1.0, record_dt_s=1e-4)`` call (the kernel's own loop, no per-step Python);
 * ``fmpy simulate_fmu``: the FMU under ``fmpy.simulate_fmu`` (step 1e-4, outputs recorded every step);
@@ -29,7 +29,8 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-OUTPUTS = ["mesh_force", "mesh_deflection", "dte", "mesh_position", "speed1"]
+OUTPUTS = ["m12.force", "m12.deflection", "m12.dte", "m12.position", "pinion.speed"]
+SPEED_IN = "pinion.speed_in"
 
 
 def _fresh_process_first_step(fmu_path: Path, speed: float) -> list[float]:
@@ -47,7 +48,7 @@ def _fresh_process_first_step(fmu_path: Path, speed: float) -> list[float]:
         "f = FMU2Slave(guid=md.guid, unzipDirectory=d, modelIdentifier=md.coSimulation.modelIdentifier,"
         " instanceName='x')\n"
         "f.instantiate(); f.setupExperiment(startTime=0.0); f.enterInitializationMode()\n"
-        f"f.setReal([vr['speed1_in']], [{speed!r}]); f.exitInitializationMode(); f.doStep(0.0, 1e-4)\n"
+        f"f.setReal([vr[{SPEED_IN!r}]], [{speed!r}]); f.exitInitializationMode(); f.doStep(0.0, 1e-4)\n"
         "print(json.dumps(time.perf_counter() - t0))\n"
         "f.terminate(); f.freeInstance()\n"
         "import shutil; shutil.rmtree(d, ignore_errors=True)\n"
@@ -77,7 +78,8 @@ def main(argv=None) -> int:
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import FMU2Slave
 
-    from hacgear_core.dynamics.spur import SpurPairSimulator, from_model
+    from hacgear_core.dynamics.build import build_system
+    from hacgear_core.dynamics.simulator import Simulator
     from hacgear_core.model import load_model
     from hacgear_core.tables import read_tables
 
@@ -99,9 +101,8 @@ def main(argv=None) -> int:
 
     unz = extract(str(fmu_path))
     model = load_model(Path(unz) / "resources" / "model.toml")
-    table = read_tables(Path(unz) / "resources" / "tables.h5").meshes[model.mesh().name]
-    params = from_model(model, table=table)
-    sim = SpurPairSimulator(params, table, internal_step_s=h_int)
+    sim = Simulator(build_system(model, read_tables(Path(unz) / "resources" / "tables.h5")), internal_step_s=h_int)
+    ip = sim.gear_index("pinion")
 
     def lib_advance():
         sim.reset(speed_rad_s=speed)
@@ -109,8 +110,8 @@ def main(argv=None) -> int:
         rec = np.empty((n, len(OUTPUTS)))
         for k in range(n):
             sim.advance(dt)
-            rec[k] = (sim.mesh_force_N, sim.mesh_deflection_m, sim.dynamic_transmission_error_m, sim.mesh_position,
-                      sim.speed1_rad_s)
+            rec[k] = (sim.mesh_force_N[0], sim.mesh_deflection_m[0], sim.dynamic_transmission_error_m[0],
+                      sim.mesh_position[0], sim.speed_rad_s[ip])
         return rec
 
     def lib_run():
@@ -120,7 +121,7 @@ def main(argv=None) -> int:
 
     def fmu_high():
         return fmpy.simulate_fmu(str(fmu_path), stop_time=t_end, step_size=dt, output_interval=dt,
-                                 start_values={"speed1_in": speed, "internal_step": h_int}, output=OUTPUTS)
+                                 start_values={SPEED_IN: speed, "internal_step": h_int}, output=OUTPUTS)
 
     md = read_model_description(str(fmu_path))
     vr = {v.name: v.valueReference for v in md.modelVariables}
@@ -134,7 +135,7 @@ def main(argv=None) -> int:
         f.instantiate()
         f.setupExperiment(startTime=0.0)
         f.enterInitializationMode()
-        f.setReal([vr["speed1_in"], vr["internal_step"]], [speed, h_int])
+        f.setReal([vr[SPEED_IN], vr["internal_step"]], [speed, h_int])
         f.exitInitializationMode()
         rec = np.empty((n, len(OUTPUTS)))
         t = 0.0
@@ -151,9 +152,9 @@ def main(argv=None) -> int:
     def slave_direct():
         from hacgear_core.fmu import HacgearSlave
 
-        sl = HacgearSlave(instance_name="direct", resources=str(Path(unz) / "resources"))
+        sl = HacgearSlave(instance_name="direct", resources=str(Path(unz) / "resources"))  # KIND "" accepts any
         sl.setup_experiment(0.0)
-        sl.set_real([vr["speed1_in"], vr["internal_step"]], [speed, h_int])
+        sl.set_real([vr[SPEED_IN], vr["internal_step"]], [speed, h_int])
         sl.exit_initialization_mode()
         rec = np.empty((n, len(OUTPUTS)))
         t = 0.0

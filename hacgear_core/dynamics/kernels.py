@@ -104,78 +104,104 @@ def mesh_force(law, k, tab, tint, tflt, lin, lint, tau, x):
 
 
 @njit(cache=True, inline="always", fastmath=_FM)
-def _free_acc(n, q, qd, kidx, aqv, ad, fm, out):
-    """Force-free acceleration ``M^-1 f_ext - (M^-1 K_eff) q - (M^-1 C_eff) q'`` into ``out``; the stiffness part
-    over its nonzero entries ``kidx`` (supports are sparse), the damping part dense (modal damping is full)."""
+def _sub_k(n, nnz, kidx, aqv, c, x, ox, out, oo):
+    """``out[oo:oo+n] -= c (M^-1 K_eff) x[ox:ox+n]``: the diagonal (``aqv[:n]``) then the nonzero off-diagonal
+    entries."""
     for i in range(n):
-        a = fm[i]
-        for j in range(n):
-            a -= ad[i, j] * qd[j]
-        out[i] = a
-    for z in range(kidx.shape[0]):
-        out[kidx[z, 0]] -= aqv[z] * q[kidx[z, 1]]
+        out[oo + i] -= c * aqv[i] * x[ox + i]
+    for z in range(n, nnz):
+        out[oo + kidx[z, 0]] -= c * aqv[z] * x[ox + kidx[z, 1]]
+
+
+@njit(cache=True, inline="always", fastmath=_FM)
+def _sub_c(n, adt, c, x, ox, out, oo):
+    """``out[oo:oo+n] -= c (M^-1 C_eff) x[ox:ox+n]`` column by column (``adt`` is its transpose, flat (n*n,))."""
+    for j in range(n):
+        b = c * x[ox + j]
+        for i in range(n):
+            out[oo + i] -= adt[j * n + i] * b
+
+
+@njit(cache=True, inline="always", fastmath=_FM)
+def _sub_forces(n, m, f, of, vmi, ov, out, oo):
+    """``out[oo:oo+n] -= sum_k f[of+k] (M^-1 v_k)`` with ``M^-1 v_k = vmi[ov + k n : ov + (k+1) n]``."""
+    for k in range(m):
+        for i in range(n):
+            out[oo + i] -= f[of + k] * vmi[ov + k * n + i]
 
 
 @njit(cache=True, inline="always", fastmath=_FM)
 def _integrate_impl(n, m, law, s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat,
-                    phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, mw, kidx, kval):
-    # RK4 whose stage mesh deflections and positions are formed from scalars: with x_q = v.q, x_d = v.q' and
-    # g = v.(force-free acceleration), stage 2 needs x_q + h/2 x_d, stage 3 x_q + h/2 (x_d + h/2 (g_1 - VV F_1)),
-    # stage 4 x_q + h (x_d + h/2 (g_2 - VV F_2)) (VV = v M^-1 v^T), so each table lookup waits on a few
-    # multiply-adds after an earlier lookup instead of on a full stage update and dot products (the same RK4)
+                    phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval):
+    # RK4 of q'' = a(q, q', F).  The force-free acceleration is linear in (q, q'), so every stage's is the
+    # first stage's g0 plus products with the earlier stages' accelerations a1..a3 (hh = h/2):
+    #   a2 = g0 + hh p - hh C a1                  - F2 M^-1 v      (p = -K q')
+    #   a3 = g0 + hh p - hh^2 K a1 - hh C a2       - F3 M^-1 v
+    #   a4 = g0 + h p  - h hh K a2 - h C a3        - F4 M^-1 v
+    #   q  += h q' + h^2/6 (a1 + a2 + a3),   q' += h/6 (a1 + 2 a2 + 2 a3 + a4)
+    # (K, C here M^-1 K_eff, M^-1 C_eff).  The stage mesh deflections and positions are formed from scalars:
+    # with x_q = v.q, x_d = v.q', g = v.(force-free acceleration) and VV = v M^-1 v^T, stage 2 needs
+    # x_q + hh x_d, stage 3 x_q + hh (x_d + hh (g_1 - VV F_1)), stage 4 x_q + h (x_d + hh (g_2 - VV F_2)), so
+    # each table lookup waits on a few multiply-adds after an earlier lookup, not on a full stage update.
+    # Vectors and matrices are addressed flat at offsets that are compile-time constants in the specialised
+    # loops (one base pointer per array keeps the loop's working set in registers).
     minv = mats[0]
     mc = mats[1]
     mg = mats[2]
     mk = kval[0]
     mkw = kval[1]
     aqv = kval[2]
-    vm = vecs[0]
-    wm = vecs[1]
-    rvm = vecs[2]
-    vmi = vecs[3]
-    vv = mmat[0]
-    wv = mmat[1]
+    nnz = kidx.shape[0]
+    vf = vecs.reshape(vecs.size)
+    mf = mmat.reshape(mmat.size)
+    o_wm = m * n
+    o_rvm = 2 * m * n
+    o_vmi = 3 * m * n
+    o_wv = m * m
     c_ratio = scal[0]
     sref = scal[1]
     zref_2pi = scal[2]
-    ad = eff
-    a1 = work[0]
-    a2 = work[1]
-    a3 = work[2]
-    a4 = work[3]
-    q2 = work[4]
-    d2 = work[5]
-    q3 = work[6]
-    d3 = work[7]
-    fm = work[8]
-    xq = mw[0]
-    xd = mw[1]
-    wq = mw[2]
-    wd = mw[3]
-    f1 = mw[4]
-    f2 = mw[5]
-    f3 = mw[6]
-    f4 = mw[7]
-    g1 = mw[8]
-    gw1 = mw[9]
-    g2 = mw[10]
-    gw2 = mw[11]
+    adt = eff.reshape(n * n)
+    wk = work
+    o_a1 = 0 * n
+    o_a2 = 1 * n
+    o_a3 = 2 * n
+    o_a4 = 3 * n
+    o_g0 = 4 * n
+    o_p = 5 * n
+    o_fm = 6 * n
+    o_xq = 7 * n + 0 * m
+    o_xd = 7 * n + 1 * m
+    o_wq = 7 * n + 2 * m
+    o_wd = 7 * n + 3 * m
+    o_f1 = 7 * n + 4 * m
+    o_f2 = 7 * n + 5 * m
+    o_f3 = 7 * n + 6 * m
+    o_f4 = 7 * n + 7 * m
+    o_g1 = 7 * n + 8 * m
+    o_gw1 = 7 * n + 9 * m
+    o_g2 = 7 * n + 10 * m
+    o_gw2 = 7 * n + 11 * m
     for i in range(n):
         a = 0.0
         for j in range(n):
             a += minv[i, j] * fext[j]
-        fm[i] = a
+        wk[o_fm + i] = a
     nrec = 0
     nr_cap = rec_state.shape[0]
     rotating = c_ratio != 0.0
     omega_c_set = math.nan
     if not rotating:
-        for z in range(kidx.shape[0]):
+        for z in range(nnz):
             aqv[z] = mk[z]
         for i in range(n):
             for j in range(n):
-                ad[i, j] = mc[i, j]
+                adt[j * n + i] = mc[i, j]
     hh = 0.5 * h
+    hh2 = hh * hh
+    hhh = h * hh
+    c6 = h / 6.0
+    c6q = h * h / 6.0
     countdown = rec_every
     for step in range(n_steps):
         tau_ref = kin[0]
@@ -183,11 +209,11 @@ def _integrate_impl(n, m, law, s, kin, n_steps, h, mode, fext, rec_every, rec_st
         if rotating:
             oc = c_ratio * omega
             if oc != omega_c_set:
-                for z in range(kidx.shape[0]):
+                for z in range(nnz):
                     aqv[z] = mk[z] - oc * oc * mkw[z]
                 for i in range(n):
                     for j in range(n):
-                        ad[i, j] = mc[i, j] + oc * mg[i, j]
+                        adt[j * n + i] = mc[i, j] + oc * mg[i, j]
                 omega_c_set = oc
         dtau = zref_2pi * omega * h
         for k in range(m):
@@ -196,85 +222,78 @@ def _integrate_impl(n, m, law, s, kin, n_steps, h, mode, fext, rec_every, rec_st
             c = 0.0
             d = 0.0
             for j in range(n):
-                a += vm[k, j] * s[j]
-                b += vm[k, j] * s[n + j]
-                c += wm[k, j] * s[j]
-                d += wm[k, j] * s[n + j]
-            xq[k] = a
-            xd[k] = b
-            wq[k] = c
-            wd[k] = d
+                a += vf[k * n + j] * s[j]
+                b += vf[k * n + j] * s[n + j]
+                c += vf[o_wm + k * n + j] * s[j]
+                d += vf[o_wm + k * n + j] * s[n + j]
+            wk[o_xq + k] = a
+            wk[o_xd + k] = b
+            wk[o_wq + k] = c
+            wk[o_wd + k] = d
         # stages 1 and 2: their lookups need only the state
         for k in range(m):
-            f1[k] = mesh_force(law, k, tab, tint, tflt, lin, lint, tau_ref + phase[k] + wq[k], xq[k])
-            f2[k] = mesh_force(law, k, tab, tint, tflt, lin, lint, tau_ref + 0.5 * dtau + phase[k] + wq[k] + hh * wd[k],
-                               xq[k] + hh * xd[k])
-        _free_acc(n, s, s[n:], kidx, aqv, ad, fm, a1)
-        for k in range(m):
-            a = 0.0
-            b = 0.0
-            for i in range(n):
-                a += vm[k, i] * a1[i]
-                b += wm[k, i] * a1[i]
-            g1[k] = a
-            gw1[k] = b
-        for k in range(m):
-            for i in range(n):
-                a1[i] -= f1[k] * vmi[k, i]
+            wk[o_f1 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, tau_ref + phase[k] + wk[o_wq + k], wk[o_xq + k])
+            wk[o_f2 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, tau_ref + 0.5 * dtau + phase[k] + wk[o_wq + k] + hh * wk[o_wd + k],
+                               wk[o_xq + k] + hh * wk[o_xd + k])
         for i in range(n):
-            q2[i] = s[i] + hh * s[n + i]
-            d2[i] = s[n + i] + hh * a1[i]
-        _free_acc(n, q2, d2, kidx, aqv, ad, fm, a2)
+            wk[o_g0 + i] = wk[o_fm + i]
+            wk[o_p + i] = 0.0
+        _sub_k(n, nnz, kidx, aqv, 1.0, s, 0, wk, o_g0)
+        _sub_k(n, nnz, kidx, aqv, 1.0, s, n, wk, o_p)
+        _sub_c(n, adt, 1.0, s, n, wk, o_g0)
         for k in range(m):
             a = 0.0
             b = 0.0
             for i in range(n):
-                a += vm[k, i] * a2[i]
-                b += wm[k, i] * a2[i]
-            g2[k] = a
-            gw2[k] = b
+                a += vf[k * n + i] * wk[o_g0 + i]
+                b += vf[o_wm + k * n + i] * wk[o_g0 + i]
+            wk[o_g1 + k] = a
+            wk[o_gw1 + k] = b
+        for i in range(n):
+            wk[o_a1 + i] = wk[o_g0 + i]
+        _sub_forces(n, m, wk, o_f1, vf, o_vmi, wk, o_a1)
+        for i in range(n):
+            wk[o_a2 + i] = wk[o_g0 + i] + hh * wk[o_p + i]
+        _sub_c(n, adt, hh, wk, o_a1, wk, o_a2)
         for k in range(m):
+            a = 0.0
+            b = 0.0
             for i in range(n):
-                a2[i] -= f2[k] * vmi[k, i]
+                a += vf[k * n + i] * wk[o_a2 + i]
+                b += vf[o_wm + k * n + i] * wk[o_a2 + i]
+            wk[o_g2 + k] = a
+            wk[o_gw2 + k] = b
+        _sub_forces(n, m, wk, o_f2, vf, o_vmi, wk, o_a2)
         # stages 3 and 4
         for k in range(m):
-            a = g1[k]
-            b = gw1[k]
-            c = g2[k]
-            d = gw2[k]
+            a = wk[o_g1 + k]
+            b = wk[o_gw1 + k]
+            c = wk[o_g2 + k]
+            d = wk[o_gw2 + k]
             for j in range(m):
-                a -= vv[k, j] * f1[j]
-                b -= wv[k, j] * f1[j]
-                c -= vv[k, j] * f2[j]
-                d -= wv[k, j] * f2[j]
-            f3[k] = mesh_force(law, k, tab, tint, tflt, lin, lint,
-                               tau_ref + 0.5 * dtau + phase[k] + wq[k] + hh * (wd[k] + hh * b),
-                               xq[k] + hh * (xd[k] + hh * a))
-            f4[k] = mesh_force(law, k, tab, tint, tflt, lin, lint,
-                               tau_ref + dtau + phase[k] + wq[k] + h * (wd[k] + hh * d),
-                               xq[k] + h * (xd[k] + hh * c))
+                a -= mf[k * m + j] * wk[o_f1 + j]
+                b -= mf[o_wv + k * m + j] * wk[o_f1 + j]
+                c -= mf[k * m + j] * wk[o_f2 + j]
+                d -= mf[o_wv + k * m + j] * wk[o_f2 + j]
+            wk[o_f3 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint,
+                               tau_ref + 0.5 * dtau + phase[k] + wk[o_wq + k] + hh * (wk[o_wd + k] + hh * b),
+                               wk[o_xq + k] + hh * (wk[o_xd + k] + hh * a))
+            wk[o_f4 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint,
+                               tau_ref + dtau + phase[k] + wk[o_wq + k] + h * (wk[o_wd + k] + hh * d),
+                               wk[o_xq + k] + h * (wk[o_xd + k] + hh * c))
         for i in range(n):
-            q3[i] = s[i] + hh * d2[i]
-            d3[i] = s[n + i] + hh * a2[i]
-        _free_acc(n, q3, d3, kidx, aqv, ad, fm, a3)
-        for k in range(m):
-            for i in range(n):
-                a3[i] -= f3[k] * vmi[k, i]
-        # stage 4 state (q3 <- q4, d2 <- qd4 after their last use)
+            wk[o_a3 + i] = wk[o_g0 + i] + hh * wk[o_p + i]
+        _sub_k(n, nnz, kidx, aqv, hh2, wk, o_a1, wk, o_a3)
+        _sub_c(n, adt, hh, wk, o_a2, wk, o_a3)
+        _sub_forces(n, m, wk, o_f3, vf, o_vmi, wk, o_a3)
         for i in range(n):
-            q3[i] = s[i] + h * d3[i]
+            wk[o_a4 + i] = wk[o_g0 + i] + h * wk[o_p + i]
+        _sub_k(n, nnz, kidx, aqv, hhh, wk, o_a2, wk, o_a4)
+        _sub_c(n, adt, h, wk, o_a3, wk, o_a4)
+        _sub_forces(n, m, wk, o_f4, vf, o_vmi, wk, o_a4)
         for i in range(n):
-            b = s[n + i] + h * a3[i]
-            q2[i] = b
-        _free_acc(n, q3, q2, kidx, aqv, ad, fm, a4)
-        for k in range(m):
-            for i in range(n):
-                a4[i] -= f4[k] * vmi[k, i]
-        c6 = h / 6.0
-        for i in range(n):
-            # qd1 = s_qd, qd2 = d2, qd3 = d3, qd4 = q2 (stage-4 velocity)
-            s[i] += c6 * (s[n + i] + 2.0 * d2[i] + 2.0 * d3[i] + q2[i])
-            s[n + i] += c6 * (a1[i] + 2.0 * a2[i] + 2.0 * a3[i] + a4[i])
+            s[i] += h * s[n + i] + c6q * (wk[o_a1 + i] + wk[o_a2 + i] + wk[o_a3 + i])
+            s[n + i] += c6 * (wk[o_a1 + i] + 2.0 * wk[o_a2 + i] + 2.0 * wk[o_a3 + i] + wk[o_a4 + i])
         tau_ref += dtau
         if mode == MODE_TORQUE:
             a = s[iref]
@@ -303,9 +322,9 @@ def _integrate_impl(n, m, law, s, kin, n_steps, h, mode, fext, rec_every, rec_st
                 t = tau_ref + phase[k]
                 d = 0.0
                 for j in range(n):
-                    x += vm[k, j] * s[j]
-                    t += wm[k, j] * s[j]
-                    d += rvm[k, j] * s[j]
+                    x += vf[k * n + j] * s[j]
+                    t += vf[o_wm + k * n + j] * s[j]
+                    d += vf[o_rvm + k * n + j] * s[j]
                 rec_out[nrec, 4 * k] = kin[1] + t
                 rec_out[nrec, 4 * k + 1] = x
                 rec_out[nrec, 4 * k + 2] = mesh_force(law, k, tab, tint, tflt, lin, lint, t, x)
@@ -317,42 +336,39 @@ def _integrate_impl(n, m, law, s, kin, n_steps, h, mode, fext, rec_every, rec_st
 
 @njit(cache=True, fastmath=_FM)
 def _integrate_table_2_1(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u,
-                         scal, iref, tab, tint, tflt, lin, lint, work, eff, mw, kidx, kval):
+                         scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval):
     return _integrate_impl(2, 1, LAW_TABLE, s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats,
-                           vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, mw, kidx,
-                           kval)
+                           vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval)
 
 
 @njit(cache=True, fastmath=_FM)
 def _integrate_table_4_1(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u,
-                         scal, iref, tab, tint, tflt, lin, lint, work, eff, mw, kidx, kval):
+                         scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval):
     return _integrate_impl(4, 1, LAW_TABLE, s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats,
-                           vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, mw, kidx,
-                           kval)
+                           vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval)
 
 
 @njit(cache=True, fastmath=_FM)
 def _integrate_table_3_2(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u,
-                         scal, iref, tab, tint, tflt, lin, lint, work, eff, mw, kidx, kval):
+                         scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval):
     return _integrate_impl(3, 2, LAW_TABLE, s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats,
-                           vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, mw, kidx,
-                           kval)
+                           vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval)
 
 
 @njit(cache=True, fastmath=_FM)
 def _integrate_table(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u,
-                     scal, iref, tab, tint, tflt, lin, lint, work, eff, mw, kidx, kval):
+                     scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval):
     return _integrate_impl(s.shape[0] // 2, phase.shape[0], LAW_TABLE, s, kin, n_steps, h, mode, fext,
                            rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref, tab, tint,
-                           tflt, lin, lint, work, eff, mw, kidx, kval)
+                           tflt, lin, lint, work, eff, kidx, kval)
 
 
 @njit(cache=True, fastmath=_FM)
 def _integrate_linear(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u,
-                      scal, iref, tab, tint, tflt, lin, lint, work, eff, mw, kidx, kval):
+                      scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval):
     return _integrate_impl(s.shape[0] // 2, phase.shape[0], LAW_LINEAR, s, kin, n_steps, h, mode, fext,
                            rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref, tab, tint,
-                           tflt, lin, lint, work, eff, mw, kidx, kval)
+                           tflt, lin, lint, work, eff, kidx, kval)
 
 
 _SPECIAL = {(LAW_TABLE, 2, 1): _integrate_table_2_1, (LAW_TABLE, 4, 1): _integrate_table_4_1,
@@ -370,8 +386,9 @@ def select_kernel(law: int, n: int, m: int):
         mmat (2, m, m) = [v M^-1 v^T, w M^-1 v^T], phase (m,), u (n,), scal (3,) = [c_ratio, sref, zref_2pi],
         iref int, tab (flat FDFs), tint (m, 3) int64 = [offset, Np, Nd], tflt (m, 2) = [x0, 1/dx],
         lin (flat conventional-law arrays), lint (m, 2) int64 = [offset, Np],
-        work (9, n), eff (n, n), mw (12, m) scratch,
-        kidx (nnz, 2) int64 rows/columns of the nonzero entries of M^-1 K and M^-1 K_W,
+        work (7n + 12m,), eff (n, n) scratch,
+        kidx (nnz, 2) int64 rows/columns of the entries of M^-1 K and M^-1 K_W the kernel multiplies: the n
+            diagonal entries first (row i = column i = i), then the nonzero off-diagonal ones,
         kval (3, nnz) = [their values in M^-1 K, in M^-1 K_W, scratch]
 
     and it returns the number of records written (module docstring).

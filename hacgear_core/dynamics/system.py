@@ -220,7 +220,8 @@ class LumpedSystem:
         self.minv = np.ascontiguousarray(np.linalg.inv(self.M))
         self.kernel = kernels.select_kernel(self.law, n, self.m)
         mk, mkw = self.minv @ self.K, self.minv @ self.K_W
-        kidx = np.ascontiguousarray(np.argwhere((mk != 0) | (mkw != 0)).astype(np.int64)).reshape(-1, 2)
+        off = np.argwhere(((mk != 0) | (mkw != 0)) & ~np.eye(n, dtype=bool)).reshape(-1, 2)
+        kidx = np.ascontiguousarray(np.vstack([np.repeat(np.arange(n), 2).reshape(n, 2), off]).astype(np.int64))
         tab, tint, tflt = kernels.flatten_tables([(ta.ftab, ta.x0, ta.inv_dx) for ta in self.table_arrays])
         lin, lint = kernels.flatten_linear([lw.lin for lw in self.laws])
         self.arrays = KernelArrays(
@@ -233,13 +234,12 @@ class LumpedSystem:
             u=np.zeros(n) if self.rigid_mode is None else self.rigid_mode,
             scal=np.array([self.carrier_ratio, self.sref, self.zref_2pi]), iref=int(self.iref), tab=tab, tint=tint,
             tflt=tflt, lin=lin, lint=lint)
-        self._work = np.zeros((9, n))
+        self._work = np.zeros(7 * n + 12 * self.m)
         self._eff = np.zeros((n, n))
-        self._mw = np.zeros((12, self.m))
         a = self.arrays
         #: the kernel's trailing arguments (everything but the state, step, mode, loads and records)
         self.kernel_constants = (a.mats, a.vecs, a.mmat, a.phase, a.u, a.scal, a.iref, a.tab, a.tint, a.tflt, a.lin,
-                                 a.lint, self._work, self._eff, self._mw, a.kidx, a.kval)
+                                 a.lint, self._work, self._eff, a.kidx, a.kval)
         self._cache: dict = {}
 
     def __getstate__(self) -> dict:

@@ -304,8 +304,10 @@ class Simulator:
         phi = (kt[1] + kt[0]) / sy.zref_2pi  # reference gear's rotation in its sense [rad]
         w = kt[2]
         self._frame = (sy.carrier_ratio * phi, sy.carrier_ratio * w)  # carrier frame: angle [rad], speed [rad/s]
-        self.angle_rad = [g.sense * (g.speed_ratio * phi + st[g.rotation]) for g in self._gears]
-        self.speed_rad_s = [g.sense * (g.speed_ratio * w + st[n + g.rotation]) for g in self._gears]
+        self.angle_rad = [g.sense * (g.speed_ratio * phi + (st[g.rotation] if g.rotation >= 0 else 0.0))
+                          for g in self._gears]
+        self.speed_rad_s = [g.sense * (g.speed_ratio * w + (st[n + g.rotation] if g.rotation >= 0 else 0.0))
+                            for g in self._gears]
 
     def gear_index(self, gear: str) -> int:
         """Index of ``gear`` in :attr:`gear_names` (and in ``angle_rad``, ``speed_rad_s``)."""

@@ -6,6 +6,7 @@ model's kind.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 from hacgear_core.dynamics.build.planetary import constant_stiffness_table, planetary_from_model
@@ -22,6 +23,8 @@ from hacgear_core.errors import ModelError
 
 __all__ = [
     "build_system",
+    "StructuralParameter",
+    "structural_parameters",
     "SpurPairParameters",
     "spur_pair_system",
     "TrainGear",
@@ -34,6 +37,31 @@ __all__ = [
 
 #: model kind -> builder(model, tables, **options) -> LumpedSystem
 BUILDERS = {"spur_pair": train_from_model, "idler_chain": train_from_model, "planetary": planetary_from_model}
+
+
+@dataclass(frozen=True)
+class StructuralParameter:
+    """An integer option of a builder that changes the structure of the system (its DOFs and meshes), e.g. the
+    planet count of a planetary set: ``name`` (the builder keyword), ``start``, ``min``, ``max`` and a
+    ``description`` (FMUs declare their outputs for ``max`` and take the value as a fixed parameter)."""
+
+    name: str
+    start: int
+    min: int
+    max: int
+    description: str
+
+
+def structural_parameters(model: Any) -> tuple[StructuralParameter, ...]:
+    """The structural options of ``model``'s builder (none for fixed-axis trains; ``planet_count`` for planetary
+    sets, from 1 to max(5, the model's count): the dissertation's sets have 3, 4 and 5 planets)."""
+    if model.kind == "planetary":
+        n = model.planetary.planet_count
+        return (StructuralParameter(
+            "planet_count", n, 1, max(5, n),
+            "number of equally spaced planets; outputs of planets beyond it read 0 (the tables are per mesh kind: "
+            "one FMU serves every count its tables' load range allows)"),)
+    return ()
 
 
 def build_system(model: Any, tables: Any, **options) -> LumpedSystem:

@@ -260,7 +260,10 @@ class LumpedSystem:
         self.minv = np.ascontiguousarray(np.linalg.inv(self.M))
         self.kernel = kernels.select_kernel(self.law, n, self.m)
         mk, mkw = self.minv @ self.K, self.minv @ self.K_W
-        kidx = np.ascontiguousarray(np.argwhere((mk != 0) | (mkw != 0)).astype(np.int64)).reshape(-1, 2)
+        kidx = np.argwhere((mk != 0) | (mkw != 0)).astype(np.int64).reshape(-1, 2)
+        # column-major order: consecutive updates hit different rows (no read-modify-write chain on one entry),
+        # while every row still sums its terms in ascending column order (same arithmetic)
+        kidx = np.ascontiguousarray(kidx[np.lexsort((kidx[:, 0], kidx[:, 1]))])
         tab, tint, tflt = kernels.flatten_tables([(ta.ftab, ta.x0, ta.inv_dx) for ta in self.table_arrays])
         lin, lint = kernels.flatten_linear([lw.lin for lw in self.laws])
         vmi = self.V @ self.minv.T

@@ -175,7 +175,7 @@ def build_fmu(system_dir: str | Path, out_dir: str | Path, *, slave_dir: str | P
         info["reference_gear"] = adapter.ref
         info["input_gear"] = adapter.base_system.input_gear
         info["meshes"] = {m: {"nominal_force_N": float(f)} for m, f in
-                          zip(adapter.mesh_names, adapter.base_system.nominal_forces_N())}
+                          zip(adapter.base_system.mesh_names, adapter.base_system.nominal_forces_N())}
         info["reference_teeth"] = adapter.base_system.gears[adapter.ref].teeth
         info["mesh_cycles_per_rad"] = adapter.base_system.mesh_cycles_per_rad
         (res / FMU_INFO_FILE).write_text(json.dumps(info, indent=1), encoding="utf-8")

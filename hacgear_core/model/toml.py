@@ -59,6 +59,27 @@ The format (one example per system lives in ``models/``)::
 
     [statics]
     positions = 64; loads = 32; max_torque_factor = 3.0
+
+Planetary sets (``kind = "planetary"``: two meshes, sun -> planet and planet -> ring, each named after the member
+that drives it relative to the carrier)::
+
+    [planetary]
+    planet_count = 3
+    planet_positions_deg = [0.0, 120.0, 240.0]   # optional (default: equally spaced); multiples of 360/(z_s+z_r)
+    carrier_radius_mm = 96.54                    # optional (default: the sun-planet centre distance)
+    carrier_mass_kg = 3.0; carrier_inertia_kgm2 = 0.03
+    fixed_member = "ring"                        # ring | carrier | sun, held at zero speed (its rotational support
+                                                 # stiffness: inf held, finite sprung reaction, 0 a free port); a
+                                                 # fixed member without [gears.support] is held (ring fixed)
+    [planetary.carrier_support]                  # absent: rotation prescribed (follows the kinematics), rigid
+    translational_stiffness_N_per_m = 1e8; rotational_stiffness_Nm_per_rad = inf   # inf prescribed, 0 free
+    [[planetary.pin_errors]]                     # optional: planet pin position errors
+    planet = 2; radial_um = 0.0; tangential_um = 20.0
+
+The planet's ``[gears.support]`` is its bearing on the pin (translational stiffness; rotational stiffness 0).
+A fully lumped planetary model (``[system] lumped = true``) has no materials, tooth geometry or statics: its gears
+give ``name, teeth, internal, mass_kg, inertia_kgm2, base_radius_mm, [gears.support]``, its meshes
+``name, gear_a, gear_b, mesh_stiffness_N_per_m, pressure_angle_deg`` (``examples/planetary_lumped.toml``).
 """
 
 

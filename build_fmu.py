@@ -5,7 +5,7 @@
     python build_fmu.py --system spur_28t_asym --out dist
     python build_fmu.py --models /tmp/models --check   # other models folder; validate after building
 
-One FMU per system whose kind has a slave in ``fmu_src/`` (spur_pair, idler_chain).  The model file and its
+One FMU per system whose kind has a slave in ``fmu_src/`` (spur_pair, idler_chain, planetary).  The model file and its
 tables travel as FMU resources; the FMU runs its model in the importer's Python and checks at
 instantiation that the packages it names (hacgear, numpy, scipy, numba, h5py) are installed in
 compatible versions.  ``--check`` runs ``fmpy validate`` and ``fmutool -check`` on each FMU.

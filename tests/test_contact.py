@@ -351,26 +351,36 @@ def test_coast_flank_mesh(model):
     assert h["wheel"][2] == pytest.approx(-TORQUE, rel=2e-3)
 
 
-def test_internal_mesh_ring_drives_planet():
-    """Internal mesh (ring = gear_a, planet = gear_b, both turning the same way): conjugate contact at
+@pytest.mark.parametrize("driver", ["ring", "planet"])
+def test_internal_mesh(driver):
+    """Internal mesh, either gear driving (the shipped planetary model: planet = gear_a drives the ring with its
+    coast flank; the variant: ring = gear_a drives the planet), both turning the same way: conjugate contact at
     the pitch point, lambda = 1 on the line of action, torque balance on both gears."""
+    import dataclasses
+
+    from hacgear_core.model import Mesh
+
     m = load_model("planetary_65_55_175")
+    if driver == "ring":
+        ring_mesh = Mesh("ring_planet", "ring", "planet", "drive", "coast", 96.54e-3)
+        m = dataclasses.replace(m, meshes=(m.meshes[0], ring_mesh))
     s = make_mesh_solver(m, "ring_planet")
-    assert s.internal
+    assert s.internal and s.gear_names[0] == driver
     ns = s.options.face_slices
     st0 = s.setup(0.0)
     i0 = int(np.flatnonzero(st0.pairs == 0)[0])
     assert abs(st0.g0[i0 * ns + ns // 2]) < 0.1e-6
     assert st0.lam[i0 * ns + ns // 2] == pytest.approx(1.0, abs=1e-3)
     W = 2000.0
+    driven = "planet" if driver == "ring" else "ring"
     for p in (0.1, 0.6):
         st = s.state_load(p, W)
         assert st.success, st.message
         h = s.hub_reactions(st)
         rb1, rb2 = s.base_radius_m
-        assert h["ring"][2] == pytest.approx(-W * rb1, rel=0.01)      # opposes the ring's drive
-        assert h["planet"][2] == pytest.approx(W * rb2, rel=0.01)     # drives the planet the same way round
-        np.testing.assert_allclose(h["ring"][:2], -h["planet"][:2], atol=1e-9 * W)
+        assert h[driver][2] == pytest.approx(-W * rb1, rel=0.01)      # opposes the driver's drive
+        assert h[driven][2] == pytest.approx(W * rb2, rel=0.01)       # drives the other gear the same way round
+        np.testing.assert_allclose(h[driver][:2], -h[driven][:2], atol=1e-9 * W)
         assert s.solve_deflection(p, st.mesh_deflection_m).mesh_force_N == pytest.approx(W, rel=1e-5)
 
 

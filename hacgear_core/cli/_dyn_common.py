@@ -28,6 +28,9 @@ def add_model_options(p: argparse.ArgumentParser, torque_required: bool = False)
     p.add_argument("--force-law", choices=FORCE_LAWS, default="hac",
                    help="hac: force-deflection tables (default); ste / average_slope / local_slope: the "
                         "conventional models of dissertation Eqs. 3.6-3.8 built from the same tables")
+    p.add_argument("--planets", type=int, default=None,
+                   help="planetary sets: number of equally spaced planets [-] (default: the model's planet_count; "
+                        "the same tables serve any count, they are per mesh kind)")
     p.add_argument("--json", action="store_true", help="print results as JSON (SI, unit in key names)")
     p.add_argument("--ignore-model-hash", action="store_true",
                    help="experts: use a tables file whose model_sha256 does not match the model file")
@@ -36,4 +39,5 @@ def add_model_options(p: argparse.ArgumentParser, torque_required: bool = False)
 def inputs_from_args(args: argparse.Namespace, *, shafts: bool = True) -> DynamicsInputs:
     return load_inputs(args.model, torque_Nm=args.torque, bearing_stiffness_N_per_m=args.bearing_stiffness,
                        damping_ratio=args.damping_ratio, tables=args.tables, force_law=args.force_law,
-                       allow_hash_mismatch=args.ignore_model_hash, shafts=shafts)
+                       allow_hash_mismatch=args.ignore_model_hash, shafts=shafts,
+                       planet_count=getattr(args, "planets", None))

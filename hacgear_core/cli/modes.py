@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 
 from hacgear_core.cli._dyn_common import add_model_options, inputs_from_args
-from hacgear_core.dynamics.modes import impulse_test, modal_analysis
+from hacgear_core.dynamics.modes import gyroscopic_modes, impulse_test, modal_analysis
+from hacgear_core.errors import ModelError
 from hacgear_core.jsonio import dumps
 
 __all__ = ["register", "run"]
@@ -19,16 +20,57 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "local slope of its force-deflection function at its static deflection) and the impulse test (free "
             "vibration at single- and double-tooth-contact positions of the first mesh, contact-ratio-weighted "
             "mean). Mode shapes: one row per mode over the DOFs, rotations as base radius x angle [m], "
-            "counter-clockwise positive."),
+            "counter-clockwise positive. Planetary sets: every mode (rigid-body modes as 0 Hz) with its type "
+            "(rotational / translational / planet / rigid / mixed, Lin & Parker) and multiplicity, at the carrier "
+            "speed of --carrier-speed or --fm (gyroscopic modes); a lumped model (constant mesh stiffnesses) needs "
+            "no tables."),
     )
     add_model_options(p)
     p.add_argument("--no-impulse", action="store_true", help="skip the impulse test")
+    p.add_argument("--carrier-speed", type=float, default=None,
+                   help="planetary sets: carrier speed [rad/s] of the gyroscopic modes (default 0)")
+    p.add_argument("--fm", type=float, default=None,
+                   help="planetary sets: mesh frequency [Hz] whose carrier speed the gyroscopic modes use")
     p.set_defaults(func=run)
+
+
+def _run_planetary(args: argparse.Namespace, inp) -> int:
+    sy = inp.system
+    if args.carrier_speed is not None and args.fm is not None:
+        raise ModelError("give --carrier-speed [rad/s] or --fm [Hz], not both")
+    wc = float(args.carrier_speed) if args.carrier_speed is not None else (
+        sy.carrier_ratio * sy.reference_speed(args.fm) if args.fm is not None else 0.0)
+    gm = gyroscopic_modes(sy, wc)
+    n_pl = sum(1 for c in sy.meshes if c.group == sy.meshes[0].group)
+    rep = {"model": inp.label, "synthetic_table": inp.synthetic, "lumped": bool(getattr(inp.model, "lumped", False)),
+           "planet_count": n_pl, "torque_Nm": sy.torque_Nm, "force_law": args.force_law}
+    rep.update(gm.to_json())
+    if not args.no_impulse and not rep["lumped"]:
+        rep["impulse_test"] = impulse_test(sy).to_json()
+    if args.json:
+        print(dumps(rep))
+        return 0
+    ks = ", ".join(f"{m} {k / 1e6:.2f} N/um" for m, k in zip(sy.mesh_names[:2], gm.mesh_stiffness_N_per_m[:2]))
+    print(f"{inp.label}: {n_pl} planets, torque {sy.torque_Nm:g} N*m, carrier speed {wc:g} rad/s, mesh stiffness "
+          f"{ks}")
+    print("  mode  frequency [Hz]  type           multiplicity")
+    for i, (f, t, k) in enumerate(zip(gm.natural_frequencies_Hz, gm.types, gm.multiplicity)):
+        print(f"  {i + 1:4d}  {f:14.1f}  {t:13s}  {k}")
+    if "impulse_test" in rep:
+        it = rep["impulse_test"]
+        for key, pos in (("single_contact_Hz", "single_contact_position"), ("double_contact_Hz", "double_contact_position")):
+            print(f"impulse test at reference mesh position {it[pos]:.3f}: " + ", ".join(f"{f:.1f}" for f in it[key])
+                  + " Hz")
+    return 0
 
 
 def run(args: argparse.Namespace) -> int:
     inp = inputs_from_args(args)
     sy = inp.system
+    if sy.kind == "planetary":
+        return _run_planetary(args, inp)
+    if args.carrier_speed is not None or args.fm is not None:
+        raise ModelError("--carrier-speed / --fm apply to planetary sets only")
     mr = modal_analysis(sy)
     rep = {"model": inp.label, "synthetic_table": inp.synthetic, "torque_Nm": sy.torque_Nm,
            "force_law": args.force_law,

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from hacgear_core.cli._dyn_common import add_model_options, inputs_from_args
-from hacgear_core.dynamics.simulator import Simulator, strain_of_tooth
+from hacgear_core.dynamics.simulator import Simulator, strain_of_tooth, system_gauges
 from hacgear_core.errors import ModelError
 from hacgear_core.jsonio import dumps
 from hacgear_core.response import dynamic_contact_pressure, dynamic_mesh_stiffness
@@ -120,7 +120,7 @@ def run(args: argparse.Namespace) -> int:
             tr[f"{m}.dynamic_transmission_error_m"] = raw["dynamic_transmission_error_m"][:, k]
         tr[f"{m}.dynamic_mesh_stiffness_N_per_m"] = dynamic_mesh_stiffness(c.table, tau[:, k], x[:, k])
         tr[f"{m}.peak_pressure_Pa"] = dynamic_contact_pressure(c.table, tau[:, k], x[:, k])
-    gauges = sorted({g for c in sy.meshes for g in (getattr(c.table, "strain", None) or {})})
+    gauges = system_gauges(sy)
     for g in gauges:
         tr[f"strain[{g}]"] = strain_of_tooth(sy, g, tau, x)
     per_mesh = {}

@@ -1,4 +1,5 @@
-"""Static equilibrium of a lumped gear system at a mesh position: ``K q + sum_k F_k(tau_k, v_k.q) v_k = f_ext``.
+"""Static equilibrium of a lumped gear system at a mesh position: ``K q + sum_k F_k(tau_k, v_k.q) v_k = f_ext``;
+static load sharing among meshes that share the load (the planets of a planetary set) over a mesh cycle.
 
 The mesh forces are piecewise linear in the deflection (the interpolated FDF), so Newton's method with each
 mesh's local slope as tangent stiffness converges in a few steps; a step that does not reduce the residual is
@@ -16,7 +17,7 @@ from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import SolverError
 from hacgear_core.tables.interp import deflection_at_force
 
-__all__ = ["EquilibriumResult", "static_equilibrium", "static_state"]
+__all__ = ["EquilibriumResult", "static_equilibrium", "static_state", "LoadSharing", "load_sharing"]
 
 
 @dataclass(frozen=True)
@@ -110,3 +111,43 @@ def static_equilibrium(system: LumpedSystem, tau_ref: float = 0.0, fext: np.ndar
 def static_state(system: LumpedSystem, tau_ref: float = 0.0, fext: np.ndarray | None = None) -> np.ndarray:
     """The kernel state (2n,) of the static equilibrium at ``tau_ref`` (:func:`static_equilibrium`, zero rates)."""
     return np.concatenate([static_equilibrium(system, tau_ref, fext).q, np.zeros(system.n)])
+
+
+@dataclass(frozen=True)
+class LoadSharing:
+    """Static load sharing over a mesh cycle.
+
+    ``positions`` (Np,) reference mesh positions [cycles]; ``forces_N`` (Np, m) static mesh forces; ``groups``
+    {group: mesh indices} (meshes of one table kind); ``factor`` (m,) cycle-mean force of each mesh over the mean
+    of its group's cycle-mean forces (1 = equal sharing); ``peak_factor`` (m,) largest instantaneous factor
+    ``F_k / mean_group(F)`` over the cycle."""
+
+    positions: np.ndarray
+    forces_N: np.ndarray
+    groups: dict
+    factor: np.ndarray
+    peak_factor: np.ndarray
+    mesh_names: tuple
+
+
+def load_sharing(system: LumpedSystem, n_positions: int = 32, fext: np.ndarray | None = None) -> LoadSharing:
+    """Static load sharing of the meshes of each group (:attr:`MeshCoupling.group`) at ``n_positions`` reference
+    mesh positions over one cycle under ``fext`` (default: the constant-speed experiment's loads, pin-error
+    preloads included)."""
+    if n_positions < 1:
+        raise SolverError(f"n_positions [-] must be >= 1, got {n_positions}")
+    pos = np.arange(n_positions) / n_positions
+    f = np.array([static_equilibrium(system, float(t), fext).mesh_forces_N for t in pos])
+    groups: dict[str, list[int]] = {}
+    for k, c in enumerate(system.meshes):
+        groups.setdefault(c.group or c.name, []).append(k)
+    mean = f.mean(axis=0)
+    factor = np.ones(system.m)
+    peak = np.ones(system.m)
+    for idx in groups.values():
+        ref = mean[idx].mean()
+        inst = f[:, idx].mean(axis=1)
+        for k in idx:
+            factor[k] = mean[k] / ref if ref > 0 else np.nan
+            peak[k] = float(np.max(f[:, k] / np.where(inst > 0, inst, np.nan)))
+    return LoadSharing(pos, f, {g: tuple(i) for g, i in groups.items()}, factor, peak, system.mesh_names)

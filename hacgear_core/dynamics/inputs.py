@@ -73,14 +73,21 @@ def _synthetic(spec: str, torque_Nm, bearing, damping, force_law, shafts) -> Dyn
 
 def load_inputs(model: str, *, torque_Nm: float | None = None, bearing_stiffness_N_per_m: float | None = None,
                 damping_ratio: float | None = None, tables: str | None = None, force_law: str = "hac",
-                allow_hash_mismatch: bool = False, shafts: bool = True) -> DynamicsInputs:
+                allow_hash_mismatch: bool = False, shafts: bool = True,
+                planet_count: int | None = None) -> DynamicsInputs:
     """The lumped system of ``model`` (see module docstring) with optional overrides of the torque on the input
     gear [N m], every translational bearing stiffness [N/m] and the modal damping ratio; ``tables``: a tables
     file to use instead of the model folder's ``tables.h5`` (hash-checked unless ``allow_hash_mismatch``, an
     expert override for a table of an edited model file); ``shafts``: False drops rotational supports
-    (drivetrain coupling)."""
+    (drivetrain coupling); ``planet_count``: planetary sets, number of equally spaced planets (the tables are per
+    mesh kind).  A lumped model (``[system] lumped = true``) needs no tables."""
     if model.startswith("synthetic:"):
+        if planet_count is not None:
+            raise ModelError("--planets applies to planetary models only")
         return _synthetic(model, torque_Nm, bearing_stiffness_N_per_m, damping_ratio, force_law, shafts)
+    extra = {}
+    if planet_count is not None:
+        extra["planet_count"] = int(planet_count)
     path = Path(model)
     if path.suffix in (".h5", ".hdf5"):
         tabs = read_tables(path)
@@ -97,10 +104,19 @@ def load_inputs(model: str, *, torque_Nm: float | None = None, bearing_stiffness
         tabs = read_tables(path, mp, allow_hash_mismatch=allow_hash_mismatch)
     else:
         mdl = load_model(model)
-        tabs = load_system_tables(model, tables, allow_hash_mismatch=allow_hash_mismatch)
+        if mdl.lumped:
+            if tables is not None:
+                raise ModelError(f"{mdl.name} is a lumped model (constant mesh stiffnesses): it takes no tables")
+            tabs = None
+        else:
+            tabs = load_system_tables(model, tables, allow_hash_mismatch=allow_hash_mismatch)
+    if extra and mdl.kind != "planetary":
+        raise ModelError(f"--planets applies to planetary models only; {mdl.name} is a {mdl.kind}")
     system = build_system(mdl, tabs, force_law=force_law, torque_Nm=torque_Nm,
                           bearing_stiffness_N_per_m=bearing_stiffness_N_per_m, modal_damping_ratio=damping_ratio,
-                          shafts=shafts)
+                          shafts=shafts, **extra)
+    if tabs is None:
+        return DynamicsInputs(system, f"{mdl.name} (lumped: constant mesh stiffnesses)", False, mdl)
     solvers = sorted({str(getattr(t, "solver", "") or "?").split(", mesh ")[0] for t in tabs.meshes.values()})
     synth = any("synthetic" in s for s in solvers)
     return DynamicsInputs(system, f"{mdl.name} (tables: {'; '.join(solvers)})", synth, mdl)

@@ -123,16 +123,37 @@ def _sub_c(n, adt, c, x, ox, out, oo):
 
 
 @njit(cache=True, inline="always", fastmath=_FM)
-def _sub_forces(n, m, f, of, vmi, ov, out, oo):
-    """``out[oo:oo+n] -= sum_k f[of+k] (M^-1 v_k)`` with ``M^-1 v_k = vmi[ov + k n : ov + (k+1) n]``."""
-    for k in range(m):
-        for i in range(n):
-            out[oo + i] -= f[of + k] * vmi[ov + k * n + i]
+def _dot(n, sparse, nz, k, vf, ov, x, ox):
+    """``vf[ov + k n : ov + (k+1) n] . x[ox : ox + n]``: mesh k's vector dotted with a state vector, over the
+    nonzero pattern ``nz[k]`` of the mesh's vectors when ``sparse`` (the same sum: only zero terms skipped)."""
+    a = 0.0
+    if sparse:
+        for p in range(1, nz[k, 0] + 1):
+            j = nz[k, p]
+            a += vf[ov + k * n + j] * x[ox + j]
+    else:
+        for j in range(n):
+            a += vf[ov + k * n + j] * x[ox + j]
+    return a
 
 
 @njit(cache=True, inline="always", fastmath=_FM)
-def _integrate_impl(n, m, law, s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat,
-                    phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval):
+def _sub_forces(n, m, sparse, nz, f, of, vmi, ov, out, oo):
+    """``out[oo:oo+n] -= sum_k f[of+k] (M^-1 v_k)`` with ``M^-1 v_k = vmi[ov + k n : ov + (k+1) n]``."""
+    for k in range(m):
+        c = f[of + k]
+        if sparse:
+            for p in range(1, nz[k, 0] + 1):
+                i = nz[k, p]
+                out[oo + i] -= c * vmi[ov + k * n + i]
+        else:
+            for i in range(n):
+                out[oo + i] -= c * vmi[ov + k * n + i]
+
+
+@njit(cache=True, inline="always", fastmath=_FM)
+def _integrate_impl(n, m, law, sparse, s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs,
+                    mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
     # RK4 of q'' = a(q, q', F).  The force-free acceleration is linear in (q, q'), so every stage's is the
     # first stage's g0 plus products with the earlier stages' accelerations a1..a3 (hh = h/2):
     #   a2 = g0 + hh p - hh C a1                  - F2 M^-1 v      (p = -K q')
@@ -217,19 +238,10 @@ def _integrate_impl(n, m, law, s, kin, n_steps, h, mode, fext, rec_every, rec_st
                 omega_c_set = oc
         dtau = zref_2pi * omega * h
         for k in range(m):
-            a = 0.0
-            b = 0.0
-            c = 0.0
-            d = 0.0
-            for j in range(n):
-                a += vf[k * n + j] * s[j]
-                b += vf[k * n + j] * s[n + j]
-                c += vf[o_wm + k * n + j] * s[j]
-                d += vf[o_wm + k * n + j] * s[n + j]
-            wk[o_xq + k] = a
-            wk[o_xd + k] = b
-            wk[o_wq + k] = c
-            wk[o_wd + k] = d
+            wk[o_xq + k] = _dot(n, sparse, nz, k, vf, 0, s, 0)
+            wk[o_xd + k] = _dot(n, sparse, nz, k, vf, 0, s, n)
+            wk[o_wq + k] = _dot(n, sparse, nz, k, vf, o_wm, s, 0)
+            wk[o_wd + k] = _dot(n, sparse, nz, k, vf, o_wm, s, n)
         # stages 1 and 2: their lookups need only the state
         for k in range(m):
             wk[o_f1 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, tau_ref + phase[k] + wk[o_wq + k], wk[o_xq + k])
@@ -242,28 +254,18 @@ def _integrate_impl(n, m, law, s, kin, n_steps, h, mode, fext, rec_every, rec_st
         _sub_k(n, nnz, kidx, aqv, 1.0, s, n, wk, o_p)
         _sub_c(n, adt, 1.0, s, n, wk, o_g0)
         for k in range(m):
-            a = 0.0
-            b = 0.0
-            for i in range(n):
-                a += vf[k * n + i] * wk[o_g0 + i]
-                b += vf[o_wm + k * n + i] * wk[o_g0 + i]
-            wk[o_g1 + k] = a
-            wk[o_gw1 + k] = b
+            wk[o_g1 + k] = _dot(n, sparse, nz, k, vf, 0, wk, o_g0)
+            wk[o_gw1 + k] = _dot(n, sparse, nz, k, vf, o_wm, wk, o_g0)
         for i in range(n):
             wk[o_a1 + i] = wk[o_g0 + i]
-        _sub_forces(n, m, wk, o_f1, vf, o_vmi, wk, o_a1)
+        _sub_forces(n, m, sparse, nz, wk, o_f1, vf, o_vmi, wk, o_a1)
         for i in range(n):
             wk[o_a2 + i] = wk[o_g0 + i] + hh * wk[o_p + i]
         _sub_c(n, adt, hh, wk, o_a1, wk, o_a2)
         for k in range(m):
-            a = 0.0
-            b = 0.0
-            for i in range(n):
-                a += vf[k * n + i] * wk[o_a2 + i]
-                b += vf[o_wm + k * n + i] * wk[o_a2 + i]
-            wk[o_g2 + k] = a
-            wk[o_gw2 + k] = b
-        _sub_forces(n, m, wk, o_f2, vf, o_vmi, wk, o_a2)
+            wk[o_g2 + k] = _dot(n, sparse, nz, k, vf, 0, wk, o_a2)
+            wk[o_gw2 + k] = _dot(n, sparse, nz, k, vf, o_wm, wk, o_a2)
+        _sub_forces(n, m, sparse, nz, wk, o_f2, vf, o_vmi, wk, o_a2)
         # stages 3 and 4
         for k in range(m):
             a = wk[o_g1 + k]
@@ -285,12 +287,12 @@ def _integrate_impl(n, m, law, s, kin, n_steps, h, mode, fext, rec_every, rec_st
             wk[o_a3 + i] = wk[o_g0 + i] + hh * wk[o_p + i]
         _sub_k(n, nnz, kidx, aqv, hh2, wk, o_a1, wk, o_a3)
         _sub_c(n, adt, hh, wk, o_a2, wk, o_a3)
-        _sub_forces(n, m, wk, o_f3, vf, o_vmi, wk, o_a3)
+        _sub_forces(n, m, sparse, nz, wk, o_f3, vf, o_vmi, wk, o_a3)
         for i in range(n):
             wk[o_a4 + i] = wk[o_g0 + i] + h * wk[o_p + i]
         _sub_k(n, nnz, kidx, aqv, hhh, wk, o_a2, wk, o_a4)
         _sub_c(n, adt, h, wk, o_a3, wk, o_a4)
-        _sub_forces(n, m, wk, o_f4, vf, o_vmi, wk, o_a4)
+        _sub_forces(n, m, sparse, nz, wk, o_f4, vf, o_vmi, wk, o_a4)
         for i in range(n):
             s[i] += h * s[n + i] + c6q * (wk[o_a1 + i] + wk[o_a2 + i] + wk[o_a3 + i])
             s[n + i] += c6 * (wk[o_a1 + i] + 2.0 * wk[o_a2 + i] + 2.0 * wk[o_a3 + i] + wk[o_a4 + i])
@@ -336,39 +338,42 @@ def _integrate_impl(n, m, law, s, kin, n_steps, h, mode, fext, rec_every, rec_st
 
 @njit(cache=True, fastmath=_FM)
 def _integrate_table_2_1(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u,
-                         scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval):
-    return _integrate_impl(2, 1, LAW_TABLE, s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats,
-                           vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval)
+                         scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
+    return _integrate_impl(2, 1, LAW_TABLE, False, s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out,
+                           mats, vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx,
+                           kval, nz)
 
 
 @njit(cache=True, fastmath=_FM)
 def _integrate_table_4_1(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u,
-                         scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval):
-    return _integrate_impl(4, 1, LAW_TABLE, s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats,
-                           vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval)
+                         scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
+    return _integrate_impl(4, 1, LAW_TABLE, False, s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out,
+                           mats, vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx,
+                           kval, nz)
 
 
 @njit(cache=True, fastmath=_FM)
 def _integrate_table_3_2(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u,
-                         scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval):
-    return _integrate_impl(3, 2, LAW_TABLE, s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats,
-                           vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval)
+                         scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
+    return _integrate_impl(3, 2, LAW_TABLE, False, s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out,
+                           mats, vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx,
+                           kval, nz)
 
 
 @njit(cache=True, fastmath=_FM)
-def _integrate_table(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u,
-                     scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval):
-    return _integrate_impl(s.shape[0] // 2, phase.shape[0], LAW_TABLE, s, kin, n_steps, h, mode, fext,
-                           rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref, tab, tint,
-                           tflt, lin, lint, work, eff, kidx, kval)
+def _integrate_table(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal,
+                     iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
+    return _integrate_impl(s.shape[0] // 2, phase.shape[0], LAW_TABLE, True, s, kin, n_steps, h, mode, fext,
+                           rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref, tab, tint, tflt,
+                           lin, lint, work, eff, kidx, kval, nz)
 
 
 @njit(cache=True, fastmath=_FM)
-def _integrate_linear(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u,
-                      scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval):
-    return _integrate_impl(s.shape[0] // 2, phase.shape[0], LAW_LINEAR, s, kin, n_steps, h, mode, fext,
-                           rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref, tab, tint,
-                           tflt, lin, lint, work, eff, kidx, kval)
+def _integrate_linear(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal,
+                      iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
+    return _integrate_impl(s.shape[0] // 2, phase.shape[0], LAW_LINEAR, True, s, kin, n_steps, h, mode, fext,
+                           rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref, tab, tint, tflt,
+                           lin, lint, work, eff, kidx, kval, nz)
 
 
 _SPECIAL = {(LAW_TABLE, 2, 1): _integrate_table_2_1, (LAW_TABLE, 4, 1): _integrate_table_4_1,
@@ -389,7 +394,9 @@ def select_kernel(law: int, n: int, m: int):
         work (7n + 12m,), eff (n, n) scratch,
         kidx (nnz, 2) int64 rows/columns of the entries of M^-1 K and M^-1 K_W the kernel multiplies: the n
             diagonal entries first (row i = column i = i), then the nonzero off-diagonal ones,
-        kval (3, nnz) = [their values in M^-1 K, in M^-1 K_W, scratch]
+        kval (3, nnz) = [their values in M^-1 K, in M^-1 K_W, scratch],
+        nz (m, 1 + w) int64: per mesh the count then the indices of the DOFs where its v, w or M^-1 v is nonzero
+            (the generic loop runs its mesh products over them; the specialised loops are dense)
 
     and it returns the number of records written (module docstring).
     """

@@ -17,6 +17,16 @@ Impulse test (dissertation Section 3.6.1)
     mean), and the frequencies are combined with the contact-ratio weights:
     ``f = (2 - eps) f_single + (eps - 1) f_double`` with ``eps`` = 1 + the fraction of the cycle in double
     contact.
+
+Modes of a rotating (gyroscopic) system
+    ``lambda^2 M phi + lambda W_c G phi + (K_lin - W_c^2 K_W) phi = 0`` (the quadratic eigenproblem of the
+    undamped linearisation at carrier speed ``W_c``), solved in first-order form; the natural frequencies are
+    ``Im(lambda) / 2 pi`` of the ``n`` roots with ``Im >= 0`` (rigid-body modes as 0).  Each mode is classified
+    by where its motion is (Lin & Parker 1999): ``rotational`` (central members only rotate), ``translational``
+    (central members only translate), ``planet`` (central members at rest), ``rigid`` (a free rotation), else
+    ``mixed``; ``multiplicity`` counts equal frequencies of one type.  With identical, equally spaced planets
+    and isotropic supports: rotational modes single, translational modes double (their split grows with
+    ``W_c``), planet modes of multiplicity ``N - 3``.
 """
 from __future__ import annotations
 
@@ -31,7 +41,10 @@ from hacgear_core.errors import ModelError, SolverError
 from hacgear_core.tables.fdf import contact_count, static_stiffness
 
 __all__ = ["ModalResult", "ImpulseResult", "modal_analysis", "impulse_test", "contact_positions",
-           "identical_pair_mass_properties"]
+           "identical_pair_mass_properties", "GyroscopicModes", "gyroscopic_modes", "MODE_TYPES"]
+
+#: mode types of :func:`gyroscopic_modes`
+MODE_TYPES = ("rigid", "rotational", "translational", "planet", "mixed")
 
 
 @dataclass
@@ -252,3 +265,129 @@ def identical_pair_mass_properties(mesh_stiffness_N_per_m: float, f_rigid_Hz: fl
         raise ModelError(f"no positive gear mass gives {f_supported_Hz:g} Hz with k_y = {ky:g} N/m and "
                          f"k = {k:g} N/m: f_supported_Hz [Hz] is too high for these stiffnesses")
     return {"mass_kg": m, "inertia_kgm2": m_e * rb ** 2, "equivalent_mass_kg": m_e, "mass_ratio": m * rb ** 2 / (m_e * rb ** 2)}
+
+
+@dataclass
+class GyroscopicModes:
+    """Modes of the linearised system at carrier speed ``carrier_speed_rad_s`` (module docstring).
+
+    ``natural_frequencies_Hz`` (n,) ascending with rigid-body modes as 0; ``types`` (n,) of :data:`MODE_TYPES`;
+    ``multiplicity`` (n,); ``mode_shapes`` (n_dof, n) complex, rotations as radius x angle [m], scaled to a largest
+    component of 1; ``dof_names``; ``mesh_stiffness_N_per_m`` (m,)."""
+
+    natural_frequencies_Hz: np.ndarray
+    types: tuple
+    multiplicity: np.ndarray
+    mode_shapes: np.ndarray
+    dof_names: tuple
+    carrier_speed_rad_s: float
+    mesh_stiffness_N_per_m: np.ndarray
+    mesh_names: tuple = ()
+
+    def to_json(self) -> dict:
+        return {
+            "carrier_speed_rad_s": self.carrier_speed_rad_s,
+            "natural_frequencies_Hz": self.natural_frequencies_Hz.tolist(),
+            "modes": [{"frequency_Hz": float(f), "type": t, "multiplicity": int(k)}
+                      for f, t, k in zip(self.natural_frequencies_Hz, self.types, self.multiplicity)],
+            "mode_shapes": {"dof_names": list(self.dof_names),
+                            "note": "one row per mode, magnitudes; rotations as radius*theta [m]",
+                            "shapes": np.abs(self.mode_shapes).T.tolist()},
+            "mesh_stiffness_N_per_m": dict(zip(self.mesh_names, np.atleast_1d(self.mesh_stiffness_N_per_m).tolist())),
+            "rigid_body_modes": int(sum(t == "rigid" for t in self.types)),
+        }
+
+
+def _dof_roles(system: LumpedSystem):
+    """(central translation DOFs, central rotation DOFs, planet DOFs, per-DOF scale to length units)."""
+    planets = {g for c in system.meshes for g, a in c.gear_alias.items() if a != g}
+    ct, cr, pl = [], [], []
+    scale = np.ones(system.n)
+    for g in system.gears.values():
+        if g.rotation >= 0:
+            scale[g.rotation] = g.radius_m
+        if g.name in planets:
+            pl += list(g.translations) + ([g.rotation] if g.rotation >= 0 else [])
+        else:
+            ct += list(g.translations)
+            if g.rotation >= 0:
+                cr.append(g.rotation)
+    return np.array(ct, int), np.array(cr, int), np.array(pl, int), scale
+
+
+def _classify(shape: np.ndarray, ct, cr, tol: float) -> str:
+    a = np.abs(shape)
+    top = float(a.max()) if a.size else 0.0
+    if top == 0.0:
+        return "mixed"
+    t = float(a[ct].max()) / top if ct.size else 0.0
+    r = float(a[cr].max()) / top if cr.size else 0.0
+    if t < tol and r < tol:
+        return "planet"
+    if t < tol:
+        return "rotational"
+    if r < tol:
+        return "translational"
+    return "mixed"
+
+
+def gyroscopic_modes(system: LumpedSystem, carrier_speed_rad_s: float = 0.0, *, type_tol: float = 1e-5,
+                     multiplicity_rtol: float = 1e-6) -> GyroscopicModes:
+    """Modes of the undamped linearisation of ``system`` at carrier speed ``carrier_speed_rad_s`` [rad/s] (the
+    quadratic eigenproblem of the module docstring; at 0 the symmetric one), classified.
+
+    ``type_tol``: largest relative motion of the central members' translations / rotations counted as none;
+    ``multiplicity_rtol``: relative distance of equal frequencies.
+    """
+    wc = float(carrier_speed_rad_s)
+    if not math.isfinite(wc):
+        raise ModelError(f"carrier speed [rad/s] must be finite, got {carrier_speed_rad_s!r}")
+    n = system.n
+    keff = system.k_lin - wc * wc * system.K_W
+    n_rigid = int(np.sum(system.rigid_modes))
+    if wc == 0.0 or not np.any(system.G):
+        w2, phi = np.linalg.eigh(np.linalg.solve(np.linalg.cholesky(system.M), np.linalg.solve(
+            np.linalg.cholesky(system.M), keff).T))
+        lo = np.linalg.cholesky(system.M)
+        phi = np.linalg.solve(lo.T, phi)
+        omega = np.sqrt(np.clip(w2, 0.0, None))
+        shapes = phi.astype(complex)
+    else:
+        minv = system.minv
+        a = np.zeros((2 * n, 2 * n))
+        a[:n, n:] = np.eye(n)
+        a[n:, :n] = -minv @ keff
+        a[n:, n:] = -wc * (minv @ system.G)
+        lam, vec = np.linalg.eig(a)
+        order = np.argsort(np.abs(lam))
+        lam, vec = lam[order], vec[:, order]
+        # the 2 r roots nearest 0 are the rigid-body modes; of the others keep the roots with Im > 0
+        rig = list(range(2 * n_rigid))
+        rest = [i for i in range(2 * n) if i not in rig and lam[i].imag > 0]
+        idx = rig[::2] + rest
+        if len(idx) != n:
+            raise SolverError(f"{system.name}: the gyroscopic eigenproblem at {wc:g} rad/s gave {len(rest)} "
+                              f"oscillating roots for {n - n_rigid} elastic modes (unstable at this speed?)")
+        omega = np.array([0.0] * n_rigid + [abs(lam[i].imag) for i in rest])
+        shapes = vec[:n, idx]
+    order = np.argsort(omega)
+    omega, shapes = omega[order], shapes[:, order]
+    if n_rigid:
+        omega[:n_rigid] = 0.0
+    ct, cr, _, scale = _dof_roles(system)
+    shapes = shapes * scale[:, None]
+    for c in range(n):
+        k = int(np.argmax(np.abs(shapes[:, c])))
+        if shapes[k, c] != 0:
+            shapes[:, c] /= shapes[k, c]
+    types = []
+    for c in range(n):
+        types.append("rigid" if c < n_rigid else _classify(shapes[:, c], ct, cr, type_tol))
+    f = omega / (2 * math.pi)
+    mult = np.ones(n, int)
+    top = max(float(f.max()), 1.0)
+    for i in range(n):
+        same = [j for j in range(n) if types[j] == types[i] and abs(f[j] - f[i]) <= multiplicity_rtol * top]
+        mult[i] = len(same)
+    return GyroscopicModes(f, tuple(types), mult, shapes, system.dof_names, wc, system.mesh_stiffness_N_per_m.copy(),
+                           system.mesh_names)

@@ -26,7 +26,7 @@ from hacgear_core.dynamics.equilibrium import static_equilibrium
 from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import ModelError, SolverError
 
-__all__ = ["Simulator", "StepResult", "strain_of_tooth"]
+__all__ = ["Simulator", "StepResult", "strain_of_tooth", "system_gauges"]
 
 
 @dataclass(frozen=True)
@@ -51,7 +51,7 @@ def strain_of_tooth(system: LumpedSystem, gauge: str, tau: np.ndarray, x: np.nda
 
     ``tau``, ``x``: (nr, m) unwrapped mesh positions [cycles] and deflections [m] of all meshes.
     """
-    gear = gauge.split("/", 1)[0]
+    gear, _, gname = gauge.partition("/")
     if gear not in system.gears:
         raise ModelError(f"gauge {gauge!r}: no gear {gear!r} in {system.name}; gears: {sorted(system.gears)}")
     z = system.gears[gear].teeth
@@ -63,14 +63,29 @@ def strain_of_tooth(system: LumpedSystem, gauge: str, tau: np.ndarray, x: np.nda
         if gear not in (c.gear_a, c.gear_b):
             continue
         strain = getattr(c.table, "strain", None) or {}
-        if gauge not in strain:
+        key = f"{c.gear_alias.get(gear, gear)}/{gname}"   # a planet instance's gauge is the table's planet gauge
+        if key not in strain:
             continue
         found = True
-        total = total + c.table.sdf(gauge, _pair_phase(tau[:, k], c.tooth_passage.get(gear, 0), z), x[:, k])
+        total = total + c.table.sdf(key, _pair_phase(tau[:, k], c.tooth_passage.get(gear, 0), z), x[:, k])
     if not found:
-        gauges = sorted({g for c in system.meshes for g in (getattr(c.table, "strain", None) or {})})
-        raise ModelError(f"no strain gauge {gauge!r} in the tables of {system.name}; gauges: {gauges}")
+        raise ModelError(f"no strain gauge {gauge!r} in the tables of {system.name}; gauges: {system_gauges(system)}")
     return total
+
+
+def system_gauges(system: LumpedSystem) -> tuple[str, ...]:
+    """Every strain gauge of a system as ``"<gear>/<gauge>"`` (a table gauge of a planet appears once per planet
+    instance), sorted."""
+    out = set()
+    for c in system.meshes:
+        inv: dict[str, list[str]] = {}
+        for g in (c.gear_a, c.gear_b):
+            inv.setdefault(c.gear_alias.get(g, g), []).append(g)
+        for key in (getattr(c.table, "strain", None) or {}):
+            tg, _, gname = key.partition("/")
+            for g in inv.get(tg, [tg] if tg in system.gears else []):
+                out.add(f"{g}/{gname}")
+    return tuple(sorted(out))
 
 
 class Simulator:
@@ -288,8 +303,11 @@ class Simulator:
         self.in_contact = [f > 0.0 for f in self.mesh_force_N]
         phi = (kt[1] + kt[0]) / sy.zref_2pi  # reference gear's rotation in its sense [rad]
         w = kt[2]
-        self.angle_rad = [g.sense * (g.speed_ratio * phi + st[g.rotation]) for g in self._gears]
-        self.speed_rad_s = [g.sense * (g.speed_ratio * w + st[n + g.rotation]) for g in self._gears]
+        self._frame = (sy.carrier_ratio * phi, sy.carrier_ratio * w)  # carrier frame: angle [rad], speed [rad/s]
+        self.angle_rad = [g.sense * (g.speed_ratio * phi + (st[g.rotation] if g.rotation >= 0 else 0.0))
+                          for g in self._gears]
+        self.speed_rad_s = [g.sense * (g.speed_ratio * w + (st[n + g.rotation] if g.rotation >= 0 else 0.0))
+                            for g in self._gears]
 
     def gear_index(self, gear: str) -> int:
         """Index of ``gear`` in :attr:`gear_names` (and in ``angle_rad``, ``speed_rad_s``)."""
@@ -299,20 +317,40 @@ class Simulator:
             raise ModelError(f"no gear {gear!r} in {self.system.name}; gears: {self.gear_names}") from None
 
     def bearing_force_N(self, gear: str) -> np.ndarray:
-        """Force the gear puts on its bearing now (2,) [N] in the fixed frame: the support springs' force where the
-        bearing is elastic, else the sum of the mesh forces on the gear."""
+        """Force the gear puts on its bearing now (2,) [N] in the fixed frame: the system's bearing map where it has
+        one (planetary sets: planet bearings on their pins, centrifugal load included), else the support springs'
+        force where the bearing is elastic, else the sum of the mesh forces on the gear.  Forces computed in a
+        rotating carrier frame are turned into the fixed frame by the carrier's angle."""
         sy = self.system
         g = sy.gears[gear]
         out = np.zeros(2)
-        if g.translations:
+        if gear in sy.bearing_maps:
+            a, b, c = sy.bearing_maps[gear]
+            out = a @ self.s[:sy.n] + b + self._frame[1] ** 2 * c
+        elif g.translations:
             for i, d in zip(g.translations, g.directions):
                 out += sy.K[i, i] * self.s[i] * d
-            return out
-        for k, c in enumerate(sy.meshes):
-            if gear in (c.gear_a, c.gear_b):
-                nvec = np.asarray(c.line_of_action, float)
-                out += (1.0 if gear == c.gear_b else -1.0) * self.mesh_force_N[k] * nvec
+        else:
+            for k, c in enumerate(sy.meshes):
+                if gear in (c.gear_a, c.gear_b):
+                    nvec = np.asarray(c.line_of_action, float)
+                    out += (1.0 if gear == c.gear_b else -1.0) * self.mesh_force_N[k] * nvec
+        if sy.carrier_ratio != 0.0:
+            ca, sa = math.cos(self._frame[0]), math.sin(self._frame[0])
+            out = np.array([ca * out[0] - sa * out[1], sa * out[0] + ca * out[1]])
         return out
+
+    def load_share(self, mesh: int) -> float:
+        """Load-sharing factor of mesh ``mesh`` now [-]: its force over the mean force of its group (the meshes that
+        share the load, e.g. the sun meshes of all planets); 1 for a mesh without a group, NaN when the group
+        carries no load."""
+        sy = self.system
+        grp = sy.meshes[mesh].group
+        if not grp:
+            return 1.0
+        idx = [k for k, c in enumerate(sy.meshes) if c.group == grp]
+        tot = sum(self.mesh_force_N[k] for k in idx)
+        return self.mesh_force_N[mesh] * len(idx) / tot if tot > 0 else math.nan
 
     def strain(self, gauge: str) -> float:
         """Root strain [-] now at ``gauge`` ("<gear>/<gauge>") on tooth 0 of its gear (:func:`strain_of_tooth`)."""

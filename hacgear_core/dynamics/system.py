@@ -21,7 +21,10 @@ Loads of the constant-speed experiment (:meth:`LumpedSystem.fext_speed`): the to
 mesh forces on the rotation DOFs (input and output gears; free gears such as idlers carry none), plus, on gears
 held by shafts (rotational support stiffness), the static twist of the shaft at the mean static mesh
 deflections: the shaft ends follow the reference rotation with the twist that transmits the nominal torque, so
-the static mesh forces are the nominal ones and the shafts add stiffness to the deviations only.
+the static mesh forces are the nominal ones and the shafts add stiffness to the deviations only.  A builder may
+give the loads instead as nominal torques per gear (a planetary set's carrier carries its torque through the
+planet bearings, not through a mesh), and constant ``static_forces`` present in every experiment (planet pin
+position errors preload the planet bearings).
 """
 from __future__ import annotations
 
@@ -72,7 +75,10 @@ class MeshCoupling:
     vector ``w`` (n,) (``tau = tau_ref + phase + w . q`` [cycles]), the rotational part ``v_rot`` of ``v``
     (dynamic transmission error), ``phase`` [cycles], ``nominal_force_N`` (static force at the system's nominal
     torque), ``tooth_passage`` {gear: mesh position at which tooth 0 of that gear is at the pitch point} and the
-    unit ``line_of_action`` (2,) in the fixed frame along which gear_a pushes gear_b."""
+    unit ``line_of_action`` (2,) in the system's frame along which gear_a pushes gear_b.  ``group``: meshes that
+    share one table and the load (the sun meshes of a planetary set; their load sharing is reported);
+    ``gear_alias`` {gear of this system: its name in the table} (a planet instance ``planet_2`` is ``planet`` in
+    the table, so the table's gauge ``planet/SG`` is ``planet_2/SG`` here)."""
 
     name: str
     gear_a: str
@@ -87,6 +93,8 @@ class MeshCoupling:
     base_radius_m: tuple[float, float]
     tooth_passage: Mapping[str, int] = field(default_factory=dict)
     line_of_action: tuple[float, float] = (0.0, 1.0)
+    group: str = ""
+    gear_alias: Mapping[str, str] = field(default_factory=dict)
 
 
 @dataclass(frozen=True, eq=False)
@@ -107,6 +115,7 @@ class KernelArrays:
     tflt: np.ndarray
     lin: np.ndarray
     lint: np.ndarray
+    nz: np.ndarray
 
 
 def _sym_eig(k: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -145,13 +154,29 @@ class LumpedSystem:
     rigid_mode : (n,) array or None
         Deviation per radian of the reference gear's rotation (in its sense, ``u[iref] = 1``) that loads no mesh
         and no support (the free rotation of the train); None when the supports hold the train.
+    mesh_cycles_per_rad : float, optional
+        Mesh cycles per radian of the reference gear (default: its teeth / 2 pi; a planetary set's meshes run at
+        the sun's speed relative to the carrier).
+    nominal_torques_per_Nm : mapping, optional
+        {gear: torque per N m of input torque, in the gear's operating sense}: the loads of the constant-speed
+        experiment on the rotation DOFs (default: the torques that balance the nominal mesh forces, see the
+        module docstring).  Springs of rotation DOFs then act on the deviations only.
+    static_forces : (n,) array, optional
+        Constant generalized forces of every experiment (e.g. the preload of bearing springs whose rest position is
+        off the nominal one: planet pin position errors).
+    bearing_maps : mapping, optional
+        {gear: (A (2, n), b (2,), c (2,))}: the force [N] the gear puts on its bearing is ``A q + b + W_c^2 c`` in
+        the system's frame (default: its support springs, or the sum of its mesh forces on a rigid bearing).
     """
 
     def __init__(self, *, name: str, kind: str, dof_names: Sequence[str], mass: np.ndarray, stiffness: np.ndarray,
                  gears: Sequence[GearBody], meshes: Sequence[MeshCoupling], torque_Nm: float, input_gear: str,
                  modal_damping_ratio: float, force_law: str = "hac", reference_gear: str | None = None,
                  gyroscopic: np.ndarray | None = None, centripetal: np.ndarray | None = None,
-                 carrier_ratio: float = 0.0, rigid_mode: np.ndarray | None = None) -> None:
+                 carrier_ratio: float = 0.0, rigid_mode: np.ndarray | None = None,
+                 mesh_cycles_per_rad: float | None = None, nominal_torques_per_Nm: Mapping[str, float] | None = None,
+                 static_forces: np.ndarray | None = None,
+                 bearing_maps: Mapping[str, tuple[np.ndarray, np.ndarray]] | None = None) -> None:
         n = len(dof_names)
         self.name = name
         self.kind = kind
@@ -187,8 +212,23 @@ class LumpedSystem:
         rg = self.gears[ref]
         self.iref = rg.rotation
         self.sref = float(rg.sense)
-        self.zref_2pi = rg.teeth / (2 * math.pi)
+        if rg.rotation < 0:
+            raise ModelError(f"{name}: the reference gear '{ref}' needs a rotation DOF (it is held or prescribed)")
+        self.zref_2pi = rg.teeth / (2 * math.pi) if mesh_cycles_per_rad is None else float(mesh_cycles_per_rad)
+        if not (math.isfinite(self.zref_2pi) and self.zref_2pi > 0):
+            raise ModelError(f"{name}: mesh cycles per radian of the reference gear must be > 0, got {self.zref_2pi}")
+        self.mesh_cycles_per_rad = self.zref_2pi
         self.rigid_mode = None if rigid_mode is None else np.ascontiguousarray(rigid_mode, dtype=float)
+        self.nominal_torques_per_Nm = None if nominal_torques_per_Nm is None else dict(nominal_torques_per_Nm)
+        for g in (self.nominal_torques_per_Nm or {}):
+            if g not in self.gears or self.gears[g].rotation < 0:
+                raise ModelError(f"{name}: nominal torque on '{g}', which has no rotation DOF")
+        self.static_forces = np.zeros(n) if static_forces is None else np.ascontiguousarray(static_forces, float)
+        if self.static_forces.shape != (n,):
+            raise ModelError(f"{name}: static_forces must have shape ({n},), got {self.static_forces.shape}")
+        self.bearing_maps = {} if bearing_maps is None else {
+            g: tuple(np.ascontiguousarray(x, float) for x in (tuple(v) + (np.zeros(2),))[:3])
+            for g, v in bearing_maps.items()}
         # force laws and table arrays
         self.table_arrays: tuple[TableArrays, ...] = tuple(table_arrays(c.table) for c in self.meshes)
         self.laws: tuple[ForceLaw, ...] = tuple(make_force_law(c.table, force_law, c.nominal_force_N)
@@ -224,22 +264,30 @@ class LumpedSystem:
         kidx = np.ascontiguousarray(np.vstack([np.repeat(np.arange(n), 2).reshape(n, 2), off]).astype(np.int64))
         tab, tint, tflt = kernels.flatten_tables([(ta.ftab, ta.x0, ta.inv_dx) for ta in self.table_arrays])
         lin, lint = kernels.flatten_linear([lw.lin for lw in self.laws])
+        vmi = self.V @ self.minv.T
+        pattern = (self.V != 0) | (self.W != 0) | (vmi != 0)
+        width = max(1, int(pattern.sum(axis=1).max()))
+        nz = np.zeros((self.m, 1 + width), dtype=np.int64)
+        for k in range(self.m):
+            idx = np.flatnonzero(pattern[k])
+            nz[k, 0] = idx.size
+            nz[k, 1:1 + idx.size] = idx
         self.arrays = KernelArrays(
             mats=np.ascontiguousarray(np.stack([self.minv, self.minv @ self.C, self.minv @ self.G])),
             kidx=kidx, kval=np.ascontiguousarray(np.stack([mk[kidx[:, 0], kidx[:, 1]], mkw[kidx[:, 0], kidx[:, 1]],
                                                          np.zeros(len(kidx))])),
-            vecs=np.ascontiguousarray(np.stack([self.V, self.W, self.V_rot, self.V @ self.minv.T])),
+            vecs=np.ascontiguousarray(np.stack([self.V, self.W, self.V_rot, vmi])),
             mmat=np.ascontiguousarray(np.stack([self.V @ self.minv @ self.V.T, self.W @ self.minv @ self.V.T])),
             phase=self.phase,
             u=np.zeros(n) if self.rigid_mode is None else self.rigid_mode,
             scal=np.array([self.carrier_ratio, self.sref, self.zref_2pi]), iref=int(self.iref), tab=tab, tint=tint,
-            tflt=tflt, lin=lin, lint=lint)
+            tflt=tflt, lin=lin, lint=lint, nz=nz)
         self._work = np.zeros(7 * n + 12 * self.m)
         self._eff = np.zeros((n, n))
         a = self.arrays
         #: the kernel's trailing arguments (everything but the state, step, mode, loads and records)
         self.kernel_constants = (a.mats, a.vecs, a.mmat, a.phase, a.u, a.scal, a.iref, a.tab, a.tint, a.tflt, a.lin,
-                                 a.lint, self._work, self._eff, a.kidx, a.kval)
+                                 a.lint, self._work, self._eff, a.kidx, a.kval, a.nz)
         self._cache: dict = {}
 
     def __getstate__(self) -> dict:
@@ -259,6 +307,11 @@ class LumpedSystem:
         h = hashlib.sha256()
         for a in (self.M, self.K, self.G, self.K_W, self.V, self.W, self.phase, self.nominal_forces_N()):
             h.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
+        # terms only some kinds have (fixed-axis trains hash as before)
+        if np.any(self.static_forces != 0):
+            h.update(self.static_forces.tobytes())
+        if self.nominal_torques_per_Nm is not None or self.zref_2pi != self.gears[self.reference_gear].teeth / (2 * math.pi):
+            h.update(repr((sorted((self.nominal_torques_per_Nm or {}).items()), self.zref_2pi)).encode())
         for ta in self.table_arrays:
             h.update(repr(ta.ftab.shape).encode())
             h.update(ta.ftab.tobytes())
@@ -296,13 +349,19 @@ class LumpedSystem:
         key = ("fext", t)
         if key in self._cache:
             return self._cache[key].copy()
-        f = self.nominal_forces_N(t)
-        rot = self._rotation_mask()
-        fe = np.where(rot, self.V.T @ f, 0.0)
-        shafts = [g.rotation for g in self.gears.values() if g.rotation >= 0 and g.support[1] > 0]
-        if shafts:
-            fe = fe + self.K @ self.preload_state(t)
-        fe = np.ascontiguousarray(fe)
+        if self.nominal_torques_per_Nm is not None:
+            fe = np.zeros(self.n)
+            for g, tq in self.nominal_torques_per_Nm.items():
+                gb = self.gears[g]
+                fe[gb.rotation] += gb.sense * tq * t
+        else:
+            f = self.nominal_forces_N(t)
+            rot = self._rotation_mask()
+            fe = np.where(rot, self.V.T @ f, 0.0)
+            shafts = [g.rotation for g in self.gears.values() if g.rotation >= 0 and g.support[1] > 0]
+            if shafts:
+                fe = fe + self.K @ self.preload_state(t)
+        fe = np.ascontiguousarray(fe + self.static_forces)
         self._cache[key] = fe
         return fe.copy()
 
@@ -330,7 +389,7 @@ class LumpedSystem:
     def fext_torque(self, torques_Nm: Mapping[str, float]) -> np.ndarray:
         """External generalized forces (n,) for shaft torques {gear: T [N m]}, each positive in that gear's
         operating sense of rotation (a braking load is negative)."""
-        f = np.zeros(self.n)
+        f = self.static_forces.copy()
         for g, t in torques_Nm.items():
             gb = self.gears[g]
             f[gb.rotation] += gb.sense * float(t)
@@ -420,7 +479,9 @@ class LumpedSystem:
                   gears=tuple(self.gears.values()), meshes=self.meshes, torque_Nm=self.torque_Nm,
                   input_gear=self.input_gear, modal_damping_ratio=self.modal_damping_ratio,
                   force_law=self.force_law_name, reference_gear=self.reference_gear, gyroscopic=self.G,
-                  centripetal=self.K_W, carrier_ratio=self.carrier_ratio, rigid_mode=self.rigid_mode)
+                  centripetal=self.K_W, carrier_ratio=self.carrier_ratio, rigid_mode=self.rigid_mode,
+                  mesh_cycles_per_rad=self.zref_2pi, nominal_torques_per_Nm=self.nominal_torques_per_Nm,
+                  static_forces=self.static_forces, bearing_maps=self.bearing_maps)
         if "torque_Nm" in changes and "meshes" not in changes:
             t = float(changes["torque_Nm"])
             kw["meshes"] = tuple(replace(c, nominal_force_N=c.nominal_force_N * t / self.torque_Nm)

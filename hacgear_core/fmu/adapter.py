@@ -24,8 +24,8 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Callable
 
-from hacgear_core.dynamics.build import build_system
-from hacgear_core.dynamics.simulator import Simulator
+from hacgear_core.dynamics.build import build_system, structural_parameters
+from hacgear_core.dynamics.simulator import Simulator, system_gauges
 from hacgear_core.errors import HacgearError, ModelError
 from hacgear_core.fmu.spec import FmuVariable, ident
 from hacgear_core.model import load_model
@@ -55,12 +55,26 @@ class Adapter:
         base = build_system(model, tables)
         self.base_system = base
         self.sim = Simulator(base)
-        self._built_key = self._key(base.torque_Nm, base.modal_damping_ratio, self._bearings_of(base), None, True)
+        #: fixed Integer parameters that change the structure (planet count); the outputs cover the largest one
+        self.structural = structural_parameters(model)
+        big = {p.name: p.max for p in self.structural}
+        spec_system = build_system(model, tables, **big) if big else base
+        self.spec_system = spec_system
+        self.bearing_gears = tuple(g.name for g in model.gears) + (("carrier",) if model.kind == "planetary" else ())
+        self._built_key = self._key(base.torque_Nm, base.modal_damping_ratio, self._model_bearings(model), None, True,
+                                    tuple((p.name, p.start) for p in self.structural))
         self.ref = base.reference_gear
-        self.ports = self.sim.ports
-        self.gear_names = self.sim.gear_names
-        self.mesh_names = base.mesh_names
-        self.gauges = tuple(sorted({g for c in base.meshes for g in (getattr(c.table, "strain", None) or {})}))
+        # ports: the gears that carry external torque in drivetrain coupling (turning members free)
+        self._drive_sim = Simulator(build_system(model, tables, shafts=False, **big))
+        self.ports = self._drive_sim.ports
+        #: nominal torque on each port [N m] in its sense of rotation (the drivetrain coupling's start values)
+        self.port_torques_Nm = dict(self._drive_sim.port_torques_Nm)
+        self.gear_names = tuple(spec_system.gears)
+        self.mesh_names = spec_system.mesh_names
+        groups = [c.group for c in spec_system.meshes]
+        self.shared_meshes = tuple(c.name for c in spec_system.meshes if c.group and groups.count(c.group) > 1)
+        self.gauges = system_gauges(spec_system)
+        self._index()
         self.variables = self._spec()
         self.by_name = {v.name: v for v in self.variables}
         #: outputs computed by table post-processing (guarded by the slave: NaN and a log line on failure)
@@ -70,35 +84,65 @@ class Adapter:
         self.input_checks: tuple = ()
         self.step_floor_s = 0.0
 
-    @staticmethod
-    def _bearings_of(system) -> tuple:
-        return tuple(g.support[0] for g in system.gears.values())
+    def _model_bearings(self, model) -> tuple:
+        """Translational support stiffness of every gear of the model (and the carrier of a planetary set)."""
+        out = [model.gear(g).support.translational_stiffness_N_per_m for g in self.bearing_gears if g != "carrier"]
+        if "carrier" in self.bearing_gears:
+            out.append(model.planetary.carrier_support.translational_stiffness_N_per_m)
+        return tuple(out)
+
+    def _with_bearings(self, bearings: tuple):
+        """The model with the translational support stiffnesses ``bearings`` (order of :attr:`bearing_gears`)."""
+        model = self.model
+        k = dict(zip(self.bearing_gears, bearings))
+        gears = tuple(replace(g, support=replace(g.support, translational_stiffness_N_per_m=k[g.name]))
+                      for g in model.gears)
+        model = replace(model, gears=gears)
+        if "carrier" in k:
+            pl = model.planetary
+            model = replace(model, planetary=replace(pl, carrier_support=replace(
+                pl.carrier_support, translational_stiffness_N_per_m=k["carrier"])))
+        return model
 
     @staticmethod
-    def _key(torque, zeta, bearings, h, shafts):
-        return (torque, zeta, bearings, h, shafts)
+    def _key(torque, zeta, bearings, h, shafts, structure=()):
+        return (torque, zeta, bearings, h, shafts, structure)
+
+    def _index(self) -> None:
+        """Slots of the spec's meshes and gears in the current simulator (-1: absent in this structure)."""
+        sy = self.sim.system
+        mi = {c: k for k, c in enumerate(sy.mesh_names)}
+        gi = {g: k for k, g in enumerate(self.sim.gear_names)}
+        self._mslot = [mi.get(mn, -1) for mn in self.mesh_names]
+        self._gslot = [gi.get(g, -1) for g in self.gear_names]
+        self._gauge_on = {g: g.partition("/")[0] in sy.gears for g in self.gauges}
 
     # ------------------------------------------------------------------ the spec (declared once)
     def _spec(self) -> tuple[FmuVariable, ...]:
-        sy = self.base_system
+        sy = self.spec_system
         V = FmuVariable
         ref, inp = self.ref, sy.input_gear
-        port_t = self.sim.port_torques_Nm
+        port_t = self.port_torques_Nm
         spec = [
             V("mode", "Integer", "parameter", "fixed", "",
               f"experiment: 0 = constant speed (input {ref}.speed_in, torque set-point = parameter torque); "
               f"1 = drivetrain coupling (inputs <port>.torque_in on {', '.join(self.ports)}; outputs angles and "
               "speeds)", MODE_SPEED, 0, 1),
+        ]
+        for p in self.structural:
+            spec.append(V(p.name, "Integer", "parameter", "fixed", "", p.description, p.start, p.min, p.max))
+        spec += [
             V("torque", "Real", "parameter", "fixed", "N.m",
               f"nominal torque on the input gear {inp}: torque set-point of the constant-speed experiment; in both "
               "modes it sets the linearisation used for the modal damping", sy.torque_Nm, 1e-3, 1e6),
             V("modal_damping_ratio", "Real", "parameter", "fixed", "1",
               "modal damping ratio of every elastic mode of the linearised system", sy.modal_damping_ratio, 0.0, 0.99),
         ]
-        for g in self.gear_names:
-            k = sy.gears[g].support[0]
+        planets = {a for c in sy.meshes for gi, a in c.gear_alias.items() if gi != a}
+        for g, k in zip(self.bearing_gears, self._model_bearings(self.model)):
+            what = "every planet's bearing on its pin" if g in planets else f"{'the ' if g == 'carrier' else 'gear '}{g}"
             spec.append(V(f"{ident(g)}.bearing_stiffness", "Real", "parameter", "fixed", "N/m",
-                          f"translational bearing stiffness of gear {g}; 0 = rigid (no translation)",
+                          f"translational bearing stiffness of {what}; 0 = rigid (no translation)",
                           0.0 if math.isinf(k) else k, 0.0, 1e15))
         spec += [
             V("internal_step", "Real", "parameter", "fixed", "s",
@@ -137,6 +181,10 @@ class Adapter:
                 V(f"{m_}.peak_pressure", "Real", "output", "continuous", "Pa",
                   f"maximum contact pressure over all teeth of mesh {mn} (table lookup)"),
             ]
+            if mn in self.shared_meshes:
+                spec.append(V(f"{m_}.load_share", "Real", "output", "continuous", "1",
+                              f"load-sharing factor of mesh {mn}: its force over the mean force of the meshes of "
+                              f"kind {c.group} (1 = equal sharing)"))
         for g in self.gear_names:
             g_ = ident(g)
             spec += [
@@ -161,27 +209,51 @@ class Adapter:
     # ------------------------------------------------------------------ outputs
     def getters(self) -> dict[str, Callable[[], float]]:
         """Output name -> zero-argument getter returning a Python float for the current step (the simulator's own
-        outputs, kept current by its ``advance``, and the table post-processing)."""
+        outputs, kept current by its ``advance``, and the table post-processing).  Outputs of meshes and gears that
+        the current structure does not have (planets beyond ``planet_count``) read 0."""
         a = self
+        ms, gs = self._mslot_ref, self._gslot_ref
         out: dict[str, Callable[[], float]] = {}
-        for k, mn in enumerate(self.mesh_names):
+
+        def mesh(j, fn):
+            def get():
+                k = ms()[j]
+                return fn(k) if k >= 0 else 0.0
+            return get
+
+        def gear(j, fn):
+            def get():
+                i = gs()[j]
+                return fn(i) if i >= 0 else 0.0
+            return get
+
+        for j, mn in enumerate(self.mesh_names):
             m_ = ident(mn)
-            out[f"{m_}.force"] = (lambda k: lambda: a.sim.mesh_force_N[k])(k)
-            out[f"{m_}.deflection"] = (lambda k: lambda: a.sim.mesh_deflection_m[k])(k)
-            out[f"{m_}.dte"] = (lambda k: lambda: a.sim.dynamic_transmission_error_m[k])(k)
-            out[f"{m_}.position"] = (lambda k: lambda: a.sim.mesh_position[k])(k)
-            out[f"{m_}.contact"] = (lambda k: lambda: 1.0 if a.sim.mesh_force_N[k] > 0.0 else 0.0)(k)
-            out[f"{m_}.peak_pressure"] = (lambda k: lambda: a.sim.peak_pressure_Pa(k))(k)
-        for i, g in enumerate(self.gear_names):
+            out[f"{m_}.force"] = mesh(j, lambda k: a.sim.mesh_force_N[k])
+            out[f"{m_}.deflection"] = mesh(j, lambda k: a.sim.mesh_deflection_m[k])
+            out[f"{m_}.dte"] = mesh(j, lambda k: a.sim.dynamic_transmission_error_m[k])
+            out[f"{m_}.position"] = mesh(j, lambda k: a.sim.mesh_position[k])
+            out[f"{m_}.contact"] = mesh(j, lambda k: 1.0 if a.sim.mesh_force_N[k] > 0.0 else 0.0)
+            out[f"{m_}.peak_pressure"] = mesh(j, lambda k: a.sim.peak_pressure_Pa(k))
+            if mn in self.shared_meshes:
+                out[f"{m_}.load_share"] = mesh(j, lambda k: a.sim.load_share(k))
+        for j, g in enumerate(self.gear_names):
             g_ = ident(g)
-            out[f"{g_}.angle"] = (lambda i: lambda: a.sim.angle_rad[i])(i)
-            out[f"{g_}.speed"] = (lambda i: lambda: a.sim.speed_rad_s[i])(i)
-            out[f"{g_}.bearing_force_x"] = (lambda g: lambda: float(a.sim.bearing_force_N(g)[0]))(g)
-            out[f"{g_}.bearing_force_y"] = (lambda g: lambda: float(a.sim.bearing_force_N(g)[1]))(g)
+            out[f"{g_}.angle"] = gear(j, lambda i: a.sim.angle_rad[i])
+            out[f"{g_}.speed"] = gear(j, lambda i: a.sim.speed_rad_s[i])
+            out[f"{g_}.bearing_force_x"] = gear(j, lambda i: float(a.sim.bearing_force_N(a.sim.gear_names[i])[0]))
+            out[f"{g_}.bearing_force_y"] = gear(j, lambda i: float(a.sim.bearing_force_N(a.sim.gear_names[i])[1]))
         for gauge in self.gauges:
-            gear, _, gname = gauge.partition("/")
-            out[f"{ident(gear)}.{ident(gname or gear)}.root_strain"] = (lambda key: lambda: a.sim.strain(key))(gauge)
+            gear_, _, gname = gauge.partition("/")
+            out[f"{ident(gear_)}.{ident(gname or gear_)}.root_strain"] = (
+                lambda key: lambda: a.sim.strain(key) if a._gauge_on[key] else 0.0)(gauge)
         return out
+
+    def _mslot_ref(self) -> list:
+        return self._mslot
+
+    def _gslot_ref(self) -> list:
+        return self._gslot
 
     # ------------------------------------------------------------------ configuration
     def configure(self, values: dict) -> None:
@@ -195,19 +267,20 @@ class Adapter:
         mode = int(values["mode"])
         shafts = mode == MODE_SPEED
         bearings = tuple(math.inf if values[f"{ident(g)}.bearing_stiffness"] == 0
-                         else float(values[f"{ident(g)}.bearing_stiffness"]) for g in self.gear_names)
+                         else float(values[f"{ident(g)}.bearing_stiffness"]) for g in self.bearing_gears)
         h = float(values["internal_step"]) or None
-        key = self._key(float(values["torque"]), float(values["modal_damping_ratio"]), bearings, h, shafts)
+        structure = tuple((p.name, int(values[p.name])) for p in self.structural)
+        key = self._key(float(values["torque"]), float(values["modal_damping_ratio"]), bearings, h, shafts, structure)
         if key != self._built_key:
             model = self.model
-            if bearings != self._bearings_of(self.base_system):
-                gears = tuple(replace(g, support=replace(g.support, translational_stiffness_N_per_m=k))
-                              for g, k in zip((model.gear(n) for n in self.gear_names), bearings))
-                model = replace(model, gears=gears)
+            if bearings != self._model_bearings(model):
+                model = self._with_bearings(bearings)
             system = build_system(model, self.tables, torque_Nm=float(values["torque"]),
-                                  modal_damping_ratio=float(values["modal_damping_ratio"]), shafts=shafts)
+                                  modal_damping_ratio=float(values["modal_damping_ratio"]), shafts=shafts,
+                                  **dict(structure))
             self.sim = Simulator(system, internal_step_s=h)
             self._built_key = key
+            self._index()
         self.mode = mode
         ref = ident(self.ref)
         if self.mode == MODE_SPEED:

@@ -84,7 +84,7 @@ def run_drivetrain_bench(fmu_path: str | Path, config: BenchConfig = BenchConfig
     t1_static = t_in_static * t_load / -t_out_static
     meshes = list(info["meshes"])
     ref = info["reference_gear"]
-    z_ref = info["reference_teeth"]
+    cycles_per_rad = info.get("mesh_cycles_per_rad", info["reference_teeth"] / (2 * math.pi))
     fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzip, modelIdentifier=md.coSimulation.modelIdentifier,
                     instanceName="gearsystem")
     w_start = cfg.speed_start_rpm * 2 * math.pi / 60
@@ -151,7 +151,7 @@ def run_drivetrain_bench(fmu_path: str | Path, config: BenchConfig = BenchConfig
     finally:
         fmu.freeInstance()
         shutil.rmtree(unzip, ignore_errors=True)
-    res["mesh_frequency_Hz"] = res["input_speed_rad_s"] / r_in * z_ref / (2 * math.pi)
+    res["mesh_frequency_Hz"] = res["input_speed_rad_s"] / r_in * cycles_per_rad
     res["info"] = info
     res["input_gear"], res["output_gear"], res["speed_ratio"] = inp, out_g, ratio
     res["static_mesh_force_N"] = {mn: info["meshes"][mn]["nominal_force_N"] * t_load / -t_out_static for mn in meshes}

@@ -171,12 +171,13 @@ def build_fmu(system_dir: str | Path, out_dir: str | Path, *, slave_dir: str | P
         adapter = make_adapter(res)
         spec = adapter.variables  # the same spec the slave registers
         info["ports"] = {g: {"speed_ratio": adapter.sim.system.gears[g].speed_ratio,
-                             "nominal_torque_Nm": adapter.sim.port_torques_Nm[g]} for g in adapter.ports}
+                             "nominal_torque_Nm": adapter.port_torques_Nm[g]} for g in adapter.ports}
         info["reference_gear"] = adapter.ref
         info["input_gear"] = adapter.base_system.input_gear
         info["meshes"] = {m: {"nominal_force_N": float(f)} for m, f in
-                          zip(adapter.mesh_names, adapter.base_system.nominal_forces_N())}
+                          zip(adapter.base_system.mesh_names, adapter.base_system.nominal_forces_N())}
         info["reference_teeth"] = adapter.base_system.gears[adapter.ref].teeth
+        info["mesh_cycles_per_rad"] = adapter.base_system.mesh_cycles_per_rad
         (res / FMU_INFO_FILE).write_text(json.dumps(info, indent=1), encoding="utf-8")
         try:
             built = FmuBuilder.build_FMU(script, dest=dest, project_files=[res / MODEL_FILE, res / TABLES_FILE,

@@ -376,6 +376,9 @@ def gear_geometry(gear: Any, *, shaper_teeth: int | None = None) -> GearGeometry
     collects engineering warnings (thin tip, undercut, odd tool addendum, relief outside the flank)
     in ``warnings``.
     """
+    if not hasattr(gear, "module_m"):
+        raise GeometryError(f"gear '{getattr(gear, 'name', '?')}' is a member of a lumped model (mass, inertia, base "
+                            "radius): it has no tooth geometry (info, statics and plots need a model with teeth)")
     z = int(gear.teeth)
     m = float(gear.module_m)
     r = 0.5 * m * z

@@ -28,11 +28,16 @@ __all__ = [
     "Damping",
     "Operating",
     "StaticsGrid",
+    "PinError",
     "Planetary",
+    "LumpedGear",
+    "PLANETARY_MEMBERS",
     "Model",
 ]
 
 SYSTEM_KINDS = ("spur_pair", "idler_chain", "planetary", "helical_pair")
+#: the central members of a planetary set (``carrier`` is not a gear of ``[[gears]]``)
+PLANETARY_MEMBERS = ("sun", "ring", "carrier")
 FLANKS = ("drive", "coast")
 RELIEF_SHAPES = ("none", "linear", "parabolic")
 
@@ -332,7 +337,8 @@ class Mesh:
     geometry (the zero-backlash centre distance, see geometry; planetary: the carrier radius);
     ``line_of_centres_rad``: direction of the vector from gear_a's centre to gear_b's centre in the fixed
     frame (counter-clockwise from the x axis), which places the gears of a train and sets the phase between
-    its meshes (:mod:`hacgear_core.geometry.train`)."""
+    its meshes (:mod:`hacgear_core.geometry.train`).  Lumped models (``Model.lumped``) give instead a constant
+    ``mesh_stiffness_N_per_m`` and the operating ``pressure_angle_rad`` of the mesh (no tooth geometry)."""
 
     name: str
     gear_a: str
@@ -341,6 +347,8 @@ class Mesh:
     flank_b: str = "drive"
     center_distance_m: float | None = None
     line_of_centres_rad: float = 0.0
+    mesh_stiffness_N_per_m: float | None = None
+    pressure_angle_rad: float | None = None
 
     def __post_init__(self) -> None:
         for attr in ("flank_a", "flank_b"):
@@ -351,6 +359,10 @@ class Mesh:
         if self.center_distance_m is not None:
             _check_range("center_distance_m", self.center_distance_m, "m", 0.0, 20.0, lo_open=True)
         _check_range("line_of_centres_rad", self.line_of_centres_rad, "rad", -2 * math.pi, 2 * math.pi)
+        if self.mesh_stiffness_N_per_m is not None:
+            _check_range("mesh_stiffness_N_per_m", self.mesh_stiffness_N_per_m, "N/m", 0.0, 1e13, lo_open=True)
+        if self.pressure_angle_rad is not None:
+            _check_range("pressure_angle_rad", self.pressure_angle_rad, "rad", math.radians(5), math.radians(40))
 
 
 @dataclass(frozen=True)
@@ -403,23 +415,122 @@ class StaticsGrid:
 
 
 @dataclass(frozen=True)
+class PinError:
+    """Position error of one planet's pin on the carrier (SI): ``planet`` (1-based, in the order of the planet
+    positions), ``radial_m`` (outwards) and ``tangential_m`` (counter-clockwise) offsets of the pin from its
+    nominal position on the carrier radius."""
+
+    planet: int
+    radial_m: float = 0.0
+    tangential_m: float = 0.0
+
+    def __post_init__(self) -> None:
+        if isinstance(self.planet, bool) or not isinstance(self.planet, int) or not 1 <= self.planet <= 12:
+            raise _fail("pin_errors.planet", "-", "integer in [1, 12] (1 = first planet)", self.planet)
+        for name in ("radial_m", "tangential_m"):
+            _check_range(f"pin_errors.{name}", getattr(self, name), "m", -1e-3, 1e-3)
+
+
+def _prescribed_carrier() -> Support:
+    return Support(_INF, _INF)
+
+
+@dataclass(frozen=True)
 class Planetary:
-    """Planetary set options: ``planet_count`` equally spaced planets on ``carrier_radius_m``
-    (None: the sun-planet centre distance); carrier lumped mass/inertia and support."""
+    """Planetary set options (SI).
+
+    ``planet_count`` planets at ``planet_positions_rad`` (angles of the planet centres on the carrier,
+    counter-clockwise from planet 1; None: equally spaced) on ``carrier_radius_m`` (None: the sun-planet centre
+    distance); carrier lumped mass/inertia and support (``carrier_support``: translational stiffness as for a gear;
+    rotational stiffness ``inf`` = the carrier follows the kinematics (prescribed, the default), ``0`` = free
+    (a torque port), finite = sprung to the kinematic motion).  ``fixed_member``: the member held at zero
+    speed (``ring`` by default; its rotational support stiffness: ``inf`` held, finite a sprung reaction
+    mount, ``0`` a free reaction port).  ``pin_errors``: planet pin position errors.
+    """
 
     planet_count: int
     carrier_radius_m: float | None = None
     carrier_mass_kg: float = 0.0
     carrier_inertia_kgm2: float = 0.0
-    carrier_support: Support = field(default_factory=Support)
+    carrier_support: Support = field(default_factory=_prescribed_carrier)
+    planet_positions_rad: tuple[float, ...] | None = None
+    fixed_member: str = "ring"
+    pin_errors: tuple[PinError, ...] = ()
 
     def __post_init__(self) -> None:
-        if not isinstance(self.planet_count, int) or not 1 <= self.planet_count <= 12:
+        if isinstance(self.planet_count, bool) or not isinstance(self.planet_count, int) \
+                or not 1 <= self.planet_count <= 12:
             raise _fail("planet_count", "-", "integer in [1, 12]", self.planet_count)
         if self.carrier_radius_m is not None:
             _check_range("carrier_radius_m", self.carrier_radius_m, "m", 0.0, 10.0, lo_open=True)
         _check_range("carrier_mass_kg", self.carrier_mass_kg, "kg", 0.0, None)
         _check_range("carrier_inertia_kgm2", self.carrier_inertia_kgm2, "kg*m^2", 0.0, None)
+        if self.fixed_member not in PLANETARY_MEMBERS:
+            raise _fail("fixed_member", "", " | ".join(PLANETARY_MEMBERS), self.fixed_member)
+        if self.planet_positions_rad is not None:
+            pos = tuple(float(a) for a in self.planet_positions_rad)
+            if len(pos) != self.planet_count:
+                raise ModelError(f"planet_positions [deg]: {len(pos)} angles given for planet_count = "
+                                 f"{self.planet_count}; allowed: exactly planet_count angles")
+            if pos[0] != 0.0:
+                raise _fail("planet_positions[0]", "deg", "0 (planet 1 defines the carrier frame)",
+                            math.degrees(pos[0]))
+            for a, b in zip(pos, pos[1:] + (2 * math.pi,)):
+                if not (math.isfinite(b) and b - a > 1e-9):
+                    raise ModelError(f"planet_positions [deg] must increase strictly within [0, 360), got "
+                                     f"{[round(math.degrees(v), 6) for v in pos]}")
+            object.__setattr__(self, "planet_positions_rad", pos)
+        seen = set()
+        for e in self.pin_errors:
+            if e.planet > self.planet_count:
+                raise _fail("pin_errors.planet", "-", f"integer in [1, planet_count = {self.planet_count}]",
+                            e.planet)
+            if e.planet in seen:
+                raise ModelError(f"pin_errors: planet {e.planet} is given twice")
+            seen.add(e.planet)
+
+    @property
+    def positions_rad(self) -> tuple[float, ...]:
+        """Planet centre angles [rad] on the carrier (equally spaced unless given)."""
+        if self.planet_positions_rad is not None:
+            return self.planet_positions_rad
+        return tuple(2 * math.pi * i / self.planet_count for i in range(self.planet_count))
+
+    @property
+    def equally_spaced(self) -> bool:
+        n = self.planet_count
+        return all(abs(a - 2 * math.pi * i / n) < 1e-12 for i, a in enumerate(self.positions_rad))
+
+
+@dataclass(frozen=True)
+class LumpedGear:
+    """A member of a fully lumped model (``Model.lumped``; no tooth geometry), SI: ``teeth`` (mesh
+    frequencies and planet phasing), ``mass_kg``, ``inertia_kgm2``, ``base_radius_m`` (of its meshes' flanks),
+    ``internal`` (ring), ``support``."""
+
+    name: str
+    teeth: int
+    mass_kg: float
+    inertia_kgm2: float
+    base_radius_m: float
+    internal: bool = False
+    support: Support = field(default_factory=Support)
+    gauges: tuple = ()
+
+    def __post_init__(self) -> None:
+        where = f"gear '{self.name}'"
+        if isinstance(self.teeth, bool) or not isinstance(self.teeth, int) or not 3 <= self.teeth <= 1000:
+            raise _fail("teeth", "-", "integer in [3, 1000]", self.teeth, where)
+        try:
+            _check_range("mass_kg", self.mass_kg, "kg", 0.0, None)
+            _check_range("inertia_kgm2", self.inertia_kgm2, "kg*m^2", 0.0, None)
+            _check_range("base_radius_m", self.base_radius_m, "m", 0.0, 20.0, lo_open=True)
+        except ModelError as exc:
+            raise ModelError(f"{where}: {exc}") from None
+
+    @property
+    def is_helical(self) -> bool:
+        return False
 
 
 @dataclass(frozen=True)
@@ -438,10 +549,14 @@ class Model:
     planetary: Planetary | None = None
     path: Path | None = None
     sha256: str = ""
+    lumped: bool = False
 
     def __post_init__(self) -> None:
         if self.kind not in SYSTEM_KINDS:
             raise _fail("system.kind", "", " | ".join(SYSTEM_KINDS), self.kind)
+        if self.lumped:
+            self._check_lumped()
+            return
         names = [g.name for g in self.gears]
         if len(set(names)) != len(names):
             raise ModelError(f"gear names must be unique, got {names}")
@@ -475,8 +590,9 @@ class Model:
                     f"mesh '{m.name}': external helical gears need opposite helix angles, got "
                     f"{math.degrees(ga.helix_angle_rad):g} and {math.degrees(gb.helix_angle_rad):g} deg"
                 )
-        if self.operating.torque_gear not in names:
-            raise ModelError(f"operating.torque_gear = {self.operating.torque_gear!r} names no gear; allowed: {names}")
+        members = names + (["carrier"] if self.kind == "planetary" else [])
+        if self.operating.torque_gear not in members:
+            raise ModelError(f"operating.torque_gear = {self.operating.torque_gear!r} names no gear; allowed: {members}")
         expected_meshes = {"spur_pair": 1, "helical_pair": 1, "idler_chain": None, "planetary": 2}
         n = expected_meshes[self.kind]
         if n is not None and len(self.meshes) != n:
@@ -489,6 +605,30 @@ class Model:
             raise ModelError("system.kind = 'helical_pair' needs gears with helix_angle_deg != 0")
         if self.kind in ("spur_pair", "idler_chain", "planetary") and any(g.is_helical for g in self.gears):
             raise ModelError(f"system.kind = '{self.kind}' is spur: helix_angle_deg must be 0")
+
+    def _check_lumped(self) -> None:
+        """A fully lumped model: members and meshes without tooth geometry (planetary sets only)."""
+        if self.kind != "planetary":
+            raise ModelError(f"system.lumped = true is supported for kind 'planetary' only, not '{self.kind}'")
+        if self.planetary is None:
+            raise ModelError("system.kind = 'planetary' needs a [planetary] table (planet_count)")
+        names = [g.name for g in self.gears]
+        if len(set(names)) != len(names):
+            raise ModelError(f"gear names must be unique, got {names}")
+        if any(not isinstance(g, LumpedGear) for g in self.gears):
+            raise ModelError("a lumped model's gears are LumpedGear members (mass_kg, inertia_kgm2, base_radius_mm)")
+        if len(self.meshes) != 2:
+            raise ModelError(f"system.kind = 'planetary' needs exactly 2 [[meshes]], found {len(self.meshes)}")
+        for m in self.meshes:
+            for attr in ("gear_a", "gear_b"):
+                if getattr(m, attr) not in names:
+                    raise ModelError(f"meshes.{m.name}.{attr} = {getattr(m, attr)!r} names no gear; allowed: {names}")
+            for attr, unit in (("mesh_stiffness_N_per_m", "N/m"), ("pressure_angle_rad", "rad")):
+                if getattr(m, attr) is None:
+                    raise ModelError(f"mesh '{m.name}': a lumped model needs {attr} [{unit}]")
+        if self.operating.torque_gear not in names + ["carrier"]:
+            raise ModelError(f"operating.torque_gear = {self.operating.torque_gear!r} names no member; allowed: "
+                             f"{names + ['carrier']}")
 
     def gear(self, name: str) -> Gear:
         for g in self.gears:

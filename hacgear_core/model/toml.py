@@ -59,6 +59,27 @@ The format (one example per system lives in ``models/``)::
 
     [statics]
     positions = 64; loads = 32; max_torque_factor = 3.0
+
+Planetary sets (``kind = "planetary"``: two meshes, sun -> planet and planet -> ring, each named after the member
+that drives it relative to the carrier)::
+
+    [planetary]
+    planet_count = 3
+    planet_positions_deg = [0.0, 120.0, 240.0]   # optional (default: equally spaced); multiples of 360/(z_s+z_r)
+    carrier_radius_mm = 96.54                    # optional (default: the sun-planet centre distance)
+    carrier_mass_kg = 3.0; carrier_inertia_kgm2 = 0.03
+    fixed_member = "ring"                        # ring | carrier | sun, held at zero speed (its rotational support
+                                                 # stiffness: inf held, finite sprung reaction, 0 a free port); a
+                                                 # fixed member without [gears.support] is held (ring fixed)
+    [planetary.carrier_support]                  # absent: rotation prescribed (follows the kinematics), rigid
+    translational_stiffness_N_per_m = 1e8; rotational_stiffness_Nm_per_rad = inf   # inf prescribed, 0 free
+    [[planetary.pin_errors]]                     # optional: planet pin position errors
+    planet = 2; radial_um = 0.0; tangential_um = 20.0
+
+The planet's ``[gears.support]`` is its bearing on the pin (translational stiffness; rotational stiffness 0).
+A fully lumped planetary model (``[system] lumped = true``) has no materials, tooth geometry or statics: its gears
+give ``name, teeth, internal, mass_kg, inertia_kgm2, base_radius_mm, [gears.support]``, its meshes
+``name, gear_a, gear_b, mesh_stiffness_N_per_m, pressure_angle_deg`` (``examples/planetary_lumped.toml``).
 """
 
 
@@ -67,14 +88,15 @@ from __future__ import annotations
 import hashlib
 import math
 import tomllib
+from dataclasses import replace
 from importlib import resources as _resources
 from pathlib import Path
 from typing import Any, Callable
 
 from hacgear_core.errors import ModelError
 from hacgear_core.model.schema import (
-    FLANKS, RELIEF_SHAPES, SYSTEM_KINDS, WEB_MIN_RIM_M, Damping, Flank, Gauge, Gear, Material, Mesh, Model,
-    Operating, Planetary, StaticsGrid, Support, Web,
+    FLANKS, PLANETARY_MEMBERS, RELIEF_SHAPES, SYSTEM_KINDS, WEB_MIN_RIM_M, Damping, Flank, Gauge, Gear, LumpedGear,
+    Material, Mesh, Model, Operating, PinError, Planetary, StaticsGrid, Support, Web,
 )
 
 __all__ = ["load_model", "parse_model", "model_sha256", "resolve_model_path", "shipped_systems", "shipped_systems_dir"]
@@ -201,6 +223,11 @@ _GEAR_KEYS = (
 )
 _WEB_KEYS = ("thickness_mm", "inner_diameter_mm", "outer_diameter_mm")
 _MESH_KEYS = ("name", "gear_a", "gear_b", "flank_a", "flank_b", "center_distance_mm", "line_of_centres_deg")
+_LUMPED_GEAR_KEYS = ("name", "teeth", "internal", "mass_kg", "inertia_kgm2", "base_radius_mm", "support")
+_LUMPED_MESH_KEYS = ("name", "gear_a", "gear_b", "mesh_stiffness_N_per_m", "pressure_angle_deg")
+_PLANETARY_KEYS = ("planet_count", "planet_positions_deg", "carrier_radius_mm", "carrier_mass_kg",
+                   "carrier_inertia_kgm2", "carrier_support", "fixed_member", "pin_errors")
+_PIN_ERROR_KEYS = ("planet", "radial_um", "tangential_um")
 _TOP_KEYS = ("system", "materials", "gears", "meshes", "damping", "operating", "statics", "planetary")
 
 
@@ -321,6 +348,51 @@ def _read_gear(sec: _Section, materials: dict[str, Material]) -> Gear:
     ))
 
 
+def _read_lumped_gear(sec: _Section) -> LumpedGear:
+    """``[[gears]]`` of a lumped model (``[system] lumped = true``): no tooth geometry."""
+    name = sec.string("name")
+    teeth = sec.integer("teeth", 3, 1000)
+    internal = sec.boolean("internal", default=False)
+    mass = sec.number("mass_kg", "kg", 0.0, None)
+    inertia = sec.number("inertia_kgm2", "kg*m^2", 0.0, None)
+    rb = sec.number("base_radius_mm", "mm", 0.0, 20000.0, lo_open=True)
+    support = _read_support(sec.table("support", required=False))
+    sec.done(_LUMPED_GEAR_KEYS)
+    return _wrap(sec, sec.path, lambda: LumpedGear(name=name, teeth=teeth, mass_kg=mass, inertia_kgm2=inertia,
+                                                   base_radius_m=rb * 1e-3, internal=internal, support=support))
+
+
+def _read_planetary(psec: _Section) -> Planetary:
+    """``[planetary]`` → :class:`Planetary` (SI)."""
+    pc = psec.integer("planet_count", 1, 12)
+    raw_pos = psec._get("planet_positions_deg", False, None, "deg", "a list of planet_count angles")
+    positions = None
+    if raw_pos is not None:
+        if not isinstance(raw_pos, list) or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                                    for v in raw_pos):
+            raise psec.error(psec.key("planet_positions_deg"), "deg", "a list of numbers, first 0, increasing "
+                             "in [0, 360)", raw_pos, problem=f"wrong type ({raw_pos!r})")
+        positions = tuple(math.radians(float(v)) for v in raw_pos)
+    cr = psec.number("carrier_radius_mm", "mm", 0.0, 10000.0, required=False, default=None, lo_open=True)
+    cm = psec.number("carrier_mass_kg", "kg", 0.0, None, required=False, default=0.0)
+    ci = psec.number("carrier_inertia_kgm2", "kg*m^2", 0.0, None, required=False, default=0.0)
+    csec = psec.table("carrier_support", required=False)
+    # absent: the carrier follows the kinematics (prescribed rotation) on rigid bearings
+    cs = Support(_INF, _INF) if csec is None else _read_support(csec)
+    fixed = psec.string("fixed_member", PLANETARY_MEMBERS, required=False, default="ring")
+    errors = []
+    for esec in psec.array_of_tables("pin_errors", required=False):
+        planet = esec.integer("planet", 1, 12)
+        rad = esec.number("radial_um", "um", -1000.0, 1000.0, required=False, default=0.0)
+        tan = esec.number("tangential_um", "um", -1000.0, 1000.0, required=False, default=0.0)
+        esec.done(_PIN_ERROR_KEYS)
+        errors.append(PinError(planet, rad * 1e-6, tan * 1e-6))
+    psec.done(_PLANETARY_KEYS)
+    return _wrap(psec, psec.path, lambda: Planetary(
+        pc, None if cr is None else cr * 1e-3, cm, ci, cs, planet_positions_rad=positions, fixed_member=fixed,
+        pin_errors=tuple(errors)))
+
+
 def model_sha256(path: str | Path) -> str:
     """SHA-256 (hex) of the model file's bytes: the key that ties tables to their model."""
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
@@ -339,7 +411,14 @@ def parse_model(text: str, *, file: str = "<model>", path: Path | None = None, s
     kind = sys_sec.string("kind", SYSTEM_KINDS)
     title = sys_sec.string("title", required=False, default="")
     source = sys_sec.string("source", required=False, default="")
-    sys_sec.done(("name", "kind", "title", "source"))
+    lumped = sys_sec.boolean("lumped", default=False)
+    sys_sec.done(("name", "kind", "title", "source", "lumped"))
+
+    # gears that give no [gears.support]: the fixed member of a planetary set is then held (ring fixed)
+    no_support = {g.get("name") for g in raw.get("gears", []) if isinstance(g, dict) and "support" not in g}
+    if lumped:
+        return _parse_lumped(top, name=name, kind=kind, title=title, source=source, file=file, path=path,
+                             sha256=sha256, no_support=no_support)
 
     materials: dict[str, Material] = {}
     mats = top.table("materials")
@@ -400,13 +479,10 @@ def parse_model(text: str, *, file: str = "<model>", path: Path | None = None, s
     psec = top.table("planetary", required=False)
     planetary = None
     if psec is not None:
-        pc = psec.integer("planet_count", 1, 12)
-        cr = psec.number("carrier_radius_mm", "mm", 0.0, 10000.0, required=False, default=None, lo_open=True)
-        cm = psec.number("carrier_mass_kg", "kg", 0.0, None, required=False, default=0.0)
-        ci = psec.number("carrier_inertia_kgm2", "kg*m^2", 0.0, None, required=False, default=0.0)
-        cs = _read_support(psec.table("carrier_support", required=False))
-        psec.done(("planet_count", "carrier_radius_mm", "carrier_mass_kg", "carrier_inertia_kgm2", "carrier_support"))
-        planetary = Planetary(pc, None if cr is None else cr * 1e-3, cm, ci, cs)
+        planetary = _read_planetary(psec)
+        if kind == "planetary" and planetary.fixed_member in no_support:
+            gears = tuple(replace(g, support=Support(_INF, _INF)) if g.name == planetary.fixed_member else g
+                          for g in gears)
 
     top.done(_TOP_KEYS)
     try:
@@ -414,6 +490,49 @@ def parse_model(text: str, *, file: str = "<model>", path: Path | None = None, s
             name=name, kind=kind, title=title, source=source, gears=gears, meshes=tuple(meshes), damping=damping,
             operating=operating, statics=statics, planetary=planetary, path=path, sha256=sha256,
         )
+    except ModelError as exc:
+        raise ModelError(f"{file}: {exc}") from None
+
+
+def _parse_lumped(top: _Section, *, name: str, kind: str, title: str, source: str, file: str, path: Path | None,
+                  sha256: str, no_support: set) -> Model:
+    """A fully lumped model (``[system] lumped = true``): members by mass, inertia and base radius, meshes by a
+    constant stiffness and pressure angle; no materials, tooth geometry or statics grid."""
+    gears = tuple(_read_lumped_gear(s) for s in top.array_of_tables("gears"))
+    if not gears:
+        raise top.error("gears", "", "at least two [[gears]]", [], problem="no gear defined")
+    meshes = []
+    for msec in top.array_of_tables("meshes"):
+        mname = msec.string("name")
+        ga = msec.string("gear_a")
+        gb = msec.string("gear_b")
+        k = msec.number("mesh_stiffness_N_per_m", "N/m", 0.0, 1e13, lo_open=True)
+        pa = msec.number("pressure_angle_deg", "deg", 5.0, 40.0)
+        msec.done(_LUMPED_MESH_KEYS)
+        meshes.append(_wrap(msec, msec.path, lambda: Mesh(mname, ga, gb, mesh_stiffness_N_per_m=k,
+                                                          pressure_angle_rad=math.radians(pa))))
+    dsec = top.table("damping", required=False)
+    damping = Damping()
+    if dsec is not None:
+        damping = Damping(dsec.number("modal_damping_ratio", "-", 0.0, 1.0))
+        dsec.done(("modal_damping_ratio",))
+    osec = top.table("operating", required=False)
+    operating = Operating(1.0, gears[0].name)
+    if osec is not None:
+        torque = osec.number("torque_Nm", "N*m", 0.0, 1e7, lo_open=True)
+        tgear = osec.string("torque_gear", required=False, default=gears[0].name)
+        osec.done(("torque_Nm", "torque_gear"))
+        operating = Operating(torque, tgear)
+    psec = top.table("planetary", required=False)
+    planetary = _read_planetary(psec) if psec is not None else None
+    if planetary is not None and planetary.fixed_member in no_support:
+        gears = tuple(replace(g, support=Support(_INF, _INF)) if g.name == planetary.fixed_member else g
+                      for g in gears)
+    top.done(("system", "gears", "meshes", "damping", "operating", "planetary"))
+    try:
+        return Model(name=name, kind=kind, title=title, source=source, gears=gears, meshes=tuple(meshes),
+                     damping=damping, operating=operating, statics=StaticsGrid(), planetary=planetary, path=path,
+                     sha256=sha256, lumped=True)
     except ModelError as exc:
         raise ModelError(f"{file}: {exc}") from None
 

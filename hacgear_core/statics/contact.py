@@ -55,7 +55,7 @@ termination, warm starts across loads at one position;
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Callable, Sequence
 
 import numpy as np
@@ -596,12 +596,20 @@ class MeshContactSolver:
             raise SolverError(f"mesh '{self.mesh_name}': no tooth pair can touch at position {position}")
         return float(np.min(s.g0[fin] / s.lam[fin]))
 
-    def state_load(self, position: float, mesh_force_N: float, warm: np.ndarray | None = None) -> ContactState:
-        """Load-controlled solve (mesh force [N] >= 0) → :class:`ContactState`."""
+    def state_load(self, position: float, mesh_force_N: float, warm: np.ndarray | None = None,
+                   gap_offset_m: np.ndarray | None = None) -> ContactState:
+        """Load-controlled solve (mesh force [N] >= 0) → :class:`ContactState`.  ``gap_offset_m`` (n,) adds to the
+        initial separation of every candidate (e.g. the deformation caused by loads outside this mesh)."""
         W = float(mesh_force_N)
         if not (math.isfinite(W) and W >= 0):
             raise SolverError(f"mesh_force_N must be finite and >= 0 N, got {mesh_force_N!r}")
-        return self._solve(self.setup(position), force=W, warm=warm)
+        setup = self.setup(position)
+        if gap_offset_m is not None:
+            off = np.asarray(gap_offset_m, float)
+            if off.shape != setup.g0.shape:
+                raise SolverError(f"gap_offset_m must have shape {setup.g0.shape}, got {off.shape}")
+            setup = replace(setup, g0=setup.g0 + off)
+        return self._solve(setup, force=W, warm=warm)
 
     def state_deflection(self, position: float, mesh_deflection_m: float,
                          warm: np.ndarray | None = None) -> ContactState:

@@ -48,6 +48,7 @@ import numpy as np
 
 from hacgear_core import tables as tb
 from hacgear_core.errors import ModelError, SolverError, TableError
+from hacgear_core.geometry.planetary import planetary_geometry, planetary_torques
 from hacgear_core.model import load_model
 from hacgear_core.statics.contact import make_mesh_solver
 from hacgear_core.statics.contract import MeshInfo, MeshStaticSolver, SolverFactory, StaticSolution, describe_solver
@@ -102,6 +103,10 @@ def nominal_mesh_forces(model: Any, base_radii: Mapping[str, tuple[float, float]
     planets) by their torque balance ``F_out = F_in · r_b,in / r_b,out``.  ``base_radii[mesh]`` are the
     loaded-flank base radii ``(r_b of gear_a, r_b of gear_b)`` [m].
     """
+    if getattr(model, "kind", "") == "planetary":
+        # per-planet forces of the planetary torque flow (any input member; tables are per mesh kind)
+        flow = planetary_torques(model, planetary_geometry(model))
+        return {m.name: flow["force_N"][f"{m.name}_1"] for m in model.meshes}
     T, g0 = model.operating.torque_Nm, model.operating.torque_gear
     share = model.planetary.planet_count if getattr(model, "planetary", None) is not None else 1
     meshes = {m.name: m for m in model.meshes}

@@ -1,0 +1,373 @@
+"""Builder of planetary sets: model (or lumped model) → :class:`LumpedSystem` in the rotating carrier frame.
+
+Coordinates (dissertation Eq. 4.5b, in the frame rotating with the nominal carrier motion at ``W_c``)::
+
+    q = [x_c, y_c, th_c, x_r, y_r, th_r, x_s, y_s, th_s, zeta_1, eta_1, th_1, ..., zeta_N, eta_N, th_N]
+
+central members' translations ``x, y`` (carrier frame), rotations ``th`` (deviations from the kinematic motion,
+counter-clockwise), planet ``i``'s radial ``zeta_i`` and tangential ``eta_i`` translations along
+``e_r = (cos psi_i, sin psi_i)``, ``e_t = (-sin psi_i, cos psi_i)`` and rotation ``th_i``.  A coordinate is left
+out where its support is rigid: translations of a member with ``translational_stiffness = inf``, the rotation of
+a member with ``rotational_stiffness = inf`` (held: the fixed member; prescribed: a turning member that follows
+the kinematics, the dissertation's carrier).  Rotational stiffness 0 leaves the member free (a torque port),
+a finite one springs it to its kinematic motion.  Equations (Eq. 4.5a)::
+
+    M q'' + (C + W_c G) q' + (K_b - W_c^2 K_W) q + sum_k F_k(tau_k, v_k . q) v_k = f_ext
+
+* ``G`` and ``K_W`` (Appendix A): per body with translations, ``G = [[0, -2m], [2m, 0]]`` and ``K_W = diag(m, m)``
+  on its (x, y) or (zeta, eta) pair (the frames of the planets are fixed in the carrier frame); the constant
+  centrifugal force ``m_p W_c^2 r_c`` on a planet is left out, as in the dissertation (its static bearing
+  deflection does not load the meshes at first order).  Our ``K_W`` is the dissertation's ``K_Omega`` with its
+  ``M_Omega`` typo read as ``K_Omega``.  Where the carrier rotation is a DOF, ``K_W`` also carries the geometric
+  stiffness of the planet bearings' centrifugal preload turning with the carrier, ``-N m_p r_c^2`` on ``th_c``
+  (the consistent linearisation about the centrifugally loaded state; without it a free carrier's rigid rotation
+  would have the spurious stiffness ``-N m_p r_c^2 W_c^2``, with it the rotation is neutral to ``O(m_p W_c^2 /
+  k_p)``).  The bearing forces reported include the centrifugal load ``m_p W_c^2 r_c``.
+* ``K_b``: isotropic supports of the central members (``k_j`` on x and y: frame-independent), their rotational
+  springs, and the planet bearings ``k_p`` (radial and tangential, no rotational bearing stiffness) between the
+  planet and its pin on the carrier: bearing deflection ``d_i = [zeta_i - u_c . e_r,  eta_i - u_c . e_t - r_c
+  th_c] - e_i`` (``e_i`` the pin position error), energy ``k_p |d_i|^2 / 2``.  A pin error preloads the bearing:
+  the constant force ``k_p B_i^T e_i`` acts in every experiment.
+* mesh vectors from our own placement of the gears (:mod:`hacgear_core.geometry.planetary`): ``x = (u_a - u_b) . n
+  + m_a th_a - m_b th_b``, not the dissertation's printed sign convention (Appendix B); mesh position ``tau =
+  tau_ref + phase + z_a s_a (th_a - eta_i / r_c) / 2 pi`` (gear_a's rotation relative to its line of centres).
+* reference motion: the input member (``[operating] torque_gear``); mesh cycles per radian of it ``z_s / (2 pi
+  |omega_ref / Omega|)``; ``W_c`` = the carrier's kinematic speed.
+
+Loads of the constant-speed experiment: the nominal torques ``T_s : T_r : T_c = 1 : z_r/z_s : -(1 + z_r/z_s)`` on
+the members that have a rotation DOF (plus the pin-error preloads); the static mesh forces then follow from the
+equilibrium (equal sharing for identical, equally spaced planets).
+"""
+from __future__ import annotations
+
+import math
+from typing import Any, Mapping
+
+import numpy as np
+
+from hacgear_core.dynamics.system import GearBody, LumpedSystem, MeshCoupling
+from hacgear_core.errors import ModelError
+from hacgear_core.geometry import gear_geometry
+from hacgear_core.geometry.planetary import PlanetaryGeometry, planetary_geometry, planetary_torques
+from hacgear_core.tables import MeshTable
+
+__all__ = ["planetary_from_model", "constant_stiffness_table", "PLANETARY_DOF_ORDER"]
+
+#: order of the central members in q (dissertation Eq. 4.5b)
+PLANETARY_DOF_ORDER = ("carrier", "ring", "sun")
+
+
+def constant_stiffness_table(name: str, gear_names: tuple[str, str], teeth: tuple[int, int],
+                             base_radius_m: tuple[float, float], stiffness_N_per_m: float,
+                             x_max_m: float) -> MeshTable:
+    """Force-deflection table of a constant mesh stiffness ``F = k max(0, x)`` (lumped models: no tooth geometry;
+    the table's linear extrapolation keeps it exact beyond ``x_max_m``)."""
+    k = float(stiffness_N_per_m)
+    pos = np.arange(4) / 4.0
+    nd = 8
+    dx = x_max_m / (nd - 2)
+    xd = -dx + dx * np.arange(nd)
+    force = np.maximum(k * xd, 0.0)[None, :].repeat(4, axis=0)
+    z = np.zeros((4, nd, 1))
+    return MeshTable(
+        name=name, gear_names=tuple(gear_names), teeth=tuple(teeth), base_radius_m=tuple(base_radius_m),
+        position=pos, deflection_m=xd, force_N=np.ascontiguousarray(force), no_load_deflection_m=np.zeros(4),
+        load_N=np.array([0.0]), static_deflection_m=np.zeros((4, 1)), tooth_offsets=np.array([0]),
+        tooth_load_N=force[:, :, None], contact_roll_deg=z + np.nan, peak_pressure_Pa=np.zeros_like(force),
+        strain={}, solver=f"lumped: constant mesh stiffness {k:.6g} N/m (no tooth geometry)")
+
+
+def _mesh_table(tables: Any, name: str):
+    if hasattr(tables, "mesh"):
+        return tables.mesh(name)
+    if isinstance(tables, Mapping):
+        if name not in tables:
+            raise ModelError(f"no table for mesh '{name}'; tables for {sorted(tables)}")
+        return tables[name]
+    raise ModelError(f"no tables for mesh '{name}' (give SystemTables or {{mesh: MeshTable}})")
+
+
+def _member_properties(model: Any, geo: PlanetaryGeometry, bearing_override: float | None):
+    """{member: (mass, inertia, k_translational, k_rotational, characteristic radius)} of sun, ring, carrier
+    and the planet (shared by the planet instances)."""
+    mem = geo.members
+    pl = model.planetary
+    out = {}
+    for name in (mem.sun, mem.ring, mem.planet):
+        g = model.gear(name)
+        if getattr(model, "lumped", False):
+            m, j, rb = g.mass_kg, g.inertia_kgm2, g.base_radius_m
+        else:
+            gg = gear_geometry(g)
+            m, j = gg.mass_kg, gg.inertia_kgm2
+            sm = geo.sun_mesh(1)
+            rb = None
+            for mm in (geo.sun_mesh(1), geo.ring_mesh(1)):
+                for k, gn in enumerate((mm.gear_a, mm.gear_b)):
+                    if gn == name or (name == mem.planet and gn == geo.planets[0]):
+                        rb = mm.base_radius_m[k]
+                        break
+                if rb is not None:
+                    break
+            del sm
+        kt = g.support.translational_stiffness_N_per_m if bearing_override is None else float(bearing_override)
+        out[name] = (float(m), float(j), float(kt), float(g.support.rotational_stiffness_Nm_per_rad), float(rb))
+    cs = pl.carrier_support
+    kt = cs.translational_stiffness_N_per_m if bearing_override is None else float(bearing_override)
+    out["carrier"] = (float(pl.carrier_mass_kg), float(pl.carrier_inertia_kgm2), float(kt),
+                      float(cs.rotational_stiffness_Nm_per_rad), geo.carrier_radius_m)
+    return out
+
+
+def planetary_from_model(model: Any, tables: Any = None, *, force_law: str = "hac", torque_Nm: float | None = None,
+                         bearing_stiffness_N_per_m: float | None = None, modal_damping_ratio: float | None = None,
+                         shafts: bool = True, planet_count: int | None = None,
+                         pin_errors_m: Mapping[int, tuple[float, float]] | None = None) -> LumpedSystem:
+    """The lumped system of a planetary model in the carrier frame (module docstring).
+
+    Parameters
+    ----------
+    model : Model
+        ``kind = "planetary"``; a lumped model (``[system] lumped = true``) needs no ``tables``.
+    tables : SystemTables or {mesh: MeshTable}
+        The model's two mesh tables (sun-planet, planet-ring), shared by every planet at its own phase.
+    torque_Nm : float, optional
+        Torque on the input member [N m] (default ``[operating] torque_Nm``).
+    bearing_stiffness_N_per_m : float, optional
+        Overrides every translational support stiffness (central members and planet bearings; inf: rigid).
+    shafts : bool
+        True: the rotational supports as given (constant-speed experiment).  False (drivetrain coupling): the
+        turning members are free (the drivetrain owns their shafts); the fixed member keeps its support.
+    planet_count : int, optional
+        Overrides the model's planet count (equally spaced planets; the tables are per mesh kind).
+    pin_errors_m : {planet (1-based): (radial [m], tangential [m])}, optional
+        Planet pin position errors (default: the model's ``[[planetary.pin_errors]]``).
+
+    Raises
+    ------
+    ModelError
+        Inconsistent model, tables of another model, a member without mass where it has a DOF, a planet with a
+        rotational bearing stiffness, loads beyond the tables.
+    """
+    if model.kind != "planetary":
+        raise ModelError(f"planetary builder: model kind must be 'planetary', got {model.kind!r}")
+    geo = planetary_geometry(model, planet_count)
+    mem = geo.members
+    n_pl = geo.planet_count
+    torque = model.operating.torque_Nm if torque_Nm is None else float(torque_Nm)
+    flow = planetary_torques(model, geo, torque)
+    props = _member_properties(model, geo, bearing_stiffness_N_per_m)
+    fixed = geo.fixed_member
+    inp = flow["input"]
+    if props[mem.planet][3] != 0.0:
+        raise ModelError(f"gear '{mem.planet}': rotational_stiffness_Nm_per_rad [N*m/rad] = {props[mem.planet][3]:g}; "
+                         "a planet turns freely on its pin (allowed: 0)")
+    kp = props[mem.planet][2]
+    if not (kp > 0 and math.isfinite(kp)):
+        raise ModelError(f"gear '{mem.planet}': the planet bearing's translational_stiffness_N_per_m [N/m] = {kp!r}; "
+                         "allowed: finite > 0 (the planets sit on the carrier through their bearings)")
+
+    # ---------------------------------------------------------------- DOFs
+    dofs: list[str] = []
+    trans: dict[str, list[tuple[int, np.ndarray]]] = {}
+    rot: dict[str, int] = {}
+    krot: dict[str, float] = {}
+    central = {"carrier": "carrier", "ring": mem.ring, "sun": mem.sun}
+    for role in PLANETARY_DOF_ORDER:
+        name = central[role]
+        m, j, kt, kr, _ = props[name]
+        trans[name] = []
+        if not (kt >= 0):
+            raise ModelError(f"'{name}': translational_stiffness_N_per_m [N/m] must be >= 0 (0 floating, inf rigid), "
+                             f"got {kt!r}")
+        if math.isfinite(kt):
+            for lab, d in (("x", (1.0, 0.0)), ("y", (0.0, 1.0))):
+                trans[name].append((len(dofs), np.array(d)))
+                dofs.append(f"{name}.{lab}")
+        if not shafts and name != fixed:
+            kr = 0.0   # drivetrain coupling: the shafts of the turning members belong to the drivetrain model
+        if not math.isinf(kr):
+            rot[name] = len(dofs)
+            krot[name] = kr
+            dofs.append(f"{name}.theta")
+    for i, p in enumerate(geo.planets):
+        psi = geo.positions_rad[i]
+        er = np.array([math.cos(psi), math.sin(psi)])
+        et = np.array([-math.sin(psi), math.cos(psi)])
+        trans[p] = [(len(dofs), er), (len(dofs) + 1, et)]
+        dofs += [f"{p}.zeta", f"{p}.eta"]
+        rot[p] = len(dofs)
+        krot[p] = 0.0
+        dofs.append(f"{p}.theta")
+    n = len(dofs)
+    if inp not in rot:
+        raise ModelError(f"the input member '{inp}' has no rotation DOF (rotational_stiffness inf: held or "
+                         "prescribed); the input member must turn (rotational stiffness 0 or finite)")
+
+    def props_of(body):
+        return props[mem.planet] if body in geo.planets else props[body]
+
+    # ---------------------------------------------------------------- M, K, G, K_W
+    M = np.zeros((n, n))
+    K = np.zeros((n, n))
+    G = np.zeros((n, n))
+    KW = np.zeros((n, n))
+    for body in list(central.values()) + list(geo.planets):
+        m, j, kt, _, _ = props_of(body)
+        tr = trans.get(body, [])
+        for i_, _d in tr:
+            M[i_, i_] = m
+            KW[i_, i_] = m
+            if body not in geo.planets:
+                K[i_, i_] += kt
+        if len(tr) == 2:
+            (ix, _), (iy, _) = tr
+            G[ix, iy] = -2.0 * m
+            G[iy, ix] = 2.0 * m
+        if body in rot:
+            M[rot[body], rot[body]] = j
+            K[rot[body], rot[body]] += krot[body]
+    rc = geo.carrier_radius_m
+    if "carrier" in rot:
+        KW[rot["carrier"], rot["carrier"]] -= n_pl * props[mem.planet][0] * rc * rc
+    bad = [dofs[i] for i in range(n) if not M[i, i] > 0]
+    if bad:
+        raise ModelError(f"{model.name}: masses and inertias must be > 0 (kg, kg*m^2) where a member has DOFs; zero "
+                         f"for {bad} (give mass_kg / inertia_kgm2, or carrier_mass_kg / carrier_inertia_kgm2)")
+    errors = {e.planet: (e.radial_m, e.tangential_m) for e in model.planetary.pin_errors} \
+        if pin_errors_m is None else {int(k): tuple(v) for k, v in pin_errors_m.items()}
+    for k in errors:
+        if not 1 <= k <= n_pl:
+            raise ModelError(f"pin error of planet {k}: allowed planets 1..{n_pl}")
+    fstat = np.zeros(n)
+    bmaps: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    carrier_a = np.zeros((2, n))
+    carrier_b = np.zeros(2)
+    for i, p in enumerate(geo.planets):
+        (iz, er), (ie, et) = trans[p]
+        B = np.zeros((2, n))
+        B[0, iz] = 1.0
+        B[1, ie] = 1.0
+        for ic, d in trans["carrier"]:
+            B[0, ic] -= float(d @ er)
+            B[1, ic] -= float(d @ et)
+        if "carrier" in rot:
+            B[1, rot["carrier"]] -= rc
+        K += kp * B.T @ B
+        e = np.asarray(errors.get(i + 1, (0.0, 0.0)), float)
+        fstat += kp * B.T @ e
+        # the planet's force on its pin, in the carrier frame's (x, y)
+        R = np.column_stack([er, et])
+        a_p, b_p = kp * R @ B, -kp * R @ e
+        cf = props[mem.planet][0] * rc * er        # centrifugal load per unit W_c^2
+        bmaps[p] = (a_p, b_p, cf)
+        carrier_a += a_p
+        carrier_b += b_p
+    for body in central.values():
+        m, j, kt, _, _ = props_of(body)
+        if trans[body]:
+            a = np.zeros((2, n))
+            for i_, d in trans[body]:
+                a[:, i_] += kt * d
+            bmaps[body] = (a, np.zeros(2), np.zeros(2))
+    if not trans["carrier"]:
+        bmaps["carrier"] = (carrier_a, carrier_b, np.zeros(2))   # the planets' centrifugal loads cancel
+
+    # ---------------------------------------------------------------- meshes
+    tabs = {}
+    base_of = {}
+    for kind in (mem.sun_mesh, mem.ring_mesh):
+        mm = geo.meshes[f"{kind}_1"]
+        names = tuple(mem.planet if g in geo.planets else g for g in (mm.gear_a, mm.gear_b))
+        if getattr(model, "lumped", False):
+            k = float(model.mesh(kind).mesh_stiffness_N_per_m)
+            fmax = max(flow["force_N"].values())
+            tabs[kind] = constant_stiffness_table(kind, names, mm.teeth, mm.base_radius_m, k, 4.0 * fmax / k)
+        else:
+            if tables is None:
+                raise ModelError(f"{model.name}: the planetary set needs its mesh tables (`hacgear statics "
+                                 f"{model.name}`), or a lumped model")
+            t = _mesh_table(tables, kind)
+            tz = tuple(int(z) for z in getattr(t, "teeth", ()))
+            if tz != tuple(mm.teeth):
+                raise ModelError(f"mesh '{kind}': the table's teeth {tz} differ from the model's {tuple(mm.teeth)} "
+                                 "(table of another model, or the gear order of the mesh changed?)")
+            rb = tuple(float(r) for r in getattr(t, "base_radius_m", ()))
+            if len(rb) != 2 or not np.allclose(rb, mm.base_radius_m, rtol=1e-3):
+                raise ModelError(f"mesh '{kind}': the table's base radii {rb} m differ from the model's "
+                                 f"{tuple(mm.base_radius_m)} m (table of another model?)")
+            lmax = float(np.max(getattr(t, "load_N", [np.inf])))
+            fnom = flow["force_N"][f"{kind}_1"]
+            if fnom > lmax * (1 + 1e-9):
+                raise ModelError(f"mesh '{kind}': the nominal force per planet {fnom:.6g} N at {torque:g} N*m with "
+                                 f"{n_pl} planets exceeds the tables' largest static load {lmax:.6g} N; generate the "
+                                 "tables for this torque and planet count (`hacgear statics`)")
+            tabs[kind] = t
+        base_of[kind] = mm.base_radius_m
+    couplings = []
+    for mn, pm in geo.meshes.items():
+        nvec = np.asarray(pm.line_of_action, float)
+        v = np.zeros(n)
+        w = np.zeros(n)
+        vr = np.zeros(n)
+        for g_, sgn in ((pm.gear_a, 1.0), (pm.gear_b, -1.0)):
+            for i_, d in trans.get(g_, []):
+                v[i_] += sgn * float(d @ nvec)
+            if g_ in rot:
+                v[rot[g_]] += sgn * pm.moment_arm_m[g_]
+                vr[rot[g_]] += sgn * pm.moment_arm_m[g_]
+        # mesh position: gear_a's rotation relative to the line of centres through the planet's centre
+        p_name = geo.planets[pm.planet - 1]
+        za = geo.teeth[pm.gear_a]
+        sa = geo.relative_sense[pm.gear_a]
+        cyc = sa * za / (2 * math.pi)
+        if pm.gear_a in rot:
+            w[rot[pm.gear_a]] += cyc
+        ie = trans[p_name][1][0]
+        w[ie] -= cyc / rc
+        alias = {g: (mem.planet if g in geo.planets else g) for g in (pm.gear_a, pm.gear_b)}
+        couplings.append(MeshCoupling(
+            name=mn, gear_a=pm.gear_a, gear_b=pm.gear_b, table=tabs[pm.kind], v=v, w=w, v_rot=vr, phase=pm.phase,
+            nominal_force_N=float(flow["force_N"][mn]), teeth=tuple(pm.teeth),
+            base_radius_m=(abs(pm.moment_arm_m[pm.gear_a]), abs(pm.moment_arm_m[pm.gear_b])),
+            tooth_passage=dict(pm.tooth_passage), line_of_action=tuple(nvec), group=pm.kind, gear_alias=alias))
+
+    # ---------------------------------------------------------------- bodies, reference, rigid mode
+    ab = geo.absolute_ratio
+    w_ref = ab[inp]
+    sref = math.copysign(1.0, w_ref)
+    bodies = []
+    u = np.zeros(n)
+    for body in list(central.values()) + list(geo.planets):
+        m, j, kt, kr, radius = props_of(body)
+        idx = tuple(i_ for i_, _ in trans.get(body, []))
+        dd = np.array([d for _, d in trans.get(body, [])]).reshape(-1, 2)
+        ratio = ab[body] / abs(w_ref)
+        sense = math.copysign(1.0, ab[body]) if abs(ab[body]) > 1e-12 else geo.relative_sense.get(body, 1.0)
+        z = geo.teeth.get(body, 0)
+        kr_eff = krot.get(body, math.inf)
+        bodies.append(GearBody(name=body, teeth=int(z), sense=float(sense), speed_ratio=float(ratio),
+                               rotation=rot.get(body, -1), translations=idx, directions=dd, radius_m=float(radius),
+                               mass_kg=m, inertia_kgm2=j, support=(kt if body not in geo.planets else kp, kr_eff)))
+        if body in rot:
+            u[rot[body]] = ab[body] / w_ref
+    for p in geo.planets:
+        u[trans[p][1][0]] = rc * ab["carrier"] / w_ref
+    cycles_per_rad = geo.mesh_cycles_per_relative_rad / abs(w_ref)
+    for pm in geo.meshes.values():  # every mesh advances z_s / 2 pi cycles per radian of the sun relative to the carrier
+        rate = geo.relative_sense[pm.gear_a] * geo.teeth[pm.gear_a] * (ab[pm.gear_a] - ab["carrier"]) / (2 * math.pi)
+        if abs(rate - geo.mesh_cycles_per_relative_rad) > 1e-9 * rate:
+            raise ModelError(f"{model.name}: mesh '{pm.name}' does not advance with the kinematics (internal error)")
+    held = bool(np.any(np.abs(K @ u) > 1e-9 * max(1.0, float(np.max(np.abs(K))))))
+    torques = {}
+    for body, t_ccw in flow["torque_ccw_Nm"].items():
+        if body in rot:
+            gb = next(b for b in bodies if b.name == body)
+            torques[body] = gb.sense * t_ccw / torque
+    zeta = model.damping.modal_damping_ratio if modal_damping_ratio is None else float(modal_damping_ratio)
+    return LumpedSystem(
+        name=model.name, kind="planetary", dof_names=dofs, mass=M, stiffness=K, gears=bodies, meshes=couplings,
+        torque_Nm=torque, input_gear=inp, modal_damping_ratio=zeta, force_law=force_law, reference_gear=inp,
+        gyroscopic=G, centripetal=KW, carrier_ratio=ab["carrier"] / abs(w_ref), rigid_mode=None if held else u,
+        mesh_cycles_per_rad=cycles_per_rad, nominal_torques_per_Nm=torques, static_forces=fstat,
+        bearing_maps=bmaps)

@@ -1,0 +1,290 @@
+"""Planetary sets: placement and phasing in the carrier frame (hacgear_core.geometry.planetary) and the lumped
+system of the builder (hacgear_core.dynamics.build.planetary): kinematics, torque flow, load sharing, pin errors,
+planet phasing suppression, the lumped (table-free) mode, clear errors."""
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hacgear_core.dynamics.build import build_system, planetary_from_model
+from hacgear_core.dynamics.equilibrium import load_sharing, static_equilibrium
+from hacgear_core.dynamics.simulator import Simulator, system_gauges
+from hacgear_core.dynamics.steady import SteadyStateOptions, steady_state
+from hacgear_core.errors import GeometryError, ModelError
+from hacgear_core.geometry.planetary import planet_positions, planetary_geometry, planetary_torques
+from hacgear_core.model import load_model, parse_model
+from hacgear_core.tables import read_tables
+
+ROOT = Path(__file__).resolve().parent.parent
+LUMPED = ROOT / "examples" / "planetary_lumped.toml"
+
+
+@pytest.fixture(scope="module")
+def model():
+    return load_model("planetary_65_55_175")
+
+
+@pytest.fixture(scope="module")
+def tables(model):
+    return read_tables(model.tables_path, model.path)
+
+
+@pytest.fixture(scope="module")
+def lumped():
+    return load_model(LUMPED)
+
+
+# ------------------------------------------------------------------------------------------- phasing
+@pytest.mark.parametrize("n, delays", [(3, (0, 2 / 3, 1 / 3)), (4, (0, 1 / 4, 1 / 2, 3 / 4)), (5, (0,) * 5)])
+def test_sun_planet_phases_from_geometry(model, n, delays):
+    """Dissertation Section 4.5.2 / Fig. 4.9: the sun meshes of planets 1..N lag planet 1's by {0, 2/3, 1/3},
+    {0, 1/4, 1/2, 3/4}, all 0 (65-tooth sun), exactly; the kernel's phases are the negatives; the ring meshes
+    follow gamma_ri = -z_r psi_i / 2 pi and keep the sun-ring phase of planet 1."""
+    g = planetary_geometry(model, n)
+    assert g.sun_delays == delays                                   # exact (no tolerance)
+    for i, psi in enumerate(g.positions_rad, start=1):
+        assert (g.sun_mesh(i).phase + delays[i - 1]) % 1.0 in (0.0, 1.0)   # phase = -delay (mod 1), exactly
+        rd = (-175 * psi / (2 * math.pi)) % 1.0
+        assert min(abs(g.ring_delays[i - 1] - rd), 1 - abs(g.ring_delays[i - 1] - rd)) < 1e-12
+        d = (g.ring_mesh(i).phase - g.sun_mesh(i).phase - g.ring_sun_phase) % 1.0
+        assert min(d, 1.0 - d) < 1e-9
+
+
+def test_sun_mesh_of_each_planet_reaches_sun_tooth_0_at_its_passage(model):
+    """Tooth passages from the geometry: the sun turns z_s psi_i / 2 pi mesh cycles relative to the carrier between
+    planet 1's and planet i's pitch point, so sun tooth 0 meets planet i at that many cycles."""
+    g = planetary_geometry(model, 3)
+    for i, psi in enumerate(g.positions_rad, start=1):
+        assert g.sun_mesh(i).tooth_passage["sun"] == round(65 * psi / (2 * math.pi) + g.sun_mesh(i).phase) % 65
+
+
+def test_unequal_spacing_and_assembly_condition(model):
+    """Planets may sit at any multiple of 360 / (z_s + z_r) = 1.5 deg; elsewhere they cannot be assembled."""
+    pl = dataclasses.replace(model.planetary, planet_positions_rad=tuple(math.radians(a) for a in (0.0, 118.5, 241.5)))
+    m2 = dataclasses.replace(model, planetary=pl)
+    g = planetary_geometry(m2)
+    assert g.sun_delays[1] == pytest.approx((65 * 118.5 / 360) % 1.0, abs=1e-12)
+    bad = dataclasses.replace(model, planetary=dataclasses.replace(
+        model.planetary, planet_positions_rad=tuple(math.radians(a) for a in (0.0, 119.0, 240.0))))
+    with pytest.raises(ModelError, match=r"planet 2 at 119 deg cannot be assembled.*every 1\.5 deg.*118\.5 or 120"):
+        planet_positions(bad)
+
+
+def test_lumped_placement_matches_the_tooth_geometry(model, lumped):
+    """The analytic placement of a lumped model (pressure angle, base radii) gives the lines of action and moment
+    arms that our tooth geometry gives for the same set."""
+    gg, gl = planetary_geometry(model, 3), planetary_geometry(lumped, 3)
+    for name, pm in gg.meshes.items():
+        pl = gl.meshes[name]
+        np.testing.assert_allclose(pl.line_of_action, pm.line_of_action, atol=2e-6)
+        for g, arm in pm.moment_arm_m.items():
+            assert pl.moment_arm_m[g] == pytest.approx(arm, rel=2e-6)
+        assert pl.phase == pytest.approx(pm.phase, abs=1e-12) if pm.kind == "sun_planet" else True
+
+
+def test_kinematics_and_torque_flow(model):
+    """Willis with the ring fixed: carrier / sun = z_s / (z_s + z_r); torques 1 : z_r/z_s : -(1 + z_r/z_s); each
+    planet carries T_s / (N r_bs) on both meshes (equal base radii of the planet's two flanks)."""
+    g = planetary_geometry(model, 4)
+    ab = g.absolute_ratio
+    assert ab["carrier"] / ab["sun"] == pytest.approx(65 / 240, rel=1e-12)
+    assert ab["ring"] == 0.0
+    fl = planetary_torques(model, g, 200.0)
+    t = fl["torque_ccw_Nm"]
+    assert (t["sun"], t["ring"], t["carrier"]) == pytest.approx((200.0, 200.0 * 175 / 65, -200.0 * 240 / 65))
+    rbs = g.sun_mesh(1).base_radius_m[0]
+    for f in fl["force_N"].values():
+        assert f == pytest.approx(200.0 / (4 * rbs), rel=1e-12)
+
+
+def test_driven_gear_a_is_refused(model):
+    """The tables' positions advance as gear_a drives: a ring mesh named ring -> planet (the ring is driven relative
+    to the carrier) is refused with the fix."""
+    from hacgear_core.model import Mesh
+
+    m2 = dataclasses.replace(model, meshes=(model.meshes[0], Mesh("ring_planet", "ring", "planet", "drive", "coast",
+                                                                  96.54e-3, math.pi)))
+    with pytest.raises(ModelError, match=r"mesh 'ring_planet'.*'ring' turns clockwise.*driven, not driving"):
+        planetary_geometry(m2)
+
+
+# ------------------------------------------------------------------------------------------- the system
+@pytest.mark.parametrize("n", [3, 4, 5])
+def test_dofs_equations_and_mesh_kinematics(model, tables, n):
+    """3N+5 DOFs with ring fixed and carrier rotation prescribed (dissertation: 3N+9 less the ring's 3 and th_c);
+    G and K_W per unit carrier speed on every translation pair; all meshes advance at z_s (1 - c) / 2 pi cycles
+    per radian of the sun; the static equilibrium carries the input torque through the sun meshes."""
+    sy = build_system(model, tables, planet_count=n)
+    assert sy.n == 3 * n + 5 and sy.m == 2 * n
+    assert sy.carrier_ratio == pytest.approx(65 / 240)
+    assert sy.mesh_cycles_per_rad == pytest.approx(65 * (1 - 65 / 240) / (2 * math.pi))
+    np.testing.assert_allclose(sy.G, -sy.G.T)
+    i, j = sy.dof_names.index("sun.x"), sy.dof_names.index("sun.y")
+    assert sy.G[i, j] == pytest.approx(-2 * 1.8) and sy.K_W[i, i] == pytest.approx(1.8)
+    eq = static_equilibrium(sy, 0.3)
+    sun = [k for k, c in enumerate(sy.meshes) if c.group == "sun_planet"]
+    rbs = sy.meshes[0].base_radius_m[0]
+    assert sum(eq.mesh_forces_N[sun]) * rbs == pytest.approx(200.0, rel=1e-9)
+
+
+@pytest.mark.parametrize("n", [3, 4, 5])
+def test_equal_load_sharing(model, tables, n):
+    """Identical, equally spaced planets share the load equally within 0.1 % (cycle mean; five in-phase planets
+    at every instant)."""
+    ls = load_sharing(build_system(model, tables, planet_count=n), 32)
+    np.testing.assert_allclose(ls.factor, 1.0, atol=1e-3)
+    if n == 5:
+        np.testing.assert_allclose(ls.peak_factor, 1.0, atol=1e-6)
+
+
+def _pin_error_estimate(k_sp, k_rp, k_p, k_sun, k_car, alpha, n, planet, e_t, torque, r_bs):
+    """Closed-form stiffness estimate of the static mesh forces with a tangential pin error ``e_t`` on ``planet``
+    (constant mesh stiffnesses, ring fixed, carrier rotation held, equal pressure angles): per planet
+    ``F_i (1/k_sp + 1/k_rp + 4 cos^2 a / k_p) = r_bs th_s + u_s . n_si - 2 cos a (e_i + u_c . e_ti)`` with the sun
+    and carrier translations ``u_s``, ``u_c`` from their bearings' balance.  Returns F (n,)."""
+    c, s = math.cos(alpha), math.sin(alpha)
+    k_eq = 1.0 / (1 / k_sp + 1 / k_rp + 4 * c * c / k_p)
+    psi = 2 * math.pi * np.arange(n) / n
+    e_r, e_t_ = np.stack([np.cos(psi), np.sin(psi)], 1), np.stack([-np.sin(psi), np.cos(psi)], 1)
+    n_s = c * e_t_ + s * e_r                              # sun -> planet line of action (sun turning CCW)
+    e = np.zeros(n)
+    e[planet - 1] = e_t
+    # unknowns z = [r_bs th_s, u_s (2), u_c (2)]; F = k_eq (z0 + n_s . u_s - 2c (e + e_t . u_c))
+    A = np.zeros((n, 5))
+    A[:, 0] = 1.0
+    A[:, 1:3] = n_s
+    A[:, 3:5] = -2 * c * e_t_
+    b = -2 * c * e
+    M = np.zeros((5, 5))
+    r = np.zeros(5)
+    M[0] = k_eq * A.sum(axis=0)
+    r[0] = torque / r_bs - k_eq * b.sum()                 # sum F = T / r_bs
+    M[1:3] = k_eq * n_s.T @ A                             # k_sun u_s + sum F n_s = 0
+    M[1:3, 1:3] += k_sun * np.eye(2)
+    r[1:3] = -k_eq * n_s.T @ b
+    M[3:5] = -2 * c * k_eq * e_t_.T @ A                   # k_car u_c - sum 2c F e_t = 0
+    M[3:5, 3:5] += k_car * np.eye(2)
+    r[3:5] = 2 * c * k_eq * e_t_.T @ b
+    z = np.linalg.solve(M, r)
+    return k_eq * (A @ z + b)
+
+
+def test_pin_error_load_sharing_lumped_equals_closed_form(lumped):
+    """Constant mesh stiffnesses: a tangential pin error of 30 um on planet 1 gives exactly the closed-form
+    stiffness estimate (rigid ring and held carrier rotation; floating sun and carrier)."""
+    pl = dataclasses.replace(lumped.planetary, carrier_support=dataclasses.replace(
+        lumped.planetary.carrier_support, rotational_stiffness_Nm_per_rad=math.inf))
+    ring = next(g for g in lumped.gears if g.name == "ring")
+    ring = dataclasses.replace(ring, support=dataclasses.replace(ring.support, translational_stiffness_N_per_m=math.inf,
+                                                                 rotational_stiffness_Nm_per_rad=math.inf))
+    m = dataclasses.replace(lumped, planetary=pl, gears=tuple(ring if g.name == "ring" else g for g in lumped.gears))
+    sy = planetary_from_model(m, pin_errors_m={1: (0.0, 30e-6)})
+    f = static_equilibrium(sy, 0.0).mesh_forces_N[::2]
+    est = _pin_error_estimate(1e8, 1e8, 1e8, 1e8, 1e8, math.radians(15.97), 3, 1, 30e-6, 200.0, 50.2743e-3)
+    np.testing.assert_allclose(f, est, rtol=1e-9)
+    assert f[0] < f[1]                                     # pin ahead in the carrier's sense: planet 1 unloads
+
+
+@pytest.mark.parametrize("e_um", [10.0, 30.0])
+def test_pin_error_load_sharing_hac_follows_the_estimate(model, tables, e_um):
+    """HAC tables: the cycle-mean load-sharing change of a tangential pin error is the closed-form estimate's with
+    the tables' mean mesh stiffnesses, in direction and within 10 % in size; a radial error leaves the sharing
+    (equal pressure angles on both meshes)."""
+    sy = build_system(model, tables, planet_count=3, pin_errors_m={1: (0.0, e_um * 1e-6)})
+    ls = load_sharing(sy, 16)
+    k = sy.mesh_stiffness_N_per_m
+    f = _pin_error_estimate(k[0], k[1], 1e8, 1e8, 1e8, math.radians(15.97), 3, 1, e_um * 1e-6, 200.0,
+                            sy.meshes[0].base_radius_m[0])
+    est = f / f.mean()
+    assert ls.factor[0] < 1.0
+    assert (1 - ls.factor[0]) == pytest.approx(1 - est[0], rel=0.10)
+    assert (ls.factor[2] - 1) == pytest.approx(est[1] - 1, rel=0.10)
+    radial = load_sharing(build_system(model, tables, planet_count=3, pin_errors_m={1: (e_um * 1e-6, 0.0)}), 16)
+    np.testing.assert_allclose(radial.factor, 1.0, atol=2e-3)
+
+
+@pytest.mark.parametrize("n", [3, 4, 5])
+def test_planet_phasing_suppression(model, tables, n):
+    """Parker (2000): at mesh harmonic l the central members translate only where (l z_s +- 1) / N is an integer
+    and rotate only where l z_s / N is; otherwise that motion is absent from the steady-state response spectrum
+    (<= 1e-3 of the excited one).  Five planets (z_s / N = 13): rotational only."""
+    sy = build_system(model, tables, planet_count=n)
+    r = steady_state(sy, 1200.0, options=SteadyStateOptions(rtol=1e-9, max_cycles=6000), keep_trace=True)
+    assert r.converged
+    st, nsp, per = r.trace["state"], r.steps_per_cycle, r.period_cycles
+    d = {name: i for i, name in enumerate(sy.dof_names)}
+    rs = sy.gears["sun"].radius_m
+    spec = {k: np.abs(np.fft.rfft(v[-nsp * per:])) for k, v in
+            (("x", st[:, d["sun.x"]]), ("y", st[:, d["sun.y"]]), ("th", rs * st[:, d["sun.theta"]]),
+             ("cx", st[:, d["carrier.x"]]))}
+    top = max(float(v[per:].max()) for v in spec.values())
+    for l in range(1, 7):
+        tr = max(spec["x"][l * per], spec["y"][l * per], spec["cx"][l * per])
+        ro = spec["th"][l * per]
+        trans_ok = (l * 65 + 1) % n == 0 or (l * 65 - 1) % n == 0
+        rot_ok = (l * 65) % n == 0
+        big = max(tr, ro)
+        if not trans_ok:
+            assert tr <= 1e-3 * max(big, 1e-3 * top), (l, tr, ro)
+        if not rot_ok:
+            assert ro <= 1e-3 * max(big, 1e-3 * top), (l, tr, ro)
+        if trans_ok or rot_ok:
+            assert big > 1e-4 * top
+
+
+def test_sun_gauge_superposes_every_planet(model, tables):
+    """The sun's mid-space gauge sees every planet's sun mesh once per relative revolution: the strain of tooth 0
+    along a trajectory is the sum of the planets' strain-deflection functions at their own pair phases."""
+    sy = build_system(model, tables, planet_count=3)
+    assert system_gauges(sy) == ("sun/SGmid",)
+    sim = Simulator(sy)
+    sim.set_speed_input(mesh_frequency_Hz=600.0)
+    tr = sim.run(75 / 600.0, 1.0 / (600.0 * 64))
+    from hacgear_core.dynamics.simulator import strain_of_tooth
+
+    eps = strain_of_tooth(sy, "sun/SGmid", tr["mesh_position"], tr["mesh_deflection_m"])
+    # three strain pulses per relative revolution (65 mesh cycles), one per planet, 65/3 cycles apart (each pulse
+    # has the two maxima of the space between tooth 0 and tooth 1 passing the planet)
+    tau = tr["mesh_position"][:, 0]
+    hot = np.flatnonzero(eps > 0.5 * eps.max())
+    clusters = np.split(hot, np.flatnonzero(np.diff(hot) > 64) + 1)
+    inner = [c for c in clusters if c[0] > 0 and c[-1] < len(eps) - 1]     # pulses seen whole
+    assert len(clusters) >= 3 and len(inner) >= 2
+    peaks = [tau[c[np.argmax(eps[c])]] for c in inner]
+    np.testing.assert_allclose(np.diff(peaks), 65 / 3, atol=0.1)
+    assert eps.min() < 0 < eps.max()
+
+
+# ------------------------------------------------------------------------------------------- lumped, errors
+def test_lumped_model_needs_no_tables(lumped):
+    """A lumped model builds without tables: constant mesh stiffness, every planet at its phase."""
+    sy = build_system(lumped, None, planet_count=4)
+    np.testing.assert_allclose(sy.mesh_stiffness_N_per_m, 1e8, rtol=1e-12)
+    assert sy.n == 3 * 4 + 9 and sy.rigid_mode is not None
+
+
+def test_bad_planetary_inputs_are_clear(model, tables, lumped):
+    with pytest.raises(ModelError, match=r"planet count \[-\] = 13; allowed: integer in \[1, 12\]"):
+        build_system(model, tables, planet_count=13)
+    planet = dataclasses.replace(model.gear("planet"), support=dataclasses.replace(
+        model.gear("planet").support, rotational_stiffness_Nm_per_rad=5.0))
+    m2 = dataclasses.replace(model, gears=tuple(planet if g.name == "planet" else g for g in model.gears))
+    with pytest.raises(ModelError, match=r"rotational_stiffness_Nm_per_rad \[N\*m/rad\] = 5.*turns freely"):
+        build_system(m2, tables)
+    with pytest.raises(ModelError, match=r"nominal force per planet .* exceeds the tables' largest static load"):
+        build_system(model, tables, planet_count=1, torque_Nm=250.0)
+    with pytest.raises(GeometryError, match=r"lumped model .* no tooth geometry"):
+        from hacgear_core.geometry import gear_geometry
+
+        gear_geometry(lumped.gears[0])
+    text = LUMPED.read_text().replace("mesh_stiffness_N_per_m = 1.0e8\npressure_angle_deg = 15.97\n\n[[meshes]]",
+                                      "pressure_angle_deg = 15.97\n\n[[meshes]]", 1)
+    with pytest.raises(ModelError, match=r"key 'meshes\[0\]\.mesh_stiffness_N_per_m' \[N/m\]: missing required key"):
+        parse_model(text, file="l.toml")
+    text = LUMPED.read_text().replace("planet_count = 3", "planet_count = 3\nplanet_positions_deg = [0.0, 120.0]")
+    with pytest.raises(ModelError, match=r"planet_positions \[deg\]: 2 angles given for planet_count = 3"):
+        parse_model(text, file="l.toml")

@@ -98,3 +98,21 @@ def test_torque_change_scales_the_nominal_forces():
     s2 = sy.with_changes(torque_Nm=150.0)
     assert s2.nominal_forces_N()[0] == pytest.approx(0.5 * sy.nominal_forces_N()[0], rel=1e-12)
     assert s2.fingerprint() != sy.fingerprint()
+
+
+def test_shafts_do_not_load_the_bearings_twice():
+    """Constant-speed experiment with a shaft on the driven gear and elastic bearings: the static bearing deflection
+    is the mesh force over the bearing stiffness (the shaft preload acts on the rotations only)."""
+    from hacgear_core.dynamics.build import spur_pair_system
+    from hacgear_core.dynamics.equilibrium import static_equilibrium
+    from hacgear_core.dynamics.synthetic import linear_fdf_table, synthetic_28t_parameters
+
+    tab = linear_fdf_table(150e6, x_max_m=400e-6)
+    p = synthetic_28t_parameters(tab, bearing_stiffness_N_per_m=200e6).replace(
+        rotational_stiffness_Nm_per_rad=(0.0, 1e5))
+    sy = spur_pair_system(p, tab)
+    eq = static_equilibrium(sy, 0.0)
+    f = sy.nominal_forces_N()[0]
+    assert eq.mesh_forces_N[0] == pytest.approx(f, rel=1e-9)
+    y = [eq.q[i] for i, d in enumerate(sy.dof_names) if d.endswith("u_loa")]
+    np.testing.assert_allclose(np.abs(y), f / 200e6, rtol=1e-9)

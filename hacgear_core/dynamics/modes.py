@@ -346,12 +346,12 @@ def gyroscopic_modes(system: LumpedSystem, carrier_speed_rad_s: float = 0.0, *, 
     keff = system.k_lin - wc * wc * system.K_W
     n_rigid = int(np.sum(system.rigid_modes))
     if wc == 0.0 or not np.any(system.G):
-        w2, phi = np.linalg.eigh(np.linalg.solve(np.linalg.cholesky(system.M), np.linalg.solve(
-            np.linalg.cholesky(system.M), keff).T))
-        lo = np.linalg.cholesky(system.M)
-        phi = np.linalg.solve(lo.T, phi)
+        # symmetric: K phi = w^2 M phi through the Cholesky factor M = L L^T
+        li = np.linalg.inv(np.linalg.cholesky(system.M))
+        a = li @ keff @ li.T
+        w2, psi = np.linalg.eigh(0.5 * (a + a.T))
         omega = np.sqrt(np.clip(w2, 0.0, None))
-        shapes = phi.astype(complex)
+        shapes = (li.T @ psi).astype(complex)
     else:
         minv = system.minv
         a = np.zeros((2 * n, 2 * n))

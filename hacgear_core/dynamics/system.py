@@ -360,7 +360,8 @@ class LumpedSystem:
             fe = np.where(rot, self.V.T @ f, 0.0)
             shafts = [g.rotation for g in self.gears.values() if g.rotation >= 0 and g.support[1] > 0]
             if shafts:
-                fe = fe + self.K @ self.preload_state(t)
+                # the shafts' static twist, on the rotations only (the bearings react the mesh forces themselves)
+                fe = fe + np.where(rot, self.K @ self.preload_state(t), 0.0)
         fe = np.ascontiguousarray(fe + self.static_forces)
         self._cache[key] = fe
         return fe.copy()

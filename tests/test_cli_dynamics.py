@@ -40,8 +40,10 @@ def test_cli_user_errors_are_reported_without_traceback(capsys):
     assert "START:STOP:N" in capsys.readouterr().err
     assert main(["modes", "synthetic:29t", "--torque", "100"]) == 2
     assert "synthetic:28t" in capsys.readouterr().err
-    assert main(["modes", "synthetic:28t", "--torque", "-5"]) == 2
+    assert main(["modes", "synthetic:28t", "--torque", "0"]) == 2
     assert "torque_Nm [N*m]" in capsys.readouterr().err
+    assert main(["modes", "synthetic:28t", "--torque", "-5"]) == 2  # the coast flanks: drive-only tables
+    assert "coast" in capsys.readouterr().err
 
 
 def test_cli_simulate_reports_extremes_with_sign_and_checks_the_output_path(capsys, tmp_path):

@@ -8,6 +8,7 @@ from _dyn import K, params, system
 from hacgear_core.dynamics.build import build_system
 from hacgear_core.dynamics.equilibrium import static_equilibrium, static_state
 from hacgear_core.dynamics.synthetic import linear_fdf_table
+from hacgear_core.errors import ModelError
 from hacgear_core.model import load_model
 from hacgear_core.tables import load_system_tables
 
@@ -42,3 +43,25 @@ def test_idler_equilibrium_reproduces_the_tables_and_balances_the_idler(tau_ref)
     assert eq.mesh_forces_N[0] * r12 == pytest.approx(eq.mesh_forces_N[1] * r21, rel=1e-3)
     # the shafts carry the nominal torque: the mesh forces stay within 1 % of the torque flow's
     np.testing.assert_allclose(eq.mesh_forces_N, sy.nominal_forces_N(), rtol=1e-2)
+
+
+def test_negative_torque_loads_the_coast_flanks():
+    """A reversed torque presses the coast flanks: coast force |T| / r_b,coast, coast approach = backlash + F / k_c,
+    drive flanks apart; the translations deflect the other way along the coast line of action."""
+    kc, j = 90e6, 120e-6
+    rbc = (0.0657, 0.0657)
+    tab = linear_fdf_table(K, coast_stiffness_N_per_m=kc, backlash_m=j, coast_base_radius_m=rbc)
+    p = params(torque_Nm=-250.0)
+    sy = system(p, tab)
+    eq = static_equilibrium(sy)
+    fc = 250.0 / rbc[0]
+    assert eq.mesh_forces_N[0] == 0.0
+    assert eq.coast_forces_N[0] == pytest.approx(fc, rel=1e-10)
+    assert eq.coast_approach_m[0] == pytest.approx(j + fc / kc, rel=1e-10)
+    np.testing.assert_allclose(sy.nominal_coast_forces_N(), [fc], rtol=1e-12)
+    # the same pair with a positive torque is untouched by its coast side
+    pos = static_equilibrium(system(params(), tab))
+    assert pos.coast_forces_N[0] == 0.0 and pos.mesh_forces_N[0] == pytest.approx(params().static_force_N, rel=1e-12)
+    # drive-only tables refuse a negative torque, naming the fix
+    with pytest.raises(ModelError, match="coast"):
+        system(p, linear_fdf_table(K))

@@ -1,6 +1,8 @@
 """Tests of the compiled RK4 kernel (hacgear_core.dynamics.kernels): conservation, order, contact loss, precision."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -114,9 +116,9 @@ def test_specialised_and_generic_loops_agree(n_dof):
     tab = spur_fdf_table(tip_relief_m=20e-6)
     p = synthetic_28t_parameters(tab, bearing_stiffness_N_per_m=200e6 if n_dof == 4 else float("inf"))
     sy = system(p, tab)
-    assert sy.n == n_dof and sy.kernel is not kernels._integrate_table
+    assert sy.n == n_dof and sy.kernel is not kernels._GENERIC[(kernels.LAW_TABLE, False)]
     res = []
-    for kern in (sy.kernel, kernels._integrate_table):
+    for kern in (sy.kernel, kernels._GENERIC[(kernels.LAW_TABLE, False)]):
         sy.kernel = kern
         s = static_state(sy)
         kin = np.array([0.0, 0.0, 2000.0 / sy.zref_2pi])
@@ -166,3 +168,98 @@ def test_rotating_frame_terms_match_the_equations_of_motion():
     s_fixed = s0.copy()
     base.with_changes(stiffness=kk).integrate(s_fixed, np.array([0.0, 0.0, omega]), steps, t_end / steps, fext)
     assert np.max(np.abs(s_fixed - ref) / scale) > 1e-3
+
+
+def _two_sided_pair(kc=120e6, backlash=150e-6):
+    tab = linear_fdf_table(K, coast_stiffness_N_per_m=kc, backlash_m=backlash)
+    sy = system(params(modal_damping_ratio=0.0), tab)
+    assert sy.two_sided and sy.kernel is not system(params(), linear_fdf_table(K)).kernel
+    return sy, tab
+
+
+def test_two_sided_mesh_conserves_energy_across_impacts():
+    """Undamped pair with a gap: the teeth fly across the backlash and hit both flanks; the energy (kinetic plus
+    the work stored in both flanks' force laws) is conserved to the integrator's accuracy, better with a finer
+    step."""
+    sy, tab = _two_sided_pair()
+    n = sy.n
+    def stored(law, nodes):
+        """Exact potential of a force law that is linear between ``nodes`` (the table's grid): quadratic per cell."""
+        xs = np.union1d(np.linspace(-1e-3, 1e-3, 2001), nodes)
+        f = law(0, 0.0, xs)
+        e = np.concatenate([[0.0], np.cumsum(0.5 * (f[1:] + f[:-1]) * np.diff(xs))])
+
+        def pot(x):
+            i = np.clip(np.searchsorted(xs, x) - 1, 0, xs.size - 2)
+            d = x - xs[i]
+            return e[i] + f[i] * d + 0.5 * (f[i + 1] - f[i]) / (xs[i + 1] - xs[i]) * d * d
+        return pot
+
+    pd = stored(sy.mesh_force, tab.deflection_m)
+    pc = stored(sy.coast_force, tab.coast.deflection_m)
+
+    def energy(s):
+        q, qd = s[:n], s[n:]
+        return 0.5 * qd @ sy.M @ qd + pd(sy.V[0] @ q) + pc(sy.Vc[0] @ q)
+
+    drift = []
+    for spc in (400, 800):
+        s = np.zeros(2 * n)
+        s[n + sy.iref] = 0.4  # rad/s: 25 mm/s along the line of action, across the 150 um gap
+        e0 = energy(s)
+        rec_s = np.zeros((4000, 2 * n))
+        rec_o = np.zeros((4000, 6 * sy.m + 1))
+        h = 1.0 / (spc * 3000.0)
+        sy.integrate(s, np.zeros(3), 4000 * 8 * spc // 100, h, np.zeros(n), rec_every=8 * spc // 100,
+                     rec_state=rec_s, rec_out=rec_o)
+        fc = rec_o[:, 5]
+        assert np.sum(np.diff((fc > 0).astype(int)) == 1) >= 5  # several back-side impacts
+        assert np.sum(np.diff((rec_o[:, 2] > 0).astype(int)) == 1) >= 5  # and drive-side ones
+        drift.append(max(abs(energy(r) - e0) for r in rec_s) / e0)
+    assert drift[0] < 1e-4
+    assert drift[1] < drift[0] / 3
+
+
+def test_oscillation_across_the_backlash_has_the_piecewise_linear_period():
+    """Free rattle of an unloaded pair: half a period in drive contact (pi / w_d), a flight across the gap
+    (j / V), half a period in coast contact (pi / w_c), the flight back: T = pi/w_d + pi/w_c + 2 j / V."""
+    kc, j = 80e6, 150e-6
+    sy, tab = _two_sided_pair(kc=kc, backlash=j)
+    n = sy.n
+    m_eff = 1.0 / (sy.V[0] @ np.linalg.solve(sy.M, sy.V[0]))
+    np.testing.assert_allclose(sy.Vc[0], -sy.V[0], rtol=1e-12)  # equal base radii: xc = -x
+    vel = 0.2  # m/s along the line of action
+    s = np.zeros(2 * n)
+    s[n + sy.iref] = vel / sy.V[0, sy.iref]
+    h = 2e-7
+    nrec = 60000
+    rec_s, rec_o = np.zeros((nrec, 2 * n)), np.zeros((nrec, 6 * sy.m + 1))
+    sy.integrate(s, np.zeros(3), nrec, h, np.zeros(n), rec_every=1, rec_state=rec_s, rec_out=rec_o)
+    x = rec_o[:, 1]
+    t = rec_o[:, -1]
+    up = np.flatnonzero((x[:-1] < 0) & (x[1:] >= 0))  # entries into drive contact
+    tc = t[up] - x[up] * h / (x[up + 1] - x[up])
+    period = np.diff(tc)
+    closed = math.pi * math.sqrt(m_eff / K) + math.pi * math.sqrt(m_eff / kc) + 2 * j / vel
+    assert len(period) >= 3
+    np.testing.assert_allclose(period, closed, rtol=2e-4)
+    assert x.min() < -j  # the teeth crossed the gap into coast contact
+
+
+@pytest.mark.parametrize("bearing", [math.inf, 200e6])
+def test_coast_side_changes_nothing_while_the_drive_flanks_carry_the_load(bearing):
+    """A coast table that is never reached leaves the drive-flank dynamics bit-identical (the coast terms add
+    exact zeros), with rigid and with elastic bearings."""
+    one = linear_fdf_table(K, offset_amplitude_m=2e-6)
+    two = linear_fdf_table(K, offset_amplitude_m=2e-6, coast_stiffness_N_per_m=100e6, backlash_m=150e-6)
+    out = []
+    for tab in (one, two):
+        sy = system(params(bearing_stiffness_N_per_m=(bearing, bearing)), tab)
+        s = static_state(sy)
+        rec_o = np.zeros((500, 6 * sy.m + 1))
+        sy.integrate(s, np.array([0.0, 0.0, 1800.0 / sy.zref_2pi]), 128 * 50, 1.0 / (1800.0 * 128), sy.fext_speed(),
+                     rec_every=128 // 10, rec_state=np.zeros((500, 2 * sy.n)), rec_out=rec_o)
+        out.append((s, rec_o[:, :4]))
+    assert not system(params(), one).two_sided and system(params(), two).two_sided
+    np.testing.assert_array_equal(out[0][0], out[1][0])
+    np.testing.assert_array_equal(out[0][1], out[1][1])

@@ -1,11 +1,13 @@
-"""Static equilibrium of a lumped gear system at a mesh position: ``K q + sum_k F_k(tau_k, v_k.q) v_k = f_ext``;
+"""Static equilibrium of a lumped gear system at a mesh position:
+``K q + sum_k [F_k(tau_k, v_k.q) v_k + Fc_k(tau_k, vc_k.q) vc_k] = f_ext`` (drive and coast flanks);
 static load sharing among meshes that share the load (the planets of a planetary set) over a mesh cycle.
 
 The mesh forces are piecewise linear in the deflection (the interpolated FDF), so Newton's method with each
 mesh's local slope as tangent stiffness converges in a few steps; a step that does not reduce the residual is
 halved.  A free rotation of the train (the rigid-body mode ``u``) is fixed by holding the reference gear's
 rotation at 0 (the loads of the constant-speed experiment are balanced, so the equilibrium exists).  The start
-is the linear estimate from each mesh's mean stiffness around its static deflection at its nominal force.
+is the linear estimate from each mesh's mean stiffness around its static deflection at its nominal force, on the
+flanks the loads press together (the coast flanks for a negative torque).
 """
 from __future__ import annotations
 
@@ -22,7 +24,8 @@ __all__ = ["EquilibriumResult", "static_equilibrium", "static_state", "LoadShari
 
 @dataclass(frozen=True)
 class EquilibriumResult:
-    """``q`` (n,) static deviations; ``mesh_forces_N``, ``mesh_deflections_m`` (m,); solver outcome."""
+    """``q`` (n,) static deviations; ``mesh_forces_N``, ``mesh_deflections_m`` (m,) of the drive flanks,
+    ``coast_forces_N``, ``coast_approach_m`` (m,) of the coast flanks; solver outcome."""
 
     q: np.ndarray
     mesh_forces_N: np.ndarray
@@ -30,6 +33,8 @@ class EquilibriumResult:
     success: bool
     message: str
     iterations: int
+    coast_forces_N: np.ndarray | None = None
+    coast_approach_m: np.ndarray | None = None
 
 
 def _positions(system: LumpedSystem, tau_ref: float, q: np.ndarray) -> np.ndarray:
@@ -53,18 +58,34 @@ def static_equilibrium(system: LumpedSystem, tau_ref: float = 0.0, fext: np.ndar
     fe = system.fext_speed() if fext is None else np.asarray(fext, dtype=float)
     keff = system.K - carrier_speed_rad_s ** 2 * system.K_W
     free = system.rigid_mode is not None
-    scale = max(float(np.max(np.abs(fe))), float(np.max(np.abs(system.nominal_forces_N()))), 1.0)
+    scale = max(float(np.max(np.abs(fe))), float(np.max(np.abs(system.nominal_forces_N(abs(system.torque_Nm))))),
+                1.0)
+
+    two = system.two_sided
+    coast_loaded = two and _presses_coast(system, fe)
+    vl = system.Vc if coast_loaded else system.V
 
     def residual(q):
         tau = _positions(system, tau_ref, q)
         x = system.V @ q
         f = np.array([float(system.mesh_force(k, tau[k], x[k])) for k in range(m)])
-        return fe - keff @ q - system.V.T @ f, tau, x, f
+        r = fe - keff @ q - system.V.T @ f
+        xc = system.Vc @ q
+        fc = np.zeros(m)
+        if two:
+            fc = np.array([float(system.coast_force(k, tau[k], xc[k])) for k in range(m)])
+            r = r - system.Vc.T @ fc
+        return r, tau, (x, xc), (f, fc)
 
-    def tangent(tau, x, kbar_floor):
+    def tangent(tau, xx, kbar_floor):
+        x, xc = xx
         ks = np.array([float(system.mesh_slope(k, tau[k], x[k])) for k in range(m)])
-        ks = np.maximum(ks, kbar_floor)
-        return keff + (system.V.T * ks) @ system.V
+        a = keff + (system.V.T * np.maximum(ks, 0.0 if coast_loaded else kbar_floor)) @ system.V
+        if two:
+            kc = np.array([float(system.coast_slope(k, tau[k], xc[k])) for k in range(m)])
+            kc = np.where(system.coast_forces(tau, xc) > 0, kc, 0.0)
+            a = a + (system.Vc.T * np.maximum(kc, kbar_floor if coast_loaded else 0.0)) @ system.Vc
+        return a
 
     def solve(a, r):
         if free:
@@ -78,13 +99,18 @@ def static_equilibrium(system: LumpedSystem, tau_ref: float = 0.0, fext: np.ndar
     kbar = system.mesh_stiffness_N_per_m
     floor = 1e-6 * kbar
     # start: the linear estimate around each mesh's static deflection at its nominal force
-    fn = system.nominal_forces_N()
+    if coast_loaded:
+        fn = system.nominal_coast_forces_N(-abs(system.torque_Nm))
+        arrays = system.coast_arrays
+    else:
+        fn = system.nominal_forces_N(abs(system.torque_Nm))
+        arrays = system.table_arrays
     tau0 = tau_ref + system.phase
     xs = np.array([deflection_at_force(ta.ftab, ta.x0, ta.dx, float(t), float(f))
-                   for ta, t, f in zip(system.table_arrays, tau0, fn)])
+                   for ta, t, f in zip(arrays, tau0, fn)])
     xs = np.where(np.isfinite(xs), xs, 0.0)
-    a_lin = keff + (system.V.T * kbar) @ system.V
-    q = solve(a_lin, fe - system.V.T @ (fn - kbar * xs))
+    a_lin = keff + (vl.T * kbar) @ vl
+    q = solve(a_lin, fe - vl.T @ (fn - kbar * xs))
     r, tau, x, f = residual(q)
     norm = float(np.max(np.abs(r)))
     it = 0
@@ -104,8 +130,19 @@ def static_equilibrium(system: LumpedSystem, tau_ref: float = 0.0, fext: np.ndar
     if not ok:
         raise SolverError(f"{system.name}: no static equilibrium at mesh position {tau_ref:g} (residual "
                           f"{norm:.3g} N after {it} Newton steps); is the load beyond the tables?")
-    return EquilibriumResult(q=q, mesh_forces_N=f, mesh_deflections_m=x, success=True,
-                             message=f"converged in {it} Newton steps", iterations=it)
+    return EquilibriumResult(q=q, mesh_forces_N=f[0], mesh_deflections_m=x[0], success=True,
+                             message=f"converged in {it} Newton steps", iterations=it, coast_forces_N=f[1],
+                             coast_approach_m=x[1])
+
+
+def _presses_coast(system: LumpedSystem, fe: np.ndarray) -> bool:
+    """Whether the loads ``fe`` press the coast flanks together: their work on a small closing of every coast gap
+    (along vc, rotations only) is positive."""
+    rot = np.zeros(system.n, dtype=bool)
+    for g in system.gears.values():
+        if g.rotation >= 0:
+            rot[g.rotation] = True
+    return float(np.sum((system.Vc[:, rot] @ fe[rot]))) > 0.0
 
 
 def static_state(system: LumpedSystem, tau_ref: float = 0.0, fext: np.ndarray | None = None) -> np.ndarray:

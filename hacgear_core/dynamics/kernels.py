@@ -6,13 +6,18 @@ allocation-free and without I/O.
 
 Equations (deviations ``q`` from the reference motion, see :mod:`hacgear_core.dynamics.system`)::
 
-    M q'' + (C + W_c G) q' + (K - W_c^2 K_W) q + sum_k F_k(tau_k, x_k) v_k = f_ext
-    x_k = v_k . q,    tau_k = tau_ref + phase_k + w_k . q,    W_c = c_ratio * omega_ref
+    M q'' + (C + W_c G) q' + (K - W_c^2 K_W) q + sum_k [F_k(tau_k, x_k) v_k + Fc_k(tau_k, xc_k) vc_k] = f_ext
+    x_k = v_k . q,   xc_k = vc_k . q,   tau_k = tau_ref + phase_k + w_k . q,   W_c = c_ratio * omega_ref
+
+``F_k`` is mesh k's drive-flank force (its force law), ``Fc_k`` its coast-flank force (the coast table: contact
+of the opposite flanks across the backlash, ``xc_k`` the coast approach along the coast line of action ``vc_k``).
+Loops compiled one-sided skip every coast term; a system without coast tables uses them.
 
 State::
 
-    s    (2n,)  [q_0 .. q_{n-1}, q'_0 .. q'_{n-1}]
-    kin  (3,)   [tau_ref in [0, 1), completed reference mesh cycles, omega_ref rad/s]
+    s    (2n,)     [q_0 .. q_{n-1}, q'_0 .. q'_{n-1}]
+    kin  (3,) or (3 + m,)  [tau_ref in [0, 1), completed reference mesh cycles, omega_ref rad/s, then per mesh
+                   the count of steps whose state lay beyond its tables' deflection range (added to)]
 
 ``tau_ref`` is the mesh position of the reference motion (the first mesh), advancing by
 ``zref_2pi * omega_ref`` per second; keeping it as (integer cycles, fraction) keeps float64 precision for
@@ -21,25 +26,28 @@ arbitrarily long runs.
 Force laws (one per kernel variant, so the dispatch folds away at compile time):
 
 ``LAW_TABLE`` (0)
-    HAC force-deflection function of each mesh: :func:`hacgear_core.tables.interp.bilinear` on its table,
+    HAC force-deflection function of each mesh: :func:`hacgear_core.tables.interp` bilinear rule on its table,
     clipped at >= 0 (teeth cannot pull).
 ``LAW_LINEAR`` (1)
     conventional mesh-stiffness law ``F = max(0, k(tau) (x - e(tau)) + f0(tau))`` with ``[k, e, f0]`` per
     mesh on its position grid, linear and periodic in position (dissertation Eqs. 3.6-3.8).
+The coast side is always its table.
 
-Tables of all meshes travel flattened: mesh ``k``'s table is ``tab[o : o + Np * Nd]`` reshaped (Np, Nd) with
-``(o, Np, Nd) = tint[k]`` and ``(x0, 1/dx) = tflt[k]``; the linear law's arrays likewise
-(``lin[o : o + 3 Np]``, rows k, e, f0, with ``(o, Np) = lint[k]``).
+Tables travel flattened: row ``r`` (drive tables of meshes 0..m-1, then their coast tables m..2m-1) is
+``tab[o : o + Np * Nd]`` reshaped (Np, Nd) with ``(o, Np, Nd) = tint[r]`` and ``(x0, 1/dx, x_on, x_max) =
+tflt[r]``: below ``x_on`` the table's force is 0 (no lookup), beyond ``x_max`` the state has left the table
+(counted); the linear law's arrays likewise (``lin[o : o + 3 Np]``, rows k, e, f0, with ``(o, Np) = lint[k]``).
 
 Modes: ``MODE_SPEED`` integrates the deviations around an imposed reference speed; ``MODE_TORQUE`` moves the
 rigid-body rotation into the reference after every step (``q -= q_ref u``, ``tau_ref += sref zref_2pi q_ref``,
-``omega_ref += sref q'_ref``, ``sref`` the reference gear's sense of rotation), so the reference follows the reference gear exactly (drivetrain coupling; needs a
-rigid-body mode ``u`` with ``u[iref] = 1``).
+``omega_ref += sref q'_ref``, ``sref`` the reference gear's sense of rotation), so the reference follows the
+reference gear exactly (drivetrain coupling; needs a rigid-body mode ``u`` with ``u[iref] = 1``).
 
-Records (every ``rec_every`` steps): ``rec_state`` (nr, 2n); ``rec_out`` (nr, 4m + 1) with, per mesh k,
-``[4k]`` unwrapped mesh position (cycles + fraction), ``[4k+1]`` mesh deflection [m], ``[4k+2]`` mesh force
-[N], ``[4k+3]`` dynamic transmission error (rotational part of ``v_k . q``) [m], and ``[4m]`` the time since
-the call started [s].
+Records (every ``rec_every`` steps): ``rec_state`` (nr, 2n); ``rec_out`` (nr, REC * m + 1) with, per mesh k at
+``REC * k + j``: ``j = REC_POSITION`` unwrapped mesh position (cycles + fraction), ``REC_DEFLECTION`` mesh
+deflection [m], ``REC_FORCE`` drive-flank force [N], ``REC_DTE`` dynamic transmission error (rotational part of
+``v_k . q``) [m], ``REC_COAST_APPROACH`` coast approach ``xc_k`` [m], ``REC_COAST_FORCE`` coast-flank force [N];
+and at ``REC * m`` the time since the call started [s].
 """
 from __future__ import annotations
 
@@ -53,11 +61,23 @@ from hacgear_core.tables.interp import periodic_cell, deflection_cell
 __all__ = [
     "LAW_TABLE",
     "LAW_LINEAR",
+    "REC",
+    "REC_POSITION",
+    "REC_DEFLECTION",
+    "REC_FORCE",
+    "REC_DTE",
+    "REC_COAST_APPROACH",
+    "REC_COAST_FORCE",
     "MODE_SPEED",
     "MODE_TORQUE",
     "mesh_force",
+    "table_row_force",
     "select_kernel",
     "flatten_tables",
+    "table_onset",
+    "record_width",
+    "record_fields",
+    "contact_state",
     "flatten_linear",
 ]
 
@@ -65,6 +85,15 @@ LAW_TABLE = 0
 LAW_LINEAR = 1
 MODE_SPEED = 0
 MODE_TORQUE = 1
+VARIANT_SPARSE = 2
+VARIANT_TWO_SIDED = 4
+REC = 6
+REC_POSITION = 0
+REC_DEFLECTION = 1
+REC_FORCE = 2
+REC_DTE = 3
+REC_COAST_APPROACH = 4
+REC_COAST_FORCE = 5
 
 _FM = {"contract"}
 
@@ -96,10 +125,19 @@ def _linear_force(lin, off, npos, tau, x):
 
 
 @njit(cache=True, inline="always", fastmath=_FM)
+def table_row_force(tab, tint, tflt, r, tau, x):
+    """Force [N] of table row ``r`` at ``tau`` [cycles], ``x`` [m]; 0 without a lookup below its onset."""
+    if x < tflt[r, 2]:
+        return 0.0
+    return _table_force(tab, tint[r, 0], tint[r, 1], tint[r, 2], tflt[r, 0], tflt[r, 1], tau, x)
+
+
+@njit(cache=True, inline="always", fastmath=_FM)
 def mesh_force(law, k, tab, tint, tflt, lin, lint, tau, x):
-    """Force [N] of mesh ``k`` under force law ``law`` at mesh position ``tau`` [cycles], deflection ``x`` [m]."""
+    """Drive-flank force [N] of mesh ``k`` under force law ``law`` at mesh position ``tau`` [cycles], deflection
+    ``x`` [m]."""
     if law == LAW_TABLE:
-        return _table_force(tab, tint[k, 0], tint[k, 1], tint[k, 2], tflt[k, 0], tflt[k, 1], tau, x)
+        return table_row_force(tab, tint, tflt, k, tau, x)
     return _linear_force(lin, lint[k, 0], lint[k, 1], tau, x)
 
 
@@ -152,18 +190,40 @@ def _sub_forces(n, m, sparse, nz, f, of, vmi, ov, out, oo):
 
 
 @njit(cache=True, inline="always", fastmath=_FM)
-def _integrate_impl(n, m, law, sparse, s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs,
-                    mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
+def _sub_coast_forces(n, m, sparse, nz, f, of, vci, ov, out, oo):
+    """``out[oo:oo+n] -= sum_k f[of+k] (M^-1 vc_k)`` over the meshes in coast contact (most steps: none)."""
+    for k in range(m):
+        c = f[of + k]
+        if c != 0.0:
+            if sparse:
+                for p in range(1, nz[k, 0] + 1):
+                    i = nz[k, p]
+                    out[oo + i] -= c * vci[ov + k * n + i]
+            else:
+                for i in range(n):
+                    out[oo + i] -= c * vci[ov + k * n + i]
+
+
+@njit(cache=True, inline="always", fastmath=_FM)
+def _integrate_impl(n, m, variant, s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat,
+                    phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
+    # ``variant`` (a constant in every caller, so its tests fold away): bit 0 the force law, bit 1 sparse mesh
+    # loops, bit 2 two-sided meshes (packed: CPython passes calls of more than 30 arguments through a tuple, which
+    # numba cannot inline)
+    law = variant & 1
+    sparse = (variant & 2) != 0
+    two_sided = (variant & 4) != 0
     # RK4 of q'' = a(q, q', F).  The force-free acceleration is linear in (q, q'), so every stage's is the
     # first stage's g0 plus products with the earlier stages' accelerations a1..a3 (hh = h/2):
-    #   a2 = g0 + hh p - hh C a1                  - F2 M^-1 v      (p = -K q')
-    #   a3 = g0 + hh p - hh^2 K a1 - hh C a2       - F3 M^-1 v
-    #   a4 = g0 + h p  - h hh K a2 - h C a3        - F4 M^-1 v
+    #   a2 = g0 + hh p - hh C a1                  - F2 M^-1 v - Fc2 M^-1 vc      (p = -K q')
+    #   a3 = g0 + hh p - hh^2 K a1 - hh C a2       - F3 M^-1 v - Fc3 M^-1 vc
+    #   a4 = g0 + h p  - h hh K a2 - h C a3        - F4 M^-1 v - Fc4 M^-1 vc
     #   q  += h q' + h^2/6 (a1 + a2 + a3),   q' += h/6 (a1 + 2 a2 + 2 a3 + a4)
     # (K, C here M^-1 K_eff, M^-1 C_eff).  The stage mesh deflections and positions are formed from scalars:
-    # with x_q = v.q, x_d = v.q', g = v.(force-free acceleration) and VV = v M^-1 v^T, stage 2 needs
-    # x_q + hh x_d, stage 3 x_q + hh (x_d + hh (g_1 - VV F_1)), stage 4 x_q + h (x_d + hh (g_2 - VV F_2)), so
-    # each table lookup waits on a few multiply-adds after an earlier lookup, not on a full stage update.
+    # with x_q = v.q, x_d = v.q', g = v.(force-free acceleration), stage 2 needs x_q + hh x_d, stage 3
+    # x_q + hh (x_d + hh v.a1), stage 4 x_q + h (x_d + hh v.a2), where v.a1 = g_1 - VV F_1 - VVc Fc_1 (VV =
+    # v M^-1 v^T, VVc = v M^-1 vc^T); likewise for w (positions) and vc (coast approaches).  So each table
+    # lookup waits on a few multiply-adds after an earlier lookup, not on a full stage update.
     # Vectors and matrices are addressed flat at offsets that are compile-time constants in the specialised
     # loops (one base pointer per array keeps the loop's working set in registers).
     minv = mats[0]
@@ -175,10 +235,18 @@ def _integrate_impl(n, m, law, sparse, s, kin, n_steps, h, mode, fext, rec_every
     nnz = kidx.shape[0]
     vf = vecs.reshape(vecs.size)
     mf = mmat.reshape(mmat.size)
-    o_wm = m * n
-    o_rvm = 2 * m * n
-    o_vmi = 3 * m * n
-    o_wv = m * m
+    mn = m * n
+    mm = m * m
+    o_w = mn
+    o_rv = 2 * mn
+    o_vmi = 3 * mn
+    o_vc = 4 * mn
+    o_vci = 5 * mn
+    o_wv = mm
+    o_cv = 2 * mm
+    o_vvc = 3 * mm
+    o_wvc = 4 * mm
+    o_cvc = 5 * mm
     c_ratio = scal[0]
     sref = scal[1]
     zref_2pi = scal[2]
@@ -203,11 +271,25 @@ def _integrate_impl(n, m, law, sparse, s, kin, n_steps, h, mode, fext, rec_every
     o_gw1 = 7 * n + 9 * m
     o_g2 = 7 * n + 10 * m
     o_gw2 = 7 * n + 11 * m
+    o_cq = 7 * n + 12 * m
+    o_cd = 7 * n + 13 * m
+    o_c1 = 7 * n + 14 * m
+    o_c2 = 7 * n + 15 * m
+    o_c3 = 7 * n + 16 * m
+    o_c4 = 7 * n + 17 * m
+    o_gc1 = 7 * n + 18 * m
+    o_gc2 = 7 * n + 19 * m
     for i in range(n):
         a = 0.0
         for j in range(n):
             a += minv[i, j] * fext[j]
         wk[o_fm + i] = a
+    for k in range(m):
+        wk[o_c1 + k] = 0.0
+        wk[o_c2 + k] = 0.0
+        wk[o_c3 + k] = 0.0
+        wk[o_c4 + k] = 0.0
+    count = kin.shape[0] >= 3 + m
     nrec = 0
     nr_cap = rec_state.shape[0]
     rotating = c_ratio != 0.0
@@ -240,13 +322,24 @@ def _integrate_impl(n, m, law, sparse, s, kin, n_steps, h, mode, fext, rec_every
         for k in range(m):
             wk[o_xq + k] = _dot(n, sparse, nz, k, vf, 0, s, 0)
             wk[o_xd + k] = _dot(n, sparse, nz, k, vf, 0, s, n)
-            wk[o_wq + k] = _dot(n, sparse, nz, k, vf, o_wm, s, 0)
-            wk[o_wd + k] = _dot(n, sparse, nz, k, vf, o_wm, s, n)
+            wk[o_wq + k] = _dot(n, sparse, nz, k, vf, o_w, s, 0)
+            wk[o_wd + k] = _dot(n, sparse, nz, k, vf, o_w, s, n)
+            if two_sided:
+                wk[o_cq + k] = _dot(n, sparse, nz, k, vf, o_vc, s, 0)
+                wk[o_cd + k] = _dot(n, sparse, nz, k, vf, o_vc, s, n)
+        if count:
+            for k in range(m):
+                if wk[o_xq + k] > tflt[k, 3] or (two_sided and wk[o_cq + k] > tflt[m + k, 3]):
+                    kin[3 + k] += 1.0
         # stages 1 and 2: their lookups need only the state
         for k in range(m):
-            wk[o_f1 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, tau_ref + phase[k] + wk[o_wq + k], wk[o_xq + k])
-            wk[o_f2 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, tau_ref + 0.5 * dtau + phase[k] + wk[o_wq + k] + hh * wk[o_wd + k],
-                               wk[o_xq + k] + hh * wk[o_xd + k])
+            t1 = tau_ref + phase[k] + wk[o_wq + k]
+            t2 = t1 + 0.5 * dtau + hh * wk[o_wd + k]
+            wk[o_f1 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t1, wk[o_xq + k])
+            wk[o_f2 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t2, wk[o_xq + k] + hh * wk[o_xd + k])
+            if two_sided:
+                wk[o_c1 + k] = table_row_force(tab, tint, tflt, m + k, t1, wk[o_cq + k])
+                wk[o_c2 + k] = table_row_force(tab, tint, tflt, m + k, t2, wk[o_cq + k] + hh * wk[o_cd + k])
         for i in range(n):
             wk[o_g0 + i] = wk[o_fm + i]
             wk[o_p + i] = 0.0
@@ -255,17 +348,25 @@ def _integrate_impl(n, m, law, sparse, s, kin, n_steps, h, mode, fext, rec_every
         _sub_c(n, adt, 1.0, s, n, wk, o_g0)
         for k in range(m):
             wk[o_g1 + k] = _dot(n, sparse, nz, k, vf, 0, wk, o_g0)
-            wk[o_gw1 + k] = _dot(n, sparse, nz, k, vf, o_wm, wk, o_g0)
+            wk[o_gw1 + k] = _dot(n, sparse, nz, k, vf, o_w, wk, o_g0)
+            if two_sided:
+                wk[o_gc1 + k] = _dot(n, sparse, nz, k, vf, o_vc, wk, o_g0)
         for i in range(n):
             wk[o_a1 + i] = wk[o_g0 + i]
         _sub_forces(n, m, sparse, nz, wk, o_f1, vf, o_vmi, wk, o_a1)
+        if two_sided:
+            _sub_coast_forces(n, m, sparse, nz, wk, o_c1, vf, o_vci, wk, o_a1)
         for i in range(n):
             wk[o_a2 + i] = wk[o_g0 + i] + hh * wk[o_p + i]
         _sub_c(n, adt, hh, wk, o_a1, wk, o_a2)
         for k in range(m):
             wk[o_g2 + k] = _dot(n, sparse, nz, k, vf, 0, wk, o_a2)
-            wk[o_gw2 + k] = _dot(n, sparse, nz, k, vf, o_wm, wk, o_a2)
+            wk[o_gw2 + k] = _dot(n, sparse, nz, k, vf, o_w, wk, o_a2)
+            if two_sided:
+                wk[o_gc2 + k] = _dot(n, sparse, nz, k, vf, o_vc, wk, o_a2)
         _sub_forces(n, m, sparse, nz, wk, o_f2, vf, o_vmi, wk, o_a2)
+        if two_sided:
+            _sub_coast_forces(n, m, sparse, nz, wk, o_c2, vf, o_vci, wk, o_a2)
         # stages 3 and 4
         for k in range(m):
             a = wk[o_g1 + k]
@@ -277,22 +378,42 @@ def _integrate_impl(n, m, law, sparse, s, kin, n_steps, h, mode, fext, rec_every
                 b -= mf[o_wv + k * m + j] * wk[o_f1 + j]
                 c -= mf[k * m + j] * wk[o_f2 + j]
                 d -= mf[o_wv + k * m + j] * wk[o_f2 + j]
-            wk[o_f3 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint,
-                               tau_ref + 0.5 * dtau + phase[k] + wk[o_wq + k] + hh * (wk[o_wd + k] + hh * b),
-                               wk[o_xq + k] + hh * (wk[o_xd + k] + hh * a))
-            wk[o_f4 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint,
-                               tau_ref + dtau + phase[k] + wk[o_wq + k] + h * (wk[o_wd + k] + hh * d),
-                               wk[o_xq + k] + h * (wk[o_xd + k] + hh * c))
+            if two_sided:
+                e1 = wk[o_gc1 + k]
+                e2 = wk[o_gc2 + k]
+                for j in range(m):
+                    a -= mf[o_vvc + k * m + j] * wk[o_c1 + j]
+                    b -= mf[o_wvc + k * m + j] * wk[o_c1 + j]
+                    c -= mf[o_vvc + k * m + j] * wk[o_c2 + j]
+                    d -= mf[o_wvc + k * m + j] * wk[o_c2 + j]
+                    e1 -= mf[o_cv + k * m + j] * wk[o_f1 + j] + mf[o_cvc + k * m + j] * wk[o_c1 + j]
+                    e2 -= mf[o_cv + k * m + j] * wk[o_f2 + j] + mf[o_cvc + k * m + j] * wk[o_c2 + j]
+            t0 = tau_ref + phase[k] + wk[o_wq + k]
+            t3 = t0 + 0.5 * dtau + hh * (wk[o_wd + k] + hh * b)
+            t4 = t0 + dtau + h * (wk[o_wd + k] + hh * d)
+            wk[o_f3 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t3,
+                                      wk[o_xq + k] + hh * (wk[o_xd + k] + hh * a))
+            wk[o_f4 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t4,
+                                      wk[o_xq + k] + h * (wk[o_xd + k] + hh * c))
+            if two_sided:
+                wk[o_c3 + k] = table_row_force(tab, tint, tflt, m + k, t3,
+                                               wk[o_cq + k] + hh * (wk[o_cd + k] + hh * e1))
+                wk[o_c4 + k] = table_row_force(tab, tint, tflt, m + k, t4,
+                                               wk[o_cq + k] + h * (wk[o_cd + k] + hh * e2))
         for i in range(n):
             wk[o_a3 + i] = wk[o_g0 + i] + hh * wk[o_p + i]
         _sub_k(n, nnz, kidx, aqv, hh2, wk, o_a1, wk, o_a3)
         _sub_c(n, adt, hh, wk, o_a2, wk, o_a3)
         _sub_forces(n, m, sparse, nz, wk, o_f3, vf, o_vmi, wk, o_a3)
+        if two_sided:
+            _sub_coast_forces(n, m, sparse, nz, wk, o_c3, vf, o_vci, wk, o_a3)
         for i in range(n):
             wk[o_a4 + i] = wk[o_g0 + i] + h * wk[o_p + i]
         _sub_k(n, nnz, kidx, aqv, hhh, wk, o_a2, wk, o_a4)
         _sub_c(n, adt, h, wk, o_a3, wk, o_a4)
         _sub_forces(n, m, sparse, nz, wk, o_f4, vf, o_vmi, wk, o_a4)
+        if two_sided:
+            _sub_coast_forces(n, m, sparse, nz, wk, o_c4, vf, o_vci, wk, o_a4)
         for i in range(n):
             s[i] += h * s[n + i] + c6q * (wk[o_a1 + i] + wk[o_a2 + i] + wk[o_a3 + i])
             s[n + i] += c6 * (wk[o_a1 + i] + 2.0 * wk[o_a2 + i] + 2.0 * wk[o_a3 + i] + wk[o_a4 + i])
@@ -323,102 +444,193 @@ def _integrate_impl(n, m, law, sparse, s, kin, n_steps, h, mode, fext, rec_every
                 x = 0.0
                 t = tau_ref + phase[k]
                 d = 0.0
+                xc = 0.0
                 for j in range(n):
                     x += vf[k * n + j] * s[j]
-                    t += vf[o_wm + k * n + j] * s[j]
-                    d += vf[o_rvm + k * n + j] * s[j]
-                rec_out[nrec, 4 * k] = kin[1] + t
-                rec_out[nrec, 4 * k + 1] = x
-                rec_out[nrec, 4 * k + 2] = mesh_force(law, k, tab, tint, tflt, lin, lint, t, x)
-                rec_out[nrec, 4 * k + 3] = d
-            rec_out[nrec, 4 * m] = (step + 1) * h
+                    t += vf[o_w + k * n + j] * s[j]
+                    d += vf[o_rv + k * n + j] * s[j]
+                    xc += vf[o_vc + k * n + j] * s[j]
+                rec_out[nrec, REC * k + REC_POSITION] = kin[1] + t
+                rec_out[nrec, REC * k + REC_DEFLECTION] = x
+                rec_out[nrec, REC * k + REC_FORCE] = mesh_force(law, k, tab, tint, tflt, lin, lint, t, x)
+                rec_out[nrec, REC * k + REC_DTE] = d
+                rec_out[nrec, REC * k + REC_COAST_APPROACH] = xc
+                rec_out[nrec, REC * k + REC_COAST_FORCE] = (table_row_force(tab, tint, tflt, m + k, t, xc)
+                                                            if two_sided else 0.0)
+            rec_out[nrec, REC * m] = (step + 1) * h
             nrec += 1
     return nrec
 
 
 @njit(cache=True, fastmath=_FM)
-def _integrate_table_2_1(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u,
-                         scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
-    return _integrate_impl(2, 1, LAW_TABLE, False, s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out,
-                           mats, vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx,
-                           kval, nz)
+def _table_2_1_s1(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal,
+                  iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
+    return _integrate_impl(2, 1, LAW_TABLE, s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats,
+                           vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval,
+                           nz)
 
 
 @njit(cache=True, fastmath=_FM)
-def _integrate_table_4_1(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u,
-                         scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
-    return _integrate_impl(4, 1, LAW_TABLE, False, s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out,
-                           mats, vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx,
-                           kval, nz)
+def _table_4_1_s1(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal,
+                  iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
+    return _integrate_impl(4, 1, LAW_TABLE, s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats,
+                           vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval,
+                           nz)
 
 
 @njit(cache=True, fastmath=_FM)
-def _integrate_table_3_2(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u,
-                         scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
-    return _integrate_impl(3, 2, LAW_TABLE, False, s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out,
-                           mats, vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx,
-                           kval, nz)
+def _table_3_2_s1(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal,
+                  iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
+    return _integrate_impl(3, 2, LAW_TABLE, s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats,
+                           vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval,
+                           nz)
 
 
 @njit(cache=True, fastmath=_FM)
-def _integrate_table(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal,
-                     iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
-    return _integrate_impl(s.shape[0] // 2, phase.shape[0], LAW_TABLE, True, s, kin, n_steps, h, mode, fext,
-                           rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref, tab, tint, tflt,
-                           lin, lint, work, eff, kidx, kval, nz)
+def _table_s1(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref,
+              tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
+    return _integrate_impl(s.shape[0] // 2, phase.shape[0], LAW_TABLE | VARIANT_SPARSE, s, kin, n_steps, h, mode,
+                           fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref, tab, tint,
+                           tflt, lin, lint, work, eff, kidx, kval, nz)
 
 
 @njit(cache=True, fastmath=_FM)
-def _integrate_linear(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal,
-                      iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
-    return _integrate_impl(s.shape[0] // 2, phase.shape[0], LAW_LINEAR, True, s, kin, n_steps, h, mode, fext,
-                           rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref, tab, tint, tflt,
-                           lin, lint, work, eff, kidx, kval, nz)
+def _linear_s1(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref,
+               tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
+    return _integrate_impl(s.shape[0] // 2, phase.shape[0], LAW_LINEAR | VARIANT_SPARSE, s, kin, n_steps, h, mode,
+                           fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref, tab, tint,
+                           tflt, lin, lint, work, eff, kidx, kval, nz)
 
 
-_SPECIAL = {(LAW_TABLE, 2, 1): _integrate_table_2_1, (LAW_TABLE, 4, 1): _integrate_table_4_1,
-            (LAW_TABLE, 3, 2): _integrate_table_3_2}
+@njit(cache=True, fastmath=_FM)
+def _table_2_1_s2(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal,
+                  iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
+    return _integrate_impl(2, 1, LAW_TABLE | VARIANT_TWO_SIDED, s, kin, n_steps, h, mode, fext, rec_every,
+                           rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint,
+                           work, eff, kidx, kval, nz)
 
 
-def select_kernel(law: int, n: int, m: int):
-    """The compiled loop for force law ``law``, ``n`` DOFs and ``m`` meshes.
+@njit(cache=True, fastmath=_FM)
+def _table_4_1_s2(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal,
+                  iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
+    return _integrate_impl(4, 1, LAW_TABLE | VARIANT_TWO_SIDED, s, kin, n_steps, h, mode, fext, rec_every,
+                           rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint,
+                           work, eff, kidx, kval, nz)
+
+
+@njit(cache=True, fastmath=_FM)
+def _table_3_2_s2(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal,
+                  iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
+    return _integrate_impl(3, 2, LAW_TABLE | VARIANT_TWO_SIDED, s, kin, n_steps, h, mode, fext, rec_every,
+                           rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint,
+                           work, eff, kidx, kval, nz)
+
+
+@njit(cache=True, fastmath=_FM)
+def _table_s2(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref,
+              tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
+    return _integrate_impl(s.shape[0] // 2, phase.shape[0], LAW_TABLE | VARIANT_SPARSE | VARIANT_TWO_SIDED, s,
+                           kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u,
+                           scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz)
+
+
+@njit(cache=True, fastmath=_FM)
+def _linear_s2(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref,
+               tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
+    return _integrate_impl(s.shape[0] // 2, phase.shape[0], LAW_LINEAR | VARIANT_SPARSE | VARIANT_TWO_SIDED, s,
+                           kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u,
+                           scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz)
+
+
+_SPECIAL = {(LAW_TABLE, 2, 1, False): _table_2_1_s1, (LAW_TABLE, 4, 1, False): _table_4_1_s1,
+            (LAW_TABLE, 3, 2, False): _table_3_2_s1, (LAW_TABLE, 2, 1, True): _table_2_1_s2,
+            (LAW_TABLE, 4, 1, True): _table_4_1_s2, (LAW_TABLE, 3, 2, True): _table_3_2_s2}
+_GENERIC = {(LAW_TABLE, False): _table_s1, (LAW_TABLE, True): _table_s2, (LAW_LINEAR, False): _linear_s1,
+            (LAW_LINEAR, True): _linear_s2}
+
+
+def select_kernel(law: int, n: int, m: int, two_sided: bool = False):
+    """The compiled loop for force law ``law``, ``n`` DOFs, ``m`` meshes, with coast-flank contact or without.
 
     Arguments of the returned function (float64 arrays, C-contiguous, unless noted)::
 
-        s (2n,), kin (3,), n_steps int, h [s], mode int, fext (n,), rec_every int, rec_state (nr, 2n),
-        rec_out (nr, 4m + 1),
-        mats (3, n, n) = [M^-1, M^-1 C, M^-1 G], vecs (4, m, n) = [v, w, v_rot, (M^-1 v)],
-        mmat (2, m, m) = [v M^-1 v^T, w M^-1 v^T], phase (m,), u (n,), scal (3,) = [c_ratio, sref, zref_2pi],
-        iref int, tab (flat FDFs), tint (m, 3) int64 = [offset, Np, Nd], tflt (m, 2) = [x0, 1/dx],
+        s (2n,), kin (3,) or (3 + m,), n_steps int, h [s], mode int, fext (n,), rec_every int,
+        rec_state (nr, 2n), rec_out (nr, REC m + 1),
+        mats (3, n, n) = [M^-1, M^-1 C, M^-1 G],
+        vecs (6, m, n) = [v, w, v_rot, M^-1 v, vc, M^-1 vc],
+        mmat (6, m, m) = [v M^-1 v^T, w M^-1 v^T, vc M^-1 v^T, v M^-1 vc^T, w M^-1 vc^T, vc M^-1 vc^T],
+        phase (m,), u (n,), scal (3,) = [c_ratio, sref, zref_2pi],
+        iref int, tab (flat FDFs), tint (2m, 3) int64 = [offset, Np, Nd], tflt (2m, 4) = [x0, 1/dx, x_on, x_max]
+            (rows: the drive tables, then the coast tables),
         lin (flat conventional-law arrays), lint (m, 2) int64 = [offset, Np],
-        work (7n + 12m,), eff (n, n) scratch,
+        work (7n + 20m,), eff (n, n) scratch,
         kidx (nnz, 2) int64 rows/columns of the entries of M^-1 K and M^-1 K_W the kernel multiplies: the n
             diagonal entries first (row i = column i = i), then the nonzero off-diagonal ones,
         kval (3, nnz) = [their values in M^-1 K, in M^-1 K_W, scratch],
-        nz (m, 1 + w) int64: per mesh the count then the indices of the DOFs where its v, w or M^-1 v is nonzero
-            (the generic loop runs its mesh products over them; the specialised loops are dense)
+        nz (m, 1 + w) int64: per mesh the count then the indices of the DOFs where its v, w, vc, M^-1 v or
+            M^-1 vc is nonzero (the generic loop runs its mesh products over them; the specialised loops are dense)
 
     and it returns the number of records written (module docstring).
     """
-    if law == LAW_TABLE:
-        return _SPECIAL.get((law, n, m), _integrate_table)
-    return _integrate_linear
+    two_sided = bool(two_sided)
+    return _SPECIAL.get((law, n, m, two_sided), _GENERIC[(law, two_sided)])
+
+
+def record_width(m: int) -> int:
+    """Columns of ``rec_out`` for ``m`` meshes."""
+    return REC * m + 1
+
+
+def record_fields(rec_out: np.ndarray, m: int) -> dict[str, np.ndarray]:
+    """Named views of kernel records ``rec_out`` (..., REC m + 1): per mesh (..., m) ``mesh_position``
+    (unwrapped) [cycles], ``mesh_deflection_m``, ``mesh_force_N`` (drive flanks), ``dynamic_transmission_error_m``,
+    ``coast_approach_m``, ``coast_force_N`` (coast flanks); ``time_s`` (...) since the call started."""
+    w = REC * m
+    return {"mesh_position": rec_out[..., REC_POSITION:w:REC], "mesh_deflection_m": rec_out[..., REC_DEFLECTION:w:REC],
+            "mesh_force_N": rec_out[..., REC_FORCE:w:REC], "dynamic_transmission_error_m": rec_out[..., REC_DTE:w:REC],
+            "coast_approach_m": rec_out[..., REC_COAST_APPROACH:w:REC],
+            "coast_force_N": rec_out[..., REC_COAST_FORCE:w:REC], "time_s": rec_out[..., w]}
+
+
+def contact_state(mesh_force_N, coast_force_N) -> np.ndarray:
+    """Contact state of each mesh: +1 drive flanks in contact, -1 coast flanks in contact, 0 teeth apart."""
+    f, fc = np.asarray(mesh_force_N), np.asarray(coast_force_N)
+    return np.where(f > 0, 1, np.where(fc > 0, -1, 0)).astype(np.int8)
+
+
+def table_onset(force: np.ndarray, x0: float, dx: float) -> float:
+    """Smallest deflection [m] at which the bilinear rule on ``force`` (Np, Nd) can give a positive force: the
+    column before each row's first positive value (-inf when a row is positive in its first column)."""
+    pos = np.asarray(force) > 0
+    if not pos.any():
+        return math.inf
+    first = np.where(pos.any(axis=1), pos.argmax(axis=1), force.shape[1])
+    if np.any(first == 0):
+        return -math.inf
+    return float(x0 + (first.min() - 1) * dx)
 
 
 def flatten_tables(tables) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Flatten the FDFs of several meshes for the kernel: ``(tab, tint, tflt)`` from a sequence of
-    ``(force (Np, Nd), x0 [m], inv_dx [1/m])``."""
+    """Flatten the tables of several meshes for the kernel: ``(tab, tint, tflt)`` from a sequence whose entries
+    are ``(force (Np, Nd), x0 [m], inv_dx [1/m])`` or, for an absent table (zero force everywhere),
+    ``(None, x_max [m])`` with ``x_max`` the deflection beyond which the state counts as out of range."""
     parts, tint, tflt = [], [], []
     o = 0
-    for f, a0, idx in tables:
-        f = np.ascontiguousarray(f, dtype=np.float64)
+    for entry in tables:
+        if entry[0] is None:
+            f = np.zeros((2, 2))
+            row = (0.0, 1.0, math.inf, float(entry[1]))
+        else:
+            f, a0, idx = entry
+            f = np.ascontiguousarray(f, dtype=np.float64)
+            row = (a0, idx, table_onset(f, a0, 1.0 / idx), a0 + (f.shape[1] - 1) / idx)
         parts.append(f.ravel())
         tint.append((o, f.shape[0], f.shape[1]))
-        tflt.append((a0, idx))
+        tflt.append(row)
         o += f.size
     cat = np.concatenate(parts) if parts else np.zeros(0)
     return (np.ascontiguousarray(cat), np.array(tint, np.int64).reshape(-1, 3),
-            np.array(tflt, float).reshape(-1, 2))
+            np.array(tflt, float).reshape(-1, 4))
 
 
 def flatten_linear(lins) -> tuple[np.ndarray, np.ndarray]:

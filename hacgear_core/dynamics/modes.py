@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hacgear_core.dynamics import kernels
 from hacgear_core.dynamics.equilibrium import static_equilibrium
 from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import ModelError, SolverError
@@ -168,13 +169,16 @@ def _free_vibration_peaks(system: LumpedSystem, tau: float, periods: int = 400, 
     nsteps = min(nsteps, 2_000_000)
     kin = np.array([tau_ref - math.floor(tau_ref), 0.0, 0.0])
     rs = np.zeros((nsteps, 2 * n))
-    ro = np.zeros((nsteps, 4 * m + 1))
+    ro = np.zeros((nsteps, kernels.record_width(m)))
     sy.integrate(s, kin, nsteps, dt, fext, rec_every=1, rec_state=rs, rec_out=ro)
     if not np.all(np.isfinite(rs)):
         raise SolverError("impulse test diverged")
-    if np.any(ro[:, 2:4 * m:4] <= 0):
+    rf = kernels.record_fields(ro, m)
+    loaded, x = ((rf["coast_force_N"], rf["coast_approach_m"]) if sy.torque_Nm < 0
+                 else (rf["mesh_force_N"], rf["mesh_deflection_m"]))
+    if np.any(loaded <= 0):
         raise SolverError("impulse test lost contact: impulse too large for the static load")
-    sigs = [ro[:, 4 * k + 1] - ro[:, 4 * k + 1].mean() for k in range(m)]
+    sigs = [x[:, k] - x[:, k].mean() for k in range(m)]
     for i in trans:
         y = rs[:, i]
         sigs.append(y - y.mean())

@@ -106,9 +106,9 @@ class Simulator:
         self.internal_step_s = internal_step_s
         n, m = system.n, system.m
         self.s = np.zeros(2 * n)
-        self.kin = np.zeros(3)
+        self.kin = np.zeros(3 + m)  # kinematics, then per mesh the steps beyond its tables (kernels docstring)
         self._rec_s = np.zeros((1, 2 * n))
-        self._rec_o = np.zeros((1, 4 * m + 1))
+        self._rec_o = np.zeros((1, kernels.record_width(m)))
         self.gear_names = tuple(system.gears)
         self._gears = tuple(system.gears[g] for g in self.gear_names)
         fe = system.fext_speed()
@@ -123,7 +123,8 @@ class Simulator:
         self.torque_Nm = sy.torque_Nm
         self.fext = sy.fext_speed(self.torque_Nm)
         self.port_torques_Nm = {g: sy.gears[g].sense * self.fext[sy.gears[g].rotation] for g in self.ports}
-        self.kin[:] = (0.0, 0.0, float(speed_rad_s))
+        self.kin[:] = 0.0
+        self.kin[2] = float(speed_rad_s)
         self.s[:sy.n] = static_equilibrium(sy, 0.0, self.fext).q
         self.s[sy.n:] = 0.0
         self.time_s = 0.0
@@ -144,11 +145,14 @@ class Simulator:
         self.kin[2] = speed_rad_s
 
     def set_torque_set_point(self, torque_Nm: float) -> None:
-        """Constant-speed experiment: torque on the input gear [N m] (> 0; the others carry theirs by the torque
-        flow)."""
+        """Constant-speed experiment: torque on the input gear [N m] (nonzero; the others carry theirs by the torque
+        flow; negative: the coast flanks carry it, which needs coast tables)."""
         torque_Nm = float(torque_Nm)
-        if not (math.isfinite(torque_Nm) and torque_Nm > 0):
-            raise ModelError(f"torque [N*m] must be finite and > 0, got {torque_Nm!r}")
+        if not (math.isfinite(torque_Nm) and torque_Nm != 0):
+            raise ModelError(f"torque [N*m] must be finite and nonzero, got {torque_Nm!r}")
+        if torque_Nm < 0 and not all(c.coast_table is not None for c in self.system.meshes):
+            raise ModelError(f"torque {torque_Nm} N*m loads the coast flanks, but the tables of {self.system.name} "
+                             "are drive-only (regenerate them: hacgear statics)")
         self.torque_Nm = torque_Nm
         if self.mode == "speed":
             self.fext = self.system.fext_speed(torque_Nm)
@@ -237,7 +241,8 @@ class Simulator:
         -------
         dict
             ``time_s`` (nr,); per mesh (nr, m): ``mesh_position`` (unwrapped) [cycles], ``mesh_deflection_m``,
-            ``mesh_force_N``, ``dynamic_transmission_error_m``; ``state`` (nr, 2n).
+            ``mesh_force_N`` (drive flanks), ``dynamic_transmission_error_m``, ``coast_approach_m``,
+            ``coast_force_N`` (coast flanks), ``contact_state`` (+1 drive, 0 apart, -1 coast); ``state`` (nr, 2n).
         """
         nrec = int(round(duration_s / record_dt_s))
         if nrec < 1:
@@ -246,7 +251,7 @@ class Simulator:
         per = max(1, int(math.ceil(record_dt_s / h0 - 1e-9)))
         h = record_dt_s / per
         sy = self.system
-        rs, ro = np.zeros((nrec, 2 * sy.n)), np.zeros((nrec, 4 * sy.m + 1))
+        rs, ro = np.zeros((nrec, 2 * sy.n)), np.zeros((nrec, kernels.record_width(sy.m)))
         t0 = self.time_s
         sy.integrate(self.s, self.kin, nrec * per, h, self.fext, mode=self._mode_code(), rec_every=per,
                      rec_state=rs, rec_out=ro)
@@ -254,9 +259,11 @@ class Simulator:
             raise SolverError("integration diverged (state not finite)")
         self.time_s = t0 + nrec * record_dt_s
         self._update_outputs()
-        return {"time_s": t0 + ro[:, 4 * sy.m], "mesh_position": ro[:, 0:4 * sy.m:4],
-                "mesh_deflection_m": ro[:, 1:4 * sy.m:4], "mesh_force_N": ro[:, 2:4 * sy.m:4],
-                "dynamic_transmission_error_m": ro[:, 3:4 * sy.m:4], "state": rs}
+        out = kernels.record_fields(ro, sy.m)
+        out["time_s"] = t0 + out["time_s"]
+        out["contact_state"] = kernels.contact_state(out["mesh_force_N"], out["coast_force_N"])
+        out["state"] = rs
+        return out
 
     # ------------------------------------------------------------------ state snapshots (FMI get/set state)
     def get_state(self) -> dict:
@@ -282,25 +289,39 @@ class Simulator:
         q = self.s[:sy.n]
         tau = self.kin[0] + sy.phase + sy.W @ q
         x = sy.V @ q
-        f = sy.mesh_forces(tau, x)
-        rec = np.empty(4 * sy.m + 1)
-        rec[0:4 * sy.m:4] = self.kin[1] + tau
-        rec[1:4 * sy.m:4] = x
-        rec[2:4 * sy.m:4] = f
-        rec[3:4 * sy.m:4] = sy.V_rot @ q
-        rec[-1] = 0.0
+        xc = sy.Vc @ q
+        rec = np.zeros(kernels.record_width(sy.m))
+        fields = kernels.record_fields(rec, sy.m)
+        fields["mesh_position"][:] = self.kin[1] + tau
+        fields["mesh_deflection_m"][:] = x
+        fields["mesh_force_N"][:] = sy.mesh_forces(tau, x)
+        fields["dynamic_transmission_error_m"][:] = sy.V_rot @ q
+        fields["coast_approach_m"][:] = xc
+        fields["coast_force_N"][:] = sy.coast_forces(tau, xc)
         self._set_outputs(self.s.tolist(), self.kin.tolist(), rec.tolist())
 
     def _set_outputs(self, st: list, kt: list, rec: list) -> None:
-        """Output attributes from the state ``st`` (2n floats), kinematics ``kt`` (3 floats) and the kernel's
-        record ``rec`` (4m + 1 floats)."""
+        """Output attributes from the state ``st`` (2n floats), kinematics ``kt`` (3 + m floats) and the kernel's
+        record ``rec`` (REC m + 1 floats)."""
         sy = self.system
         n, m = sy.n, sy.m
-        self.mesh_position = rec[0:4 * m:4]
-        self.mesh_deflection_m = rec[1:4 * m:4]
-        self.mesh_force_N = rec[2:4 * m:4]
-        self.dynamic_transmission_error_m = rec[3:4 * m:4]
+        R = kernels.REC
+        self.mesh_position = rec[kernels.REC_POSITION:R * m:R]
+        self.mesh_deflection_m = rec[kernels.REC_DEFLECTION:R * m:R]
+        self.mesh_force_N = rec[kernels.REC_FORCE:R * m:R]
+        self.dynamic_transmission_error_m = rec[kernels.REC_DTE:R * m:R]
+        self.coast_approach_m = rec[kernels.REC_COAST_APPROACH:R * m:R]
+        self.coast_force_N = rec[kernels.REC_COAST_FORCE:R * m:R]
         self.in_contact = [f > 0.0 for f in self.mesh_force_N]
+        self.coast_contact = [f > 0.0 for f in self.coast_force_N]
+        #: per mesh: +1 drive flanks in contact, -1 coast flanks, 0 teeth apart (in the backlash)
+        self.contact_state = [1 if a else (-1 if b else 0) for a, b in zip(self.in_contact, self.coast_contact)]
+        #: per mesh: where the teeth are in the backlash, 0 at the drive flanks' kinematic contact, 1 where the
+        #: coast flanks of ideal teeth touch (the coast approach over the normal backlash)
+        self.backlash_position = [xc / b if math.isfinite(b) and b > 0 else 0.0
+                                  for xc, b in zip(self.coast_approach_m, sy.backlash_m)]
+        #: per mesh: integration steps whose state lay beyond the mesh's tables (deflection or load range)
+        self.out_of_range_steps = [int(c) for c in kt[3:3 + m]]
         phi = (kt[1] + kt[0]) / sy.zref_2pi  # reference gear's rotation in its sense [rad]
         w = kt[2]
         self._frame = (sy.carrier_ratio * phi, sy.carrier_ratio * w)  # carrier frame: angle [rad], speed [rad/s]

@@ -14,9 +14,10 @@ metrics then come from the last 4 cycles.
 
 Metrics over the final period (``n`` cycles, every step), per mesh (arrays of length m): mean and RMS of the
 oscillating part of the mesh deflection, dynamic transmission error (mean, RMS, peak-to-peak), peak and minimum
-mesh force, fraction of the period with contact loss (mesh force 0), force dynamic factor ``max F / F_s`` and,
-when the mesh's table has strains, the strain dynamic factor (largest over its gauges,
-:func:`hacgear_core.response.strain_dynamic_factor`).
+drive-flank force, fraction of the period with contact loss (drive-flank force 0), fraction with the coast flanks
+in contact, peak coast-flank force and the number of back-side impacts per mesh cycle (coast contacts begun), force
+dynamic factor ``max F / F_s`` of the loaded flanks and, when the mesh's table has strains, the strain dynamic
+factor (largest over its gauges, :func:`hacgear_core.response.strain_dynamic_factor`).
 """
 from __future__ import annotations
 
@@ -25,6 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from hacgear_core.dynamics import kernels
 from hacgear_core.dynamics.equilibrium import static_equilibrium
 from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import ModelError
@@ -41,6 +43,9 @@ METRIC_NAMES = (
     "peak_force_N",
     "min_force_N",
     "contact_loss_fraction",
+    "coast_contact_fraction",
+    "peak_coast_force_N",
+    "back_side_impacts_per_cycle",
     "dynamic_factor_force",
     "dynamic_factor_strain",
 )
@@ -107,7 +112,7 @@ def _static_scale(system: LumpedSystem, torque_Nm: float | None) -> float:
     c = system._cache
     if key not in c:
         eq = static_equilibrium(system, 0.0, system.fext_speed(torque_Nm))
-        c[key] = max(float(np.max(np.abs(eq.mesh_deflections_m))), 1e-7)
+        c[key] = max(float(np.max(np.abs(eq.mesh_deflections_m))), float(np.max(np.abs(eq.coast_approach_m))), 1e-7)
     return c[key]
 
 
@@ -120,13 +125,22 @@ def _static_strain(system: LumpedSystem, forces: np.ndarray) -> list[dict]:
     return c[key]
 
 
-def trace_metrics(system: LumpedSystem, x, f, dte, tau=None, static_forces_N=None) -> dict:
-    """Steady-state metrics (:data:`METRIC_NAMES`, each an (m,) array) of one recorded period: ``x``, ``f``, ``dte``,
-    ``tau`` (nr, m)."""
+def trace_metrics(system: LumpedSystem, x, f, dte, tau=None, static_forces_N=None, fc=None, cycles: int = 1,
+                  coast_static_forces_N=None) -> dict:
+    """Steady-state metrics (:data:`METRIC_NAMES`, each an (m,) array) of one recorded period of ``cycles`` mesh
+    cycles: ``x``, ``f``, ``dte``, ``tau``, coast force ``fc`` (nr, m).  ``static_forces_N`` (m,) the drive-flank
+    and ``coast_static_forces_N`` the coast-flank static forces (default: the system's nominal ones); the force
+    dynamic factor is taken on the flanks that carry a static force."""
     x, f, dte = (np.atleast_2d(np.asarray(a, float)) for a in (x, f, dte))
     if x.shape[0] == 1 and x.shape[1] != system.m:
         x, f, dte = x.T, f.T, dte.T
+    fc = np.zeros_like(f) if fc is None else np.atleast_2d(np.asarray(fc, float)).reshape(f.shape)
     fs = system.nominal_forces_N() if static_forces_N is None else np.asarray(static_forces_N, float)
+    fsc = system.nominal_coast_forces_N() if coast_static_forces_N is None else np.asarray(coast_static_forces_N,
+                                                                                             float)
+    coast_loaded = np.all(fs <= 0) and np.any(fsc > 0)
+    on = fc > 0.0
+    starts = on & ~np.roll(on, 1, axis=0)  # the record is one period: periodic
     xm = np.mean(x, axis=0)
     dm = np.mean(dte, axis=0)
     m = {
@@ -138,7 +152,10 @@ def trace_metrics(system: LumpedSystem, x, f, dte, tau=None, static_forces_N=Non
         "peak_force_N": np.max(f, axis=0),
         "min_force_N": np.min(f, axis=0),
         "contact_loss_fraction": np.mean(f <= 0.0, axis=0),
-        "dynamic_factor_force": np.max(f, axis=0) / fs,
+        "coast_contact_fraction": np.mean(on, axis=0),
+        "peak_coast_force_N": np.max(fc, axis=0),
+        "back_side_impacts_per_cycle": np.sum(starts, axis=0) / max(int(cycles), 1),
+        "dynamic_factor_force": np.max(fc, axis=0) / fsc if coast_loaded else np.max(f, axis=0) / fs,
         "dynamic_factor_strain": np.full(system.m, math.nan),
     }
     if tau is not None:
@@ -191,6 +208,7 @@ def steady_state(system: LumpedSystem, mesh_frequency_Hz: float, state0: np.ndar
     h = 1.0 / (fm * nsp)
     omega = system.reference_speed(fm)
     fs = system.nominal_forces_N(torque_Nm)
+    fsc = system.nominal_coast_forces_N(torque_Nm)
     xs = _static_scale(system, torque_Nm)
     proj = _projection(system)
     scale = np.ones(len(proj))
@@ -200,7 +218,7 @@ def steady_state(system: LumpedSystem, mesh_frequency_Hz: float, state0: np.ndar
     hist[0] = proj @ s
     kin = np.zeros(3)
     rec_s = np.zeros((opt.chunk_cycles, n2))
-    rec_o = np.zeros((opt.chunk_cycles, 4 * mm + 1))
+    rec_o = np.zeros((opt.chunk_cycles, kernels.record_width(mm)))
     cycles = 0
     period = 0
     while cycles < opt.max_cycles and period == 0:
@@ -229,15 +247,18 @@ def steady_state(system: LumpedSystem, mesh_frequency_Hz: float, state0: np.ndar
     nrec_cyc = period if converged else 4
     nrec = nrec_cyc * nsp
     rs = np.zeros((nrec, n2))
-    ro = np.zeros((nrec, 4 * mm + 1))
+    ro = np.zeros((nrec, kernels.record_width(mm)))
     kin[:] = (0.0, 0.0, omega)
     system.integrate(s, kin, nrec, h, fext, rec_every=1, rec_state=rs, rec_out=ro)
-    tau, x, f, dte = (ro[:, j:4 * mm:4] for j in range(4))
-    metrics = trace_metrics(system, x, f, dte, tau=tau, static_forces_N=fs)
+    rf = kernels.record_fields(ro, mm)
+    tau, x, f, dte = rf["mesh_position"], rf["mesh_deflection_m"], rf["mesh_force_N"], rf["dynamic_transmission_error_m"]
+    metrics = trace_metrics(system, x, f, dte, tau=tau, static_forces_N=fs, fc=rf["coast_force_N"],
+                            cycles=nrec_cyc, coast_static_forces_N=fsc)
     trace = {}
     if keep_trace:
-        trace = {"time_s": ro[:, 4 * mm], "mesh_position": tau, "mesh_deflection_m": x, "mesh_force_N": f,
-                 "dynamic_transmission_error_m": dte, "state": rs}
+        trace = dict(rf)
+        trace["contact_state"] = kernels.contact_state(rf["mesh_force_N"], rf["coast_force_N"])
+        trace["state"] = rs
     status = f"period-{period}" if converged else "cap"
     return SteadyStateResult(fm, converged, status, period if converged else 0, cycles + nrec_cyc, nsp, s.copy(),
                              metrics, trace)

@@ -21,6 +21,7 @@ pair at cycle 0 is offset ``-n`` at cycle ``n`` (convention used by :mod:`hacgea
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -180,6 +181,9 @@ def linear_fdf_table(
     n_positions: int = 256,
     n_deflections: int = 64,
     name: str = "linear",
+    coast_stiffness_N_per_m: float | None = None,
+    backlash_m: float = 100e-6,
+    coast_base_radius_m: tuple[float, float] | None = None,
 ):
     """Constant-stiffness FDF ``F = k max(0, x - e(tau))``, ``e = offset_mean + offset_amplitude
     sin(2 pi tau)`` on the deflection grid [0, ``x_max_m``].
@@ -188,7 +192,18 @@ def linear_fdf_table(
     stiffness and a harmonic displacement (transmission-error) excitation: closed-form natural
     frequency and forced response.  Larger vibrations lose contact (``F = 0`` below ``e``, the
     NLMD): the classical piecewise-linear, softening gear oscillator.
+
+    ``coast_stiffness_N_per_m``: add a coast side ``Fc = k_c max(0, xc - backlash_m)`` over the coast approach
+    ``xc`` (grid [0, backlash + x_max]; coast base radii ``coast_base_radius_m``, default the drive ones): with
+    rigid bearings and equal base-radius ratios ``xc = -x``, a piecewise-linear oscillator with a gap.
     """
+    coast = None
+    if coast_stiffness_N_per_m is not None:
+        rbc = tuple(base_radius_m) if coast_base_radius_m is None else tuple(coast_base_radius_m)
+        coast = linear_fdf_table(coast_stiffness_N_per_m, teeth=teeth, base_radius_m=rbc, offset_mean_m=backlash_m,
+                                 x_max_m=backlash_m + x_max_m,
+                                 n_positions=n_positions, n_deflections=2 * n_deflections, name=f"{name}.coast")
+        coast = replace(coast, backlash_normal_m=float(backlash_m))
     pos = np.arange(n_positions) / n_positions
     xd = np.linspace(0.0, x_max_m, n_deflections)
     e = offset_mean_m + offset_amplitude_m * np.sin(2 * np.pi * pos)
@@ -200,7 +215,7 @@ def linear_fdf_table(
         no_load_deflection_m=np.maximum(e, 0.0), load_N=np.array([0.0]),
         static_deflection_m=np.maximum(e, 0.0)[:, None], tooth_offsets=np.array([0]),
         tooth_load_N=force[:, :, None], contact_roll_deg=z + np.nan, peak_pressure_Pa=np.zeros_like(force),
-        strain={}, synthetic=True,
+        strain={}, synthetic=True, coast=coast,
     )
 
 

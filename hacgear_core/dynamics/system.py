@@ -78,7 +78,14 @@ class MeshCoupling:
     unit ``line_of_action`` (2,) in the system's frame along which gear_a pushes gear_b.  ``group``: meshes that
     share one table and the load (the sun meshes of a planetary set; their load sharing is reported);
     ``gear_alias`` {gear of this system: its name in the table} (a planet instance ``planet_2`` is ``planet`` in
-    the table, so the table's gauge ``planet/SG`` is ``planet_2/SG`` here)."""
+    the table, so the table's gauge ``planet/SG`` is ``planet_2/SG`` here).
+
+    Coast side (the opposite flanks, met when the torque reverses or the teeth cross the backlash): ``v_c`` (n,)
+    its line-of-action vector (``xc = v_c . q`` [m], the coast approach, positive closing the backlash; None: the
+    mesh is one-sided), ``nominal_coast_force_N`` the static coast force when the nominal torque is reversed,
+    ``backlash_m`` the normal backlash along the coast line of action (the approach at which the coast flanks of
+    ideal teeth touch; beyond it a mesh without a coast table has its teeth passing through each other).  The coast
+    table is ``table.coast`` (None: drive-only table)."""
 
     name: str
     gear_a: str
@@ -95,6 +102,14 @@ class MeshCoupling:
     line_of_action: tuple[float, float] = (0.0, 1.0)
     group: str = ""
     gear_alias: Mapping[str, str] = field(default_factory=dict)
+    v_c: np.ndarray | None = None
+    nominal_coast_force_N: float = 0.0
+    backlash_m: float = math.inf
+
+    @property
+    def coast_table(self):
+        """The coast-flank table (``table.coast``), None for a drive-only table."""
+        return getattr(self.table, "coast", None)
 
 
 @dataclass(frozen=True, eq=False)
@@ -198,8 +213,9 @@ class LumpedSystem:
         if force_law not in FORCE_LAWS:
             raise ModelError(f"force law must be one of {FORCE_LAWS}, got {force_law!r}")
         self.force_law_name = force_law
-        if not (math.isfinite(torque_Nm) and torque_Nm > 0):
-            raise ModelError(f"torque_Nm [N*m] must be finite and > 0, got {torque_Nm!r}")
+        if not (math.isfinite(torque_Nm) and torque_Nm != 0):
+            raise ModelError(f"torque_Nm [N*m] must be finite and nonzero (negative: the coast flanks carry it), "
+                             f"got {torque_Nm!r}")
         self.torque_Nm = float(torque_Nm)
         if input_gear not in self.gears:
             raise ModelError(f"input gear {input_gear!r} is not a gear of {name}: {sorted(self.gears)}")
@@ -234,14 +250,34 @@ class LumpedSystem:
         self.laws: tuple[ForceLaw, ...] = tuple(make_force_law(c.table, force_law, c.nominal_force_N)
                                                  for c in self.meshes)
         self.law = self.laws[0].law
+        self.coast_arrays: tuple[TableArrays | None, ...] = tuple(
+            None if c.coast_table is None else table_arrays(c.coast_table) for c in self.meshes)
+        for c in self.meshes:
+            if c.coast_table is not None and c.v_c is None:
+                raise ModelError(f"{name}: mesh '{c.name}' has a coast table but no coast line-of-action vector v_c")
+        #: any mesh has coast-flank tables (the kernel then runs its two-sided loop)
+        self.two_sided = any(ca is not None for ca in self.coast_arrays)
+        self.Vc = np.ascontiguousarray(np.array([np.zeros(n) if c.v_c is None else c.v_c for c in self.meshes],
+                                                dtype=float))
+        self.backlash_m = np.array([c.backlash_m for c in self.meshes], dtype=float)
         self.V = np.ascontiguousarray(np.array([c.v for c in self.meshes], dtype=float))
         self.W = np.ascontiguousarray(np.array([c.w for c in self.meshes], dtype=float))
         self.V_rot = np.ascontiguousarray(np.array([c.v_rot for c in self.meshes], dtype=float))
         self.phase = np.array([c.phase for c in self.meshes], dtype=float)
-        # linearisation, modes, damping
-        kbar = np.array([lw.mean_stiffness_N_per_m for lw in self.laws])
+        # linearisation, modes, damping: about the flanks the nominal torque loads
+        if self.torque_Nm > 0:
+            kbar = np.array([lw.mean_stiffness_N_per_m for lw in self.laws])
+            vl = self.V
+        else:
+            if any(ca is None for ca in self.coast_arrays):
+                raise ModelError(f"{name}: a negative torque loads the coast flanks; meshes "
+                                 f"{[c.name for c in self.meshes if c.coast_table is None]} have no coast tables "
+                                 "(regenerate them: hacgear statics)")
+            kbar = np.array([static_stiffness(c.coast_table, c.nominal_coast_force_N).mean_local_slope_N_per_m
+                             for c in self.meshes])
+            vl = self.Vc
         self.mesh_stiffness_N_per_m = kbar
-        self.k_lin = self.K + (self.V.T * kbar) @ self.V
+        self.k_lin = self.K + (vl.T * kbar) @ vl
         w2, phi = _sym_eig(self.k_lin, self.M)
         w2 = np.clip(w2, 0.0, None)
         omega = np.sqrt(w2)
@@ -255,17 +291,26 @@ class LumpedSystem:
         kmax = np.array([max(kb, float(np.max(np.diff(ta.ftab, axis=1))) * ta.inv_dx,
                              float(np.max(lw.lin[0])) if lw.law == kernels.LAW_LINEAR else 0.0)
                          for kb, ta, lw in zip(kbar, self.table_arrays, self.laws)])
-        w2max, _ = _sym_eig(self.K + (self.V.T * kmax) @ self.V, self.M)
+        kk = self.K + (self.V.T * kmax) @ self.V
+        for k, ca in enumerate(self.coast_arrays):
+            if ca is not None:
+                kc = max(float(np.max(np.diff(ca.ftab, axis=1))) * ca.inv_dx, 0.0)
+                kk = kk + kc * np.outer(self.Vc[k], self.Vc[k])
+        w2max, _ = _sym_eig(kk, self.M)
         self.max_frequency_Hz = float(np.sqrt(max(w2max.max(), 0.0)) / (2 * math.pi))
         self.minv = np.ascontiguousarray(np.linalg.inv(self.M))
-        self.kernel = kernels.select_kernel(self.law, n, self.m)
+        self.kernel = kernels.select_kernel(self.law, n, self.m, self.two_sided)
         mk, mkw = self.minv @ self.K, self.minv @ self.K_W
         off = np.argwhere(((mk != 0) | (mkw != 0)) & ~np.eye(n, dtype=bool)).reshape(-1, 2)
         kidx = np.ascontiguousarray(np.vstack([np.repeat(np.arange(n), 2).reshape(n, 2), off]).astype(np.int64))
-        tab, tint, tflt = kernels.flatten_tables([(ta.ftab, ta.x0, ta.inv_dx) for ta in self.table_arrays])
+        tab, tint, tflt = kernels.flatten_tables(
+            [(ta.ftab, ta.x0, ta.inv_dx) for ta in self.table_arrays]
+            + [(None, c.backlash_m) if ca is None else (ca.ftab, ca.x0, ca.inv_dx)
+               for c, ca in zip(self.meshes, self.coast_arrays)])
         lin, lint = kernels.flatten_linear([lw.lin for lw in self.laws])
         vmi = self.V @ self.minv.T
-        pattern = (self.V != 0) | (self.W != 0) | (vmi != 0)
+        vci = self.Vc @ self.minv.T
+        pattern = (self.V != 0) | (self.W != 0) | (vmi != 0) | (self.Vc != 0) | (vci != 0)
         width = max(1, int(pattern.sum(axis=1).max()))
         nz = np.zeros((self.m, 1 + width), dtype=np.int64)
         for k in range(self.m):
@@ -276,13 +321,15 @@ class LumpedSystem:
             mats=np.ascontiguousarray(np.stack([self.minv, self.minv @ self.C, self.minv @ self.G])),
             kidx=kidx, kval=np.ascontiguousarray(np.stack([mk[kidx[:, 0], kidx[:, 1]], mkw[kidx[:, 0], kidx[:, 1]],
                                                          np.zeros(len(kidx))])),
-            vecs=np.ascontiguousarray(np.stack([self.V, self.W, self.V_rot, vmi])),
-            mmat=np.ascontiguousarray(np.stack([self.V @ self.minv @ self.V.T, self.W @ self.minv @ self.V.T])),
+            vecs=np.ascontiguousarray(np.stack([self.V, self.W, self.V_rot, vmi, self.Vc, vci])),
+            mmat=np.ascontiguousarray(np.stack([self.V @ self.minv @ self.V.T, self.W @ self.minv @ self.V.T,
+                                                self.Vc @ self.minv @ self.V.T, self.V @ self.minv @ self.Vc.T,
+                                                self.W @ self.minv @ self.Vc.T, self.Vc @ self.minv @ self.Vc.T])),
             phase=self.phase,
             u=np.zeros(n) if self.rigid_mode is None else self.rigid_mode,
             scal=np.array([self.carrier_ratio, self.sref, self.zref_2pi]), iref=int(self.iref), tab=tab, tint=tint,
             tflt=tflt, lin=lin, lint=lint, nz=nz)
-        self._work = np.zeros(7 * n + 12 * self.m)
+        self._work = np.zeros(7 * n + 20 * self.m)
         self._eff = np.zeros((n, n))
         a = self.arrays
         #: the kernel's trailing arguments (everything but the state, step, mode, loads and records)
@@ -299,7 +346,7 @@ class LumpedSystem:
 
     def __setstate__(self, st: dict) -> None:
         self.__dict__.update(st)
-        self.kernel = kernels.select_kernel(self.law, self.n, self.m)
+        self.kernel = kernels.select_kernel(self.law, self.n, self.m, self.two_sided)
 
     def fingerprint(self) -> str:
         """SHA-256 (hex) of everything the dynamics depend on: matrices, mesh vectors, phases, tables, force law,
@@ -316,24 +363,50 @@ class LumpedSystem:
             h.update(repr(ta.ftab.shape).encode())
             h.update(ta.ftab.tobytes())
             h.update(np.array([ta.x0, ta.dx]).tobytes())
+        if self.two_sided:
+            h.update(self.Vc.tobytes())
+            for ca in self.coast_arrays:
+                if ca is not None:
+                    h.update(repr(ca.ftab.shape).encode())
+                    h.update(ca.ftab.tobytes())
+                    h.update(np.array([ca.x0, ca.dx]).tobytes())
         h.update(repr((self.force_law_name, self.torque_Nm, self.modal_damping_ratio, self.carrier_ratio,
                        self.dof_names, self.mesh_names, self.reference_gear)).encode())
         return h.hexdigest()
 
     # ------------------------------------------------------------------ loads
     def nominal_forces_N(self, torque_Nm: float | None = None) -> np.ndarray:
-        """Static mesh forces (m,) [N] of the constant-speed experiment at ``torque_Nm`` on the input gear
-        (default: the nominal torque); the torque flow is linear in the torque."""
+        """Static drive-flank forces (m,) [N] of the constant-speed experiment at ``torque_Nm`` on the input gear
+        (default: the nominal torque); the torque flow is linear in the torque; 0 for a negative torque (the
+        coast flanks carry it: :meth:`nominal_coast_forces_N`)."""
         t = self.torque_Nm if torque_Nm is None else float(torque_Nm)
-        return np.array([c.nominal_force_N for c in self.meshes]) * (t / self.torque_Nm)
+        return np.array([c.nominal_force_N for c in self.meshes]) * (max(t, 0.0) / abs(self.torque_Nm))
+
+    def nominal_coast_forces_N(self, torque_Nm: float | None = None) -> np.ndarray:
+        """Static coast-flank forces (m,) [N] at ``torque_Nm``: nonzero for a negative torque only."""
+        t = self.torque_Nm if torque_Nm is None else float(torque_Nm)
+        return np.array([c.nominal_coast_force_N for c in self.meshes]) * (max(-t, 0.0) / abs(self.torque_Nm))
+
+    def loaded_side(self, torque_Nm: float | None = None) -> tuple[np.ndarray, np.ndarray, tuple]:
+        """``(V, F, tables)`` of the flanks ``torque_Nm`` loads: the drive vectors, forces and tables for a
+        positive torque, the coast ones for a negative torque."""
+        t = self.torque_Nm if torque_Nm is None else float(torque_Nm)
+        if t >= 0:
+            return self.V, self.nominal_forces_N(t), tuple(c.table for c in self.meshes)
+        missing = [c.name for c in self.meshes if c.coast_table is None]
+        if missing:
+            raise ModelError(f"{self.name}: torque {t} N*m loads the coast flanks; meshes {missing} have no coast "
+                             "tables (regenerate them: hacgear statics)")
+        return self.Vc, self.nominal_coast_forces_N(t), tuple(c.coast_table for c in self.meshes)
 
     def mean_static_deflections_m(self, torque_Nm: float | None = None) -> np.ndarray:
-        """Cycle-mean static deflection of every mesh (m,) [m] at its static force."""
-        f = self.nominal_forces_N(torque_Nm)
-        key = ("xbar", tuple(f))
+        """Cycle-mean static deflection (m,) [m] of every mesh's loaded flanks at its static force (for a negative
+        torque the coast approach)."""
+        t = self.torque_Nm if torque_Nm is None else float(torque_Nm)
+        _, f, tabs = self.loaded_side(t)
+        key = ("xbar", t)
         if key not in self._cache:
-            self._cache[key] = np.array([static_stiffness(c.table, fk).mean_deflection_m
-                                         for c, fk in zip(self.meshes, f)])
+            self._cache[key] = np.array([static_stiffness(t, fk).mean_deflection_m for t, fk in zip(tabs, f)])
         return self._cache[key]
 
     def _rotation_mask(self) -> np.ndarray:
@@ -355,9 +428,9 @@ class LumpedSystem:
                 gb = self.gears[g]
                 fe[gb.rotation] += gb.sense * tq * t
         else:
-            f = self.nominal_forces_N(t)
+            vl, f, _ = self.loaded_side(t)
             rot = self._rotation_mask()
-            fe = np.where(rot, self.V.T @ f, 0.0)
+            fe = np.where(rot, vl.T @ f, 0.0)
             shafts = [g.rotation for g in self.gears.values() if g.rotation >= 0 and g.support[1] > 0]
             if shafts:
                 # the shafts' static twist, on the rotations only (the bearings react the mesh forces themselves)
@@ -370,17 +443,17 @@ class LumpedSystem:
         """Static deviations (n,) at the mean static mesh deflections: translations deflected by the bearing
         reactions of the static mesh forces, rotations such that every mesh has its mean static deflection,
         the reference gear's rotation 0."""
-        f = self.nominal_forces_N(torque_Nm)
+        vl, f, _ = self.loaded_side(torque_Nm)
         xbar = self.mean_static_deflections_m(torque_Nm)
         rot = self._rotation_mask()
         q = np.zeros(self.n)
         tr = np.flatnonzero(~rot)
         if tr.size:
             ktt = self.K[np.ix_(tr, tr)]
-            q[tr] = np.linalg.solve(ktt, -(self.V.T @ f)[tr])
+            q[tr] = np.linalg.solve(ktt, -(vl.T @ f)[tr])
         ri = np.flatnonzero(rot)
-        rhs = xbar - self.V[:, tr] @ q[tr] if tr.size else xbar.copy()
-        a = self.V[:, ri]
+        rhs = xbar - vl[:, tr] @ q[tr] if tr.size else xbar.copy()
+        a = vl[:, ri]
         cons = np.zeros((1, ri.size))
         cons[0, list(ri).index(self.iref)] = 1.0
         sol, *_ = np.linalg.lstsq(np.vstack([a, cons]), np.concatenate([rhs, [0.0]]), rcond=None)
@@ -444,6 +517,37 @@ class LumpedSystem:
             out = np.where(self.mesh_force(k, tf, xf) > 0, out, 0.0)
         return out.reshape(tau.shape)
 
+    def coast_force(self, k: int, tau, xc) -> np.ndarray:
+        """Coast-flank force [N] of mesh ``k`` at ``tau`` [cycles] and coast approach ``xc`` [m] (0 without a coast
+        table), by the kernels' rule."""
+        tau, xc = np.broadcast_arrays(np.asarray(tau, float), np.asarray(xc, float))
+        ca = self.coast_arrays[k]
+        if ca is None:
+            return np.zeros(tau.shape)
+        out = np.empty(tau.size)
+        bilinear_many(ca.ftab, ca.x0, ca.inv_dx, np.ascontiguousarray(tau.ravel()),
+                      np.ascontiguousarray(xc.ravel()), out)
+        return np.maximum(out, 0.0).reshape(tau.shape)
+
+    def coast_forces(self, tau: np.ndarray, xc: np.ndarray) -> np.ndarray:
+        """Coast-flank forces [N] of every mesh at ``tau`` (..., m), ``xc`` (..., m)."""
+        tau, xc = np.broadcast_arrays(np.asarray(tau, float), np.asarray(xc, float))
+        out = np.empty(tau.shape)
+        for k in range(self.m):
+            out[..., k] = self.coast_force(k, tau[..., k], xc[..., k])
+        return out
+
+    def coast_slope(self, k: int, tau, xc) -> np.ndarray:
+        """Local slope dFc/dxc [N/m] of mesh ``k``'s coast table (0 without one)."""
+        tau, xc = np.broadcast_arrays(np.asarray(tau, float), np.asarray(xc, float))
+        ca = self.coast_arrays[k]
+        if ca is None:
+            return np.zeros(tau.shape)
+        out = np.empty(tau.size)
+        slope_many(ca.ftab, ca.x0, ca.inv_dx, np.ascontiguousarray(tau.ravel()), np.ascontiguousarray(xc.ravel()),
+                   out)
+        return out.reshape(tau.shape)
+
     # ------------------------------------------------------------------ modal facts
     def natural_frequencies_Hz(self) -> np.ndarray:
         """Elastic natural frequencies of the linearisation used for damping [Hz], ascending."""
@@ -470,7 +574,7 @@ class LumpedSystem:
         """Advance ``n_steps`` RK4 steps of ``h`` [s] in place (see :mod:`~hacgear_core.dynamics.kernels`)."""
         if rec_state is None:
             rec_state = np.zeros((0, 2 * self.n))
-            rec_out = np.zeros((0, 4 * self.m + 1))
+            rec_out = np.zeros((0, kernels.record_width(self.m)))
         return self.kernel(s, kin, int(n_steps), float(h), int(mode), fext, int(rec_every), rec_state, rec_out,
                            *self.kernel_constants)
 
@@ -485,7 +589,8 @@ class LumpedSystem:
                   static_forces=self.static_forces, bearing_maps=self.bearing_maps)
         if "torque_Nm" in changes and "meshes" not in changes:
             t = float(changes["torque_Nm"])
-            kw["meshes"] = tuple(replace(c, nominal_force_N=c.nominal_force_N * t / self.torque_Nm)
-                                 for c in self.meshes)
+            r = abs(t / self.torque_Nm)  # nominal forces are magnitudes; the torque's sign picks the flanks
+            kw["meshes"] = tuple(replace(c, nominal_force_N=c.nominal_force_N * r,
+                                         nominal_coast_force_N=c.nominal_coast_force_N * r) for c in self.meshes)
         kw.update(changes)
         return LumpedSystem(**kw)

@@ -67,6 +67,11 @@ class MeshPlacement:
     ``pitch_point_m`` (2,); ``line_of_action`` (2,) unit vector, gear_a pushes gear_b along it;
     ``moment_arm_m`` {gear: m_g} (``x = (u_a - u_b)·n + m_a theta_a - m_b theta_b``); ``pitch_radius_m``
     {gear: operating pitch radius}; ``phase`` [mesh cycles] its position when the first mesh is at 0.
+    Coast side (the opposite flanks, in contact when the torque reverses): ``coast_line_of_action`` (2,) the unit
+    vector along which the coast contact pushes gear_b, ``coast_moment_arm_m`` {gear: arm}, so that the coast
+    approach (closing the backlash) is ``xc = (u_a - u_b)·n_c + c_a theta_a - c_b theta_b``;
+    ``backlash_normal_m`` the normal backlash along the coast line of action (circular backlash on the operating
+    pitch circle times the cosine of the coast operating pressure angle).
     """
 
     name: str
@@ -80,6 +85,9 @@ class MeshPlacement:
     moment_arm_m: Mapping[str, float]
     pitch_radius_m: Mapping[str, float]
     phase: float
+    coast_line_of_action: np.ndarray | None = None
+    coast_moment_arm_m: Mapping[str, float] | None = None
+    backlash_normal_m: float = math.inf
 
 
 @dataclass(frozen=True)
@@ -138,8 +146,9 @@ def place_mesh(ga: GearGeometry, gb: GearGeometry, mg: MeshGeometry, sense_a: fl
     ``centre_b`` (at the centre distance).  Returns ``pitch_point_m`` (2,), ``line_of_action`` (2,) (unit, gear_a
     pushes gear_b along it), moment arms ``arm_a``/``arm_b`` [m] (``x = (u_a - u_b)·n + arm_a th_a - arm_b th_b``),
     the direction ``beta_a``/``beta_b`` [rad] and distance ``r_wa``/``r_wb`` [m] of the pitch point from each centre,
-    the loaded-flank base radii, and ``angle_a``/``angle_b`` [rad]: the rotations at which tooth 0 of each gear
-    has its loaded flank at the pitch point (pitch-point contact, mesh position 0)."""
+    the loaded-flank base radii, ``angle_a``/``angle_b`` [rad]: the rotations at which tooth 0 of each gear
+    has its loaded flank at the pitch point (pitch-point contact, mesh position 0), and the coast side
+    (:class:`MeshPlacement`): ``coast_line_of_action``, ``coast_arm_a``/``coast_arm_b``, ``backlash_normal_m``."""
     oa, ob = np.asarray(centre_a, float), np.asarray(centre_b, float)
     e = (ob - oa) / np.linalg.norm(ob - oa)
     rwa, rwb = mg.operating_pitch_radius_m[ga.name], mg.operating_pitch_radius_m[gb.name]
@@ -161,11 +170,23 @@ def place_mesh(ga: GearGeometry, gb: GearGeometry, mg: MeshGeometry, sense_a: fl
     if abs(abs(arm["a"]) - rba) > 1e-9 or abs(abs(arm["b"]) - rbb) > 1e-9:
         raise GeometryError(f"mesh '{mg.name}': line of action does not touch the base circles "
                             f"(arms {arm}, base radii {rba}, {rbb})")
+    # coast side: the other common tangent through P; its contact pushes gear_b back (-t) and apart (+d)
+    awc = mg.operating_pressure_angle_coast_rad
+    coast = {}
+    if math.isfinite(awc):
+        nc = -math.cos(awc) * t + math.sin(awc) * d
+        for name, o in (("a", oa), ("b", ob)):
+            r = p - o
+            coast[name] = float(r[0] * nc[1] - r[1] * nc[0])
+        coast["n"] = nc
+        coast["backlash"] = float(mg.backlash_m * math.cos(awc))
     ba = math.atan2(*(p - oa)[::-1])
     bb = math.atan2(*(p - ob)[::-1])
     return dict(pitch_point_m=p, line_of_action=n, arm_a=arm["a"], arm_b=arm["b"], beta_a=ba, beta_b=bb,
                 r_wa=float(np.linalg.norm(p - oa)), r_wb=float(np.linalg.norm(p - ob)), base_radius_m=(rba, rbb),
-                angle_a=ba - _flank_angle(ga, mg.flank_a, rwa), angle_b=bb - _flank_angle(gb, mg.flank_b, rwb))
+                angle_a=ba - _flank_angle(ga, mg.flank_a, rwa), angle_b=bb - _flank_angle(gb, mg.flank_b, rwb),
+                coast_line_of_action=coast.get("n"), coast_arm_a=coast.get("a", math.nan),
+                coast_arm_b=coast.get("b", math.nan), backlash_normal_m=coast.get("backlash", math.inf))
 
 
 def _wrap01(v: float) -> float:
@@ -218,7 +239,10 @@ def train_geometry(model: Any, *, gears: Mapping[str, GearGeometry] | None = Non
                                   teeth=(gg[m.gear_a].z, gg[m.gear_b].z), base_radius_m=pl["base_radius_m"],
                                   pitch_point_m=pl["pitch_point_m"], line_of_action=pl["line_of_action"],
                                   moment_arm_m={m.gear_a: pl["arm_a"], m.gear_b: pl["arm_b"]},
-                                  pitch_radius_m={m.gear_a: pl["r_wa"], m.gear_b: pl["r_wb"]})
+                                  pitch_radius_m={m.gear_a: pl["r_wa"], m.gear_b: pl["r_wb"]},
+                                  coast_line_of_action=pl["coast_line_of_action"],
+                                  coast_moment_arm_m={m.gear_a: pl["coast_arm_a"], m.gear_b: pl["coast_arm_b"]},
+                                  backlash_normal_m=pl["backlash_normal_m"])
 
     # assembly: the first mesh at position 0 (tooth 0 of both its gears at its pitch point); every other
     # gear turned so that it meshes with an already placed gear at that mesh's position

@@ -89,6 +89,11 @@ class MeshTable:
     ``hub_reaction`` (gear → (Np, Nd, 3)) are additional outputs, ``solver`` names the static solver.
     Query methods are vectorised (NumPy broadcasting over ``position`` and ``deflection``) and count
     deflection-grid extrapolations in :attr:`stats`.
+
+    ``coast``: the tables of the opposite flank pair (contact across the backlash), a MeshTable on the same
+    position grid whose deflection axis is the coast approach along the coast line of action from the drive flanks'
+    kinematic contact (so its no-load deflection is about the normal backlash); None for a drive-only table.
+    ``backlash_normal_m`` / ``backlash_circular_m``: the backlash from the geometry (on a coast table).
     """
 
     name: str
@@ -110,6 +115,9 @@ class MeshTable:
     hub_reaction: dict[str, np.ndarray] = field(default_factory=dict)
     solver: str = ""
     stats: InterpolationStats = field(default_factory=InterpolationStats, repr=False)
+    coast: "MeshTable | None" = None
+    backlash_normal_m: float | None = None
+    backlash_circular_m: float | None = None
 
     def __post_init__(self) -> None:
         conv = {k: _f64(getattr(self, k)) for k in (

@@ -37,7 +37,10 @@ class TrainGear:
 class TrainMesh:
     """A mesh of a fixed-axis train for :func:`assemble_train`: gears, table, line of action ``n`` (2,) along
     which gear_a pushes gear_b, moment arms ``(m_a, m_b)`` [m] (``x = (u_a - u_b) . n + m_a th_a - m_b th_b``),
-    ``phase`` [cycles], nominal static force [N], tooth passages."""
+    ``phase`` [cycles], nominal static force [N], tooth passages; the coast side (opposite flanks):
+    ``coast_line_of_action`` (2,) along which the coast contact pushes gear_b, coast moment arms ``(c_a, c_b)``
+    (``xc = (u_a - u_b) . n_c + c_a th_a - c_b th_b``, the approach closing the backlash), the static coast force
+    [N] when the nominal torque is reversed and the normal backlash [m] (None / 0 / inf: one-sided mesh)."""
 
     name: str
     gear_a: str
@@ -48,6 +51,23 @@ class TrainMesh:
     phase: float
     nominal_force_N: float
     tooth_passage: Mapping[str, int]
+    coast_line_of_action: tuple[float, float] | None = None
+    coast_moment_arm_m: tuple[float, float] | None = None
+    nominal_coast_force_N: float = 0.0
+    backlash_m: float = math.inf
+
+
+def _loa_vector(n: int, nvec: np.ndarray, arms: tuple[float, float], dirs_a, dirs_b, rot_a: int,
+                rot_b: int) -> np.ndarray:
+    """The vector (n,) of a mesh deflection ``(u_a - u_b) . n + arm_a th_a - arm_b th_b`` over the DOFs."""
+    v = np.zeros(n)
+    for i, d in dirs_a:
+        v[i] += float(d @ nvec)
+    for i, d in dirs_b:
+        v[i] -= float(d @ nvec)
+    v[rot_a] += arms[0]
+    v[rot_b] -= arms[1]
+    return v
 
 
 def assemble_train(name: str, kind: str, gears: Sequence[TrainGear], meshes: Sequence[TrainMesh], *,
@@ -106,16 +126,14 @@ def assemble_train(name: str, kind: str, gears: Sequence[TrainGear], meshes: Seq
     ref = meshes[0].gear_a
     for mm in meshes:
         nvec = np.asarray(mm.line_of_action, float)
-        v = np.zeros(n)
+        v = _loa_vector(n, nvec, mm.moment_arm_m, dirs[mm.gear_a], dirs[mm.gear_b], rot[mm.gear_a], rot[mm.gear_b])
+        vc = None
+        if mm.coast_line_of_action is not None:
+            vc = _loa_vector(n, np.asarray(mm.coast_line_of_action, float), mm.coast_moment_arm_m, dirs[mm.gear_a],
+                             dirs[mm.gear_b], rot[mm.gear_a], rot[mm.gear_b])
         w = np.zeros(n)
         vr = np.zeros(n)
         ma, mb = mm.moment_arm_m
-        for i, d in dirs[mm.gear_a]:
-            v[i] += float(d @ nvec)
-        for i, d in dirs[mm.gear_b]:
-            v[i] -= float(d @ nvec)
-        v[rot[mm.gear_a]] += ma
-        v[rot[mm.gear_b]] -= mb
         vr[rot[mm.gear_a]] = ma
         vr[rot[mm.gear_b]] = -mb
         za = gd[mm.gear_a].teeth
@@ -125,7 +143,9 @@ def assemble_train(name: str, kind: str, gears: Sequence[TrainGear], meshes: Seq
                                       v_rot=vr, phase=float(mm.phase), nominal_force_N=float(mm.nominal_force_N),
                                       teeth=(za, gd[mm.gear_b].teeth), base_radius_m=rb,
                                       tooth_passage=dict(mm.tooth_passage),
-                                      line_of_action=tuple(nvec / np.linalg.norm(nvec))))
+                                      line_of_action=tuple(nvec / np.linalg.norm(nvec)), v_c=vc,
+                                      nominal_coast_force_N=float(mm.nominal_coast_force_N),
+                                      backlash_m=float(mm.backlash_m)))
     # kinematic rotation of the train per radian of the reference gear in its sense
     u_rot = {ref: 1.0}
     todo = list(couplings)
@@ -205,7 +225,17 @@ def train_from_model(model: Any, tables: Any, *, force_law: str = "hac", torque_
             raise ModelError(f"mesh '{m.name}': the table's base radii {rb} m differ from the model's {geo} m "
                              "(table of another model?)")
         rb_tab[m.name] = rb
-    forces = nominal_mesh_forces(model, rb_tab, torque_Nm=torque)
+    rb_coast = {m.name: (mg[m.name].base_radius_coast_m[m.gear_a], mg[m.name].base_radius_coast_m[m.gear_b])
+                for m in model.meshes}
+    for m in model.meshes:
+        ct = getattr(tabs[m.name], "coast", None)
+        if ct is not None:
+            rb = tuple(float(r) for r in getattr(ct, "base_radius_m", ()))
+            if len(rb) != 2 or not np.allclose(rb, rb_coast[m.name], rtol=1e-3):
+                raise ModelError(f"mesh '{m.name}': the coast table's base radii {rb} m differ from the model's "
+                                 f"coast flanks' {rb_coast[m.name]} m (table of another model?)")
+    forces = nominal_mesh_forces(model, rb_tab, torque_Nm=abs(torque))
+    coast_forces = nominal_mesh_forces(model, rb_coast, torque_Nm=abs(torque))
     gears = []
     for g in model.gears:
         kt = g.support.translational_stiffness_N_per_m if bearing_stiffness_N_per_m is None \
@@ -222,11 +252,18 @@ def train_from_model(model: Any, tables: Any, *, force_law: str = "hac", torque_
         rb = rb_tab[m.name]
         ma = math.copysign(rb[0], pl.moment_arm_m[m.gear_a])
         mb = math.copysign(rb[1], pl.moment_arm_m[m.gear_b])
+        coast = {}
+        if pl.coast_line_of_action is not None:
+            rc = rb_coast[m.name]
+            coast = dict(coast_line_of_action=tuple(pl.coast_line_of_action),
+                         coast_moment_arm_m=(math.copysign(rc[0], pl.coast_moment_arm_m[m.gear_a]),
+                                             math.copysign(rc[1], pl.coast_moment_arm_m[m.gear_b])),
+                         nominal_coast_force_N=coast_forces[m.name], backlash_m=pl.backlash_normal_m)
         meshes.append(TrainMesh(name=m.name, gear_a=m.gear_a, gear_b=m.gear_b, table=tabs[m.name],
                                 line_of_action=tuple(pl.line_of_action), moment_arm_m=(ma, mb), phase=pl.phase,
                                 nominal_force_N=forces[m.name],
                                 tooth_passage={m.gear_a: tg.tooth_passage[m.gear_a][m.name],
-                                               m.gear_b: tg.tooth_passage[m.gear_b][m.name]}))
+                                               m.gear_b: tg.tooth_passage[m.gear_b][m.name]}, **coast))
     zeta = model.damping.modal_damping_ratio if modal_damping_ratio is None else float(modal_damping_ratio)
     return assemble_train(model.name, model.kind, gears, meshes, torque_Nm=torque,
                           input_gear=model.operating.torque_gear, modal_damping_ratio=zeta, force_law=force_law,
@@ -277,9 +314,12 @@ class SpurPairParameters:
         Rotational support stiffness [N m/rad]; 0 = free rotation.
     modal_damping_ratio : float in [0, 1)
     torque_Nm : float
-        Nominal torque on gear 1 [N m] (> 0).
+        Nominal torque on gear 1 [N m] (nonzero; negative loads the coast flanks, which needs a coast table).
     mesh_phase : float
         Mesh position [cycles] at zero rotation of gear 1.
+    pressure_angles_deg : (float, float)
+        Operating pressure angles of the drive and the coast flanks [deg]: the coast line of action makes their sum
+        with the drive one (used when the table has a coast side and the bearings are elastic).
     """
 
     mass_kg: tuple[float, float]
@@ -291,6 +331,7 @@ class SpurPairParameters:
     modal_damping_ratio: float = 0.02
     torque_Nm: float = 300.0
     mesh_phase: float = 0.0
+    pressure_angles_deg: tuple[float, float] = (25.0, 20.0)
 
     def __post_init__(self) -> None:
         s = object.__setattr__
@@ -309,20 +350,22 @@ class SpurPairParameters:
                 v = float(v)
             except (TypeError, ValueError):
                 raise ModelError(f"{name} [{unit}] must be a number, got {v!r}") from None
-            ok = (0.0 <= v < 1.0) if name == "modal_damping_ratio" else (0.0 < v <= hi)
+            ok = (0.0 <= v < 1.0) if name == "modal_damping_ratio" else (0.0 < abs(v) <= hi)
             if not ok or math.isnan(v):
-                rng = "[0, 1)" if name == "modal_damping_ratio" else f"(0, {hi:g}]"
+                rng = "[0, 1)" if name == "modal_damping_ratio" else f"[-{hi:g}, {hi:g}] without 0"
                 raise ModelError(f"{name} [{unit}] must be in {rng}, got {getattr(self, name)!r}")
             s(self, name, v)
         ph = float(self.mesh_phase)
         if not math.isfinite(ph):
             raise ModelError(f"mesh_phase [cycles] must be finite, got {self.mesh_phase!r}")
         s(self, "mesh_phase", ph)
+        s(self, "pressure_angles_deg", _pair("pressure_angles_deg", self.pressure_angles_deg, "deg", 0.0, 60.0))
 
     @property
     def static_force_N(self) -> float:
-        """Nominal static mesh force F_s = T_1 / r_b1 [N]."""
-        return self.torque_Nm / self.base_radius_m[0]
+        """Nominal static force of the drive flanks F_s = |T_1| / r_b1 [N] (a magnitude: the torque's sign picks
+        the flanks)."""
+        return abs(self.torque_Nm) / self.base_radius_m[0]
 
     def replace(self, **changes) -> "SpurPairParameters":
         return replace(self, **changes)
@@ -344,8 +387,17 @@ def spur_pair_system(params: SpurPairParameters, table, force_law: str = "hac", 
     gears = [TrainGear(names[i], p.teeth[i], p.mass_kg[i], p.inertia_kg_m2[i], p.bearing_stiffness_N_per_m[i],
                        p.rotational_stiffness_Nm_per_rad[i]) for i in range(2)]
     rb1, rb2 = p.base_radius_m
+    coast = {}
+    ct = getattr(table, "coast", None)
+    if ct is not None:
+        rc1, rc2 = (float(r) for r in ct.base_radius_m)
+        ang = math.radians(sum(p.pressure_angles_deg))
+        backlash = getattr(ct, "backlash_normal_m", None)
+        coast = dict(coast_line_of_action=(math.sin(ang), -math.cos(ang)), coast_moment_arm_m=(-rc1, rc2),
+                     nominal_coast_force_N=abs(p.torque_Nm) / rc1,
+                     backlash_m=float(np.min(ct.no_load_deflection_m)) if backlash is None else float(backlash))
     mesh = TrainMesh(name=str(getattr(table, "name", "m12")), gear_a=names[0], gear_b=names[1], table=table,
                      line_of_action=(0.0, 1.0), moment_arm_m=(rb1, -rb2), phase=p.mesh_phase,
-                     nominal_force_N=p.static_force_N, tooth_passage={names[0]: 0, names[1]: 0})
+                     nominal_force_N=p.static_force_N, tooth_passage={names[0]: 0, names[1]: 0}, **coast)
     return assemble_train("spur_pair", "spur_pair", gears, [mesh], torque_Nm=p.torque_Nm, input_gear=names[0],
                           modal_damping_ratio=p.modal_damping_ratio, force_law=force_law, shafts=shafts)

@@ -80,3 +80,67 @@ def test_cli_refuses_a_table_of_another_model_unless_overridden(tmp_path, capsys
     assert main(["modes", str(edited)]) == 2
     capsys.readouterr()
     assert main(["modes", str(edited), "--ignore-model-hash", "--json"]) == 0
+
+
+def test_sweep_killed_leaves_no_workers_and_rerun_reuses_its_rows(tmp_path):
+    """`hacgear sweep --workers 2 --out` SIGKILLed (main process only) mid-run: the branch workers end by
+    themselves; the same command run again reuses the finished speeds and says so; --fresh recomputes them."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    from pathlib import Path
+
+    import h5py
+    import pytest
+
+    from _procs import session_processes, wait_for_no_orphans
+
+    if not Path("/proc/self/stat").exists():
+        pytest.skip("needs Linux /proc")
+    out = tmp_path / "r.h5"
+    cmd = [sys.executable, "-c", "import sys; from hacgear_core.cli import main; sys.exit(main())", "sweep",
+           "synthetic:28t", "--torque", "300", "--fm", "1200:3600:60", "--direction", "both", "--workers", "2",
+           "--no-progress", "--out", str(out)]
+    proc = subprocess.Popen(cmd, cwd=tmp_path, start_new_session=True, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE)
+    parts = tmp_path / "r.h5.parts"
+    rows = {}
+    workers = []
+    t0 = time.monotonic()
+    try:
+        while time.monotonic() - t0 < 120 and proc.poll() is None:
+            time.sleep(0.05)
+            files = sorted(parts.glob("*.h5")) if parts.exists() else []
+            try:
+                for fp in files:
+                    with h5py.File(fp, "r", locking=False) as f:
+                        rows[fp.name] = int(f.attrs.get("rows", 0))
+            except (OSError, KeyError):
+                continue
+            if len(rows) == 2 and min(rows.values()) >= 3:
+                workers = [p for p, _ in session_processes(proc.pid) if p != proc.pid]
+                os.kill(proc.pid, signal.SIGKILL)
+                break
+    finally:
+        if proc.poll() is None:
+            os.kill(proc.pid, signal.SIGKILL)
+        proc.wait(timeout=30)
+        orphans = wait_for_no_orphans(proc.pid)
+    assert proc.returncode == -signal.SIGKILL, proc.stderr.read().decode()
+    assert len(workers) >= 2 and not orphans, f"workers {workers}, left behind: {orphans}"
+    stored = {}
+    for fp in parts.glob("*.h5"):
+        with h5py.File(fp, "r") as f:
+            stored[str(f.attrs["branch"])] = int(f.attrs["rows"])
+    assert len(stored) == 2 and min(stored.values()) >= 3
+    res = subprocess.run(cmd[:-5] + ["--workers", "1", "--no-progress", "--out", str(out)], cwd=tmp_path,
+                         capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr
+    for b, n in stored.items():
+        assert f"branch {b} ({60 - n} speeds computed now, {n} reused from {out}" in res.stdout, res.stdout[:2000]
+    fresh = subprocess.run(cmd[:-5] + ["--workers", "1", "--no-progress", "--out", str(out), "--fresh", "--json"],
+                           cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    d = json.loads(fresh.stdout)
+    assert d["computed_speeds"] == {"up": 60, "down": 60} and d["discarded_speeds"] == {"up": 60, "down": 60}

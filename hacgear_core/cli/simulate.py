@@ -3,12 +3,11 @@ torques in) with table post-processing (root strain, contact pressure, dynamic m
 from __future__ import annotations
 
 import argparse
-import os
-from pathlib import Path
 
 import numpy as np
 
 from hacgear_core.cli._dyn_common import add_model_options, inputs_from_args
+from hacgear_core.cli._paths import check_out_path
 from hacgear_core.dynamics.simulator import Simulator, strain_of_tooth
 from hacgear_core.errors import ModelError
 from hacgear_core.jsonio import dumps
@@ -44,16 +43,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _check_out(path: str | None) -> None:
-    if path is None:
-        return
-    p = Path(path)
-    if p.suffix not in (".csv", ".npz"):
-        raise ModelError(f"--out {path!r}: the file must end in .csv or .npz")
-    folder = p.parent if str(p.parent) else Path(".")
-    if not folder.is_dir():
-        raise ModelError(f"--out {path!r}: folder {folder} does not exist")
-    if not os.access(folder, os.W_OK):
-        raise ModelError(f"--out {path!r}: folder {folder} is not writable")
+    if path is not None:
+        check_out_path(path, "--out", suffixes=(".csv", ".npz"))
 
 
 def _extreme(a: np.ndarray) -> float:

@@ -10,7 +10,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from hacgear_core.cli._paths import check_out_dir  # noqa: E402
 from hacgear_core.dynamics.build import spur_pair_system  # noqa: E402
+from hacgear_core.errors import HacgearError  # noqa: E402
 from hacgear_core.dynamics.steady import steady_state  # noqa: E402
 from hacgear_core.dynamics.sweep import SweepSpec, run_sweep  # noqa: E402
 from hacgear_core.dynamics.synthetic import softening_example, spur_fdf_table, synthetic_28t_parameters  # noqa: E402
@@ -136,6 +138,10 @@ def main(outdir: str) -> dict:
 
 
 if __name__ == "__main__":  # pragma: no cover
-    if len(sys.argv) != 2:
-        raise SystemExit("usage: python -m hacgear_core.plots.dynamics OUTDIR")
+    if len(sys.argv) != 2 or sys.argv[1].startswith("-"):
+        raise SystemExit("usage: python -m hacgear_core.plots.dynamics OUTDIR  (writes the figures into OUTDIR only)")
+    try:
+        check_out_dir(sys.argv[1], "OUTDIR")
+    except HacgearError as exc:
+        raise SystemExit(f"python -m hacgear_core.plots.dynamics: error: {exc}") from None
     print(main(sys.argv[1]))

@@ -1,7 +1,7 @@
 """Plots of force-deflection and strain-deflection functions (dissertation Figs. 3.3 and 4.6).
 
-``python -m hacgear_core.plots.tables [TABLES.h5] [--mesh NAME] [--gauge GEAR/GAUGE] [--out DIR]`` writes
-``tables_fdf<suffix>.png`` and ``tables_sdf<suffix>.png``.  Without a table file it plots the analytical
+``python -m hacgear_core.plots.tables [TABLES.h5] [--mesh NAME] [--gauge GEAR/GAUGE] --out DIR`` writes
+``DIR/tables_fdf<suffix>.png`` and ``DIR/tables_sdf<suffix>.png`` (nothing anywhere else).  Without a table file it plots the analytical
 reference pair (:class:`hacgear_core.statics.AnalyticPairSolver`, not FE; suffix ``_analytic``).
 """
 from __future__ import annotations
@@ -15,6 +15,8 @@ from typing import Any
 import matplotlib
 import numpy as np
 
+from hacgear_core.cli._paths import check_out_dir
+from hacgear_core.errors import HacgearError
 from hacgear_core.statics import AnalyticFactory, load_grid, run_statics
 from hacgear_core.tables import MeshTable, read_tables
 
@@ -133,10 +135,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("tables", nargs="?", help="tables.h5 (default: the analytical reference pair)")
     ap.add_argument("--mesh", default=None)
     ap.add_argument("--gauge", default=None, help="gauge '<gear>/<gauge>' of the SDF plot")
-    ap.add_argument("--out", type=Path, default=Path("docs/figures"))
+    ap.add_argument("--out", type=Path, required=True, help="folder for the figures (created if missing)")
     ap.add_argument("--suffix", default=None,
                     help="file name suffix: tables_fdf<suffix>.png (default: '_analytic' without a table file, else '')")
     a = ap.parse_args(argv)
+    try:
+        check_out_dir(a.out, "--out")
+    except HacgearError as exc:
+        ap.error(str(exc))
     a.out.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as td:
         if a.tables:

@@ -19,7 +19,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from hacgear_core.cli._paths import check_out_dir  # noqa: E402
 from hacgear_core.dynamics import build_system  # noqa: E402
+from hacgear_core.errors import HacgearError  # noqa: E402
 from hacgear_core.dynamics.modes import impulse_test, modal_analysis  # noqa: E402
 from hacgear_core.dynamics.steady import steady_state  # noqa: E402
 from hacgear_core.dynamics.sweep import SweepSpec, run_sweep  # noqa: E402
@@ -159,6 +161,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", required=True, help="folder of validation_dynamics.json (created if missing)")
     ap.add_argument("--figures", default=None, help="figure folder (default: --out)")
     args = ap.parse_args(argv)
+    try:
+        check_out_dir(args.out, "--out")
+        if args.figures:
+            check_out_dir(args.figures, "--figures")
+    except HacgearError as exc:
+        ap.error(str(exc))
     out = Path(args.figures or args.out)
     out.mkdir(parents=True, exist_ok=True)
     Path(args.out).mkdir(parents=True, exist_ok=True)

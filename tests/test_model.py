@@ -244,3 +244,55 @@ def test_web_dataclass_validation():
         dataclasses.replace(g, web=Web(5e-3, 60e-3, 126e-3))
     ok = dataclasses.replace(g, web=Web(5e-3, 60e-3, 100e-3))
     assert ok.web.outer_radius_m == pytest.approx(0.05)
+
+
+@pytest.mark.parametrize("key, line, pattern", [
+    ("bore_diameter_mm", "bore_diameter_mm = 40.0\n", r"key 'gears\[0\]\.bore_diameter_mm' \[mm\]: missing required key"),
+    ("hob_tip_radius_mm", "hob_tip_radius_mm = 0.4\n", r"key 'gears\[0\]\.hob_tip_radius_mm' \[mm\]: missing required"),
+    ("poisson_ratio", "poisson_ratio = 0.3\n", r"key 'materials\.steel\.poisson_ratio' \[-\]: missing required key"),
+    ("[damping]", "[damping]\nmodal_damping_ratio = 0.02\n", r"key 'damping': missing required key"),
+])
+def test_keys_that_change_the_physics_are_never_defaulted(key, line, pattern):
+    """A missing bore used to become a solid disk (pinion 1.629 -> 1.777 kg) without a word."""
+    assert line in BASE, line
+    with pytest.raises(ModelError, match=pattern):
+        parse_model(BASE.replace(line, "", 1), file="m.toml")
+
+
+def test_solid_blank_is_said_explicitly():
+    from hacgear_core.geometry import gear_geometry
+
+    m = parse_model(BASE.replace("bore_diameter_mm = 40.0", "bore_diameter_mm = 0.0", 1), file="m.toml")
+    assert m.gear("pinion").bore_diameter_m == 0.0
+    solid = gear_geometry(m.gear("pinion")).mass_kg
+    bored = gear_geometry(parse_model(BASE, file="m.toml").gear("pinion")).mass_kg
+    assert bored == pytest.approx(1.629, abs=0.001) and solid == pytest.approx(1.777, abs=0.001)
+
+
+def test_defaults_are_recorded_and_echoed_by_info(capsys):
+    from hacgear_core.cli import main
+    from hacgear_core.cli.info import info_dict
+
+    text = BASE.replace("lead_crowning_um = 15.0\n", "", 1)
+    m = parse_model(text, file="m.toml")
+    d = {k: (v, meaning) for k, v, meaning in m.defaults_applied}
+    assert d["gears[0] (pinion).lead_crowning_um"] == ("0", "no lead crowning")
+    assert "gears[1] (wheel).lead_crowning_um" not in d  # given in the file
+    assert d["gears[0] (pinion).web"] == ("absent", "solid blank from the bore to the root")
+    assert d["meshes[0].line_of_centres_deg"][0] == "0"
+    assert all(meaning for _, _, meaning in m.defaults_applied)
+    assert {"key": "gears[0] (pinion).lead_crowning_um", "value": "0", "meaning": "no lead crowning"} in \
+        info_dict(m)["defaults_applied"]
+    assert main(["info", "spur_28t_asym"]) == 0
+    out = capsys.readouterr().out
+    assert "Defaults applied" in out and "tip_edge_radius_mm = 0  (sharp tip edge)  [pinion, wheel]" in out
+
+
+def test_every_default_is_listed_in_the_readme():
+    from hacgear_core.model.toml import DEFAULT_MEANINGS
+
+    readme = (MODELS.parent / "README.md").read_text()
+    section = readme[readme.index("## Model files"):]
+    section = section[:section.index("\n## ", 5)]
+    missing = [k for k in DEFAULT_MEANINGS if f"`{k}`" not in section]
+    assert not missing, f"defaults not listed in README 'Model files': {missing}"

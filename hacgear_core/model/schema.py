@@ -424,7 +424,8 @@ class Planetary:
 
 @dataclass(frozen=True)
 class Model:
-    """A whole gear system (SI).  ``path``/``sha256`` identify the model file it came from."""
+    """A whole gear system (SI).  ``path``/``sha256`` identify the model file it came from;
+    ``defaults_applied`` lists ``(key, value, meaning)`` of every default the model file left to the reader."""
 
     name: str
     kind: str
@@ -438,6 +439,7 @@ class Model:
     planetary: Planetary | None = None
     path: Path | None = None
     sha256: str = ""
+    defaults_applied: tuple[tuple[str, str, str], ...] = ()
 
     def __post_init__(self) -> None:
         if self.kind not in SYSTEM_KINDS:

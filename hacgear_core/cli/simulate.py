@@ -31,9 +31,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_model_options(p)
     p.add_argument("--fm", type=float, required=True, help="mesh frequency [Hz] (start of a run-up)")
     p.add_argument("--fm-end", type=float, default=None, help="mesh frequency at the end of a linear run-up [Hz]")
-    p.add_argument("--cycles", type=int, default=400, help="mesh cycles to simulate [-]")
-    p.add_argument("--record-cycles", type=int, default=4, help="mesh cycles recorded at the end [-]")
-    p.add_argument("--steps-per-cycle", type=int, default=128, help="recorded samples per mesh cycle [-]")
+    p.add_argument("--cycles", type=int, default=400, help="mesh cycles to simulate [-] (default %(default)s)")
+    p.add_argument("--record-cycles", type=int, default=4, help="mesh cycles recorded at the end [-] (default %(default)s)")
+    p.add_argument("--steps-per-cycle", type=int, default=128, help="recorded samples per mesh cycle [-] (default %(default)s)")
     p.add_argument("--drive-torques", default=None,
                    help="T_in,T_out [N*m]: drivetrain coupling instead of a prescribed speed: shaft torques on the "
                         "input and output gears (each positive in its sense of rotation; a load is negative), "

@@ -38,9 +38,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("model", help="model file models/<system>/model.toml, its folder, or the system name")
     p.add_argument("--out", type=Path, default=None, help="output file (default: tables.h5 next to the model)")
-    p.add_argument("--positions", type=int, default=None, help="mesh positions per mesh cycle [-]")
-    p.add_argument("--loads", type=int, default=None, help="points of the load grid (incl. zero load) [-]")
-    p.add_argument("--deflections", type=int, default=None, help="points of the FDF deflection grid [-]")
+    p.add_argument("--positions", type=int, default=None, help="mesh positions per mesh cycle [-] (default: the model's [statics] positions)")
+    p.add_argument("--loads", type=int, default=None, help="points of the load grid (incl. zero load) [-] (default: the model's [statics] loads)")
+    p.add_argument("--deflections", type=int, default=None, help="points of the FDF deflection grid [-] (default: the model's [statics] deflections)")
     p.add_argument("--max-torque-factor", type=float, default=None,
                    help="largest load / nominal load [-] (>= 3; default from the model)")
     p.add_argument("--deflection-margin", type=float, default=None,
@@ -55,7 +55,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                            "and compute everything again")
     p.add_argument("--solver", choices=("fe", "analytic"), default="fe",
                    help="fe: finite-element contact solver (hacgear_core.statics.contact); analytic: the analytical "
-                        "reference spring model (not FE; for testing the pipeline)")
+                        "reference spring model (not FE; for testing the pipeline); default fe")
     p.add_argument("--check", action="store_true",
                    help="do not compute: read the existing table, verify every dataset's checksum, that it belongs "
                         "to the model (the model values it depends on), its physical sanity (finite, forces >= 0, "

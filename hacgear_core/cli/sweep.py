@@ -31,14 +31,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     add_model_options(p)
     p.add_argument("--fm", required=True, help="mesh frequencies START:STOP:N [Hz, Hz, count]")
-    p.add_argument("--direction", choices=("up", "down", "both"), default="both")
+    p.add_argument("--direction", choices=("up", "down", "both"), default="both",
+                   help="up: ascending from static equilibrium at the lowest speed; down: descending from the highest; "
+                        "both: the two (confirmed jumps need both; default %(default)s)")
     p.add_argument("--out", default=None, help="HDF5 results file .h5 (incremental, resumable; its folder must exist)")
     p.add_argument("--fresh", action="store_true",
                    help="with --out: discard the rows of this sweep already in the file and compute every speed again")
     p.add_argument("--workers", type=int, default=1,
-                   help="processes for the branches (2 runs up and down in parallel) [-]")
-    p.add_argument("--rtol", type=float, default=1e-5, help="steady-state tolerance (relative) [-]")
-    p.add_argument("--max-cycles", type=int, default=3000, help="cycle cap per speed [-]")
+                   help="processes for the branches (2 runs up and down in parallel) [-] (default %(default)s)")
+    p.add_argument("--rtol", type=float, default=1e-5, help="steady-state tolerance (relative) [-] (default %(default)s)")
+    p.add_argument("--max-cycles", type=int, default=3000, help="cycle cap per speed [-] (default %(default)s)")
     p.add_argument("--torques", default=None,
                    help="several torques on the input gear, comma separated [N*m] (instead of --torque): one sweep "
                         "per torque, all branches in parallel over --workers processes")

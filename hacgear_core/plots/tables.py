@@ -54,7 +54,7 @@ def plot_fdf(table: MeshTable, *, cycles: int = 2, n_curves: int = 7, title: str
     pos = np.linspace(0.0, cycles, 400 * cycles + 1)
     x_top = table.static_deflection_m.max()
     xs = np.linspace(max(table.no_load_deflection_m.max(), 0.0) * 0.5, x_top, n_curves + 1)[1:]
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12.5, 4.8), constrained_layout=True)
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(13.5, 4.8), constrained_layout=True)
     cmap = plt.get_cmap("viridis")
     for i, x in enumerate(xs):
         f = table.force(pos, x)
@@ -65,7 +65,8 @@ def plot_fdf(table: MeshTable, *, cycles: int = 2, n_curves: int = 7, title: str
     ax1.set_xlabel("mesh cycle [-]  (integer: pitch-point contact)")
     ax1.set_ylabel("mesh force F [kN]")
     ax1.set_title("(a) FDF at fixed mesh deflections (thick: ≥2 pairs in contact)")
-    ax1.legend(fontsize=7, ncol=2, loc="upper right")
+    ax1.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0,
+               title="deflection", title_fontsize=7)  # outside the axes: never over a curve
     ax1.set_xlim(0, cycles)
     ax1.grid(alpha=0.3)
     xg = np.linspace(table.deflection_m[0], table.deflection_m[-1], 220)
@@ -75,7 +76,7 @@ def plot_fdf(table: MeshTable, *, cycles: int = 2, n_curves: int = 7, title: str
     cs = ax2.contourf(P, X * 1e6, F / 1e3, levels=20, cmap="viridis")
     fig.colorbar(cs, ax=ax2, label="mesh force F [kN]")
     ax2.contour(P, X * 1e6, n, levels=[0.5, 1.5, 2.5], colors=["w", "r", "m"], linewidths=1.2)
-    ax2.plot(pos, table.no_load_deflection(pos) * 1e6, "w--", lw=1.0, label="no-load mesh deflection")
+    ax2.plot(pos, table.no_load_deflection(pos) * 1e6, "w--", lw=1.0)
     # label regions at the static deflection of the nominal third of the largest load
     x_lab = table.static_deflection(pos[::4], table.load_N[-1] / 3).mean()
     n_lab = contact_count(table, pos[::4], x_lab)
@@ -90,8 +91,8 @@ def plot_fdf(table: MeshTable, *, cycles: int = 2, n_curves: int = 7, title: str
                      va="center", fontsize=8, bbox=dict(fc="k" if want == 1 else "w", alpha=0.5, lw=0))
     ax2.set_xlabel("mesh cycle [-]")
     ax2.set_ylabel("mesh deflection x [µm]")
-    ax2.set_title("(b) FDF; contours: number of loaded pairs (0|1|2)")
-    ax2.legend(fontsize=7, loc="lower right")
+    ax2.set_title("(b) FDF; solid: boundaries between 0|1 (white), 1|2 (red), 2|3 (magenta)\nloaded pairs; "
+                  "white dashed: no-load mesh deflection", fontsize=10)
     fig.suptitle(title or f"Force-deflection function, mesh '{table.name}' ({_short(table.solver)})", fontsize=10)
     table.stats.n_queries, table.stats.n_below, table.stats.n_above = stats_before  # plotting is not a query
     return fig

@@ -65,7 +65,8 @@ def test_cli_simulate_reports_extremes_with_sign_and_checks_the_output_path(caps
 
 def test_cli_refuses_a_table_of_another_model_unless_overridden(tmp_path, capsys):
     """A table made from another model file is refused with the regenerate command; the expert override uses a
-    table of an edited model file, but a table of a different gear pair stays refused."""
+    table of an edited model file, but a table of a different gear pair stays refused.  Editing the damping does
+    not touch the tables: no override needed."""
     root = resolve_model_path("spur_28t_asym").parent.parent
     other = str(root / "spur_50t_icr137" / "tables.h5")
     assert main(["modes", "spur_28t_asym", "--tables", other]) == 2
@@ -74,11 +75,14 @@ def test_cli_refuses_a_table_of_another_model_unless_overridden(tmp_path, capsys
     assert main(["modes", "spur_28t_asym", "--tables", other, "--ignore-model-hash"]) == 2
     assert "teeth (50, 50) differ from the model's (28, 28)" in capsys.readouterr().err
     edited = tmp_path / "model.toml"
-    edited.write_text((root / "spur_28t_asym" / "model.toml").read_text().replace(
-        "modal_damping_ratio = 0.02", "modal_damping_ratio = 0.03"))
+    text = (root / "spur_28t_asym" / "model.toml").read_text()
+    edited.write_text(text.replace("modal_damping_ratio = 0.02", "modal_damping_ratio = 0.03"))
     shutil.copy(root / "spur_28t_asym" / "tables.h5", tmp_path / "tables.h5")
-    assert main(["modes", str(edited)]) == 2
+    assert main(["modes", str(edited), "--json"]) == 0
     capsys.readouterr()
+    edited.write_text(text.replace("hob_tip_radius_mm = 0.4", "hob_tip_radius_mm = 0.5", 1))
+    assert main(["modes", str(edited)]) == 2
+    assert "gears.pinion.hob_tip_radius_m: 0.0004 in the table, 0.0005 now" in capsys.readouterr().err
     assert main(["modes", str(edited), "--ignore-model-hash", "--json"]) == 0
 
 
@@ -144,3 +148,20 @@ def test_sweep_killed_leaves_no_workers_and_rerun_reuses_its_rows(tmp_path):
                            cwd=tmp_path, capture_output=True, text=True, timeout=300)
     d = json.loads(fresh.stdout)
     assert d["computed_speeds"] == {"up": 60, "down": 60} and d["discarded_speeds"] == {"up": 60, "down": 60}
+
+
+def test_sweep_table_has_no_duplicate_columns(capsys):
+    """With rigid bearings the dynamic transmission error equals the mesh deflection: the text table shows it
+    once; with bearing stiffness the DTE column appears and differs."""
+    assert main(["sweep", "synthetic:28t", "--torque", "300", "--fm", "1500:2500:3", "--direction", "up",
+                 "--no-progress"]) == 0
+    rigid = capsys.readouterr().out
+    header = next(line for line in rigid.splitlines() if "f_m [Hz]" in line)
+    assert "DTE" not in header and header.count("rms") == 1
+    assert main(["sweep", "synthetic:28t", "--torque", "300", "--fm", "1500:2500:3", "--direction", "up",
+                 "--no-progress", "--bearing-stiffness", "200e6"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    i = next(k for k, line in enumerate(lines) if "f_m [Hz]" in line)
+    assert "DTE rms" in lines[i]
+    rows = [line.split() for line in lines[i + 1:i + 4]]
+    assert any(abs(float(r[1]) - float(r[3])) > 1e-3 for r in rows), rows  # rms x and DTE rms differ

@@ -470,8 +470,8 @@ class Model:
             if abs(pa - pb) > 1e-9:
                 raise ModelError(
                     f"mesh '{m.name}': pressure_angle_deg of {ga.name}.{m.flank_a} ({math.degrees(pa):g} deg) "
-                    f"differs from {gb.name}.{m.flank_b} ({math.degrees(pb):g} deg); the loaded flanks must "
-                    "be cut by the same rack"
+                    f"differs from {gb.name}.{m.flank_b} ({math.degrees(pb):g} deg); the loaded flanks (flank_a = "
+                    f"'{m.flank_a}', flank_b = '{m.flank_b}') must be cut by the same rack"
                 )
             if abs(ga.helix_angle_rad + gb.helix_angle_rad) > 1e-9 and not (ga.internal or gb.internal):
                 raise ModelError(

@@ -312,9 +312,9 @@ def _read_gear(sec: _Section, materials: dict[str, Material]) -> Gear:
     for gsec in sec.array_of_tables("gauges", required=False):
         gname = gsec.string("name")
         gflank = gsec.string("flank", FLANKS)
-        grad = gsec.number("radius_mm", "mm", 0.0, 20000.0, lo_open=True)
+        grad = gsec.number("radius_mm", "mm", 0.0, 10000.0, lo_open=True)
         gsec.done(_GAUGE_KEYS)
-        gauges.append(Gauge(gname, gflank, grad * 1e-3))
+        gauges.append(_wrap(gsec, gsec.path, lambda: Gauge(gname, gflank, grad * 1e-3)))
     support = _read_support(sec.table("support", required=False))
     web = _read_web(sec.table("web", required=False), face, bore, root, internal)
     sec.done(_GEAR_KEYS)

@@ -45,6 +45,12 @@ def _finite(name: str, a: np.ndarray, out: list[str], allow_nan: bool = False) -
     return a
 
 
+def _given(a) -> bool:
+    """False for an optional output the solver did not give (absent, or NaN throughout, as ``write_tables``
+    stores it: synthetic tables have no half-widths or hub reactions)."""
+    return a is not None and not np.all(np.isnan(np.asarray(a, float)))
+
+
 def _bounded(name: str, a: np.ndarray, lo: float, hi: float, unit: str, out: list[str]) -> None:
     v = a[np.isfinite(a)]
     if v.size and (v.min() < lo or v.max() > hi):
@@ -76,13 +82,15 @@ def hard_problems(t: MeshTable) -> list[str]:
     for name, a in (("deflection_m", x), ("no_load_deflection_m", nl), ("static_deflection_m", sd)):
         _bounded(name, a, -LIMITS["deflection_m"], LIMITS["deflection_m"], "m", out)
     _bounded("peak_pressure_Pa", pp, 0.0, LIMITS["peak_pressure_Pa"], "Pa", out)
-    if t.half_width_m is not None:
+    if _given(t.half_width_m):
         _bounded("half_width_m", _finite("half_width_m", t.half_width_m, out), 0.0, LIMITS["half_width_m"], "m", out)
     _bounded("contact_roll_deg", _finite("contact_roll_deg", t.contact_roll_deg, out, allow_nan=True),
              -LIMITS["roll_deg"], LIMITS["roll_deg"], "deg", out)
     for g, a in t.strain.items():
         _bounded(f"strain/{g}", _finite(f"strain/{g}", a, out), -LIMITS["strain"], LIMITS["strain"], "-", out)
     for g, a in t.hub_reaction.items():
+        if not _given(a):
+            continue
         a = _finite(f"hub_reaction/{g}", a, out)
         _bounded(f"hub_reaction/{g} (forces)", a[..., :2], -fmax, fmax, "N", out)
         _bounded(f"hub_reaction/{g} (moment)", a[..., 2:], -fmax * LIMITS["moment_arm_m"],

@@ -480,7 +480,8 @@ class Model:
                     f"({gb.name})"
                 )
         if self.operating.torque_gear not in names:
-            raise ModelError(f"operating.torque_gear = {self.operating.torque_gear!r} names no gear; allowed: {names}")
+            raise ModelError(f"operating.torque_gear = {self.operating.torque_gear!r} names no gear (no [[gears]] with that "
+                             f"name); allowed: {names}")
         expected_meshes = {"spur_pair": 1, "helical_pair": 1, "idler_chain": None, "planetary": 2}
         n = expected_meshes[self.kind]
         if n is not None and len(self.meshes) != n:

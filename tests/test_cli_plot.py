@@ -54,7 +54,6 @@ import matplotlib  # noqa: E402
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-from matplotlib.legend import Legend  # noqa: E402
 from matplotlib.text import Annotation, Text  # noqa: E402
 
 #: ASCII stand-ins for unit symbols, and other spellings a reader should not have to decode

@@ -20,7 +20,6 @@ from hacgear_core.tables import (
     FORMAT,
     FORMAT_VERSION,
     MeshTable,
-    load_system_tables,
     read_tables,
     write_tables,
 )

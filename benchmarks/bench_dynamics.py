@@ -23,7 +23,6 @@ import argparse
 import math
 import os
 import time
-from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 from numba import njit
@@ -35,6 +34,7 @@ from hacgear_core.dynamics.sweep import SweepSpec, run_sweep
 from hacgear_core.model import load_model
 from hacgear_core.tables import load_system_tables
 from hacgear_core.tables.interp import bilinear
+from hacgear_core.workers import process_pool
 
 FM = 1500.0  # mesh frequency of the timing runs [Hz]
 SPC = 128  # RK4 steps per mesh cycle
@@ -170,7 +170,7 @@ def _warm(system):
 def sweep_wall(system, n_speeds: int, workers: int) -> tuple[float, dict]:
     fm = tuple(np.linspace(500.0, 4000.0, n_speeds))
     spec = SweepSpec(system, fm, "both")
-    with ProcessPoolExecutor(workers) as ex:
+    with process_pool(workers) as ex:
         list(ex.map(_warm, [system] * workers))  # compile caches outside the timing
         t = time.perf_counter()
         res = run_sweep(spec, executor=ex, progress=False)

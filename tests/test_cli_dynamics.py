@@ -67,7 +67,8 @@ def test_cli_simulate_reports_extremes_with_sign_and_checks_the_output_path(caps
 
 def test_cli_refuses_a_table_of_another_model_unless_overridden(tmp_path, capsys):
     """A table made from another model file is refused with the regenerate command; the expert override uses a
-    table of an edited model file, but a table of a different gear pair stays refused."""
+    table of an edited model file, but a table of a different gear pair stays refused.  Editing the damping does
+    not touch the tables: no override needed."""
     root = resolve_model_path("spur_28t_asym").parent.parent
     other = str(root / "spur_50t_icr137" / "tables.h5")
     assert main(["modes", "spur_28t_asym", "--tables", other]) == 2
@@ -76,9 +77,93 @@ def test_cli_refuses_a_table_of_another_model_unless_overridden(tmp_path, capsys
     assert main(["modes", "spur_28t_asym", "--tables", other, "--ignore-model-hash"]) == 2
     assert "teeth (50, 50) differ from the model's (28, 28)" in capsys.readouterr().err
     edited = tmp_path / "model.toml"
-    edited.write_text((root / "spur_28t_asym" / "model.toml").read_text().replace(
-        "modal_damping_ratio = 0.02", "modal_damping_ratio = 0.03"))
+    text = (root / "spur_28t_asym" / "model.toml").read_text()
+    edited.write_text(text.replace("modal_damping_ratio = 0.02", "modal_damping_ratio = 0.03"))
     shutil.copy(root / "spur_28t_asym" / "tables.h5", tmp_path / "tables.h5")
-    assert main(["modes", str(edited)]) == 2
+    assert main(["modes", str(edited), "--json"]) == 0
     capsys.readouterr()
+    edited.write_text(text.replace("hob_tip_radius_mm = 0.4", "hob_tip_radius_mm = 0.5", 1))
+    assert main(["modes", str(edited)]) == 2
+    assert "gears.pinion.hob_tip_radius_m: 0.0004 in the table, 0.0005 now" in capsys.readouterr().err
     assert main(["modes", str(edited), "--ignore-model-hash", "--json"]) == 0
+
+
+def test_sweep_killed_leaves_no_workers_and_rerun_reuses_its_rows(tmp_path):
+    """`hacgear sweep --workers 2 --out` SIGKILLed (main process only) mid-run: the branch workers end by
+    themselves; the same command run again reuses the finished speeds and says so; --fresh recomputes them."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    from pathlib import Path
+
+    import h5py
+    import pytest
+
+    from _procs import session_processes, wait_for_no_orphans
+
+    if not Path("/proc/self/stat").exists():
+        pytest.skip("needs Linux /proc")
+    out = tmp_path / "r.h5"
+    cmd = [sys.executable, "-c", "import sys; from hacgear_core.cli import main; sys.exit(main())", "sweep",
+           "synthetic:28t", "--torque", "300", "--fm", "1200:3600:60", "--direction", "both", "--workers", "2",
+           "--no-progress", "--out", str(out)]
+    proc = subprocess.Popen(cmd, cwd=tmp_path, start_new_session=True, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE)
+    parts = tmp_path / "r.h5.parts"
+    rows = {}
+    workers = []
+    t0 = time.monotonic()
+    try:
+        while time.monotonic() - t0 < 120 and proc.poll() is None:
+            time.sleep(0.05)
+            files = sorted(parts.glob("*.h5")) if parts.exists() else []
+            try:
+                for fp in files:
+                    with h5py.File(fp, "r", locking=False) as f:
+                        rows[fp.name] = int(f.attrs.get("rows", 0))
+            except (OSError, KeyError):
+                continue
+            if len(rows) == 2 and min(rows.values()) >= 3:
+                workers = [p for p, _ in session_processes(proc.pid) if p != proc.pid]
+                os.kill(proc.pid, signal.SIGKILL)
+                break
+    finally:
+        if proc.poll() is None:
+            os.kill(proc.pid, signal.SIGKILL)
+        proc.wait(timeout=30)
+        orphans = wait_for_no_orphans(proc.pid)
+    assert proc.returncode == -signal.SIGKILL, proc.stderr.read().decode()
+    assert len(workers) >= 2 and not orphans, f"workers {workers}, left behind: {orphans}"
+    stored = {}
+    for fp in parts.glob("*.h5"):
+        with h5py.File(fp, "r") as f:
+            stored[str(f.attrs["branch"])] = int(f.attrs["rows"])
+    assert len(stored) == 2 and min(stored.values()) >= 3
+    res = subprocess.run(cmd[:-5] + ["--workers", "1", "--no-progress", "--out", str(out)], cwd=tmp_path,
+                         capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr
+    for b, n in stored.items():
+        assert f"branch {b} ({60 - n} speeds computed now, {n} reused from {out}" in res.stdout, res.stdout[:2000]
+    fresh = subprocess.run(cmd[:-5] + ["--workers", "1", "--no-progress", "--out", str(out), "--fresh", "--json"],
+                           cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    d = json.loads(fresh.stdout)
+    assert d["computed_speeds"] == {"up": 60, "down": 60} and d["discarded_speeds"] == {"up": 60, "down": 60}
+
+
+def test_sweep_table_has_no_duplicate_columns(capsys):
+    """With rigid bearings the dynamic transmission error equals the mesh deflection: the text table shows it
+    once; with bearing stiffness the DTE column appears and differs."""
+    assert main(["sweep", "synthetic:28t", "--torque", "300", "--fm", "1500:2500:3", "--direction", "up",
+                 "--no-progress"]) == 0
+    rigid = capsys.readouterr().out
+    header = next(line for line in rigid.splitlines() if "f_m [Hz]" in line)
+    assert "DTE" not in header and header.count("rms") == 1
+    assert main(["sweep", "synthetic:28t", "--torque", "300", "--fm", "1500:2500:3", "--direction", "up",
+                 "--no-progress", "--bearing-stiffness", "200e6"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    i = next(k for k, line in enumerate(lines) if "f_m [Hz]" in line)
+    assert "DTE rms" in lines[i]
+    rows = [line.split() for line in lines[i + 1:i + 4]]
+    assert any(abs(float(r[1]) - float(r[3])) > 1e-3 for r in rows), rows  # rms x and DTE rms differ

@@ -43,3 +43,103 @@ def test_plot_sweep_marks_the_jumps(tmp_path, capsys):
 def test_plot_rejects_other_files(tmp_path, capsys):
     assert main(["plot", str(ROOT / "README.md"), "--out", str(tmp_path / "x.png")]) == 2
     assert "is not an HDF5 file" in capsys.readouterr().err
+
+
+# ----------------------------------------------------------------------------------------------
+# plots a person reads: unit symbols, legends off the data, branches and jumps distinguishable
+# ----------------------------------------------------------------------------------------------
+import re  # noqa: E402
+
+import matplotlib  # noqa: E402
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.text import Annotation, Text  # noqa: E402
+
+#: ASCII stand-ins for unit symbols, and other spellings a reader should not have to decode
+BAD_TEXT = [r"\bum\b", r"\bN m\b", r"N\*m", r"\bdeg\b", r"\b1e6\b", r"\bzeta\b", r"alpha_w", r" x K\b", r"\buE\b"]
+
+
+def _texts(fig) -> list[str]:
+    return [t.get_text() for t in fig.findobj(Text) if t.get_text()]
+
+
+def _legend_covers_data(fig) -> list[str]:
+    """Data points of lines that lie inside a legend drawn inside its axes (display coordinates)."""
+    fig.canvas.draw()
+    bad = []
+    for ax in fig.axes:
+        leg = ax.get_legend()
+        if leg is None:
+            continue
+        box = leg.get_window_extent()
+        axbox = ax.get_window_extent()
+        if not axbox.contains(box.x0 + 1, box.y0 + 1):
+            continue  # outside the axes
+        for line in ax.get_lines():
+            xy = line.get_xydata()
+            if xy.size == 0:
+                continue
+            disp = ax.transData.transform(xy[np.all(np.isfinite(xy), axis=1)])
+            inside = (disp[:, 0] > box.x0) & (disp[:, 0] < box.x1) & (disp[:, 1] > box.y0) & (disp[:, 1] < box.y1)
+            if inside.any():
+                bad.append(f"{ax.get_title() or ax.get_ylabel()}: {line.get_label()} ({int(inside.sum())} points)")
+    return bad
+
+
+def _check(fig, name):
+    texts = _texts(fig)
+    for pat in BAD_TEXT:
+        hits = [t for t in texts if re.search(pat, t)]
+        assert not hits, f"{name}: {pat!r} in {hits}"
+    covered = _legend_covers_data(fig)
+    assert not covered, f"{name}: legend over data: {covered}"
+    for ax in fig.axes:
+        if ax.get_lines() or ax.collections:
+            for label in (ax.get_xlabel(), ax.get_ylabel()):
+                if label and not re.search(r"\[.*\]|\(.*\)|f_m|cycle|-\]", label):
+                    raise AssertionError(f"{name}: axis label without a unit: {label!r}")
+
+
+def test_table_figures_read_well():
+    from hacgear_core.plots.tables import plot_fdf, plot_sdf
+    from hacgear_core.tables import read_tables
+
+    t = read_tables(ROOT / "models" / "spur_28t_asym" / "tables.h5").mesh()
+    for name, fig in (("fdf", plot_fdf(t)), ("sdf", plot_sdf(t, "wheel/SG25"))):
+        _check(fig, name)
+        plt.close(fig)
+
+
+def test_geometry_figure_reads_well_and_equal_gears_stay_visible():
+    from hacgear_core.model import load_model
+    from hacgear_core.plots.geometry import mesh_geometry_figure
+
+    fig = mesh_geometry_figure(load_model("spur_28t_asym"), None)
+    _check(fig, "geometry")
+    # the two equal gears' relief and crowning curves coincide: drawn with different widths, both visible
+    for ax in fig.axes[-2:]:
+        widths = {round(line.get_linewidth(), 1) for line in ax.get_lines() if line.get_label()[:1] != "_"}
+        assert len(widths) >= 2, ax.get_title()
+    plt.close(fig)
+
+
+def test_sweep_figure_branches_distinguishable_and_jumps_marked(tmp_path):
+    from hacgear_core.plots.sweep import sweep_figure
+
+    p, tab, _ = softening_example()
+    sy = spur_pair_system(p, tab)
+    fn = sy.natural_frequencies_Hz()[0]
+    res = run_sweep(SweepSpec(sy, tuple(np.linspace(0.5 * fn, 1.3 * fn, 41)), "both"), out=tmp_path / "s.h5",
+                    progress=False)
+    fig, jumps = sweep_figure(tmp_path / "s.h5")
+    _check(fig, "sweep")
+    ax = fig.axes[0]
+    lines = {line.get_label().rsplit(", ", 1)[-1]: line for line in ax.get_lines() if "sweep" in line.get_label()}
+    up, down = lines["up sweep"], lines["down sweep"]
+    assert up.get_color() != down.get_color() and up.get_marker() != down.get_marker()
+    assert up.get_linestyle() != down.get_linestyle() and up.get_linewidth() > down.get_linewidth()
+    assert down.get_zorder() > up.get_zorder()  # the thinner one on top: both visible where they coincide
+    arrows = [a for a in ax.findobj(Annotation) if a.arrow_patch is not None]
+    assert len(arrows) == len(jumps) == len([j for j in res.jumps if j.confirmed]) >= 2
+    plt.close(fig)

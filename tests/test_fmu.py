@@ -190,7 +190,10 @@ def test_build_script_skips_and_errors(built, tmp_path, capsys):
     (tmp_path / "m" / "spur_50t_icr18" / "tables.h5").write_bytes(
         (built["models"] / "spur_28t_asym" / "tables.h5").read_bytes())
     assert bf.main(["--models", str(tmp_path / "m"), "--out", str(tmp_path / "d"), "--system", "spur_50t_icr18"]) == 1
-    assert "does not belong to" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "does not belong to" in err
+    # the message names the user's files, never the temporary build folder
+    assert str(tmp_path / "m" / "spur_50t_icr18" / "tables.h5") in err and "hacgear_fmu_" not in err, err
 
 
 def test_field_checks_name_unit_and_range():

@@ -96,13 +96,14 @@ MALFORMED = [
      r"key 'gears\[0\]\.drive\.tip_relief_shape': unknown value 'cubic'; allowed: none \| linear \| parabolic"),
     ("root diameter above reference diameter (impossible geometry)",
      lambda t: _replace_once(t, "root_diameter_mm = 126.4", "root_diameter_mm = 141.0"),
-     r"gear 'pinion': external gear needs root_diameter < reference diameter 140\.000 mm"),
+     r"gear 'pinion': external gear \(internal = false\) needs root_diameter < reference diameter \(module_mm x teeth = 5 x 28\) "
+     r"140\.000 mm < tip_diameter; got root_diameter_mm 141\.000"),
     ("bore larger than root",
      lambda t: _replace_once(t, "bore_diameter_mm = 40.0", "bore_diameter_mm = 130.0"),
      r"gear 'pinion': bore_diameter_m \[m\] = 0\.13 must be smaller than the root diameter"),
     ("mesh names a missing gear",
      lambda t: _replace_once(t, 'gear_b = "wheel"', 'gear_b = "whee1"'),
-     r"meshes\.m12\.gear_b = 'whee1' names no gear; allowed: \['pinion', 'wheel'\]"),
+     r"meshes\.m12\.gear_b = 'whee1' names no gear \(no \[\[gears\]\] with that name\); allowed: \['pinion', 'wheel'\]"),
     ("unknown material",
      lambda t: _replace_once(t, 'material = "steel"', 'material = "bronze"'),
      r"key 'gears\[0\]\.material': unknown material 'bronze'; allowed: steel"),
@@ -244,3 +245,248 @@ def test_web_dataclass_validation():
         dataclasses.replace(g, web=Web(5e-3, 60e-3, 126e-3))
     ok = dataclasses.replace(g, web=Web(5e-3, 60e-3, 100e-3))
     assert ok.web.outer_radius_m == pytest.approx(0.05)
+
+
+@pytest.mark.parametrize("key, line, pattern", [
+    ("bore_diameter_mm", "bore_diameter_mm = 40.0\n", r"key 'gears\[0\]\.bore_diameter_mm' \[mm\]: missing required key"),
+    ("hob_tip_radius_mm", "hob_tip_radius_mm = 0.4\n", r"key 'gears\[0\]\.hob_tip_radius_mm' \[mm\]: missing required"),
+    ("poisson_ratio", "poisson_ratio = 0.3\n", r"key 'materials\.steel\.poisson_ratio' \[-\]: missing required key"),
+    ("[damping]", "[damping]\nmodal_damping_ratio = 0.02\n", r"key 'damping': missing required key"),
+])
+def test_keys_that_change_the_physics_are_never_defaulted(key, line, pattern):
+    """A missing bore used to become a solid disk (pinion 1.629 -> 1.777 kg) without a word."""
+    assert line in BASE, line
+    with pytest.raises(ModelError, match=pattern):
+        parse_model(BASE.replace(line, "", 1), file="m.toml")
+
+
+def test_solid_blank_is_said_explicitly():
+    from hacgear_core.geometry import gear_geometry
+
+    m = parse_model(BASE.replace("bore_diameter_mm = 40.0", "bore_diameter_mm = 0.0", 1), file="m.toml")
+    assert m.gear("pinion").bore_diameter_m == 0.0
+    solid = gear_geometry(m.gear("pinion")).mass_kg
+    bored = gear_geometry(parse_model(BASE, file="m.toml").gear("pinion")).mass_kg
+    assert bored == pytest.approx(1.629, abs=0.001) and solid == pytest.approx(1.777, abs=0.001)
+
+
+def test_defaults_are_recorded_and_echoed_by_info(capsys):
+    from hacgear_core.cli import main
+    from hacgear_core.cli.info import info_dict
+
+    text = BASE.replace("lead_crowning_um = 15.0\n", "", 1)
+    m = parse_model(text, file="m.toml")
+    d = {k: (v, meaning) for k, v, meaning in m.defaults_applied}
+    assert d["gears[0] (pinion).lead_crowning_um"] == ("0", "no lead crowning")
+    assert "gears[1] (wheel).lead_crowning_um" not in d  # given in the file
+    assert d["gears[0] (pinion).web"] == ("absent", "solid blank from the bore to the root")
+    assert d["meshes[0].line_of_centres_deg"][0] == "0"
+    assert all(meaning for _, _, meaning in m.defaults_applied)
+    assert {"key": "gears[0] (pinion).lead_crowning_um", "value": "0", "meaning": "no lead crowning"} in \
+        info_dict(m)["defaults_applied"]
+    assert main(["info", "spur_28t_asym"]) == 0
+    out = capsys.readouterr().out
+    assert "Defaults applied" in out and "tip_edge_radius_mm = 0  (sharp tip edge)  [pinion, wheel]" in out
+
+
+def test_every_default_is_listed_in_the_readme():
+    from hacgear_core.model.toml import DEFAULT_MEANINGS
+
+    readme = (MODELS.parent / "README.md").read_text()
+    section = readme[readme.index("## Model files"):]
+    section = section[:section.index("\n## ", 5)]
+    missing = [k for k in DEFAULT_MEANINGS if f"`{k}`" not in section]
+    assert not missing, f"defaults not listed in README 'Model files': {missing}"
+
+
+# ----------------------------------------------------------------------------------------------
+# property-based fuzzing: malformed and extreme model files (hypothesis)
+# ----------------------------------------------------------------------------------------------
+import copy  # noqa: E402
+import tomllib  # noqa: E402
+
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+from _fuzz import count, dumps  # noqa: E402
+from hacgear_core.errors import HacgearError  # noqa: E402
+
+FUZZ_BASES = {s: tomllib.loads((MODELS / s / "model.toml").read_text()) for s in SYSTEMS}
+_UNIT = re.compile(r"_(mm|um|deg|GPa|Nm_per_rad|N_per_m|Nm|kg_per_m3|kgm2|kg)$")
+_FUZZ = dict(deadline=None, database=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+
+FUZZ_VALUES = st.one_of(
+    st.integers(min_value=-2 ** 63, max_value=2 ** 63 - 1),
+    st.floats(),
+    st.sampled_from([0.0, -0.0, 1e308, -1e308, 5e-324, math.nan, math.inf, -math.inf, 1e-12, 1e12, 0.5, 1.0]),
+    st.booleans(),
+    st.text(alphabet=st.characters(blacklist_categories=("Cs",)), max_size=12),
+    st.sampled_from(["pinion", "wheel", "drive", "coast", "steel", "m12", "none", "parabolic", ""]),
+    st.lists(st.integers(-5, 5), max_size=3),
+    st.dictionaries(st.sampled_from(["a", "name", "teeth"]), st.integers(-3, 3), max_size=2),
+    st.dates(),
+)
+GEOMETRY_SCALES = [0.0, 0.1, 0.5, 0.8, 0.9, 0.95, 0.99, 1.01, 1.05, 1.1, 1.25, 2.0, 10.0]
+SCALES = [0.0, -1.0, 1e-9, 1e-3, 0.1, 0.5, 0.9, 0.999, 1.001, 1.1, 2.0, 10.0, 1e3, 1e9]
+
+
+def _nodes(d, prefix=()):
+    """Every node of a parsed TOML document: (path, value); paths hold keys and array indices."""
+    items = d.items() if isinstance(d, dict) else enumerate(d)
+    for k, v in items:
+        p = prefix + (k,)
+        yield p, v
+        if isinstance(v, dict) or (isinstance(v, list) and v and all(isinstance(x, dict) for x in v)):
+            yield from _nodes(v, p)
+
+
+def _parent(doc, path):
+    node = doc
+    for k in path[:-1]:
+        node = node[k]
+    return node
+
+
+def _stem(path) -> str:
+    """The name a message must contain for a change at ``path``: its last key without the unit suffix."""
+    last = next(k for k in reversed(path) if isinstance(k, str))
+    return _UNIT.sub("", last)
+
+
+def _mutate(data, doc: dict) -> list[str]:
+    """Apply 1-3 random mutations to ``doc`` in place; returns the names an error message may cite."""
+    names = []
+    for _ in range(data.draw(st.integers(1, 3), label="n_mutations")):
+        nodes = list(_nodes(doc))
+        if not nodes:
+            break
+        op = data.draw(st.sampled_from(["replace", "replace", "scale", "scale", "delete", "unknown"]), label="op")
+        if op == "scale":
+            nums = [(p, v) for p, v in nodes if isinstance(v, (int, float)) and not isinstance(v, bool)]
+            if not nums:
+                continue
+            path, v = data.draw(st.sampled_from(nums), label="number")
+            f = data.draw(st.sampled_from(SCALES), label="factor")
+            new = v * f
+            _parent(doc, path)[path[-1]] = int(new) if isinstance(v, int) and abs(new) < 2 ** 63 else float(new)
+        elif op == "unknown":
+            tables = [((), doc)] + [(p, v) for p, v in nodes if isinstance(v, dict)]
+            path, t = data.draw(st.sampled_from(tables), label="table")
+            t["fuzz_key"] = 1
+            names.append("fuzz_key")
+            continue
+        else:
+            path, _ = data.draw(st.sampled_from(nodes), label="node")
+            parent = _parent(doc, path)
+            if op == "delete":  # the error may name the deleted key or the table that held it
+                del parent[path[-1]]
+                if len(path) > 1:
+                    names.append(_stem(path[:-1]))
+            else:
+                parent[path[-1]] = data.draw(FUZZ_VALUES, label="value")
+        names.append(_stem(path))
+    return names
+
+
+def _model_file_case(data, campaign: str) -> None:
+    system = data.draw(st.sampled_from(SYSTEMS), label="system")
+    doc = copy.deepcopy(FUZZ_BASES[system])
+    names = _mutate(data, doc)
+    text = dumps(doc)
+    try:
+        tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:  # the writer must only produce valid TOML
+        raise AssertionError(f"test writer produced invalid TOML: {exc}") from None
+    try:
+        parse_model(text, file="fuzz.toml")
+    except ModelError as exc:
+        msg = str(exc)
+        assert msg.startswith("fuzz.toml"), msg
+        assert "\n" not in msg and len(msg) < 2000, msg
+        assert any(n.lower() in msg.lower() for n in names), f"message names none of {names}: {msg}"
+        count(campaign, "ModelError naming the key")
+    except Exception as exc:  # noqa: BLE001 - the property: nothing but ModelError
+        count(campaign, f"unexpected {type(exc).__name__}")
+        raise AssertionError(f"{system} mutated at {names}: {type(exc).__name__}: {exc}") from exc
+    else:
+        count(campaign, "valid after mutation")
+
+
+@settings(max_examples=2000, **_FUZZ)
+@given(st.data())
+def test_fuzz_malformed_model_files_give_a_model_error_naming_the_key(data):
+    """2,000 model files, each a shipped model with 1-3 random mutations (deleted keys, values of every TOML type
+    including NaN, inf, huge and negative numbers, numbers scaled to extremes, unknown keys): each parses, or
+    gives a one-line ModelError that names the file and a mutated key; never another exception."""
+    _model_file_case(data, "model files (malformed)")
+
+
+@pytest.mark.slow
+@settings(max_examples=30000, **_FUZZ)
+@given(st.data())
+def test_fuzz_malformed_model_files_long(data):
+    _model_file_case(data, "model files (malformed, slow)")
+
+
+def _text_case(data, campaign: str) -> None:
+    system = data.draw(st.sampled_from(SYSTEMS), label="system")
+    text = (MODELS / system / "model.toml").read_text()
+    for _ in range(data.draw(st.integers(1, 3), label="n_edits")):
+        i = data.draw(st.integers(0, len(text)), label="at")
+        j = data.draw(st.integers(i, min(len(text), i + 40)), label="to")
+        text = text[:i] + data.draw(st.text(max_size=8), label="insert") + text[j:]
+    try:
+        parse_model(text, file="fuzz.toml")
+    except ModelError as exc:
+        assert str(exc).startswith("fuzz.toml") and "\n" not in str(exc), str(exc)
+        count(campaign, "ModelError")
+    except Exception as exc:  # noqa: BLE001
+        count(campaign, f"unexpected {type(exc).__name__}")
+        raise AssertionError(f"{system}: {type(exc).__name__}: {exc}") from exc
+    else:
+        count(campaign, "valid after edit")
+
+
+@settings(max_examples=300, **_FUZZ)
+@given(st.data())
+def test_fuzz_corrupted_model_text_gives_a_model_error(data):
+    """300 model files with random character edits (truncations, insertions, broken quotes and brackets)."""
+    _text_case(data, "model files (text edits)")
+
+
+def _geometry_case(data, campaign: str) -> None:
+    from hacgear_core.cli.info import info_dict
+
+    system = data.draw(st.sampled_from(SYSTEMS), label="system")
+    doc = copy.deepcopy(FUZZ_BASES[system])
+    nums = [(p, v) for p, v in _nodes(doc) if isinstance(v, (int, float)) and not isinstance(v, bool)]
+    for _ in range(data.draw(st.integers(1, 2), label="n")):
+        path, v = data.draw(st.sampled_from(nums), label="number")
+        f = data.draw(st.sampled_from(GEOMETRY_SCALES), label="factor")
+        _parent(doc, path)[path[-1]] = max(1, round(v * f)) if isinstance(v, int) else v * f
+    try:
+        model = parse_model(dumps(doc), file="fuzz.toml")
+        info_dict(model, strict=data.draw(st.booleans(), label="strict"))
+    except HacgearError as exc:
+        assert "\n" not in str(exc), str(exc)
+        count(campaign, type(exc).__name__)
+    except Exception as exc:  # noqa: BLE001
+        count(campaign, f"unexpected {type(exc).__name__}")
+        raise AssertionError(f"{system}: {type(exc).__name__}: {exc}") from exc
+    else:
+        count(campaign, "valid geometry")
+
+
+@settings(max_examples=200, **_FUZZ)
+@given(st.data())
+def test_fuzz_extreme_values_through_the_geometry(data):
+    """200 well-typed model files with numbers scaled by 0 ... 10 through `hacgear info`'s
+    geometry: a report, or a ModelError / GeometryError; never another exception."""
+    _geometry_case(data, "model files through the geometry")
+
+
+@pytest.mark.slow
+@settings(max_examples=5000, **_FUZZ)
+@given(st.data())
+def test_fuzz_extreme_values_through_the_geometry_long(data):
+    _geometry_case(data, "model files through the geometry (slow)")

@@ -16,6 +16,7 @@ import h5py
 import numpy as np
 import pytest
 
+from _procs import session_processes, wait_for_no_orphans
 from hacgear_core.errors import ModelError, SolverError, TableError
 from hacgear_core.statics import (
     AnalyticFactory,
@@ -259,19 +260,29 @@ def test_resume_complete_partial_and_mismatch(serial_run, tmp_path):
         f["meshes/m12/done_deflections"][3:] = 0
         f["meshes/m12/force_N"][3:] = np.nan
     rep = run_statics({"m12": AnalyticFactory()}, out, n_positions=12, n_deflections=16, loads_N=_loads(),
-                      workers=1, progress=False, model_sha256="abc", resume=True)
+                      workers=1, progress=False, model_sha256="abc")  # resume is the default
     assert (rep.tasks_computed, rep.tasks_resumed) == (9, 15)
     _assert_same_file(serial_run, out)
     again = run_statics({"m12": AnalyticFactory()}, out, n_positions=12, n_deflections=16, loads_N=_loads(),
                         workers=1, progress=False, model_sha256="abc", resume=True)
     assert (again.tasks_computed, again.tasks_resumed) == (0, 24) and "nothing to do" in again.message
     shutil.copy(serial_run, partial)
-    with pytest.raises(TableError, match="cannot resume.*load_N"):
+    with pytest.raises(TableError, match=r"interrupted run \(24 position task\(s\) done\).*load_N.*--fresh"):
         run_statics({"m12": AnalyticFactory()}, out, n_positions=12, n_deflections=16, loads_N=_loads(7),
-                    workers=1, progress=False, model_sha256="abc", resume=True)
-    with pytest.raises(TableError, match="model_sha256"):
+                    workers=1, progress=False, model_sha256="abc")
+    with pytest.raises(TableError, match="model_values_sha256"):
         run_statics({"m12": AnalyticFactory()}, out, n_positions=12, n_deflections=16, loads_N=_loads(),
-                    workers=1, progress=False, model_sha256="other", resume=True)
+                    workers=1, progress=False, model_sha256="abc", model_values='{"other": 1}')
+    assert partial.exists()  # refused, never replaced silently
+    # another model file with the same values (a comment, the damping...) continues the partial file
+    rep = run_statics({"m12": AnalyticFactory()}, out, n_positions=12, n_deflections=16, loads_N=_loads(),
+                      workers=1, progress=False, model_sha256="def", resume=True)
+    assert rep.tasks_computed == 0 and "resumed t.h5.partial: 24 position task(s) already done" in rep.message
+    # --fresh (resume=False) discards it and says so
+    shutil.copy(serial_run, partial)
+    rep = run_statics({"m12": AnalyticFactory()}, out, n_positions=12, n_deflections=16, loads_N=_loads(7),
+                      workers=1, progress=False, model_sha256="abc", resume=False)
+    assert rep.tasks_computed == 24 and "discarded t.h5.partial (24 position task(s) done)" in rep.message
 
 
 class _FailingFactory:
@@ -324,23 +335,26 @@ def test_cli_refuses_small_torque_factor(tmp_path):
         compute_statics(tmp_path / "model.toml", solver="analytic", max_torque_factor=2.0, workers=1, progress=False)
 
 
-def test_sigkill_midway_then_resume_equals_uninterrupted(tmp_path):
-    """A real `hacgear statics` process is SIGKILLed in the middle of phase 2; `--resume` must compute
-    exactly the positions not flagged done, and the result must equal an uninterrupted run."""
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
+def test_sigkill_midway_leaves_no_workers_and_rerun_resumes_equal_to_uninterrupted(tmp_path):
+    """A real `hacgear statics --workers 2` process is SIGKILLed (the main process only, as `kill -9 PID` does)
+    in the middle of phase 2: its worker processes must end by themselves within seconds; running the same
+    command again (no flag) continues the partial file, says so, computes exactly the positions not flagged
+    done, and the result equals an uninterrupted run."""
     model = tmp_path / "model.toml"
     shutil.copy(MODEL, model)
-    grid = ["--positions", "64", "--loads", "16", "--deflections", "96"]
-    ref = compute_statics(model, tmp_path / "ref.h5", positions=64, loads=16, deflections=96, solver="analytic",
+    grid = ["--positions", "32", "--loads", "16", "--deflections", "64"]
+    ref = compute_statics(model, tmp_path / "ref.h5", positions=32, loads=16, deflections=64, solver="analytic",
                           workers=1, progress=False)
-    assert ref.tasks_computed == 128
+    assert ref.tasks_computed == 64
     out = tmp_path / "tables.h5"
     partial = tmp_path / "tables.h5.partial"
     cmd = [sys.executable, "-c", "import sys; from hacgear_core.cli import main; sys.exit(main())", "statics", str(model), "--solver", "analytic",
            "--workers", "2", "--no-progress", *grid]
     proc = subprocess.Popen(cmd, cwd=tmp_path, start_new_session=True, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE)
-    done_at_kill = None
     t0 = time.monotonic()
+    workers_seen = []
     try:
         while time.monotonic() - t0 < 120 and proc.poll() is None:
             time.sleep(0.02)
@@ -352,29 +366,58 @@ def test_sigkill_midway_then_resume_equals_uninterrupted(tmp_path):
             except (OSError, KeyError):
                 continue
             if n2 >= 12:
-                os.killpg(proc.pid, signal.SIGKILL)
+                workers_seen = [p for p, _ in session_processes(proc.pid) if p != proc.pid]
+                os.kill(proc.pid, signal.SIGKILL)
                 break
     finally:
         if proc.poll() is None:
-            try:
-                os.killpg(proc.pid, signal.SIGKILL)
-            except ProcessLookupError:
-                pass
+            os.kill(proc.pid, signal.SIGKILL)
         proc.wait(timeout=30)
+        orphans = wait_for_no_orphans(proc.pid)
     assert proc.returncode == -signal.SIGKILL, proc.stderr.read().decode()
+    assert len(workers_seen) >= 2, "the pool's worker processes were not seen"
+    assert not orphans, f"processes left behind by the killed run: {orphans}"
     assert partial.exists() and not out.exists()
     with h5py.File(partial, "r") as f:
         done_at_kill = int(f["meshes/m12/done_loads"][()].sum() + f["meshes/m12/done_deflections"][()].sum())
-    assert 64 + 12 <= done_at_kill < 128
+    assert 32 + 12 <= done_at_kill < 64
     cmd[cmd.index("--workers") + 1] = "1"  # the resumed run in-process (cheaper; the pool ran above)
-    res = subprocess.run(cmd + ["--resume", "--json"], cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    res = subprocess.run(cmd + ["--json"], cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert res.returncode == 0, res.stderr
     import json
 
     rep = json.loads(res.stdout)
+    assert f"resumed tables.h5.partial: {done_at_kill} position task(s) already done" in rep["message"]
     assert rep["tasks_resumed"] == done_at_kill
-    assert rep["tasks_computed"] == 128 - done_at_kill
+    assert rep["tasks_computed"] == 64 - done_at_kill
     _assert_same_file(tmp_path / "ref.h5", out)
+    again = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert "already complete for these settings; nothing to do" in again.stdout
+    fresh = subprocess.run(cmd + ["--fresh", "--positions", "8"], cwd=tmp_path, capture_output=True, text=True,
+                           timeout=300)
+    assert fresh.returncode == 0 and "16 position task(s) computed" in fresh.stdout, fresh.stderr
+
+
+def test_worker_pool_ends_when_its_parent_is_killed(tmp_path):
+    """hacgear_core.workers.process_pool: a parent killed with SIGKILL leaves no workers (a plain
+    ProcessPoolExecutor leaves them waiting forever)."""
+    script = (
+        "import os, sys, time\n"
+        "from hacgear_core.workers import process_pool\n"
+        "ex = process_pool(2, start_method=sys.argv[1])\n"
+        "print(sum(ex.map(abs, range(-4, 4))), flush=True)\n"
+        "time.sleep(60)\n")
+    for method in ("spawn", "fork", "forkserver"):
+        proc = subprocess.Popen([sys.executable, "-c", script, method], start_new_session=True,
+                                stdout=subprocess.PIPE, text=True)
+        try:
+            assert proc.stdout.readline().strip() == "16"
+            assert len(session_processes(proc.pid)) >= 3  # parent + 2 workers (+ helpers)
+        finally:
+            os.kill(proc.pid, signal.SIGKILL)
+            proc.wait(timeout=30)
+            orphans = wait_for_no_orphans(proc.pid)
+        assert not orphans, f"{method}: processes left behind: {orphans}"
 
 
 @pytest.mark.slow

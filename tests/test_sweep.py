@@ -110,3 +110,58 @@ def test_systems_travel_to_worker_processes():
     sy = system(p, tab)
     sy2 = pickle.loads(pickle.dumps(sy))
     assert sy2.kernel is sy.kernel and sy2.fingerprint() == sy.fingerprint()
+
+
+def _branches(f_up, up, down):
+    f = np.asarray(f_up, float)
+    return {"up": BranchResult("up", f, {"rms_deflection_m": np.asarray(up, float)[:, None]}, *[None] * 4),
+            "down": BranchResult("down", f[::-1], {"rms_deflection_m": np.asarray(down, float)[::-1, None]},
+                                 *[None] * 4)}
+
+
+def test_confirmed_jumps_come_from_the_hysteresis_not_from_the_step_size():
+    """On a fine grid the up branch climbs the steep flank before its fold and jumps by only 18 %: still the
+    jump-up at the upper end of the multi-valued region, found where the branches rejoin."""
+    f = np.arange(10.0)
+    up = [1.0, 1.1, 1.2, 1.4, 1.6, 1.8, 2.0, 2.2, 2.7, 2.5]   # folds between 7 and 8 (2.2 -> 2.7: 18 %)
+    down = [1.0, 1.1, 1.2, 2.9, 2.85, 2.8, 2.75, 2.72, 2.7, 2.5]  # falls between 3 and 2
+    j = detect_jumps(_branches(f, up, down), mesh_names=("m12",))
+    conf = sorted((x.kind, x.branch, x.interval_Hz) for x in j if x.confirmed)
+    assert conf == [("jump-down", "down", (2.0, 3.0)), ("jump-up", "up", (7.0, 8.0))]
+    assert not [x for x in j if not x.confirmed and x.interval_Hz == (2.0, 3.0)]  # reported once, confirmed
+    # a region reaching the end of the grid has no jump at that end
+    j = detect_jumps(_branches(f[:8], up[:8], down[:8]))
+    assert [(x.kind, x.branch) for x in j if x.confirmed] == [("jump-down", "down")]
+
+
+def test_fine_and_coarse_speed_grids_find_the_same_jumps():
+    """A softening mesh swept on a 25-speed and a 121-speed grid: the same confirmed jumps, the fine grid's
+    intervals inside the coarse grid's (within one coarse step)."""
+    p, tab = softening()
+    fn = fn_rot()
+    found = {}
+    for n in (25, 121):
+        fm = np.linspace(0.6 * fn, 1.2 * fn, n)
+        r = run_sweep(SweepSpec(system(p, tab), tuple(fm), "both"), progress=False)
+        found[n] = {(j.kind, j.branch): j.interval_Hz for j in r.jumps if j.confirmed}
+    assert set(found[25]) == set(found[121]) == {("jump-up", "up"), ("jump-down", "down")}
+    step = 0.6 * fn / 24
+    for key, (lo, hi) in found[121].items():
+        clo, chi = found[25][key]
+        assert clo - step <= lo and hi <= chi + step, (key, (lo, hi), (clo, chi))
+
+
+def test_fine_and_coarse_grids_find_the_same_jumps_on_the_fe_tables():
+    """The issue's case on the committed FE tables of spur_28t_asym at 300 N*m: 21 speeds over 2200-3200 Hz and
+    ~2 Hz steps (a 15 % jump-up only) give the same confirmed jumps, within the coarse grid's 50 Hz."""
+    from hacgear_core.dynamics.inputs import load_inputs
+
+    sy = load_inputs("spur_28t_asym").system
+    found = {}
+    for fm in (np.linspace(2200.0, 3200.0, 21), np.linspace(2250.0, 2700.0, 217)):
+        r = run_sweep(SweepSpec(sy, tuple(fm), "both"), progress=False)
+        found[len(fm)] = {(j.kind, j.branch): j.interval_Hz for j in r.jumps if j.confirmed}
+    assert set(found[21]) == set(found[217]) == {("jump-up", "up"), ("jump-down", "down")}, found
+    for key, (lo, hi) in found[217].items():
+        clo, chi = found[21][key]
+        assert clo - 50.0 <= lo and hi <= chi + 50.0, (key, (lo, hi), (clo, chi))

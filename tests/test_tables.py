@@ -2,6 +2,7 @@
 periodicity, extrapolation counting), numba kernel, round trip."""
 from __future__ import annotations
 
+import hashlib
 import math
 import pickle
 import shutil
@@ -19,7 +20,6 @@ from hacgear_core.tables import (
     FORMAT,
     FORMAT_VERSION,
     MeshTable,
-    load_system_tables,
     read_tables,
     write_tables,
 )
@@ -127,20 +127,73 @@ def test_contract_fields_and_kernel_arrays(table):
 # ----------------------------------------------------------------------------------------------
 # provenance / refusal
 # ----------------------------------------------------------------------------------------------
-def test_hash_mismatch_refused_and_override(model_run, tmp_path):
+def _edit(model: Path, dest: Path, old: str, new: str) -> Path:
+    text = model.read_text()
+    assert old in text, old
+    dest.write_text(text.replace(old, new, 1))
+    return dest
+
+
+@pytest.mark.parametrize("old, new", [
+    ("[system]", "# a comment\n[system]"),
+    ("modal_damping_ratio = 0.02", "modal_damping_ratio = 0.05"),
+    ("torque_Nm = 300.0", "torque_Nm = 250.0"),
+    ("rotational_stiffness_Nm_per_rad = 0.0", "rotational_stiffness_Nm_per_rad = 1e6"),
+    ('title = "', 'title = "edited: '),
+])
+def test_edits_the_tables_do_not_depend_on_keep_them_valid(model_run, tmp_path, old, new):
     model, tables = model_run
-    t = read_tables(tables, model)  # matches
-    assert t.model_sha256 == __import__("hashlib").sha256(model.read_bytes()).hexdigest()
-    assert load_system_tables(model).mesh().n_positions == 8
-    changed = tmp_path / "model.toml"
-    changed.write_bytes(model.read_bytes() + b"\n# edited\n")
+    changed = _edit(model, tmp_path / "model.toml", old, new)
+    assert changed.read_bytes() != model.read_bytes()
+    t = read_tables(tables, changed)
+    assert t.attrs["model_values_sha256"] and t.model_sha256 == hashlib.sha256(model.read_bytes()).hexdigest()
+
+
+@pytest.mark.parametrize("old, new, named", [
+    ("tooth_thickness_mm = 7.64", "tooth_thickness_mm = 7.60", "gears.pinion.tooth_thickness_m: 0.00764 in the "
+                                                               "table, 0.0076 now"),
+    ("youngs_modulus_GPa = 201.5", "youngs_modulus_GPa = 210.0", "material.youngs_modulus_Pa"),
+    ("radius_mm = 64.051", "radius_mm = 64.5", "gauges[0].radius_m"),
+    ("center_distance_mm = 140.0", "center_distance_mm = 140.1", "meshes.m12.center_distance_m"),
+    ("lead_crowning_um = 15.0", "lead_crowning_um = 0.0", "gears.pinion.lead_crowning_m: 1.4999999999999999e-05 "
+                                                          "in the table, (default) now"),
+])
+def test_edits_of_values_the_tables_depend_on_are_refused_by_name(model_run, tmp_path, old, new, named):
+    model, tables = model_run
+    changed = _edit(model, tmp_path / "model.toml", old, new)
     with pytest.raises(TableError) as exc:
         read_tables(tables, changed)
     msg = str(exc.value)
+    assert named in msg, msg
     assert str(tables) in msg and str(changed) in msg and f"hacgear statics {changed}" in msg
     assert "--ignore-model-hash" in msg
+    t = read_tables(tables, model)
     t2 = read_tables(tables, changed, allow_hash_mismatch=True)
     np.testing.assert_array_equal(t2.mesh().force_N, t.mesh().force_N)
+
+
+def test_statics_grid_is_part_of_the_provenance(model_run, tmp_path):
+    model, tables = model_run
+    changed = tmp_path / "model.toml"
+    changed.write_text(model.read_text().replace("[statics]", "[statics]\nface_slices = 11", 1)
+                       .replace("face_slices = 21", ""))
+    with pytest.raises(TableError, match="statics.face_slices: .default. in the table, 11 now"):
+        read_tables(tables, changed)
+
+
+def test_old_tables_with_only_the_model_file_hash(model_run, tmp_path):
+    """Tables written before value provenance hold only the hash of the model file's bytes: accepted while
+    the file is byte-identical, refused with the regeneration command after any edit."""
+    model, tables = model_run
+    old = tmp_path / "old.h5"
+    shutil.copy(tables, old)
+    with h5py.File(old, "r+") as f:
+        for k in ("model_values_sha256", "model_values", "attributes_sha256"):
+            del f.attrs[k]
+    assert read_tables(old, model).mesh().n_positions == 8
+    changed = _edit(model, tmp_path / "model.toml", "[system]", "# a comment\n[system]")
+    with pytest.raises(TableError, match=r"written before hacgear stored the model values.*hacgear statics"):
+        read_tables(old, changed)
 
 
 def test_cli_check_and_ignore_model_hash(model_run, tmp_path, capsys):
@@ -148,12 +201,107 @@ def test_cli_check_and_ignore_model_hash(model_run, tmp_path, capsys):
 
     model, tables = model_run
     assert main(["statics", str(model), "--check", "--json"]) == 0
-    assert '"positions": 8' in capsys.readouterr().out
-    changed = tmp_path / "model.toml"
-    changed.write_bytes(model.read_bytes() + b"\n# edited\n")
+    out = capsys.readouterr().out
+    assert '"positions": 8' in out and '"problems": []' in out
+    changed = _edit(model, tmp_path / "model.toml", "tooth_thickness_mm = 7.64", "tooth_thickness_mm = 7.6")
     assert main(["statics", str(changed), "--check", "--out", str(tables)]) == 2
     assert "does not belong" in capsys.readouterr().err
     assert main(["statics", str(changed), "--check", "--out", str(tables), "--ignore-model-hash"]) == 0
+    assert "OK: checksums, provenance and physical sanity" in capsys.readouterr().out
+
+
+# ----------------------------------------------------------------------------------------------
+# integrity: checksums, attribute digest, physical sanity
+# ----------------------------------------------------------------------------------------------
+def _corrupt_bytes(path: Path, dataset: str, n: int = 24, seed: int = 0) -> None:
+    """Overwrite ``n`` bytes of a dataset's first chunk in the file with random bytes (bypassing HDF5)."""
+    with h5py.File(path, "r") as f:
+        ds = f[dataset]
+        info = ds.id.get_chunk_info(0)
+        off, size = info.byte_offset, info.size
+    rng = np.random.default_rng(seed)
+    with open(path, "r+b") as fh:
+        fh.seek(off + size // 3)
+        fh.write(rng.integers(0, 256, n, dtype=np.uint8).tobytes())
+
+
+def test_every_dataset_carries_a_checksum(h5):
+    from hacgear_core.tables import file_integrity
+
+    rep = file_integrity(h5)
+    assert rep["datasets"] == rep["checksummed"] > 15 and not rep["unreadable"]
+    assert rep["attributes"] == "verified"
+
+
+def test_corrupted_bytes_are_refused_on_read_and_by_check(model_run, tmp_path, capsys):
+    from hacgear_core.cli import main
+
+    model, tables = model_run
+    bad = tmp_path / "tables.h5"
+    shutil.copy(tables, bad)
+    _corrupt_bytes(bad, "meshes/m12/half_width_m")
+    with pytest.raises(TableError, match=r"half_width_m fails its Fletcher-32 checksum.*corrupted"):
+        read_tables(bad, model)
+    assert main(["statics", str(model), "--check", "--out", str(bad)]) == 1
+    out = capsys.readouterr().out
+    assert "FAILED" in out and "half_width_m: Fletcher-32 checksum failed" in out
+
+
+def test_corrupted_attributes_are_refused(model_run, tmp_path):
+    model, tables = model_run
+    bad = tmp_path / "tables.h5"
+    shutil.copy(tables, bad)
+    with h5py.File(bad, "r+") as f:
+        f["meshes/m12"].attrs["base_radius_m"] = np.array([0.0634, 0.0700])
+    with pytest.raises(TableError, match="attributes.*do not match their checksum"):
+        read_tables(bad, model)
+
+
+def test_absurd_force_is_refused_on_read_and_by_check(model_run, tmp_path, capsys):
+    """A force of 8.7e299 N (written through HDF5, so its checksum is valid) is physically impossible."""
+    from hacgear_core.cli import main
+
+    model, tables = model_run
+    bad = tmp_path / "tables.h5"
+    shutil.copy(tables, bad)
+    with h5py.File(bad, "r+") as f:
+        f["meshes/m12/force_N"][3, 5] = 8.7e299
+    with pytest.raises(TableError, match=r"force_N: value 8.7e\+299 N outside the plausible range"):
+        read_tables(bad, model)
+    assert main(["statics", str(model), "--check", "--out", str(bad)]) == 1
+    assert "8.7e+299" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("edit, expected", [
+    (lambda f: f["meshes/m12/force_N"].__setitem__((2, -1), f["meshes/m12/force_N"][2, -2] * 0.9),
+     "force_N: decreases"),
+    (lambda f: f["meshes/m12/force_N"].__setitem__((2, 0), 10.0), "at or below the no-load mesh deflection"),
+    (lambda f: f["meshes/m12/force_N"].__setitem__((2, 4), -5.0), "force_N: value -5 N outside"),
+    (lambda f: f["meshes/m12/static_deflection_m"].__setitem__((1, 2), np.nan), "static_deflection_m: 1 non-finite"),
+    (lambda f: f["meshes/m12/load_N"].__setitem__(1, f["meshes/m12/load_N"][1] * 1.5), "load_N: grid not regular"),
+])
+def test_check_finds_physically_wrong_tables(model_run, tmp_path, capsys, edit, expected):
+    from hacgear_core.cli import main
+    from hacgear_core.cli.statics import check_report
+
+    model, tables = model_run
+    bad = tmp_path / "tables.h5"
+    shutil.copy(tables, bad)
+    with h5py.File(bad, "r+") as f:
+        edit(f)
+    rep = check_report(model, bad)
+    assert any(expected in q for q in rep["problems"]), rep["problems"]
+    assert main(["statics", str(model), "--check", "--out", str(bad)]) == 1
+    assert expected in capsys.readouterr().out
+
+
+def test_check_reports_a_load_grid_short_of_the_model_torque(model_run, tmp_path):
+    from hacgear_core.cli.statics import check_report
+
+    model, tables = model_run
+    hot = _edit(model, tmp_path / "model.toml", "torque_Nm = 300.0", "torque_Nm = 400.0")
+    rep = check_report(hot, tables)
+    assert any("2.25 x the model's nominal mesh force" in q for q in rep["problems"]), rep["problems"]
 
 
 def test_incomplete_and_foreign_files_refused(h5, tmp_path):
@@ -161,7 +309,7 @@ def test_incomplete_and_foreign_files_refused(h5, tmp_path):
     shutil.copy(h5, bad)
     with h5py.File(bad, "r+") as f:
         f["meshes/m12/done_deflections"][5] = 0
-    with pytest.raises(TableError, match="incomplete.*--resume"):
+    with pytest.raises(TableError, match="incomplete.*`hacgear statics MODEL`"):
         read_tables(bad)
     assert read_tables(bad, allow_incomplete=True).mesh().n_positions == NP
     with h5py.File(bad, "r+") as f:

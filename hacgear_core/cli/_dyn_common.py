@@ -33,7 +33,7 @@ def add_model_options(p: argparse.ArgumentParser, torque_required: bool = False)
                         "the same tables serve any count, they are per mesh kind)")
     p.add_argument("--json", action="store_true", help="print results as JSON (SI, unit in key names)")
     p.add_argument("--ignore-model-hash", action="store_true",
-                   help="experts: use a tables file whose model_sha256 does not match the model file")
+                   help="experts: use a tables file that does not belong to the model file (its model values differ)")
 
 
 def inputs_from_args(args: argparse.Namespace, *, shafts: bool = True) -> DynamicsInputs:

@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from hacgear_core.cli._paths import check_out_dir
 from hacgear_core.fmu import build_fmu
 from hacgear_core.fmu.bench import BenchConfig, plot_bench, run_drivetrain_bench
 from hacgear_core.model import load_model
@@ -37,7 +38,7 @@ def register(sub) -> None:
     p = sub.add_parser("demo", help="run the whole pipeline on the default model and write its outputs",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("model", nargs="?", default=DEFAULT_MODEL, help="model (default: %(default)s)")
-    p.add_argument("--out", default="demo_out", help="output folder (default: %(default)s)")
+    p.add_argument("--out", default="demo_out", help="output folder, created if missing (default: %(default)s)")
     p.add_argument("--quick", action="store_true", help="fewer speeds and a shorter drivetrain run")
     p.set_defaults(func=run)
 
@@ -63,9 +64,9 @@ def _stage(name: str, argv: list[str], out: Path, json_name: str | None) -> dict
 
 
 def run(args) -> int:
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = check_out_dir(args.out, "--out")
     model = load_model(args.model)
+    out.mkdir(parents=True, exist_ok=True)
     torque = model.operating.torque_Nm
     info = _stage("info", ["info", args.model, "--json"], out, "info.json")
     for mname, m in info["meshes"].items():

@@ -5,13 +5,15 @@ unloaded flank, face and total), base pitch, roll angles of SAP/LPSTC/HPSTC/EAP 
 flank, degrees of tan(pressure angle)); per gear: profile shift, tool addendum, form and tip
 radii, tip thickness, mass and inertias; per mesh also its phase in the train (mesh cycles, from the gear placement)
 and its nominal load (the torque flow at the operating torque).  Warnings are printed after the tables (stderr for text,
-a ``warnings`` list in JSON).
+a ``warnings`` list in JSON).  Every default the model file left to the reader (key, value, meaning) follows the
+tables (``defaults_applied`` in JSON).
 """
 from __future__ import annotations
 
 import argparse
 import json
 import math
+import re
 import sys
 from typing import Any
 
@@ -101,6 +103,7 @@ def info_dict(model: Any, *, strict: bool = True) -> dict:
     for mg in meshes.values():
         warns += [w for w in mg.warnings if w not in warns]
     out["warnings"] = warns
+    out["defaults_applied"] = [{"key": k, "value": v, "meaning": m} for k, v, m in model.defaults_applied]
     return json_safe(out)
 
 
@@ -149,6 +152,16 @@ def _text(d: dict) -> str:
         if m["nominal_force_N"] is not None:
             lines.append(f"    nominal load           {m['nominal_force_N']:10.1f} N ({m['nominal_torque_Nm']:.1f} N·m on "
                          f"{ga}) at the operating torque")
+    if d.get("defaults_applied"):
+        lines += ["", "Defaults applied (keys absent from the model file; list in README 'Model files')"]
+        groups: dict = {}
+        for r in d["defaults_applied"]:
+            m = re.match(r"(gears\[\d+\]) \((.*?)\)\.(.*)", r["key"])
+            key, who = (m.group(3), m.group(2)) if m else (r["key"], "")
+            groups.setdefault((key, r["value"], r["meaning"]), []).append(who)
+        for (key, value, meaning), who in groups.items():
+            whom = f"  [{', '.join(w for w in who if w)}]" if any(who) else ""
+            lines.append(f"  {key} = {value}" + (f"  ({meaning})" if meaning else "") + whom)
     return "\n".join(lines)
 
 

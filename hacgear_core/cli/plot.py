@@ -16,6 +16,7 @@ from typing import Any
 
 import h5py
 
+from hacgear_core.cli._paths import check_out_path
 from hacgear_core.errors import TableError
 from hacgear_core.plots.sweep import plot_sweep_file
 from hacgear_core.plots.tables import plot_fdf, plot_sdf
@@ -23,12 +24,14 @@ from hacgear_core.tables import read_tables
 
 __all__ = ["register", "run"]
 
+_SUFFIXES = (".png", ".pdf", ".svg")
+
 
 def register(subparsers: Any) -> None:
     p = subparsers.add_parser("plot", help="plot a tables.h5 (FDF, strain) or a sweep results file",
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("file", help="tables.h5 or sweep results .h5")
-    p.add_argument("--out", required=True, help="PNG file to write")
+    p.add_argument("--out", required=True, help="image file to write (.png, .pdf or .svg; its folder must exist)")
     p.add_argument("--mesh", default=None, help="mesh of a tables file (default: the first)")
     p.add_argument("--gauge", default=None, help="gauge '<gear>/<gauge>' for the strain-deflection plot")
     p.add_argument("--run", default=None, help="run id of a sweep file holding several runs (default: all)")
@@ -39,13 +42,12 @@ def run(args) -> int:
     path = Path(args.file)
     if not path.exists():
         raise TableError(f"no such file: {path}")
+    out = check_out_path(args.out, "--out", suffixes=_SUFFIXES)
     try:
         with h5py.File(path, "r") as f:
             kind = "tables" if f.attrs.get("format") == "hacgear-tables" else ("sweep" if "sweeps" in f else "")
     except OSError as exc:
         raise TableError(f"{path} is not an HDF5 file: {exc}") from None
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
     if kind == "tables":
         tabs = read_tables(path)
         table = tabs.mesh(args.mesh)

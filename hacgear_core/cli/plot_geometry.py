@@ -7,6 +7,7 @@ import argparse
 import math
 from typing import Any
 
+from hacgear_core.cli._paths import check_out_path
 from hacgear_core.errors import ModelError
 from hacgear_core.model import load_model
 from hacgear_core.plots.geometry import plot_mesh_geometry
@@ -20,7 +21,7 @@ def register(subparsers: Any) -> None:
         description="Plot the teeth of one mesh of MODEL at a mesh position with the line of action, base and tip "
                     "circles and SAP/EAP marks, plus the tip relief / crowning exaggerated.")
     p.add_argument("model", help="model file, folder or system name")
-    p.add_argument("--out", required=True, help="output image (png/pdf/svg)")
+    p.add_argument("--out", required=True, help="output image (.png, .pdf or .svg; its folder must exist)")
     p.add_argument("--mesh", default=None, help="mesh name (default: the first mesh)")
     p.add_argument("--exaggerate", type=float, default=None,
                    help="factor K multiplying the deviation from the true involute (default: the largest "
@@ -31,6 +32,7 @@ def register(subparsers: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     if args.exaggerate is not None and not (args.exaggerate > 0 and math.isfinite(args.exaggerate)):
         raise ModelError(f"--exaggerate = {args.exaggerate} must be a positive finite factor")
+    check_out_path(args.out, "--out", suffixes=(".png", ".pdf", ".svg"))
     model = load_model(args.model)
     out = plot_mesh_geometry(model, args.mesh, args.out, args.exaggerate)
     print(f"wrote {out}")

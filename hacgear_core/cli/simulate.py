@@ -3,12 +3,11 @@ torques in) with table post-processing (root strain, contact pressure, dynamic m
 from __future__ import annotations
 
 import argparse
-import os
-from pathlib import Path
 
 import numpy as np
 
 from hacgear_core.cli._dyn_common import add_model_options, inputs_from_args
+from hacgear_core.cli._paths import check_out_path
 from hacgear_core.dynamics.simulator import Simulator, strain_of_tooth, system_gauges
 from hacgear_core.errors import ModelError
 from hacgear_core.jsonio import dumps
@@ -32,9 +31,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_model_options(p)
     p.add_argument("--fm", type=float, required=True, help="mesh frequency [Hz] (start of a run-up)")
     p.add_argument("--fm-end", type=float, default=None, help="mesh frequency at the end of a linear run-up [Hz]")
-    p.add_argument("--cycles", type=int, default=400, help="mesh cycles to simulate [-]")
-    p.add_argument("--record-cycles", type=int, default=4, help="mesh cycles recorded at the end [-]")
-    p.add_argument("--steps-per-cycle", type=int, default=128, help="recorded samples per mesh cycle [-]")
+    p.add_argument("--cycles", type=int, default=400, help="mesh cycles to simulate [-] (default %(default)s)")
+    p.add_argument("--record-cycles", type=int, default=4, help="mesh cycles recorded at the end [-] (default %(default)s)")
+    p.add_argument("--steps-per-cycle", type=int, default=128, help="recorded samples per mesh cycle [-] (default %(default)s)")
     p.add_argument("--drive-torques", default=None,
                    help="T_in,T_out [N*m]: drivetrain coupling instead of a prescribed speed: shaft torques on the "
                         "input and output gears (each positive in its sense of rotation; a load is negative), "
@@ -44,16 +43,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _check_out(path: str | None) -> None:
-    if path is None:
-        return
-    p = Path(path)
-    if p.suffix not in (".csv", ".npz"):
-        raise ModelError(f"--out {path!r}: the file must end in .csv or .npz")
-    folder = p.parent if str(p.parent) else Path(".")
-    if not folder.is_dir():
-        raise ModelError(f"--out {path!r}: folder {folder} does not exist")
-    if not os.access(folder, os.W_OK):
-        raise ModelError(f"--out {path!r}: folder {folder} is not writable")
+    if path is not None:
+        check_out_path(path, "--out", suffixes=(".csv", ".npz"))
 
 
 def _extreme(a: np.ndarray) -> float:

@@ -1,6 +1,6 @@
 """``hacgear statics MODEL``: static contact analyses on the (position × load / deflection) grids of
 every mesh → ``models/<system>/tables.h5`` (format: docs/tables.md).  ``--check`` reads an existing
-table instead, verifies it against the model file and prints its figures."""
+table instead and verifies its checksums, its provenance and its physical sanity."""
 from __future__ import annotations
 
 import argparse
@@ -8,12 +8,17 @@ import json
 import sys
 from pathlib import Path
 
-from hacgear_core.errors import ModelError
-from hacgear_core.model import resolve_model_path
-from hacgear_core.statics import DEFAULT_DEFLECTION_MARGIN, compute_statics
-from hacgear_core.tables import read_tables
+import numpy as np
 
-__all__ = ["register", "run"]
+from hacgear_core.cli._paths import check_out_path
+from hacgear_core.errors import ModelError, TableError
+from hacgear_core.jsonio import dumps
+from hacgear_core.model import load_model, resolve_model_path
+from hacgear_core.statics import DEFAULT_DEFLECTION_MARGIN, compute_statics, nominal_mesh_forces
+from hacgear_core.tables import file_integrity, read_tables
+from hacgear_core.tables.check import resolution_notes, sanity_problems
+
+__all__ = ["register", "run", "check_report"]
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -24,62 +29,125 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "Run the static contact solver of every mesh on a grid of mesh positions (one mesh cycle) × "
             "mesh forces 0 … max_torque_factor × nominal (load control) and × a regular mesh-deflection grid "
             "(deflection control: the force-deflection function), in parallel over positions. Results go "
-            "into the HDF5 file position by position: a run killed at any time continues with --resume. "
-            "Grid sizes default to the model's [statics] section."
+            "into <out>.partial position by position; a run killed at any time (even kill -9, whose worker "
+            "processes end by themselves) continues where it stopped when the same command is run again, and "
+            "the output says so; --fresh discards the partial file instead. A partial file made with other "
+            "settings is never replaced silently. Grid sizes default to the model's [statics] section. "
+            "Finite-element factorisations are cached in $HACGEAR_CACHE_DIR (default ~/.cache/hacgear)."
         ),
     )
     p.add_argument("model", help="model file models/<system>/model.toml, its folder, or the system name")
     p.add_argument("--out", type=Path, default=None, help="output file (default: tables.h5 next to the model)")
-    p.add_argument("--positions", type=int, default=None, help="mesh positions per mesh cycle [-]")
-    p.add_argument("--loads", type=int, default=None, help="points of the load grid (incl. zero load) [-]")
-    p.add_argument("--deflections", type=int, default=None, help="points of the FDF deflection grid [-]")
+    p.add_argument("--positions", type=int, default=None, help="mesh positions per mesh cycle [-] (default: the model's [statics] positions)")
+    p.add_argument("--loads", type=int, default=None, help="points of the load grid (incl. zero load) [-] (default: the model's [statics] loads)")
+    p.add_argument("--deflections", type=int, default=None, help="points of the FDF deflection grid [-] (default: the model's [statics] deflections)")
     p.add_argument("--max-torque-factor", type=float, default=None,
                    help="largest load / nominal load [-] (>= 3; default from the model)")
     p.add_argument("--deflection-margin", type=float, default=None,
                    help="deflection grid reaches (1 + margin) x the static range above the NLMD [-] (default 0.5)")
     p.add_argument("--workers", type=int, default=None, help="worker processes (default: CPU count; 1 = in-process)")
-    p.add_argument("--resume", action="store_true", help="continue an interrupted run (<out>.partial)")
+    mode = p.add_mutually_exclusive_group()
+    mode.add_argument("--resume", action="store_true",
+                      help="continue an interrupted run (<out>.partial); this is the default, the flag is kept "
+                           "for scripts")
+    mode.add_argument("--fresh", action="store_true",
+                      help="discard an interrupted run (<out>.partial) and a finished table of the same settings, "
+                           "and compute everything again")
     p.add_argument("--solver", choices=("fe", "analytic"), default="fe",
                    help="fe: finite-element contact solver (hacgear_core.statics.contact); analytic: the analytical "
-                        "reference spring model (not FE; for testing the pipeline)")
+                        "reference spring model (not FE; for testing the pipeline); default fe")
     p.add_argument("--check", action="store_true",
-                   help="do not compute: read the existing table, check it against the model and print figures")
+                   help="do not compute: read the existing table, verify every dataset's checksum, that it belongs "
+                        "to the model (the model values it depends on), its physical sanity (finite, forces >= 0, "
+                        "non-decreasing in deflection, regular grids, plausible magnitudes) and that its load grid "
+                        "spans >= 3 x the model's nominal mesh force; exit status 1 when anything fails")
     p.add_argument("--ignore-model-hash", action="store_true",
-                   help="with --check: accept a table whose model_sha256 differs from the model file")
+                   help="with --check: accept a table whose model values differ from the model file's")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--json", action="store_true", help="print the report as JSON (SI, unit in key names)")
     p.set_defaults(func=run)
 
 
-def _check(args: argparse.Namespace) -> int:
-    mp = resolve_model_path(args.model)
-    tp = args.out or mp.parent / "tables.h5"
-    t = read_tables(tp, mp, allow_hash_mismatch=args.ignore_model_hash)
-    rep = {
-        "path": str(tp), "model_sha256": t.model_sha256, "created": t.created, "format_version": t.format_version,
-        "hacgear_version": t.hacgear_version, "meshes": {},
-    }
+def check_report(model: str | Path, tables: str | Path | None = None, *, ignore_model_hash: bool = False) -> dict:
+    """Everything ``hacgear statics --check`` verifies, as a dict; ``problems`` lists what failed (empty: OK)."""
+    mp = resolve_model_path(model)
+    tp = Path(tables) if tables is not None else mp.parent / "tables.h5"
+    if not tp.exists():
+        raise TableError(f"no tables for {mp}: {tp} does not exist; generate it with `hacgear statics {mp}`")
+    integ = file_integrity(tp)
+    problems = [f"checksum: {u}" for u in integ["unreadable"]]
+    if integ["attributes"] == "corrupted":
+        problems.append("attributes: they do not match their checksum (corrupted)")
+    rep: dict = {"path": str(tp), "model": str(mp), "checksums": integ, "meshes": {}, "problems": problems}
+    if problems:
+        return rep
+    t = read_tables(tp, mp, allow_hash_mismatch=ignore_model_hash, check_values=False)
+    rep.update({"model_values_sha256": t.attrs.get("model_values_sha256", ""), "model_sha256": t.model_sha256,
+                "provenance": "model values" if t.attrs.get("model_values_sha256") else "model file bytes (old table)",
+                "created": t.created, "format_version": t.format_version, "hacgear_version": t.hacgear_version})
+    model_obj = load_model(mp)
+    try:
+        nominal = nominal_mesh_forces(model_obj, {m: mt.base_radius_m for m, mt in t.meshes.items()})
+    except (ModelError, KeyError):
+        nominal = {}
     for m, mt in t.meshes.items():
+        mp_problems = sanity_problems(mt)
+        fn = nominal.get(m)
+        if fn is not None and mt.load_N[-1] < 3.0 * fn * (1 - 1e-9):
+            mp_problems.append(
+                f"load_N: the table spans loads up to {mt.load_N[-1]:.6g} N = {mt.load_N[-1] / fn:.3g} x the model's "
+                f"nominal mesh force {fn:.6g} N (operating torque {model_obj.operating.torque_Nm:g} N*m); tables "
+                "must span >= 3 x nominal: regenerate with `hacgear statics MODEL --fresh`")
+        finite = np.isfinite(mt.force_N)
         rep["meshes"][m] = {
             "positions": mt.n_positions, "loads": int(mt.load_N.size), "deflections": mt.n_deflections,
             "tooth_offsets": [int(k) for k in mt.tooth_offsets], "gauges": list(mt.gauge_names),
-            "load_max_N": float(mt.load_N[-1]),
-            "no_load_deflection_min_m": float(mt.no_load_deflection_m.min()),
-            "no_load_deflection_max_m": float(mt.no_load_deflection_m.max()),
+            "load_max_N": float(mt.load_N[-1]), "nominal_mesh_force_N": fn,
+            "no_load_deflection_min_m": float(np.min(mt.no_load_deflection_m)),
+            "no_load_deflection_max_m": float(np.max(mt.no_load_deflection_m)),
             "deflection_grid_min_m": float(mt.deflection_m[0]), "deflection_grid_max_m": float(mt.deflection_m[-1]),
-            "force_max_N": float(mt.force_N.max()), "peak_pressure_max_Pa": float(mt.peak_pressure_Pa.max()),
-            "solver": mt.solver,
+            "force_max_N": float(np.max(mt.force_N[finite])) if finite.any() else float("nan"),
+            "peak_pressure_max_Pa": float(np.nanmax(mt.peak_pressure_Pa)),
+            "solver": mt.solver, "problems": mp_problems, "notes": resolution_notes(mt),
         }
+        problems += [f"mesh {m}: {q}" for q in mp_problems]
+    return rep
+
+
+def _check(args: argparse.Namespace) -> int:
+    rep = check_report(args.model, args.out, ignore_model_hash=args.ignore_model_hash)
     if args.json:
-        print(json.dumps(rep, indent=2))
+        print(dumps(rep, indent=2))
+        return 1 if rep["problems"] else 0
+    c = rep["checksums"]
+    tp = rep["path"]
+    if c["checksummed"] == c["datasets"]:
+        print(f"{tp}: {c['datasets']} datasets with Fletcher-32 checksums, {len(c['unreadable'])} failed; "
+              f"attribute digest: {c['attributes']}")
     else:
-        print(f"{tp}: OK for {mp} (created {t.created}, hacgear {t.hacgear_version})")
-        for m, r in rep["meshes"].items():
-            print(f"  mesh {m}: {r['positions']} positions x {r['loads']} loads (0 … {r['load_max_N']:.6g} N) x "
-                  f"{r['deflections']} deflections ({r['deflection_grid_min_m'] * 1e6:.4g} … "
-                  f"{r['deflection_grid_max_m'] * 1e6:.4g} µm); NLMD {r['no_load_deflection_min_m'] * 1e6:.4g} … "
-                  f"{r['no_load_deflection_max_m'] * 1e6:.4g} µm; max force {r['force_max_N']:.6g} N; "
-                  f"solver: {r['solver']}")
+        print(f"{tp}: {c['datasets'] - c['checksummed']} of {c['datasets']} datasets carry no checksum (written "
+              "before hacgear stored checksums: corruption cannot be detected); regenerate it with "
+              "`hacgear statics MODEL --fresh`")
+    if "provenance" in rep:
+        print(f"  belongs to {rep['model']} (by {rep['provenance']}; created {rep['created']}, hacgear "
+              f"{rep['hacgear_version']})")
+    for m, r in rep["meshes"].items():
+        nom = "" if r["nominal_mesh_force_N"] is None else f" = {r['load_max_N'] / r['nominal_mesh_force_N']:.3g} x nominal"
+        print(f"  mesh {m}: {r['positions']} positions x {r['loads']} loads (0 … {r['load_max_N']:.6g} N{nom}) x "
+              f"{r['deflections']} deflections ({r['deflection_grid_min_m'] * 1e6:.4g} … "
+              f"{r['deflection_grid_max_m'] * 1e6:.4g} µm); NLMD {r['no_load_deflection_min_m'] * 1e6:.4g} … "
+              f"{r['no_load_deflection_max_m'] * 1e6:.4g} µm; max force {r['force_max_N']:.6g} N; "
+              f"solver: {r['solver']}")
+        for note in r["notes"]:
+            print(f"    note: {note}")
+    if rep["problems"]:
+        print(f"FAILED: {len(rep['problems'])} problem(s)")
+        for q in rep["problems"]:
+            print(f"  - {q}")
+        return 1
+    what = "checksums, provenance" if c["checksummed"] == c["datasets"] else "provenance (no checksums to verify)"
+    print(f"OK: {what} and physical sanity (finite, forces >= 0, non-decreasing in deflection, zero "
+          "where the teeth do not touch, regular grids, plausible magnitudes, loads >= 3 x nominal)")
     return 0
 
 
@@ -90,11 +158,13 @@ def run(args: argparse.Namespace) -> int:
         v = getattr(args, name)
         if v is not None and v < 1:
             raise ModelError(f"--{name} [-] = {v}; allowed: integer >= 1")
+    if args.out is not None:
+        check_out_path(args.out, "--out", suffixes=(".h5", ".hdf5"))
     rep = compute_statics(
         args.model, args.out, positions=args.positions, loads=args.loads, deflections=args.deflections,
         max_torque_factor=args.max_torque_factor,
         deflection_margin=DEFAULT_DEFLECTION_MARGIN if args.deflection_margin is None else args.deflection_margin,
-        solver=args.solver, workers=args.workers, resume=args.resume, progress=not args.no_progress,
+        solver=args.solver, workers=args.workers, resume=not args.fresh, progress=not args.no_progress,
     )
     if args.json:
         print(json.dumps(rep.as_dict(), indent=2))

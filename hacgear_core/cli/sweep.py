@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import argparse
 import math
-from concurrent.futures import ProcessPoolExecutor
-
 from hacgear_core.cli._dyn_common import add_model_options, inputs_from_args
+from hacgear_core.cli._paths import check_out_path
 from hacgear_core.dynamics.steady import SteadyStateOptions
 from hacgear_core.dynamics.sweep import SweepSpec, parse_fm, run_sweeps
 from hacgear_core.errors import ModelError
 from hacgear_core.jsonio import dumps
+from hacgear_core.workers import process_pool
 
 __all__ = ["register", "run"]
 
@@ -22,17 +22,25 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "Steady-state dynamic response of a gear system over mesh frequency [Hz]. Each speed starts from the "
             "previous steady state; steady state is detected (period-n orbit of the once-per-mesh-cycle "
             "samples, n <= 4) or the cycle cap is reported. With --out, one row per finished speed is "
-            "written to an HDF5 file; re-running the same command after an interruption computes only "
-            "the missing speeds."),
+            "written to an HDF5 file; re-running the same command after an interruption (even kill -9, whose "
+            "worker processes end by themselves) computes only the missing speeds and says how many it reused; "
+            "--fresh computes them all again. Jumps: where the up and down branches differ (hysteresis), the "
+            "up sweep jumps at the upper end of that region and the down sweep at its lower end (confirmed "
+            "jumps, independent of the speed grid); other RMS changes > 30 %% between adjacent speeds are "
+            "listed as unconfirmed."),
     )
     add_model_options(p)
     p.add_argument("--fm", required=True, help="mesh frequencies START:STOP:N [Hz, Hz, count]")
-    p.add_argument("--direction", choices=("up", "down", "both"), default="both")
-    p.add_argument("--out", default=None, help="HDF5 results file (incremental, resumable)")
+    p.add_argument("--direction", choices=("up", "down", "both"), default="both",
+                   help="up: ascending from static equilibrium at the lowest speed; down: descending from the highest; "
+                        "both: the two (confirmed jumps need both; default %(default)s)")
+    p.add_argument("--out", default=None, help="HDF5 results file .h5 (incremental, resumable; its folder must exist)")
+    p.add_argument("--fresh", action="store_true",
+                   help="with --out: discard the rows of this sweep already in the file and compute every speed again")
     p.add_argument("--workers", type=int, default=1,
-                   help="processes for the branches (2 runs up and down in parallel) [-]")
-    p.add_argument("--rtol", type=float, default=1e-5, help="steady-state tolerance (relative) [-]")
-    p.add_argument("--max-cycles", type=int, default=3000, help="cycle cap per speed [-]")
+                   help="processes for the branches (2 runs up and down in parallel) [-] (default %(default)s)")
+    p.add_argument("--rtol", type=float, default=1e-5, help="steady-state tolerance (relative) [-] (default %(default)s)")
+    p.add_argument("--max-cycles", type=int, default=3000, help="cycle cap per speed [-] (default %(default)s)")
     p.add_argument("--torques", default=None,
                    help="several torques on the input gear, comma separated [N*m] (instead of --torque): one sweep "
                         "per torque, all branches in parallel over --workers processes")
@@ -57,6 +65,8 @@ def run(args: argparse.Namespace) -> int:
     args.torque = torques[0]
     inp = inputs_from_args(args)
     fms = parse_fm(args.fm)
+    if args.out is not None:
+        check_out_path(args.out, "--out", suffixes=(".h5", ".hdf5"))
     if args.workers < 1:
         raise ModelError(f"--workers must be >= 1, got {args.workers}")
     opts = SteadyStateOptions(rtol=args.rtol, max_cycles=args.max_cycles)
@@ -65,9 +75,9 @@ def run(args: argparse.Namespace) -> int:
     n_tasks = sum(len(s.branches) for s in specs)
     ex = None
     if args.workers > 1 and n_tasks > 1:
-        ex = ProcessPoolExecutor(max_workers=min(args.workers, n_tasks))
+        ex = process_pool(min(args.workers, n_tasks))
     try:
-        results = run_sweeps(specs, out=args.out, executor=ex, progress=not args.no_progress)
+        results = run_sweeps(specs, out=args.out, executor=ex, progress=not args.no_progress, fresh=args.fresh)
     finally:
         if ex is not None:
             ex.shutdown()
@@ -75,7 +85,9 @@ def run(args: argparse.Namespace) -> int:
     for res in results:
         rep = res.to_json()
         rep.update({"model": inp.label, "synthetic_table": inp.synthetic, "results_file": args.out,
-                    "computed_speeds": {b: r.recomputed for b, r in res.branches.items()}})
+                    "computed_speeds": {b: r.recomputed for b, r in res.branches.items()},
+                    "reused_speeds": {b: len(r.mesh_frequency_Hz) - r.recomputed for b, r in res.branches.items()},
+                    "discarded_speeds": {b: r.discarded for b, r in res.branches.items()}})
         reps.append(rep)
     if args.json:
         print(dumps(reps[0] if len(reps) == 1 else reps, indent=1))
@@ -86,7 +98,10 @@ def run(args: argparse.Namespace) -> int:
               f"{len(fms)} speeds, direction {args.direction}")
         moving = any(g.translations for g in res.spec.system.gears.values())
         for b, r in res.branches.items():
-            print(f"branch {b} ({r.recomputed} speeds computed now):")
+            reused = len(r.mesh_frequency_Hz) - r.recomputed
+            print(f"branch {b} ({r.recomputed} speeds computed now"
+                  + (f", {reused} reused from {args.out} (--fresh recomputes them)" if reused else "")
+                  + (f"; {r.discarded} stored speeds discarded (--fresh)" if r.discarded else "") + "):")
             for k, mn in enumerate(res.spec.mesh_names):
                 print(f" mesh {mn}:")
                 print("   f_m [Hz]   rms x [µm]  mean x [µm]" + ("  DTE rms [µm]" if moving else "")

@@ -130,6 +130,7 @@ class BranchResult:
     cycles_run: np.ndarray
     state: np.ndarray
     recomputed: int = 0
+    discarded: int = 0
 
 
 @dataclass
@@ -308,8 +309,27 @@ def _complete_branch(out: Path, run_id: str, spec: SweepSpec, branch: str) -> Br
     return None
 
 
+def _discard(outp: Path, run_id: str, branch: str, part: Path) -> int:
+    """Remove the stored rows of one branch (results file and part file); returns how many there were."""
+    n = 0
+    if part.exists():
+        try:
+            with h5py.File(part, "r") as f:
+                n = int(f.attrs.get("rows", 0))
+        except OSError:
+            pass
+        part.unlink()
+    if outp.exists():
+        with h5py.File(outp, "a") as f:
+            path = f"sweeps/{run_id}/{branch}"
+            if path in f:
+                n = max(n, int(f[path]["mesh_frequency_Hz"].shape[0]))
+                del f[path]
+    return n
+
+
 def run_sweeps(specs, *, out: str | Path | None = None, executor: Executor | None = None,
-               progress: bool = True) -> list[SweepResult]:
+               progress: bool = True, fresh: bool = False) -> list[SweepResult]:
     """Run several sweeps (e.g. several torques or models), their branches as independent tasks.
 
     Parameters
@@ -321,13 +341,19 @@ def run_sweeps(specs, *, out: str | Path | None = None, executor: Executor | Non
         Runs the branch tasks (process pools pickle the systems); None: serially in this process.
     progress : bool
         tqdm progress bars.
+    fresh : bool
+        Discard the rows of these sweeps already stored in ``out`` (finished or interrupted) and compute every
+        speed again; by default they are reused.  Each :class:`BranchResult` says how many speeds it computed
+        (``recomputed``) and how many were discarded (``discarded``).
     """
     specs = list(specs)
     outp = Path(out) if out is not None else None
-    tasks, keys, results = [], [], {}
+    tasks, keys, results, discarded = [], [], {}, {}
     for si, spec in enumerate(specs):
         rid = spec.run_id()
         for b in spec.branches:
+            if outp is not None and fresh:
+                discarded[(si, b)] = _discard(outp, rid, b, outp.parent / f"{outp.name}.parts" / f"{rid}_{b}.h5")
             if outp is not None:
                 done = _complete_branch(outp, rid, spec, b)
                 if done is not None:
@@ -351,6 +377,8 @@ def run_sweeps(specs, *, out: str | Path | None = None, executor: Executor | Non
                 part.parent.rmdir()
             except OSError:
                 pass
+    for key, n in discarded.items():
+        results[key].discarded = n
     final = []
     for si, spec in enumerate(specs):
         br = {b: results[(si, b)] for b in spec.branches}
@@ -358,52 +386,83 @@ def run_sweeps(specs, *, out: str | Path | None = None, executor: Executor | Non
     return final
 
 
-def run_sweep(spec: SweepSpec, *, out=None, executor: Executor | None = None, progress: bool = True) -> SweepResult:
+def run_sweep(spec: SweepSpec, *, out=None, executor: Executor | None = None, progress: bool = True,
+              fresh: bool = False) -> SweepResult:
     """Run one sweep (see :func:`run_sweeps`)."""
-    return run_sweeps([spec], out=out, executor=executor, progress=progress)[0]
+    return run_sweeps([spec], out=out, executor=executor, progress=progress, fresh=fresh)[0]
 
 
 def detect_jumps(branches: dict, threshold: float = 0.3, metric: str = "rms_deflection_m",
                  mesh_names: tuple[str, ...] | None = None) -> list[Jump]:
-    """Jumps of ``metric`` between adjacent speeds of each branch, for every mesh.
+    """Jumps of ``metric`` in each branch, for every mesh.
 
-    A jump is a change by more than ``threshold`` (relative to the larger value) between two adjacent speeds;
-    ``jump-up`` when the value rises in the branch's sweep direction, ``jump-down`` when it falls.  For a
-    softening system the up-sweep jumps up at the upper end of the multi-valued region and the down-sweep
-    jumps down at its lower end.  A jump is ``confirmed`` when the other branch exists, differs by more than
-    ``threshold`` at the speed where the jump starts and agrees within ``threshold / 3`` at the speed where it
-    ends: the response has jumped onto the other branch (hysteresis), not merely crossed the steep flank of a
-    peak on a coarse grid or a short subharmonic window.
+    **Confirmed jumps** (both branches swept over the same speeds) come from the hysteresis itself, so they do not
+    depend on the spacing of the speed grid: the *multi-valued region* is a run of adjacent speeds where the up
+    and down branches differ by more than ``threshold / 3`` (relative to the larger value).  The up sweep leaves
+    such a region at its upper end and the down sweep at its lower end, each jumping onto the other branch between
+    the region's last speed and the next speed of its sweep; a jump is reported there when the branch changes
+    by more than ``threshold / 3`` over that interval.  ``jump-up`` when the value rises in the branch's sweep
+    direction, ``jump-down`` when it falls: a softening system jumps up at the upper end of the region in the
+    up sweep and down at its lower end in the down sweep.  A region that reaches the end of the grid has no jump
+    there (it continues beyond the grid).
+
+    **Unconfirmed** (``confirmed = False``): every other change by more than ``threshold`` between adjacent speeds
+    of a branch — steep flanks of a peak on a coarse grid, short subharmonic windows, or jumps of a single
+    branch (``direction`` up or down only), which a fine grid may resolve into a steep flank.
     """
     def rel(a, b):
         return abs(a - b) / max(abs(a), abs(b), 1e-30)
 
+    def col(r, k):
+        return np.atleast_2d(np.asarray(r.metrics[metric]).T).T[:, k]
+
+    tol = threshold / 3.0
     any_b = next(iter(branches.values()))
     nm = np.atleast_2d(np.asarray(any_b.metrics[metric]).T).T.shape[1]
     names = tuple(mesh_names) if mesh_names is not None else tuple(f"mesh{k}" for k in range(nm))
-    jumps = []
+    jumps: list[Jump] = []
     for k in range(nm):
-        other = {}
+        vals = {b: dict(zip(np.round(np.asarray(r.mesh_frequency_Hz, float), 9), map(float, col(r, k))))
+                for b, r in branches.items()}
+        confirmed: set = set()
+        if "up" in vals and "down" in vals:
+            up, dn = vals["up"], vals["down"]
+            f = sorted(set(up) & set(dn))
+            ok = [math.isfinite(up[x]) and math.isfinite(dn[x]) for x in f]
+            multi = [o and rel(up[x], dn[x]) > tol for x, o in zip(f, ok)]
+            i = 0
+            while i < len(f):
+                if not multi[i]:
+                    i += 1
+                    continue
+                j = i
+                while j + 1 < len(f) and multi[j + 1]:
+                    j += 1
+                # up sweep leaves the region between f[j] and f[j+1]; down sweep between f[i] and f[i-1]
+                for b, here, there in (("up", j, j + 1), ("down", i, i - 1)):
+                    if not 0 <= there < len(f) or not ok[there]:
+                        continue
+                    v = vals[b]
+                    a0, a1 = v[f[here]], v[f[there]]
+                    if rel(a0, a1) <= tol:
+                        continue
+                    lo, hi = sorted((f[here], f[there]))
+                    jumps.append(Jump("jump-up" if a1 > a0 else "jump-down", b, 0.5 * (lo + hi), (lo, hi), a0, a1,
+                                      True, names[k]))
+                    confirmed.add((b, lo, hi))
+                i = j + 1
         for b, r in branches.items():
-            vals = np.atleast_2d(np.asarray(r.metrics[metric]).T).T[:, k]
-            other[b] = dict(zip(np.round(r.mesh_frequency_Hz, 9), vals))
-        for b, r in branches.items():
-            f = r.mesh_frequency_Hz
-            v = np.atleast_2d(np.asarray(r.metrics[metric]).T).T[:, k]
-            ob = other.get("down" if b == "up" else "up")
-            for i in range(len(f) - 1):
+            fb = np.asarray(r.mesh_frequency_Hz, float)
+            v = col(r, k)
+            for i in range(len(fb) - 1):
                 a0, a1 = float(v[i]), float(v[i + 1])
                 if not (math.isfinite(a0) and math.isfinite(a1)) or rel(a0, a1) <= threshold:
                     continue
-                kind = "jump-up" if a1 > a0 else "jump-down"
-                confirmed = False
-                if ob is not None:
-                    o0 = ob.get(round(float(f[i]), 9))
-                    o1 = ob.get(round(float(f[i + 1]), 9))
-                    if o0 is not None and o1 is not None:
-                        confirmed = rel(o0, a0) > threshold and rel(o1, a1) < threshold / 3
-                lo, hi = sorted((float(f[i]), float(f[i + 1])))
-                jumps.append(Jump(kind, b, 0.5 * (lo + hi), (lo, hi), a0, a1, bool(confirmed), names[k]))
+                lo, hi = sorted((round(float(fb[i]), 9), round(float(fb[i + 1]), 9)))
+                if (b, lo, hi) in confirmed:
+                    continue
+                jumps.append(Jump("jump-up" if a1 > a0 else "jump-down", b, 0.5 * (lo + hi), (lo, hi), a0, a1,
+                                  False, names[k]))
     return jumps
 
 

@@ -176,11 +176,13 @@ def plot_bench(res: dict, path: str | Path, title: str = "") -> Path:
     meshes = list(res["info"]["meshes"])
     fig, ax = plt.subplots(3, 1, figsize=(8, 9), constrained_layout=True)
     rpm = 60 / (2 * math.pi)
-    ax[0].plot(t, res["speed_ref_rad_s"] * rpm, "k--", lw=1, label="reference (motor drive)")
-    ax[0].plot(t, res["motor_speed_rad_s"] * rpm, lw=1, label="motor")
-    ax[0].plot(t, res["input_speed_rad_s"] * rpm, lw=0.6, label=f"{res['input_gear']} (FMU output)")
+    # speeds that nearly coincide: wide pale motor, medium pinion, thin dash-dot load, dashed reference on top
+    ax[0].plot(t, res["motor_speed_rad_s"] * rpm, lw=5, alpha=0.35, label="motor", zorder=1)
+    ax[0].plot(t, res["input_speed_rad_s"] * rpm, lw=2, alpha=0.8, label=f"{res['input_gear']} (FMU output)",
+               zorder=2)
     ax[0].plot(t, res["load_speed_rad_s"] * rpm / res["speed_ratio"], lw=1, ls="-.",
-               label=f"load, referred to {res['input_gear']}")
+               label=f"load, referred to {res['input_gear']}", zorder=3)
+    ax[0].plot(t, res["speed_ref_rad_s"] * rpm, "k--", lw=1, label="reference (motor drive)", zorder=4)
     ax[0].set_xlabel("time [s]")
     ax[0].set_ylabel("speed [rpm]")
     ax[0].legend(fontsize=8, loc="upper left")

@@ -31,7 +31,8 @@ from hacgear_core.fmu.adapter import MODEL_FILE, TABLES_FILE, make_adapter
 from hacgear_core.fmu.slave import FMU_INFO_FILE, requirements
 from hacgear_core.fmu.spec import UNITS, FmuVariable, ident
 from hacgear_core.model import load_model, model_sha256
-from hacgear_core.tables import SystemTables, write_tables
+from hacgear_core.model.provenance import model_values_json, model_values_sha256
+from hacgear_core.tables import SystemTables, load_system_tables, write_tables
 
 __all__ = ["postprocess_model_description", "build_fmu", "synthetic_system_folder", "slave_source"]
 
@@ -148,6 +149,7 @@ def build_fmu(system_dir: str | Path, out_dir: str | Path, *, slave_dir: str | P
     tables = system_dir / TABLES_FILE
     if not tables.exists():
         raise HacgearError(f"{system_dir}: no {TABLES_FILE} (run `hacgear statics {model.name}` first)")
+    load_system_tables(system_dir / MODEL_FILE, tables)  # errors name the user's files, not the build folder
     slave_src = slave_source(model.kind, slave_dir)
     module = f"hacgear_{ident(model.name)}"
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -168,7 +170,11 @@ def build_fmu(system_dir: str | Path, out_dir: str | Path, *, slave_dir: str | P
             "slave_module": module,
         }
         (res / FMU_INFO_FILE).write_text(json.dumps(info, indent=1), encoding="utf-8")
-        adapter = make_adapter(res)
+        try:
+            adapter = make_adapter(res)
+        except HacgearError as exc:  # name the user's files, not the temporary build folder
+            raise type(exc)(str(exc).replace(str(res / MODEL_FILE), str(system_dir / MODEL_FILE))
+                            .replace(str(res / TABLES_FILE), str(tables)).replace(str(res), str(system_dir))) from None
         spec = adapter.variables  # the same spec the slave registers
         info["ports"] = {g: {"speed_ratio": adapter.sim.system.gears[g].speed_ratio,
                              "nominal_torque_Nm": adapter.port_torques_Nm[g]} for g in adapter.ports}
@@ -221,7 +227,7 @@ def synthetic_system_folder(model: str | Path, dest: str | Path) -> Path:
     folder = Path(dest) / m.name
     folder.mkdir(parents=True, exist_ok=True)
     shutil.copy2(m.path, folder / MODEL_FILE)
-    write_tables(folder / TABLES_FILE, SystemTables(meshes={mesh.name: table},
-                                                    model_sha256=model_sha256(folder / MODEL_FILE),
-                                                    model_file=str(folder / MODEL_FILE)))
+    write_tables(folder / TABLES_FILE, SystemTables(
+        meshes={mesh.name: table}, model_sha256=model_sha256(folder / MODEL_FILE), model_file=str(folder / MODEL_FILE),
+        attrs={"model_values_sha256": model_values_sha256(m), "model_values": model_values_json(m)}))
     return folder

@@ -258,12 +258,13 @@ class Gear:
         if set(self.flanks) != set(FLANKS):
             raise ModelError(f"{where}: flanks must be exactly {FLANKS}, got {tuple(self.flanks)}")
         d_ref = self.module_m * self.teeth
+        ref_txt = (f"reference diameter (module_mm x teeth = {self.module_m * 1e3:g} x {self.teeth}) "
+                   f"{d_ref * 1e3:.3f} mm")
         if self.internal:
             if not self.tip_diameter_m < d_ref < self.root_diameter_m:
                 raise ModelError(
-                    f"{where}: internal gear needs tip_diameter < reference diameter {d_ref * 1e3:.3f} mm "
-                    f"< root_diameter; got tip {self.tip_diameter_m * 1e3:.3f} mm, root "
-                    f"{self.root_diameter_m * 1e3:.3f} mm"
+                    f"{where}: internal gear (internal = true) needs tip_diameter < {ref_txt} < root_diameter; got tip_diameter_mm "
+                    f"{self.tip_diameter_m * 1e3:.3f}, root_diameter_mm {self.root_diameter_m * 1e3:.3f}"
                 )
             if self.bore_diameter_m and self.bore_diameter_m <= self.root_diameter_m:
                 raise ModelError(
@@ -273,9 +274,8 @@ class Gear:
         else:
             if not self.root_diameter_m < d_ref < self.tip_diameter_m:
                 raise ModelError(
-                    f"{where}: external gear needs root_diameter < reference diameter {d_ref * 1e3:.3f} mm "
-                    f"< tip_diameter; got root {self.root_diameter_m * 1e3:.3f} mm, tip "
-                    f"{self.tip_diameter_m * 1e3:.3f} mm"
+                    f"{where}: external gear (internal = false) needs root_diameter < {ref_txt} < tip_diameter; got root_diameter_mm "
+                    f"{self.root_diameter_m * 1e3:.3f}, tip_diameter_mm {self.tip_diameter_m * 1e3:.3f}"
                 )
             if self.bore_diameter_m >= self.root_diameter_m:
                 raise ModelError(
@@ -286,7 +286,7 @@ class Gear:
         if not 0.1 * pitch < self.tooth_thickness_m < 0.9 * pitch:
             raise ModelError(
                 f"{where}: tooth_thickness_m [m] = {self.tooth_thickness_m:g} must lie within (0.1, 0.9) x "
-                f"circular pitch = ({0.1 * pitch:g}, {0.9 * pitch:g}) m"
+                f"circular pitch (pi x module_mm = {pitch * 1e3:g} mm) = ({0.1 * pitch:g}, {0.9 * pitch:g}) m"
             )
         names = [g.name for g in self.gauges]
         if len(set(names)) != len(names):
@@ -535,7 +535,8 @@ class LumpedGear:
 
 @dataclass(frozen=True)
 class Model:
-    """A whole gear system (SI).  ``path``/``sha256`` identify the model file it came from."""
+    """A whole gear system (SI).  ``path``/``sha256`` identify the model file it came from;
+    ``defaults_applied`` lists ``(key, value, meaning)`` of every default the model file left to the reader."""
 
     name: str
     kind: str
@@ -550,6 +551,7 @@ class Model:
     path: Path | None = None
     sha256: str = ""
     lumped: bool = False
+    defaults_applied: tuple[tuple[str, str, str], ...] = ()
 
     def __post_init__(self) -> None:
         if self.kind not in SYSTEM_KINDS:
@@ -567,7 +569,8 @@ class Model:
             for attr in ("gear_a", "gear_b"):
                 if getattr(m, attr) not in names:
                     raise ModelError(
-                        f"meshes.{m.name}.{attr} = {getattr(m, attr)!r} names no gear; allowed: {names}"
+                        f"meshes.{m.name}.{attr} = {getattr(m, attr)!r} names no gear (no [[gears]] with that name); "
+                        f"allowed: {names}"
                     )
             ga, gb = self.gear(m.gear_a), self.gear(m.gear_b)
             if ga.internal and gb.internal:
@@ -582,17 +585,19 @@ class Model:
             if abs(pa - pb) > 1e-9:
                 raise ModelError(
                     f"mesh '{m.name}': pressure_angle_deg of {ga.name}.{m.flank_a} ({math.degrees(pa):g} deg) "
-                    f"differs from {gb.name}.{m.flank_b} ({math.degrees(pb):g} deg); the loaded flanks must "
-                    "be cut by the same rack"
+                    f"differs from {gb.name}.{m.flank_b} ({math.degrees(pb):g} deg); the loaded flanks (flank_a = "
+                    f"'{m.flank_a}', flank_b = '{m.flank_b}') must be cut by the same rack"
                 )
             if abs(ga.helix_angle_rad + gb.helix_angle_rad) > 1e-9 and not (ga.internal or gb.internal):
                 raise ModelError(
-                    f"mesh '{m.name}': external helical gears need opposite helix angles, got "
-                    f"{math.degrees(ga.helix_angle_rad):g} and {math.degrees(gb.helix_angle_rad):g} deg"
+                    f"mesh '{m.name}': external helical gears need opposite helix angles, got helix_angle_deg "
+                    f"{math.degrees(ga.helix_angle_rad):g} ({ga.name}) and {math.degrees(gb.helix_angle_rad):g} "
+                    f"({gb.name})"
                 )
         members = names + (["carrier"] if self.kind == "planetary" else [])
         if self.operating.torque_gear not in members:
-            raise ModelError(f"operating.torque_gear = {self.operating.torque_gear!r} names no gear; allowed: {members}")
+            raise ModelError(f"operating.torque_gear = {self.operating.torque_gear!r} names no gear (no [[gears]] with that "
+                             f"name); allowed: {members}")
         expected_meshes = {"spur_pair": 1, "helical_pair": 1, "idler_chain": None, "planetary": 2}
         n = expected_meshes[self.kind]
         if n is not None and len(self.meshes) != n:

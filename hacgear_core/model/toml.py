@@ -6,7 +6,11 @@ not SI (``module_mm``, ``tip_relief_um``, ``youngs_modulus_GPa``); the dataclass
 the unit in the attribute name where it could be ambiguous (``module_m``, ``tip_relief_m``).
 
 Unknown keys, missing keys, wrong types and out-of-range values are each reported as one
-:class:`~hacgear_core.errors.ModelError` naming the file, the key, its unit and the allowed range.
+:class:`~hacgear_core.errors.ModelError` naming the file, the key, its unit and the allowed range.  Keys that
+change the physics without a natural "absent" value (``bore_diameter_mm``, ``hob_tip_radius_mm``,
+``poisson_ratio``, ``[damping] modal_damping_ratio``) are required; every default that is applied (no tip
+relief, no crowning, rigid bearings, zero-backlash centre distance...) is recorded in
+:attr:`Model.defaults_applied` with its meaning (:data:`DEFAULT_MEANINGS`) and echoed by ``hacgear info``.
 
 The format (one example per system lives in ``models/``)::
 
@@ -99,7 +103,8 @@ from hacgear_core.model.schema import (
     Material, Mesh, Model, Operating, PinError, Planetary, StaticsGrid, Support, Web,
 )
 
-__all__ = ["load_model", "parse_model", "model_sha256", "resolve_model_path", "shipped_systems", "shipped_systems_dir"]
+__all__ = ["load_model", "parse_model", "model_sha256", "resolve_model_path", "shipped_systems", "shipped_systems_dir",
+           "DEFAULT_MEANINGS"]
 
 _INF = math.inf
 
@@ -109,9 +114,10 @@ _INF = math.inf
 class _Section:
     """Pops typed keys from one TOML table and reports unknown keys at the end."""
 
-    def __init__(self, data: Any, path: str, file: str) -> None:
+    def __init__(self, data: Any, path: str, file: str, defaults: list | None = None) -> None:
         self.file = file
         self.path = path
+        self.defaults = [] if defaults is None else defaults  # (key, value) of every default applied, shared
         if not isinstance(data, dict):
             raise self.error(path, "", "a table", f"a {type(data).__name__}")
         self.data = dict(data)
@@ -128,6 +134,7 @@ class _Section:
         if name not in self.data:
             if required:
                 raise self.error(self.key(name), unit, allowed, None, problem="missing required key")
+            self.defaults.append((self.key(name), default))
             return default
         return self.data.pop(name)
 
@@ -190,14 +197,14 @@ class _Section:
         v = self._get(name, required, None, "", "a table")
         if v is None:
             return None
-        return _Section(v, self.key(name), self.file)
+        return _Section(v, self.key(name), self.file, self.defaults)
 
     def array_of_tables(self, name: str, *, required: bool = True) -> list["_Section"]:
         v = self._get(name, required, [], "", "an array of tables [[...]]")
         if not isinstance(v, list) or not all(isinstance(x, dict) for x in v):
             raise self.error(self.key(name), "", f"an array of tables [[{self.key(name)}]]", v,
                              problem="wrong type")
-        return [_Section(x, f"{self.key(name)}[{i}]", self.file) for i, x in enumerate(v)]
+        return [_Section(x, f"{self.key(name)}[{i}]", self.file, self.defaults) for i, x in enumerate(v)]
 
     def done(self, allowed: tuple[str, ...]) -> None:
         if self.data:
@@ -312,9 +319,9 @@ def _read_gear(sec: _Section, materials: dict[str, Material]) -> Gear:
     tip = sec.number("tip_diameter_mm", "mm", 1.0, 20000.0)
     root = sec.number("root_diameter_mm", "mm", 1.0, 20000.0)
     thick = sec.number("tooth_thickness_mm", "mm", 0.01, 1000.0)
-    hob = sec.number("hob_tip_radius_mm", "mm", 0.0, 50.0, required=False, default=0.25 * module)
+    hob = sec.number("hob_tip_radius_mm", "mm", 0.0, 50.0)
     face = sec.number("face_width_mm", "mm", 0.1, 2000.0)
-    bore = sec.number("bore_diameter_mm", "mm", 0.0, 40000.0, required=False, default=0.0)
+    bore = sec.number("bore_diameter_mm", "mm", 0.0, 40000.0)  # 0: solid disk without bore (say so explicitly)
     mat_name = sec.string("material")
     if mat_name not in materials:
         raise sec.error(sec.key("material"), "", " | ".join(sorted(materials)) or "(no [materials] defined)",
@@ -332,9 +339,9 @@ def _read_gear(sec: _Section, materials: dict[str, Material]) -> Gear:
     for gsec in sec.array_of_tables("gauges", required=False):
         gname = gsec.string("name")
         gflank = gsec.string("flank", FLANKS)
-        grad = gsec.number("radius_mm", "mm", 0.0, 20000.0, lo_open=True)
+        grad = gsec.number("radius_mm", "mm", 0.0, 10000.0, lo_open=True)
         gsec.done(_GAUGE_KEYS)
-        gauges.append(Gauge(gname, gflank, grad * 1e-3))
+        gauges.append(_wrap(gsec, gsec.path, lambda: Gauge(gname, gflank, grad * 1e-3)))
     support = _read_support(sec.table("support", required=False))
     web = _read_web(sec.table("web", required=False), face, bore, root, internal)
     sec.done(_GEAR_KEYS)
@@ -393,6 +400,53 @@ def _read_planetary(psec: _Section) -> Planetary:
         pin_errors=tuple(errors)))
 
 
+#: what a default means, by key name (the last part of the TOML key)
+DEFAULT_MEANINGS = {
+    "internal": "external gear", "helix_angle_deg": "spur gear", "axial_position_mm": "gears aligned axially",
+    "lead_crowning_um": "no lead crowning", "tip_edge_radius_mm": "sharp tip edge",
+    "mass_kg": "computed from the blank (density, bore, web)", "inertia_kgm2": "computed from the blank",
+    "coast": "coast flank = drive flank (symmetric tooth)", "gauges": "no strain gauges",
+    "support": "rigid bearings (translational, axial, tilting stiffness inf), free rotation",
+    "web": "solid blank from the bore to the root",
+    "tip_relief_um": "no tip relief", "tip_relief_start_roll_deg": "no tip relief",
+    "tip_relief_shape": "none without tip relief, parabolic with",
+    "translational_stiffness_N_per_m": "rigid bearing (purely rotational model)",
+    "rotational_stiffness_Nm_per_rad": "free rotation (no shaft spring to ground)",
+    "axial_stiffness_N_per_m": "rigid", "tilting_stiffness_Nm_per_rad": "rigid",
+    "flank_a": "the drive flank carries the load", "flank_b": "the drive flank carries the load",
+    "center_distance_mm": "zero-backlash centre distance from the geometry (planetary: carrier radius)",
+    "line_of_centres_deg": "gear_b placed along +x from gear_a",
+    "torque_gear": "the first gear", "statics": "the default statics grid",
+    "positions": "statics grid", "loads": "statics grid", "deflections": "statics grid",
+    "max_torque_factor": "statics grid", "face_slices": "statics grid", "twist_points": "statics grid",
+    "carrier_radius_mm": "the sun-planet centre distance", "carrier_mass_kg": "massless carrier",
+    "carrier_inertia_kgm2": "carrier without inertia", "carrier_support": "rigid carrier bearings, carrier rotation prescribed by the kinematics",
+    "lumped": "gears with tooth geometry (not a lumped model)", "fixed_member": "the ring is held",
+    "pin_errors": "no planet pin position errors", "planet_positions_deg": "equally spaced planets",
+}
+
+
+def _describe_defaults(records: list, gears: tuple) -> tuple[tuple[str, str, str], ...]:
+    """(key, value, meaning) of every default applied; ``gears[i]`` keys carry the gear's name."""
+    out = []
+    names = {f"gears[{i}]": g.name for i, g in enumerate(gears)}
+    for key, value in records:
+        if key in ("planetary", "system.title", "system.source"):  # metadata, or a section other kinds must not have
+            continue
+        head = key.split(".")[0]
+        if head in names:
+            key = f"{head} ({names[head]})" + key[len(head):]
+        leaf = key.rsplit(".", 1)[-1]
+        if isinstance(value, bool):
+            value = "true" if value else "false"
+        elif isinstance(value, float):
+            value = f"{value:g}"
+        elif value is None or value == []:
+            value = "absent"
+        out.append((key, str(value), DEFAULT_MEANINGS.get(leaf, "")))
+    return tuple(out)
+
+
 def model_sha256(path: str | Path) -> str:
     """SHA-256 (hex) of the model file's bytes: the key that ties tables to their model."""
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
@@ -404,7 +458,7 @@ def parse_model(text: str, *, file: str = "<model>", path: Path | None = None, s
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ModelError(f"{file}: not valid TOML: {exc}") from None
-    top = _Section(raw, "", file)
+    top = _Section(raw, "", file, [])
 
     sys_sec = top.table("system")
     name = sys_sec.string("name")
@@ -415,7 +469,9 @@ def parse_model(text: str, *, file: str = "<model>", path: Path | None = None, s
     sys_sec.done(("name", "kind", "title", "source", "lumped"))
 
     # gears that give no [gears.support]: the fixed member of a planetary set is then held (ring fixed)
-    no_support = {g.get("name") for g in raw.get("gears", []) if isinstance(g, dict) and "support" not in g}
+    glist = raw.get("gears", [])
+    no_support = {g.get("name") for g in (glist if isinstance(glist, list) else [])
+                  if isinstance(g, dict) and "support" not in g}
     if lumped:
         return _parse_lumped(top, name=name, kind=kind, title=title, source=source, file=file, path=path,
                              sha256=sha256, no_support=no_support)
@@ -423,10 +479,10 @@ def parse_model(text: str, *, file: str = "<model>", path: Path | None = None, s
     materials: dict[str, Material] = {}
     mats = top.table("materials")
     for mname in list(mats.data):
-        msec = _Section(mats.data.pop(mname), f"materials.{mname}", file)
+        msec = _Section(mats.data.pop(mname), f"materials.{mname}", file, top.defaults)
         rho = msec.number("density_kg_per_m3", "kg/m^3", 100.0, 30000.0)
         e_gpa = msec.number("youngs_modulus_GPa", "GPa", 1.0, 1000.0)
-        nu = msec.number("poisson_ratio", "-", 0.0, 0.5, required=False, default=0.3, hi_open=True)
+        nu = msec.number("poisson_ratio", "-", 0.0, 0.5, hi_open=True)
         msec.done(_MATERIAL_KEYS)
         materials[mname] = Material(mname, rho, e_gpa * 1e9, nu)
     if not materials:
@@ -449,12 +505,9 @@ def parse_model(text: str, *, file: str = "<model>", path: Path | None = None, s
         meshes.append(_wrap(msec, msec.path, lambda: Mesh(mname, ga, gb, fa, fb, None if cd is None else cd * 1e-3,
                                                                     math.radians(loc))))
 
-    dsec = top.table("damping", required=False)
-    if dsec is not None:
-        damping = Damping(dsec.number("modal_damping_ratio", "-", 0.0, 1.0))
-        dsec.done(("modal_damping_ratio",))
-    else:
-        damping = Damping()
+    dsec = top.table("damping")
+    damping = Damping(dsec.number("modal_damping_ratio", "-", 0.0, 1.0))
+    dsec.done(("modal_damping_ratio",))
 
     osec = top.table("operating")
     torque = osec.number("torque_Nm", "N*m", 0.0, 1e7, lo_open=True)
@@ -489,6 +542,7 @@ def parse_model(text: str, *, file: str = "<model>", path: Path | None = None, s
         return Model(
             name=name, kind=kind, title=title, source=source, gears=gears, meshes=tuple(meshes), damping=damping,
             operating=operating, statics=statics, planetary=planetary, path=path, sha256=sha256,
+            defaults_applied=_describe_defaults(top.defaults, gears),
         )
     except ModelError as exc:
         raise ModelError(f"{file}: {exc}") from None

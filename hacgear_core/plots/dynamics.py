@@ -10,7 +10,10 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from hacgear_core.cli._paths import check_out_dir  # noqa: E402
 from hacgear_core.dynamics.build import spur_pair_system  # noqa: E402
+from hacgear_core.errors import HacgearError  # noqa: E402
+from hacgear_core.plots.sweep import mark_jump  # noqa: E402
 from hacgear_core.dynamics.steady import steady_state  # noqa: E402
 from hacgear_core.dynamics.sweep import SweepSpec, run_sweep  # noqa: E402
 from hacgear_core.dynamics.synthetic import softening_example, spur_fdf_table, synthetic_28t_parameters  # noqa: E402
@@ -42,20 +45,28 @@ def main(outdir: str) -> dict:
               "average_slope": ("tab:orange", "average slope (Eq. 3.7)"), "ste": ("tab:blue", "STE (Eq. 3.6)")}
     for law, (col, lab) in styles.items():
         r = run_sweep(SweepSpec(spur_pair_system(p, tab, law), fm, "both"), progress=False)
+        hac = law == "hac"
         for b, mk in (("up", "o"), ("down", "x")):
             br = r.branches[b]
             f = br.mesh_frequency_Hz / fn
-            kw = dict(color=col, ms=3, lw=0.8 if law == "hac" else 0.6)
-            ax[0].plot(f, br.metrics["rms_deflection_m"][:, 0] * 1e6, mk + "-" if law == "hac" else mk, label=f"{lab} {b}",
-                       **kw)
-            ax[1].plot(f, br.metrics["mean_deflection_m"][:, 0] * 1e6, mk + "-" if law == "hac" else mk, **kw)
-        if law == "hac":
+            # HAC on top as lines; the conventional laws as markers below (filled: up, crosses: down)
+            kw = dict(color=col, ms=3.5 if hac else 4.5, lw=1.2 if hac else 0, zorder=4 if hac else 2,
+                      ls=("-" if b == "up" else "--") if hac else "none", marker=mk,
+                      mfc=col if mk == "o" and not hac else "none", alpha=1.0 if hac else 0.75)
+            ax[0].plot(f, br.metrics["rms_deflection_m"][:, 0] * 1e6, label=f"{lab}, {b} sweep", **kw)
+            ax[1].plot(f, br.metrics["mean_deflection_m"][:, 0] * 1e6, **kw)
+        if hac:
             facts["hac_jumps"] = [(j.kind, j.branch, j.interval_Hz) for j in r.jumps if j.confirmed]
-    ax[0].set_ylabel("RMS of oscillating mesh deflection [µm]")
+            for j in r.jumps:
+                if j.confirmed:
+                    ax[0].axvline(j.frequency_Hz / fn, color="0.5", ls=":", lw=0.8, zorder=1)
+    ax[0].set_yscale("log")  # the large-amplitude (rattling) branch and the small ones both readable
+    ax[0].set_ylabel("RMS of oscillating mesh deflection [µm] (log)")
     ax[1].set_ylabel("mean mesh deflection [µm]")
-    ax[1].set_xlabel(f"f_m / f_n  (f_n = {fn:.0f} Hz, linearised)")
-    ax[0].legend(fontsize=7, ncol=2)
-    ax[0].set_title("SYNTHETIC table (28-tooth blanks, 150 N/um, 20 um tip relief), 300 N m, zeta = 0.02")
+    ax[1].set_xlabel(f"$f_m / f_n$  ($f_n$ = {fn:.0f} Hz, linearised; dotted: confirmed HAC jumps)")
+    h, lab = ax[0].get_legend_handles_labels()
+    ax[1].legend(h, lab, fontsize=7, ncol=2, loc="lower right")  # the empty corner of the lower panel
+    ax[0].set_title("SYNTHETIC table (28-tooth blanks, 150 N/µm, 20 µm tip relief), 300 N·m, ζ = 0.02")
     fig.tight_layout()
     fig.savefig(out / "dynamics_sweep_synthetic.png", dpi=120)
     plt.close(fig)
@@ -67,8 +78,8 @@ def main(outdir: str) -> dict:
     kd = dynamic_mesh_stiffness(tab, tau, x)
     st = static_mesh_stiffness(tab, p.torque_Nm)
     fig, ax = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
-    ax[0].plot(tau, kd / 1e6, "r-", label=f"dynamic (HAC, f_m/f_n = {fm_r / fn:.2f})")
-    ax[0].plot(st.position, st.local_slope_N_per_m / 1e6, "b--", label="static local slope at 300 N m")
+    ax[0].plot(tau, kd / 1e6, "r-", label=f"dynamic (HAC, $f_m/f_n$ = {fm_r / fn:.2f})")
+    ax[0].plot(st.position, st.local_slope_N_per_m / 1e6, "b--", label="static local slope at 300 N·m")
     ax[0].set_ylabel("mesh stiffness [N/µm]")
     ax[0].legend(fontsize=8)
     ax[1].plot(tau, x * 1e6, "r-", label="dynamic mesh deflection")
@@ -98,7 +109,7 @@ def main(outdir: str) -> dict:
         xx = np.tile(x1, reps)
         sel = tt < 2
         ax[0].plot(tt[sel], dynamic_root_strain(tab, "wheel/SG", tt[sel], xx[sel]) * 1e6, color=col,
-                   label=f"dynamic f_m/f_n = {ratio}")
+                   label=f"dynamic, $f_m/f_n$ = {ratio}")
         ax[1].plot(tt[sel], dynamic_contact_pressure(tab, tt[sel], xx[sel]) / 1e6, color=col)
     ax[1].plot(tau_s, dynamic_contact_pressure(tab, tau_s, xs) / 1e6, "k--")
     ax[0].set_ylabel("root strain, wheel/SG [µε]")
@@ -116,18 +127,17 @@ def main(outdir: str) -> dict:
     fnl = lsy.natural_frequencies_Hz()[0]
     r = run_sweep(SweepSpec(lsy, tuple(np.linspace(0.5 * fnl, 1.3 * fnl, 81)), "both"), progress=False)
     fig, ax = plt.subplots(figsize=(8, 4))
-    for b, mk, col in (("up", "o-", "tab:blue"), ("down", "x-", "tab:red")):
+    for b, mk, col, ms, lw in (("up", "o-", "tab:blue", 5, 1.8), ("down", "x--", "tab:red", 4, 1.0)):
         br = r.branches[b]
-        ax.plot(br.mesh_frequency_Hz / fnl, br.metrics["rms_deflection_m"][:, 0] / xs0, mk, color=col, ms=3,
+        ax.plot(br.mesh_frequency_Hz / fnl, br.metrics["rms_deflection_m"][:, 0] / xs0, mk, color=col, ms=ms, lw=lw,
                 label=f"{b} sweep")
-    for j in r.jumps:
-        if j.confirmed:
-            ax.axvline(j.frequency_Hz / fnl, color="0.6", ls=":")
-            ax.annotate(j.kind, (j.frequency_Hz / fnl, ax.get_ylim()[1] * 0.9), fontsize=8, ha="center")
+    for n, j in enumerate([j for j in r.jumps if j.confirmed], 1):
+        mark_jump(ax, j, "tab:blue" if j.branch == "up" else "tab:red", n, x_scale=1 / fnl, y_scale=1 / xs0,
+                  where=f"$f_m/f_n$ = {j.frequency_Hz / fnl:.3f}")
     facts["softening_jumps_f_over_fn"] = [(j.kind, j.frequency_Hz / fnl) for j in r.jumps if j.confirmed]
-    ax.set_xlabel("f_m / f_n")
+    ax.set_xlabel("$f_m / f_n$   (arrows: confirmed jumps)")
     ax.set_ylabel("RMS deflection / static deflection [-]")
-    ax.set_title("constant stiffness, sinusoidal NLMD (20 % of static deflection), contact loss, zeta = 0.03")
+    ax.set_title("constant stiffness, sinusoidal NLMD (20 % of static deflection), contact loss, ζ = 0.03")
     ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(out / "dynamics_softening_synthetic.png", dpi=120)
@@ -136,6 +146,10 @@ def main(outdir: str) -> dict:
 
 
 if __name__ == "__main__":  # pragma: no cover
-    if len(sys.argv) != 2:
-        raise SystemExit("usage: python -m hacgear_core.plots.dynamics OUTDIR")
+    if len(sys.argv) != 2 or sys.argv[1].startswith("-"):
+        raise SystemExit("usage: python -m hacgear_core.plots.dynamics OUTDIR  (writes the figures into OUTDIR only)")
+    try:
+        check_out_dir(sys.argv[1], "OUTDIR")
+    except HacgearError as exc:
+        raise SystemExit(f"python -m hacgear_core.plots.dynamics: error: {exc}") from None
     print(main(sys.argv[1]))

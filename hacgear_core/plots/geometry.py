@@ -22,7 +22,7 @@ import numpy as np  # noqa: E402
 from hacgear_core.geometry import REGION_INVOLUTE, SIDES, gear_geometry, mesh_geometry  # noqa: E402
 from hacgear_core.geometry.train import place_mesh  # noqa: E402
 
-__all__ = ["plot_mesh_geometry", "mesh_position"]
+__all__ = ["plot_mesh_geometry", "mesh_geometry_figure", "mesh_position"]
 
 
 def _rot(xy: np.ndarray, ang: float) -> np.ndarray:
@@ -76,7 +76,18 @@ def _teeth(gg: Any, phi: float, centre: np.ndarray, toward: float, count: int, n
 
 
 def plot_mesh_geometry(model: Any, mesh_name: str | None, out: str | Path, exaggerate: float | None = None) -> Path:
-    """Draw the figure described in the module docstring; returns the output path."""
+    """Draw the figure described in the module docstring (:func:`mesh_geometry_figure`) into ``out``; returns
+    the output path."""
+    fig = mesh_geometry_figure(model, mesh_name, exaggerate)
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
+
+
+def mesh_geometry_figure(model: Any, mesh_name: str | None, exaggerate: float | None = None) -> Any:
+    """The figure described in the module docstring (matplotlib Figure)."""
     mesh = model.mesh(mesh_name)
     ga, gb = gear_geometry(model.gear(mesh.gear_a)), gear_geometry(model.gear(mesh.gear_b))
     mg = mesh_geometry(model, mesh.name, gears={ga.name: ga, gb.name: gb}, strict=False)
@@ -147,16 +158,16 @@ def plot_mesh_geometry(model: Any, mesh_name: str | None, out: str | Path, exagg
     ax.set_aspect("equal")
     ra = mg.roll_angle_deg
     ax.set_title(
-        f"{model.name}: mesh {mg.name}, a = {mg.center_distance_m * 1e3:.3f} mm, alpha_w = "
-        f"{math.degrees(mg.operating_pressure_angle_rad):.3f} deg, contact ratio {mg.contact_ratio:.3f} (loaded "
+        f"{model.name}: mesh {mg.name}, a = {mg.center_distance_m * 1e3:.3f} mm, α_w = "
+        f"{math.degrees(mg.operating_pressure_angle_rad):.3f}°, contact ratio {mg.contact_ratio:.3f} (loaded "
         f"{mg.flank_a}/{mg.flank_b}), {mg.contact_ratio_coast:.3f} (other flank)"
         + (f", face {mg.face_contact_ratio:.3f}" if mg.face_contact_ratio > 0 else "")
-        + f"\nroll angles [deg] {ga.name}: SAP {ra[ga.name]['SAP']:.2f}, EAP {ra[ga.name]['EAP']:.2f};  {gb.name}: "
+        + f"\nroll angles [°] {ga.name}: SAP {ra[ga.name]['SAP']:.2f}, EAP {ra[ga.name]['EAP']:.2f};  {gb.name}: "
         f"SAP {ra[gb.name]['SAP']:.2f}, EAP {ra[gb.name]['EAP']:.2f}.  Dashed: base, dotted: tip, dash-dot: "
         "operating pitch, fine dots: involute form circles", fontsize=10)
-    ax.set_xlabel("[mm]")
-    ax.set_ylabel(f"[mm] (line of centres; {ga.name} centre at 0)")
-    ax.legend(loc="upper left", fontsize=9)
+    ax.set_xlabel("across the line of centres [mm]")
+    ax.set_ylabel(f"along the line of centres [mm] ({ga.name} centre at 0)")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, fontsize=9)  # outside: never on a tooth
     # --- exaggerated modifications on one tooth of gear a -----------------------------------
     ax2 = fig.add_subplot(gs[1, 0])
     mods = []
@@ -171,7 +182,7 @@ def plot_mesh_geometry(model: Any, mesh_name: str | None, out: str | Path, exagg
         true = f.xy + f.modification_m[:, None] * f.normal
         exag = true - k * f.modification_m[:, None] * f.normal
         ax2.plot(true[:, 1] * ks, true[:, 0] * ks, color="0.5", lw=1, ls="--")
-        ax2.plot(exag[:, 1] * ks, exag[:, 0] * ks, color=col, lw=1.5, label=f"{s} flank (relief x {k:.0f})")
+        ax2.plot(exag[:, 1] * ks, exag[:, 0] * ks, color=col, lw=1.5, label=f"{s} flank (relief × {k:.0f})")
         inv = f.region == REGION_INVOLUTE
         u0 = ga._flanks[s].relief_start
         if ga._flanks[s].relief > 0:
@@ -181,32 +192,35 @@ def plot_mesh_geometry(model: Any, mesh_name: str | None, out: str | Path, exagg
     ax2.plot([ends[0][1] * ks, ends[1][1] * ks], [ends[0][0] * ks, ends[1][0] * ks], color="k", lw=1)
     ax2.plot([], [], color="0.5", ls="--", label="true involute / fillet")
     ax2.set_aspect("equal")
-    ax2.set_title(f"{ga.name}: tooth with deviations x K (dots: relief start)", fontsize=10)
-    ax2.set_xlabel("tangential [mm]")
+    ax2.set_title(f"{ga.name}: tooth with deviations × K (dots: relief start)", fontsize=10)
+    ax2.set_xlabel("tangential position [mm]")
     ax2.set_ylabel("radius [mm]")
     ax2.legend(fontsize=8, loc="lower center")
     # --- relief vs roll angle --------------------------------------------------------------
     ax3 = fig.add_subplot(gs[1, 1])
-    for g, fl, col in ((ga, mg.flank_a, "tab:blue"), (gb, mg.flank_b, "tab:red")):
+    # gear a wide and pale under gear b thin: identical curves (equal gears) stay visible as two
+    for g, fl, col, lw, alpha in ((ga, mg.flank_a, "tab:blue", 4.0, 0.45), (gb, mg.flank_b, "tab:red", 1.3, 1.0)):
         for s, ls in ((fl, "-"), ("coast" if fl == "drive" else "drive", ":")):
             u = np.linspace(min(g.form_roll_rad[s], g.tip_roll_rad[s]), max(g.form_roll_rad[s], g.tip_roll_rad[s]),
                             300)
-            ax3.plot(np.degrees(u), g.relief_m(s, u) * 1e6, color=col, ls=ls,
+            ax3.plot(np.degrees(u), g.relief_m(s, u) * 1e6, color=col, ls=ls, lw=lw, alpha=alpha,
                      label=f"{g.name} {s}" + (" (loaded)" if s == fl else ""))
         for key, mk in (("SAP", "|"), ("LPSTC", "v"), ("HPSTC", "^"), ("EAP", "|")):
-            ax3.plot(ra[g.name][key], 0, mk, color=col, ms=12 if mk == "|" else 7)
-    ax3.set_xlabel("roll angle [deg]  (markers on the axis: SAP, LPSTC (v), HPSTC (^), EAP)")
+            big = g is ga
+            ax3.plot(ra[g.name][key], 0, mk, color=col, alpha=alpha, mew=2.5 if big else 1.2,
+                     ms=(16 if mk == "|" else 11) if big else (10 if mk == "|" else 6))
+    ax3.set_xlabel("roll angle [°]  (markers on the axis: SAP, LPSTC (v), HPSTC (^), EAP)")
     ax3.set_ylabel("tip relief [µm]")
     ax3.set_title("profile modification (tip relief)", fontsize=10)
     ax3.grid(alpha=0.3)
     ax3.legend(fontsize=8)
     # --- crowning ------------------------------------------------------------------------
     ax4 = fig.add_subplot(gs[1, 2])
-    for g, col in ((ga, "tab:blue"), (gb, "tab:red")):
+    for g, col, lw, alpha in ((ga, "tab:blue", 4.0, 0.45), (gb, "tab:red", 1.3, 1.0)):
         zz = np.linspace(-g.face_width_m / 2, g.face_width_m / 2, 101)
-        ax4.plot((zz + g.axial_position_m) * 1e3, g.crowning_m(zz) * 1e6, color=col,
-                 label=f"{g.name}: {g.lead_crowning_m * 1e6:.1f} um, b = {g.face_width_m * 1e3:.1f} mm"
-                 + (f", helix {math.degrees(g.helix_angle_rad):.1f} deg" if g.helix_angle_rad else ""))
+        ax4.plot((zz + g.axial_position_m) * 1e3, g.crowning_m(zz) * 1e6, color=col, lw=lw, alpha=alpha,
+                 label=f"{g.name}: {g.lead_crowning_m * 1e6:.1f} µm, b = {g.face_width_m * 1e3:.1f} mm"
+                 + (f", helix {math.degrees(g.helix_angle_rad):.1f}°" if g.helix_angle_rad else ""))
     ax4.set_xlabel("axial position [mm]")
     ax4.set_ylabel("lead crowning [µm]")
     ax4.set_title("lead modification (crowning)", fontsize=10)
@@ -215,8 +229,4 @@ def plot_mesh_geometry(model: Any, mesh_name: str | None, out: str | Path, exagg
     if mg.warnings:
         fig.text(0.01, 0.005, "warnings: " + " | ".join(mg.warnings)[:400], fontsize=7, color="darkred")
     fig.tight_layout(rect=(0, 0.02, 1, 1))
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    return fig

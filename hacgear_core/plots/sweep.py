@@ -1,5 +1,6 @@
 """Response curves of sweep results files: RMS and mean mesh deflection over the mesh frequency, per mesh, up and
-down branches in different colours and markers, confirmed jumps marked (dissertation Figs. 3.5, 3.10, 4.7)."""
+down branches in different colours, markers and line widths (both visible where they coincide), confirmed jumps
+marked by an arrow from the state before to the state after (dissertation Figs. 3.5, 3.10, 4.7)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -14,14 +15,47 @@ import numpy as np  # noqa: E402
 from hacgear_core.dynamics.sweep import detect_jumps, read_sweep, sweep_mesh_names  # noqa: E402
 from hacgear_core.errors import TableError  # noqa: E402
 
-__all__ = ["plot_sweep_file"]
+__all__ = ["plot_sweep_file", "sweep_figure", "mark_jump"]
 
-_BRANCH_STYLE = {"up": ("o", "-", 0), "down": ("x", "--", 1)}
+#: branch -> (marker, line style, colour index, marker size, line width, z-order): the up sweep below with large
+#: filled circles, the down sweep on top with crosses, so that where the branches coincide both stay visible
+_BRANCH_STYLE = {"up": ("o", "-", 0, 5.0, 1.6, 2), "down": ("x", "--", 1, 4.0, 0.9, 3)}
+_ORDER = {"up": 0, "down": 1}
+
+
+def mark_jump(ax, jump, color: str, number: int, *, x_scale: float = 1.0, y_scale: float = 1.0,
+              where: str | None = None) -> None:
+    """Draw a confirmed :class:`~hacgear_core.dynamics.sweep.Jump` on an axes of RMS over frequency: a dotted
+    line at its frequency, an arrow from the last state before it to the first after it, its ``number`` beside
+    the arrow, and a legend entry "number: kind, branch, where" (``where`` default: the frequency in Hz), so that
+    close jumps never print over each other.  ``x_scale`` / ``y_scale`` map Hz / metres to the axes' units.
+    Call ``ax.legend()`` afterwards."""
+    lo, hi = jump.interval_Hz
+    f0, f1 = (lo, hi) if jump.branch == "up" else (hi, lo)
+    a, b = (f0 * x_scale, jump.rms_before_m * y_scale), (f1 * x_scale, jump.rms_after_m * y_scale)
+    ax.axvline(jump.frequency_Hz * x_scale, color=color, ls=":", lw=1.0, zorder=1)
+    ax.annotate("", xy=b, xytext=a, arrowprops=dict(arrowstyle="-|>", color=color, lw=1.8, mutation_scale=14),
+                zorder=5)
+    right = jump.branch == "up"
+    ax.annotate(str(number), (0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])), xytext=(5 if right else -5, 0),
+                textcoords="offset points", ha="left" if right else "right", va="center", fontsize=8,
+                fontweight="bold", color=color, zorder=6, bbox=dict(fc="white", ec="none", alpha=0.8, pad=0.5))
+    ax.plot([], [], ls="none", marker=f"${number}$", color=color, ms=7,
+            label=f"{number}: {jump.kind}, {jump.branch} sweep, {where or f'{jump.frequency_Hz:.0f} Hz'}")
 
 
 def plot_sweep_file(path: str | Path, out: str | Path, run_id: str | None = None) -> list[dict]:
-    """Plot every run (or ``run_id``) of a sweep results file into one PNG: one row of panels per mesh (RMS and
-    mean deflection); returns the confirmed jumps."""
+    """Plot every run (or ``run_id``) of a sweep results file into one image file (:func:`sweep_figure`); returns
+    the confirmed jumps."""
+    fig, jumps = sweep_figure(path, run_id)
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return jumps
+
+
+def sweep_figure(path: str | Path, run_id: str | None = None) -> tuple:
+    """Figure of every run (or ``run_id``) of a sweep results file: one column of panels per mesh (RMS and mean
+    deflection over the mesh frequency) → (figure, confirmed jumps as dicts)."""
     runs = read_sweep(path)
     if run_id is not None:
         if run_id not in runs:
@@ -37,31 +71,29 @@ def plot_sweep_file(path: str | Path, out: str | Path, run_id: str | None = None
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     jumps_out = []
     for k, (rid, branches) in enumerate(runs.items()):
-        for b, br in branches.items():
-            mk, ls, ci = _BRANCH_STYLE.get(b, ("s", ":", 2))
+        label = labels[rid].replace("N*m", "N·m")
+        for b, br in sorted(branches.items(), key=lambda t: _ORDER.get(t[0], 2)):
+            mk, ls, ci, ms, lw, z = _BRANCH_STYLE.get(b, ("s", ":", 2, 3.0, 0.8, 4))
             col = colors[(2 * k + ci) % len(colors)]
             f_hz = np.asarray(br.mesh_frequency_Hz)
             for c, mn in enumerate(names[rid]):
-                ax[0, c].plot(f_hz, np.asarray(br.metrics["rms_deflection_m"])[:, c] * 1e6, marker=mk, ls=ls,
-                              color=col, ms=3, lw=0.8, label=f"{labels[rid]}, {b} sweep")
-                ax[1, c].plot(f_hz, np.asarray(br.metrics["mean_deflection_m"])[:, c] * 1e6, marker=mk, ls=ls,
-                              color=col, ms=3, lw=0.8)
+                kw = dict(marker=mk, ls=ls, color=col, ms=ms, lw=lw, zorder=z, mfc=col if mk == "o" else "none")
+                ax[0, c].plot(f_hz, np.asarray(br.metrics["rms_deflection_m"])[:, c] * 1e6,
+                              label=f"{label}, {b} sweep", **kw)
+                ax[1, c].plot(f_hz, np.asarray(br.metrics["mean_deflection_m"])[:, c] * 1e6, **kw)
         for j in detect_jumps(branches, mesh_names=names[rid]):
             if j.confirmed:
                 c = names[rid].index(j.mesh)
                 col = colors[(2 * k + _BRANCH_STYLE.get(j.branch, ("", "", 2))[2]) % len(colors)]
-                ax[0, c].axvline(j.frequency_Hz, color=col, ls=":", lw=1.0)
-                ax[0, c].annotate(j.kind, (j.frequency_Hz, 1.0), xycoords=("data", "axes fraction"), fontsize=7,
-                                  ha="center", va="bottom", color=col)
+                mark_jump(ax[0, c], j, col, len(jumps_out) + 1, y_scale=1e6)
                 jumps_out.append({"run": rid, "mesh": j.mesh, "kind": j.kind, "branch": j.branch,
                                   "frequency_Hz": j.frequency_Hz})
     for c in range(n_mesh):
         mn = next((v[c] for v in names.values() if len(v) > c), "")
         ax[0, c].set_ylabel(f"RMS of oscillating mesh deflection, {mn} [µm]")
         ax[1, c].set_ylabel(f"mean mesh deflection, {mn} [µm]")
-        ax[1, c].set_xlabel("mesh frequency [Hz]   (dotted: confirmed jumps)")
-    ax[0, 0].legend(fontsize=7, loc="best")
+        ax[1, c].set_xlabel("mesh frequency [Hz]   (arrows and dotted lines: confirmed jumps)")
+    for c in range(n_mesh):
+        ax[0, c].legend(fontsize=7, loc="best")
     fig.tight_layout()
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return jumps_out
+    return fig, jumps_out

@@ -1,7 +1,7 @@
 """Plots of force-deflection and strain-deflection functions (dissertation Figs. 3.3 and 4.6).
 
-``python -m hacgear_core.plots.tables [TABLES.h5] [--mesh NAME] [--gauge GEAR/GAUGE] [--out DIR]`` writes
-``tables_fdf<suffix>.png`` and ``tables_sdf<suffix>.png``.  Without a table file it plots the analytical
+``python -m hacgear_core.plots.tables [TABLES.h5] [--mesh NAME] [--gauge GEAR/GAUGE] --out DIR`` writes
+``DIR/tables_fdf<suffix>.png`` and ``DIR/tables_sdf<suffix>.png`` (nothing anywhere else).  Without a table file it plots the analytical
 reference pair (:class:`hacgear_core.statics.AnalyticPairSolver`, not FE; suffix ``_analytic``).
 """
 from __future__ import annotations
@@ -15,6 +15,8 @@ from typing import Any
 import matplotlib
 import numpy as np
 
+from hacgear_core.cli._paths import check_out_dir
+from hacgear_core.errors import HacgearError
 from hacgear_core.statics import AnalyticFactory, load_grid, run_statics
 from hacgear_core.tables import MeshTable, read_tables
 
@@ -52,7 +54,7 @@ def plot_fdf(table: MeshTable, *, cycles: int = 2, n_curves: int = 7, title: str
     pos = np.linspace(0.0, cycles, 400 * cycles + 1)
     x_top = table.static_deflection_m.max()
     xs = np.linspace(max(table.no_load_deflection_m.max(), 0.0) * 0.5, x_top, n_curves + 1)[1:]
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12.5, 4.8), constrained_layout=True)
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(13.5, 4.8), constrained_layout=True)
     cmap = plt.get_cmap("viridis")
     for i, x in enumerate(xs):
         f = table.force(pos, x)
@@ -63,7 +65,8 @@ def plot_fdf(table: MeshTable, *, cycles: int = 2, n_curves: int = 7, title: str
     ax1.set_xlabel("mesh cycle [-]  (integer: pitch-point contact)")
     ax1.set_ylabel("mesh force F [kN]")
     ax1.set_title("(a) FDF at fixed mesh deflections (thick: ≥2 pairs in contact)")
-    ax1.legend(fontsize=7, ncol=2, loc="upper right")
+    ax1.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0,
+               title="deflection", title_fontsize=7)  # outside the axes: never over a curve
     ax1.set_xlim(0, cycles)
     ax1.grid(alpha=0.3)
     xg = np.linspace(table.deflection_m[0], table.deflection_m[-1], 220)
@@ -73,7 +76,7 @@ def plot_fdf(table: MeshTable, *, cycles: int = 2, n_curves: int = 7, title: str
     cs = ax2.contourf(P, X * 1e6, F / 1e3, levels=20, cmap="viridis")
     fig.colorbar(cs, ax=ax2, label="mesh force F [kN]")
     ax2.contour(P, X * 1e6, n, levels=[0.5, 1.5, 2.5], colors=["w", "r", "m"], linewidths=1.2)
-    ax2.plot(pos, table.no_load_deflection(pos) * 1e6, "w--", lw=1.0, label="no-load mesh deflection")
+    ax2.plot(pos, table.no_load_deflection(pos) * 1e6, "w--", lw=1.0)
     # label regions at the static deflection of the nominal third of the largest load
     x_lab = table.static_deflection(pos[::4], table.load_N[-1] / 3).mean()
     n_lab = contact_count(table, pos[::4], x_lab)
@@ -88,8 +91,8 @@ def plot_fdf(table: MeshTable, *, cycles: int = 2, n_curves: int = 7, title: str
                      va="center", fontsize=8, bbox=dict(fc="k" if want == 1 else "w", alpha=0.5, lw=0))
     ax2.set_xlabel("mesh cycle [-]")
     ax2.set_ylabel("mesh deflection x [µm]")
-    ax2.set_title("(b) FDF; contours: number of loaded pairs (0|1|2)")
-    ax2.legend(fontsize=7, loc="lower right")
+    ax2.set_title("(b) FDF; solid: boundaries between 0|1 (white), 1|2 (red), 2|3 (magenta)\nloaded pairs; "
+                  "white dashed: no-load mesh deflection", fontsize=10)
     fig.suptitle(title or f"Force-deflection function, mesh '{table.name}' ({_short(table.solver)})", fontsize=10)
     table.stats.n_queries, table.stats.n_below, table.stats.n_above = stats_before  # plotting is not a query
     return fig
@@ -133,10 +136,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("tables", nargs="?", help="tables.h5 (default: the analytical reference pair)")
     ap.add_argument("--mesh", default=None)
     ap.add_argument("--gauge", default=None, help="gauge '<gear>/<gauge>' of the SDF plot")
-    ap.add_argument("--out", type=Path, default=Path("docs/figures"))
+    ap.add_argument("--out", type=Path, required=True, help="folder for the figures (created if missing)")
     ap.add_argument("--suffix", default=None,
                     help="file name suffix: tables_fdf<suffix>.png (default: '_analytic' without a table file, else '')")
     a = ap.parse_args(argv)
+    try:
+        check_out_dir(a.out, "--out")
+    except HacgearError as exc:
+        ap.error(str(exc))
     a.out.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as td:
         if a.tables:

@@ -19,11 +19,14 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from hacgear_core.cli._paths import check_out_dir  # noqa: E402
 from hacgear_core.dynamics import build_system  # noqa: E402
+from hacgear_core.errors import HacgearError  # noqa: E402
 from hacgear_core.dynamics.modes import impulse_test, modal_analysis  # noqa: E402
 from hacgear_core.dynamics.steady import steady_state  # noqa: E402
 from hacgear_core.dynamics.sweep import SweepSpec, run_sweep  # noqa: E402
 from hacgear_core.model import load_model  # noqa: E402
+from hacgear_core.plots.sweep import mark_jump  # noqa: E402
 from hacgear_core.response import dynamic_contact_pressure, dynamic_mesh_stiffness, dynamic_root_strain  # noqa: E402
 from hacgear_core.response import static_mesh_stiffness  # noqa: E402
 from hacgear_core.tables import load_system_tables  # noqa: E402
@@ -57,7 +60,8 @@ def sweep(system: str, torque: float, fm_over_fn: tuple[float, float, int], forc
     fm = tuple(np.linspace(fm_over_fn[0] * fn, fm_over_fn[1] * fn, fm_over_fn[2]))
     t0 = time.perf_counter()
     r = run_sweep(SweepSpec(sy, fm, "both"), progress=False)
-    out = {"fn_Hz": fn, "wall_s": time.perf_counter() - t0, "branches": {}, "jumps": []}
+    out = {"fn_Hz": fn, "wall_s": time.perf_counter() - t0, "branches": {}, "jumps": [],
+           "confirmed_jumps": [j for j in r.jumps if j.confirmed]}
     for b, br in r.branches.items():
         out["branches"][b] = {
             "fm_over_fn": (np.asarray(br.mesh_frequency_Hz) / fn).tolist(),
@@ -65,20 +69,21 @@ def sweep(system: str, torque: float, fm_over_fn: tuple[float, float, int], forc
             "mean_deflection_m": np.asarray(br.metrics["mean_deflection_m"])[:, 0].tolist(),
             "contact_loss_fraction": np.asarray(br.metrics["contact_loss_fraction"])[:, 0].tolist(),
         }
-    for j in r.jumps:
-        if j.confirmed:
-            out["jumps"].append({"kind": j.kind, "branch": j.branch, "fm_over_fn": j.frequency_Hz / fn,
-                                 "frequency_Hz": j.frequency_Hz})
+    for j in out["confirmed_jumps"]:
+        out["jumps"].append({"kind": j.kind, "branch": j.branch, "fm_over_fn": j.frequency_Hz / fn,
+                             "frequency_Hz": j.frequency_Hz, "interval_Hz": list(j.interval_Hz),
+                             "rms_before_m": j.rms_before_m, "rms_after_m": j.rms_after_m})
     return out
 
 
 def _plot_sweep(res: dict, title: str, path: Path, extra: dict | None = None) -> None:
     fig, ax = plt.subplots(2, 1, figsize=(8, 7), sharex=True)
-    for b, mk, col in (("up", "o-", "k"), ("down", "x-", "tab:red")):
+    # up below with large filled circles, down on top with crosses: both visible where they coincide
+    for b, mk, col, ms, lw in (("up", "o-", "k", 4.5, 1.4), ("down", "x--", "tab:red", 4, 0.8)):
         br = res["branches"][b]
-        ax[0].plot(br["fm_over_fn"], np.array(br["rms_deflection_m"]) * 1e6, mk, color=col, ms=3, lw=0.7,
-                   label=f"HAC, {b} sweep")
-        ax[1].plot(br["fm_over_fn"], np.array(br["mean_deflection_m"]) * 1e6, mk, color=col, ms=3, lw=0.7)
+        ax[0].plot(br["fm_over_fn"], np.array(br["rms_deflection_m"]) * 1e6, mk, color=col, ms=ms, lw=lw,
+                   label=f"HAC, {b} sweep", zorder=3)
+        ax[1].plot(br["fm_over_fn"], np.array(br["mean_deflection_m"]) * 1e6, mk, color=col, ms=ms, lw=lw, zorder=3)
     for law, r in (extra or {}).items():
         style = {"local_slope": ("^", "tab:green", "local slope (Eq. 3.8)"),
                  "average_slope": ("x", "tab:orange", "average slope (Eq. 3.7)"),
@@ -87,11 +92,12 @@ def _plot_sweep(res: dict, title: str, path: Path, extra: dict | None = None) ->
         ax[0].plot(br["fm_over_fn"], np.array(br["rms_deflection_m"]) * 1e6, style[0], color=style[1], ms=4,
                    label=style[2] + ", up")
         ax[1].plot(br["fm_over_fn"], np.array(br["mean_deflection_m"]) * 1e6, style[0], color=style[1], ms=4)
-    for j in res["jumps"]:
-        ax[0].axvline(j["fm_over_fn"], color="0.6", ls=":", lw=0.8)
+    for n, j in enumerate(res["confirmed_jumps"], 1):
+        mark_jump(ax[0], j, "k" if j.branch == "up" else "tab:red", n, x_scale=1 / res["fn_Hz"], y_scale=1e6,
+                  where=f"$f_m/f_n$ = {j.frequency_Hz / res['fn_Hz']:.3f}")
     ax[0].set_ylabel("RMS of oscillating mesh deflection [µm]")
     ax[1].set_ylabel("mean mesh deflection [µm]")
-    ax[1].set_xlabel(f"f_m / f_n   (f_n = {res['fn_Hz']:.0f} Hz, linearised; dotted: confirmed jumps)")
+    ax[1].set_xlabel(f"$f_m / f_n$   ($f_n$ = {res['fn_Hz']:.0f} Hz, linearised; arrows: confirmed HAC jumps)")
     ax[0].set_title(title, fontsize=9)
     ax[0].legend(fontsize=7)
     fig.tight_layout()
@@ -117,7 +123,7 @@ def plot_time_traces(system: str, torque: float, ratios: tuple[float, ...], gaug
     for a, y in zip(ax, (xs * 1e6, table.force(tau_s, xs) / 1e3,
                          static_strain * 1e6, dynamic_contact_pressure(table, tau_s, xs) / 1e6,
                          k_static / 1e6)):
-        a.plot(tau_s, y, "k--", lw=1, label="static")
+        a.plot(tau_s, y, "k--", lw=1.2, label="static", zorder=5)  # on top: dynamic curves close to it hide it
     factors = {}
     for ratio, col in zip(ratios, ("tab:blue", "tab:green", "tab:red", "tab:purple")):
         r = steady_state(sy, ratio * fn)
@@ -129,7 +135,7 @@ def plot_time_traces(system: str, torque: float, ratios: tuple[float, ...], gaug
         sel = tt < 2
         tt, xx = tt[sel], xx[sel]
         strain = dynamic_root_strain(table, gauge, tt, xx)
-        lab = f"f_m/f_n = {ratio:g} ({ratio * fn:.0f} Hz)"
+        lab = f"$f_m/f_n$ = {ratio:g} ({ratio * fn:.0f} Hz)"
         ax[0].plot(tt, xx * 1e6, color=col, label=lab)
         ax[1].plot(tt, table.force(tt, xx) / 1e3, color=col)
         ax[2].plot(tt, strain * 1e6, color=col)
@@ -142,12 +148,13 @@ def plot_time_traces(system: str, torque: float, ratios: tuple[float, ...], gaug
     ax[1].set_ylabel("mesh force [kN]")
     ax[2].set_ylabel(f"root strain {gauge} [µε]")
     ax[3].set_ylabel("peak contact pressure [MPa]")
-    ax[4].set_ylabel("mesh stiffness [1e6 N/m]\n(local slope of the FDF)")
+    ax[4].set_ylabel("mesh stiffness [N/µm]\n(local slope of the FDF)")
     ax[4].set_xlabel("mesh cycle (followed tooth pair at the pitch point at 0)")
-    ax[0].legend(fontsize=7, ncol=2)
-    ax[0].set_title(f"{system}, {torque:g} N m, FE tables: steady-state dynamic response (f_n = {fn:.0f} Hz)",
-                    fontsize=9)
-    fig.tight_layout()
+    h, lab = ax[0].get_legend_handles_labels()
+    fig.suptitle(f"{system}, {torque:g} N·m, FE tables: steady-state dynamic response ($f_n$ = {fn:.0f} Hz)",
+                 fontsize=9, y=0.995)
+    fig.legend(h, lab, loc="upper center", ncol=3, fontsize=8, bbox_to_anchor=(0.5, 0.98))  # above the panels
+    fig.tight_layout(rect=(0, 0, 1, 0.95))
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return factors
@@ -243,6 +250,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", required=True, help="folder of validation_dynamics.json (created if missing)")
     ap.add_argument("--figures", default=None, help="figure folder (default: --out)")
     args = ap.parse_args(argv)
+    try:
+        check_out_dir(args.out, "--out")
+        if args.figures:
+            check_out_dir(args.figures, "--figures")
+    except HacgearError as exc:
+        ap.error(str(exc))
     out = Path(args.figures or args.out)
     out.mkdir(parents=True, exist_ok=True)
     Path(args.out).mkdir(parents=True, exist_ok=True)
@@ -259,7 +272,7 @@ def main(argv: list[str] | None = None) -> int:
     res["sweep_spur_50t_icr137_170Nm"] = {k: s50[k] for k in ("fn_Hz", "jumps", "wall_s")}
     print("50t ICR 1.37, 170 N m: fn", round(s50["fn_Hz"]), "Hz; confirmed jumps:",
           [(j["kind"], j["branch"], round(j["fm_over_fn"], 3)) for j in s50["jumps"]])
-    _plot_sweep(s50, "spur_50t_icr137, 170 N m, FE tables, zeta 0.02 (cf. dissertation Fig. 3.5)",
+    _plot_sweep(s50, "spur_50t_icr137, 170 N·m, FE tables, ζ = 0.02 (cf. dissertation Fig. 3.5)",
                 out / "validation_sweep_50t_icr137.png")
     s28 = sweep("spur_28t_asym", 300.0, (0.3, 1.4, 111))
     extra = {law: sweep("spur_28t_asym", 300.0, (0.3, 1.4, 111), law) for law in ("local_slope", "average_slope",
@@ -273,7 +286,7 @@ def main(argv: list[str] | None = None) -> int:
     res["sweep_spur_28t_asym_300Nm"]["hac_peak_fm_over_fn"] = up["fm_over_fn"][int(np.argmax(up["rms_deflection_m"]))]
     print("28t, 300 N m: fn", round(s28["fn_Hz"]), "Hz; jumps:",
           [(j["kind"], j["branch"], round(j["fm_over_fn"], 3)) for j in s28["jumps"]])
-    _plot_sweep(s28, "spur_28t_asym, 300 N m, FE tables, zeta 0.02, HAC and conventional models (cf. Fig. 3.10)",
+    _plot_sweep(s28, "spur_28t_asym, 300 N·m, FE tables, ζ = 0.02, HAC and conventional models (cf. Fig. 3.10)",
                 out / "validation_sweep_28t_asym.png", extra)
     res["dynamic_factor_spur_28t_asym_300Nm"] = plot_time_traces(
         "spur_28t_asym", 300.0, (0.571, 0.893, 1.027), "wheel/SG25", out / "validation_traces_28t_asym.png")

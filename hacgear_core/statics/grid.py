@@ -17,9 +17,11 @@ phase 2 (deflection control)
     angle): the teeth do not touch.
 
 Each position's results are written into the (pre-allocated) HDF5 file as soon as they arrive, flushed,
-and only then flagged done; a run killed at any moment and restarted with ``resume=True`` skips every
-position already flagged and recomputes nothing else.  The file is built under ``<out>.partial`` and
-renamed to ``<out>`` when complete, so ``<out>`` only ever holds a complete table.
+and only then flagged done; a run killed at any moment and started again (``resume=True``, the default)
+skips every position already flagged and recomputes nothing else; ``resume=False`` discards the partial
+file and says so.  The file is built under ``<out>.partial`` and renamed to ``<out>`` when complete, so
+``<out>`` only ever holds a complete table.  The worker processes of the default pool end by themselves when
+the run is killed (:func:`hacgear_core.workers.process_pool`).
 
 Solvers
 -------
@@ -35,6 +37,7 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 from concurrent.futures.process import BrokenProcessPool
+import hashlib
 import math
 import os
 import pickle
@@ -50,9 +53,11 @@ from hacgear_core import tables as tb
 from hacgear_core.errors import ModelError, SolverError, TableError
 from hacgear_core.geometry.planetary import planetary_geometry, planetary_torques
 from hacgear_core.model import load_model
+from hacgear_core.model.provenance import model_values_json, model_values_sha256
 from hacgear_core.statics.contact import make_mesh_solver
 from hacgear_core.statics.contract import MeshInfo, MeshStaticSolver, SolverFactory, StaticSolution, describe_solver
 from hacgear_core.statics.reference import AnalyticPairSolver
+from hacgear_core.workers import process_pool
 
 __all__ = [
     "ModelSolverFactory",
@@ -71,20 +76,22 @@ DEFAULT_DEFLECTION_MARGIN = 0.5
 
 @dataclass(frozen=True)
 class ModelSolverFactory:
-    """Picklable factory: reads the model file in the worker, checks it is byte-identical to the one
-    the run started from, and builds the solver of ``mesh_name`` (``solver`` = ``"fe"``:
-    :func:`~hacgear_core.statics.contact.make_mesh_solver`; ``"analytic"``: :meth:`AnalyticPairSolver.from_model`)."""
+    """Picklable factory: reads the model file in the worker, checks that the values the tables depend on
+    (:func:`~hacgear_core.model.provenance.model_values_sha256`) are those the run started from, and builds
+    the solver of ``mesh_name`` (``solver`` = ``"fe"``: :func:`~hacgear_core.statics.contact.make_mesh_solver`;
+    ``"analytic"``: :meth:`AnalyticPairSolver.from_model`)."""
 
     model_path: str
     mesh_name: str
-    model_sha256: str
+    model_values_sha256: str
     solver: str = "fe"
 
     def __call__(self) -> MeshStaticSolver:
         model = load_model(self.model_path)
-        if self.model_sha256 and model.sha256 != self.model_sha256:
-            raise TableError(f"{self.model_path} changed while `hacgear statics` was running "
-                             f"(sha256 {model.sha256[:12]}… != {self.model_sha256[:12]}…); start again")
+        now = model_values_sha256(model)
+        if self.model_values_sha256 and now != self.model_values_sha256:
+            raise TableError(f"{self.model_path} changed while `hacgear statics` was running (model values "
+                             f"sha256 {now[:12]}… != {self.model_values_sha256[:12]}…); start again")
         if self.solver == "analytic":
             return AnalyticPairSolver.from_model(model, self.mesh_name)
         if self.solver != "fe":
@@ -294,9 +301,10 @@ def run_statics(
     deflection_margin: float = DEFAULT_DEFLECTION_MARGIN,
     model_sha256: str = "",
     model_file: str = "",
+    model_values: str = "",
     executor: cf.Executor | None = None,
     workers: int | None = None,
-    resume: bool = False,
+    resume: bool = True,
     progress: bool = True,
 ) -> StaticsReport:
     """Run the static grid of every mesh and write ``out`` (HDF5, format of :mod:`hacgear_core.tables`).
@@ -309,11 +317,18 @@ def run_statics(
     loads_N : mesh name → load grid [N] (ascending, first value >= 0), or a function of the
         :class:`MeshInfo` of all meshes returning that mapping.
     deflection_margin : see :func:`deflection_grid`.
-    model_sha256, model_file : provenance written to the root attributes.
-    executor : any :class:`concurrent.futures.Executor`; None → a ``ProcessPoolExecutor`` with
-        ``workers`` processes (``spawn``), or in-process when ``workers == 1``.
-    resume : continue ``<out>.partial`` if it exists and matches these settings; positions flagged done
-        are not recomputed.
+    model_sha256, model_file : provenance written to the root attributes (hash of the model file's bytes,
+        its name; informative).
+    model_values : canonical JSON of the model values the tables depend on
+        (:func:`~hacgear_core.model.provenance.model_values_json`); its SHA-256 is the table's
+        ``model_values_sha256``, checked when the table is read with its model and when a run is resumed.
+    executor : any :class:`concurrent.futures.Executor`; None → a process pool with ``workers`` processes
+        (``spawn``; :func:`hacgear_core.workers.process_pool`, workers end when this process is killed), or
+        in-process when ``workers == 1``.
+    resume : True (default): continue ``<out>.partial`` if it exists and matches these settings (positions
+        flagged done are not recomputed; a partial file of other settings is refused, never replaced
+        silently) and do nothing when ``<out>`` is already complete for them.  False: discard both and start
+        afresh (``--fresh``); the report's message says what was discarded.
     progress : show a tqdm progress bar (stderr).
     """
     t0 = time.perf_counter()
@@ -326,10 +341,7 @@ def run_statics(
         raise ModelError("no mesh to analyse")
     own_executor = None
     if executor is None and (workers or os.cpu_count() or 1) > 1:
-        import multiprocessing as mp
-
-        own_executor = executor = cf.ProcessPoolExecutor(
-            max_workers=workers or os.cpu_count(), mp_context=mp.get_context("spawn"))
+        own_executor = executor = process_pool(workers or os.cpu_count(), start_method="spawn")
     try:
         # --- solver descriptions (in a worker, so the solver built there is reused) ----------
         if executor is None:
@@ -357,14 +369,17 @@ def run_statics(
         }
         root_attrs = {
             "model_sha256": model_sha256, "model_file": model_file,
+            "model_values": model_values,
+            "model_values_sha256": hashlib.sha256(model_values.encode()).hexdigest() if model_values else "",
             "deflection_margin": float(deflection_margin),
         }
         if resume and not partial.exists() and out.exists():
             done = tb.completed_table_matches(out, layouts, root_attrs)
             if done:
                 total = 2 * n_positions * len(names)
-                return StaticsReport(True, f"{out} is already complete for these settings; nothing to do", out,
-                                     total, 0, total, time.perf_counter() - t0, done)
+                return StaticsReport(True, f"{out} is already complete for these settings; nothing to do "
+                                           "(--fresh recomputes it)", out, total, 0, total,
+                                     time.perf_counter() - t0, done)
         f, resumed_note = tb.open_statics_file(partial, layouts, root_attrs, resume=resume)
         try:
             return _run_phases(f, tb, factories, layouts, positions, executor, deflection_margin, progress,
@@ -381,7 +396,7 @@ def run_statics(
                 f"a statics worker process died ({exc}); likely out of memory or killed. When calling "
                 "run_statics/compute_statics from a script, guard it with `if __name__ == '__main__':` (worker "
                 f"processes are spawned). Finished positions are kept in {partial}: continue with resume=True "
-                "(--resume)."
+                "(`hacgear statics` continues it by default)."
             ) from None
         raise
     finally:
@@ -447,6 +462,7 @@ def _run_phases(f, tb, factories, layouts, positions, executor, margin, progress
     for m in names:
         g = f[f"meshes/{m}"]
         summary[m] = tb.consistency_summary(g)
+    tb.seal_file(f)
     f.close()
     os.replace(partial, out)
     msg = f"wrote {out} ({len(names)} mesh(es), {n_pos} positions)"
@@ -467,7 +483,7 @@ def compute_statics(
     solver: str = "fe",
     workers: int | None = None,
     executor: cf.Executor | None = None,
-    resume: bool = False,
+    resume: bool = True,
     progress: bool = True,
 ) -> StaticsReport:
     """``hacgear statics``: the static grids of every mesh of a model file → ``tables.h5``.
@@ -488,7 +504,9 @@ def compute_statics(
     if factor < 3.0:
         raise ModelError(f"max_torque_factor [-] = {factor:g}; allowed: >= 3 (tables span 0 … >= 3 x nominal torque)")
     out_path = Path(out) if out is not None else mdl.tables_path
-    factories = {m.name: ModelSolverFactory(str(mdl.path), m.name, mdl.sha256, solver) for m in mdl.meshes}
+    values = model_values_json(mdl)
+    factories = {m.name: ModelSolverFactory(str(mdl.path), m.name, model_values_sha256(mdl), solver)
+                 for m in mdl.meshes}
 
     def loads_for(infos: dict[str, MeshInfo]) -> dict[str, np.ndarray]:
         fn = nominal_mesh_forces(mdl, {m: i.base_radius_m for m, i in infos.items()})
@@ -497,5 +515,6 @@ def compute_statics(
     return run_statics(
         factories, out_path, n_positions=n_pos, n_deflections=n_def, loads_N=loads_for,
         deflection_margin=deflection_margin, model_sha256=mdl.sha256, model_file=str(mdl.path.name),
+        model_values=values,
         executor=executor, workers=workers, resume=resume, progress=progress,
     )

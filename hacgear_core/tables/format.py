@@ -1,9 +1,11 @@
 """The ``tables.h5`` file format (HDF5): schema, incremental writing by the statics grid, reading and checking.
 
-Root attributes ``format = "hacgear-tables"``, ``format_version``, ``model_sha256`` (hash of the model file
-the tables came from), ``hacgear_version``, ``created``, grid sizes; one group per mesh ``/meshes/<name>/``
-with datasets carrying ``unit`` and ``description`` attributes (:data:`DATASETS`).  The full description is
-``docs/tables.md``.
+Root attributes ``format = "hacgear-tables"``, ``format_version``, ``model_values_sha256`` and
+``model_values`` (hash and canonical JSON of the model values the tables depend on,
+:mod:`hacgear_core.model.provenance`), ``model_sha256`` (hash of the model file's bytes, informative),
+``hacgear_version``, ``created``, grid sizes; one group per mesh ``/meshes/<name>/`` with datasets carrying
+``unit`` and ``description`` attributes (:data:`DATASETS`), each stored with HDF5's Fletcher-32 checksum filter
+so that corrupted bytes are refused on read.  The full description is ``docs/tables.md``.
 """
 from __future__ import annotations
 
@@ -18,7 +20,9 @@ import numpy as np
 
 from hacgear_core import __version__
 from hacgear_core.errors import TableError
-from hacgear_core.model import model_sha256, resolve_model_path
+from hacgear_core.model import load_model, model_sha256, resolve_model_path
+from hacgear_core.model.provenance import model_values_json, model_values_sha256, values_diff
+from hacgear_core.tables.check import hard_problems
 from hacgear_core.tables.table import MeshTable, SystemTables
 
 __all__ = [
@@ -34,6 +38,9 @@ __all__ = [
     "completed_table_matches",
     "write_deflection_grid",
     "consistency_summary",
+    "seal_file",
+    "file_integrity",
+    "ATTRS_DIGEST",
 ]
 
 FORMAT = "hacgear-tables"
@@ -95,7 +102,7 @@ class MeshLayout:
 
 def _dataset(group: Any, name: str, data: np.ndarray, key: str | None = None) -> None:
     unit, desc = DATASETS[key or name]
-    ds = group.create_dataset(name, data=data)
+    ds = group.create_dataset(name, data=data, fletcher32=True)  # per-chunk checksum, verified on every read
     ds.attrs["unit"] = unit
     ds.attrs["description"] = desc
 
@@ -107,6 +114,8 @@ def _create_file(path: Path, layouts: Mapping[str, MeshLayout], root_attrs: Mapp
     f.attrs["hacgear_version"] = str(__version__)
     f.attrs["created"] = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
     f.attrs["model_sha256"] = str(root_attrs.get("model_sha256", ""))
+    f.attrs["model_values_sha256"] = str(root_attrs.get("model_values_sha256", ""))
+    f.attrs["model_values"] = str(root_attrs.get("model_values", ""))
     f.attrs["model_file"] = str(root_attrs.get("model_file", ""))
     f.attrs["deflection_margin"] = float(root_attrs.get("deflection_margin", float("nan")))
     f.attrs["mesh_names"] = np.array(list(layouts), dtype=h5py.string_dtype())
@@ -144,11 +153,44 @@ def _create_file(path: Path, layouts: Mapping[str, MeshLayout], root_attrs: Mapp
     return f
 
 
+#: root attribute holding the SHA-256 of every other attribute of the file (except ``created``)
+ATTRS_DIGEST = "attributes_sha256"
+
+
+def _attrs_digest(f: Any) -> str:
+    """SHA-256 over every attribute of the file (names, dtypes, values), except :data:`ATTRS_DIGEST` and
+    ``created``: attributes (teeth, base radii, gear names, provenance) are not covered by the datasets'
+    Fletcher-32 checksums."""
+    import hashlib
+
+    h = hashlib.sha256()
+    objs = [("/", f)]
+    f.visititems(lambda name, obj: objs.append((name, obj)))
+    for name, obj in sorted(objs, key=lambda t: t[0]):
+        for k in sorted(obj.attrs):
+            if name == "/" and k in (ATTRS_DIGEST, "created"):
+                continue
+            v = np.asarray(obj.attrs[k])
+            if v.dtype.kind in "OSU":
+                data = "\x1f".join(x.decode() if isinstance(x, bytes) else str(x) for x in v.ravel()).encode()
+            else:
+                data = v.dtype.str.encode() + v.tobytes()
+            h.update(f"{name}\x1e{k}\x1e{v.shape}\x1e".encode() + data + b"\x1d")
+    return h.hexdigest()
+
+
+def seal_file(f: Any) -> None:
+    """Store :data:`ATTRS_DIGEST` in a finished file (the last write of a statics run or of
+    :func:`write_tables`)."""
+    f.attrs[ATTRS_DIGEST] = _attrs_digest(f)
+    f.flush()
+
+
 def _same_layout(f: Any, layouts: Mapping[str, MeshLayout], root_attrs: Mapping[str, Any]) -> str | None:
     """None if ``f`` was created for these layouts/settings, else what differs."""
     if f.attrs.get("format") != FORMAT or int(f.attrs.get("format_version", -1)) != FORMAT_VERSION:
         return "format/format_version"
-    for k in ("model_sha256", "deflection_margin"):
+    for k in ("model_values_sha256", "deflection_margin"):
         a, b = f.attrs.get(k), root_attrs.get(k)
         if (a != b) if not isinstance(b, float) else not (a == b):
             return f"{k} ({a!r} in the file, {b!r} now)"
@@ -178,14 +220,18 @@ def _same_layout(f: Any, layouts: Mapping[str, MeshLayout], root_attrs: Mapping[
 
 def open_statics_file(path: str | Path, layouts: Mapping[str, MeshLayout], root_attrs: Mapping[str, Any],
                       *, resume: bool) -> tuple[Any, str]:
-    """Open the partial file of a statics run for writing → (h5py.File, note).
+    """Open the partial file of a statics run for writing → (h5py.File, note saying what happened).
 
-    ``resume`` and a readable file made for the same layouts and settings: continue it.  Otherwise a
-    new file is created (every dataset pre-allocated and NaN-filled, so later writes only touch raw
-    data and never the file's metadata — a run killed at any moment leaves a readable file).
+    ``resume`` (the default of ``hacgear statics``) and a partial file made for the same layouts and model
+    values: continue it.  A partial file made for other settings is refused (:class:`TableError` saying what
+    differs and how many position tasks it holds), never silently replaced.  ``resume=False`` (``--fresh``)
+    discards an existing partial file and says so.  A partial file that cannot be opened at all is moved
+    aside to ``<path>.unreadable``.  A new file has every dataset pre-allocated and NaN-filled, so later writes
+    only touch raw data and never the file's metadata — a run killed at any moment leaves a readable file.
     """
     path = Path(path)
     note = ""
+    f = None
     if path.exists():
         try:
             f = h5py.File(path, "r+")
@@ -193,34 +239,44 @@ def open_statics_file(path: str | Path, layouts: Mapping[str, MeshLayout], root_
             raise TableError(f"{path} is open in another process (another `hacgear statics` still running?); "
                              "wait for it or stop it first") from None
         except OSError as exc:
-            f = None
-            note = f"could not reopen {path.name} ({exc}); started again"
-        if f is not None and not resume:
-            f.close()
-            f = None
-    else:
-        f = None
+            bad = path.with_name(path.name + ".unreadable")
+            os.replace(path, bad)
+            note = f"{path.name} could not be opened ({exc}); moved aside to {bad.name} and started again"
     if f is not None:
         diff = _same_layout(f, layouts, root_attrs) if "layout_complete" in f.attrs else "unfinished"
+        done = _done_tasks(f)
         if diff == "unfinished":
             f.close()
-            note = f"{path.name} was interrupted while being created; started again"
+            note = f"{path.name} was interrupted while being created (nothing computed yet); started again"
+        elif not resume:
+            f.close()
+            note = f"discarded {path.name} ({done} position task(s) done) as asked (--fresh); started from scratch"
         elif diff is None:
-            done = sum(int(np.count_nonzero(f[f"meshes/{m}/{d}"][()])) for m in layouts
-                       for d in ("done_loads", "done_deflections"))
-            return f, f"resumed {path.name}: {done} position task(s) already done"
+            return f, f"resumed {path.name}: {done} position task(s) already done (--fresh discards it)"
         else:
             f.close()
             raise TableError(
-                f"cannot resume {path}: it was started with different settings ({diff} differ). Run "
-                "`hacgear statics` without --resume to start again (the partial file is replaced)."
+                f"{path} holds an interrupted run ({done} position task(s) done) made with different settings "
+                f"({diff} differ). Rerun with the settings it was made for to continue it, or discard it with "
+                "`hacgear statics MODEL --fresh` (library: resume=False)."
             )
-    elif resume and not note:
-        note = f"nothing to resume ({path.name} absent); started from scratch"
     path.parent.mkdir(parents=True, exist_ok=True)
     if path.exists():
         path.unlink()
     return _create_file(path, layouts, root_attrs), note
+
+
+def _done_tasks(f: Any) -> int:
+    """Position tasks flagged done in an open statics file (0 where the flags are missing or unreadable)."""
+    n = 0
+    try:
+        for g in f["meshes"].values():
+            for d in ("done_loads", "done_deflections"):
+                if d in g:
+                    n += int(np.count_nonzero(g[d][()]))
+    except (KeyError, OSError, AttributeError):
+        pass
+    return n
 
 
 def completed_table_matches(path: str | Path, layouts: Mapping[str, MeshLayout], root_attrs: Mapping[str, Any]
@@ -315,18 +371,96 @@ def _walk(group: Any, prefix: str = "") -> Iterator[tuple[str, Any]]:
             yield f"{prefix}{k}", v
 
 
+def _provenance_problem(path: Path, attrs: Any, mp: Path) -> str | None:
+    """None when the table at ``path`` (root attributes ``attrs``) belongs to the model file ``mp``, else why not.
+
+    Tables with ``model_values_sha256`` are compared by the canonical model values
+    (:mod:`hacgear_core.model.provenance`): comments, damping, the operating point or supports may change, the
+    geometry, materials, meshes or statics grid may not, and the message names each value that differs.  Older
+    tables hold only ``model_sha256``, the hash of the model file's bytes: they are accepted while the file is
+    byte-identical and refused otherwise, since which values changed cannot be told.
+    """
+    regen = (f"Regenerate the table with `hacgear statics {mp}` (or override with allow_hash_mismatch=True / "
+             "--ignore-model-hash to use it anyway).")
+    stored = _attr_str(attrs.get("model_values_sha256", ""))
+    if stored:
+        model = load_model(mp)
+        if model_values_sha256(model) == stored:
+            return None
+        diff = values_diff(_attr_str(attrs.get("model_values", "")) or "{}", model_values_json(model))
+        return (f"{path} does not belong to {mp}: model values the tables depend on differ ("
+                + "; ".join(diff or ["the stored values are unreadable"]) + f"). {regen}")
+    old = _attr_str(attrs.get("model_sha256", ""))
+    actual = model_sha256(mp)
+    if old and old == actual:
+        return None
+    return (f"{path} does not belong to {mp}: the table was written before hacgear stored the model values it "
+            f"depends on and holds only the SHA-256 of the model file's bytes ({old[:16] or 'none'}…); the model "
+            f"file now has sha256 {actual[:16]}…, so whether its values still match cannot be told. {regen}")
+
+
+def _attr_str(v: Any) -> str:
+    return v.decode() if isinstance(v, bytes) else str(v)
+
+
+def _read(path: Path, ds: Any) -> np.ndarray:
+    """Read a whole dataset; a failed Fletcher-32 checksum (or any other read error) → :class:`TableError`."""
+    try:
+        return ds[()]
+    except OSError as exc:
+        what = "fails its Fletcher-32 checksum" if ds.fletcher32 else "cannot be read"
+        raise TableError(f"{path}: dataset {ds.name} {what} ({exc}); the file is corrupted. Regenerate it "
+                         "with `hacgear statics MODEL` (or restore it from version control)") from None
+
+
+def file_integrity(path: str | Path) -> dict[str, Any]:
+    """Read every dataset of a tables file through its checksum and report, without raising on corruption.
+
+    Returns ``{"datasets": n, "checksummed": k, "unreadable": [dataset: error, ...], "attributes":
+    "verified" | "no digest" | "corrupted"}``; ``checksummed < datasets`` for files written before hacgear
+    stored checksums (their corruption cannot be detected).
+    """
+    path = Path(path)
+    try:
+        f = h5py.File(path, "r")
+    except OSError as exc:
+        raise TableError(f"{path} is not a readable HDF5 file ({exc})") from None
+    out: dict[str, Any] = {"datasets": 0, "checksummed": 0, "unreadable": []}
+    with f:
+        def visit(name: str, obj: Any) -> None:
+            if isinstance(obj, h5py.Dataset):
+                out["datasets"] += 1
+                out["checksummed"] += int(bool(obj.fletcher32))
+                try:
+                    obj[()]
+                except OSError as exc:
+                    what = "Fletcher-32 checksum failed" if obj.fletcher32 else "cannot be read"
+                    out["unreadable"].append(f"{name}: {what} ({exc})")
+        f.visititems(visit)
+        if ATTRS_DIGEST not in f.attrs:
+            out["attributes"] = "no digest"
+        else:
+            out["attributes"] = "verified" if _attr_str(f.attrs[ATTRS_DIGEST]) == _attrs_digest(f) else "corrupted"
+    return out
+
+
 def read_tables(path: str | Path, model_path: str | Path | None = None, *, allow_hash_mismatch: bool = False,
-                allow_incomplete: bool = False) -> SystemTables:
+                allow_incomplete: bool = False, check_values: bool = True) -> SystemTables:
     """Read ``tables.h5`` → :class:`SystemTables`.
 
-    ``model_path``: when given, the SHA-256 of that file must equal the table's ``model_sha256``,
-    otherwise :class:`TableError` names both files and the command that regenerates the table, unless
+    Every dataset is read through its Fletcher-32 checksum (tables written by this version): corrupted bytes
+    raise :class:`TableError` naming the dataset, and so do non-finite or physically impossible values
+    (:func:`hacgear_core.tables.check.hard_problems`: negative or absurdly large forces...).
+
+    ``model_path``: when given, the table must belong to that model file (:func:`_provenance_problem`),
+    otherwise :class:`TableError` names what differs and the command that regenerates the table, unless
     ``allow_hash_mismatch``.  A table with positions not flagged done (interrupted run) is refused
-    unless ``allow_incomplete``.
+    unless ``allow_incomplete``.  ``check_values=False`` skips the value checks (``hacgear statics --check`` runs
+    :func:`hacgear_core.tables.check.sanity_problems` itself and lists every problem).
     """
     path = Path(path)
     if not path.exists():
-        hint = f" (an interrupted run left {path.name}.partial: `hacgear statics MODEL --resume`)" \
+        hint = f" (an interrupted run left {path.name}.partial: `hacgear statics MODEL` continues it)" \
             if path.with_name(path.name + ".partial").exists() else ""
         raise TableError(f"table file not found: {path}{hint}")
     try:
@@ -341,26 +475,25 @@ def read_tables(path: str | Path, model_path: str | Path | None = None, *, allow
         if version != FORMAT_VERSION:
             raise TableError(f"{path} has format_version {version}; this hacgear reads version {FORMAT_VERSION}. "
                              "Regenerate it with `hacgear statics MODEL`.")
-        sha = str(f.attrs.get("model_sha256", ""))
+        sha = _attr_str(f.attrs.get("model_sha256", ""))
         if model_path is not None:
             mp = Path(model_path)
             if mp.is_dir():
                 mp = mp / "model.toml"
             if not mp.exists():
                 raise TableError(f"model file not found: {mp}")
-            actual = model_sha256(mp)
-            if actual != sha and not allow_hash_mismatch:
-                raise TableError(
-                    f"{path} does not belong to {mp}: the table was generated from a model file with "
-                    f"sha256 {sha[:16]}…, the model file now has sha256 {actual[:16]}…. Regenerate the table "
-                    f"with `hacgear statics {mp}` (or override with allow_hash_mismatch=True / "
-                    "--ignore-model-hash to use it anyway)."
-                )
+            problem = _provenance_problem(path, f.attrs, mp)
+            if problem and not allow_hash_mismatch:
+                raise TableError(problem)
+        if ATTRS_DIGEST in f.attrs and _attr_str(f.attrs[ATTRS_DIGEST]) != _attrs_digest(f):
+            raise TableError(f"{path}: its attributes (grid sizes, gear names, teeth, base radii, provenance) do "
+                             f"not match their checksum {ATTRS_DIGEST}; the file is corrupted. Regenerate it with "
+                             "`hacgear statics MODEL` (or restore it from version control)")
         if "meshes" not in f:
             raise TableError(f"{path}: no /meshes group")
         meshes = {}
         for m, g in f["meshes"].items():
-            meshes[m] = _read_mesh(path, m, g, allow_incomplete)
+            meshes[m] = _read_mesh(path, m, g, allow_incomplete, check_values)
         attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
         return SystemTables(
             meshes=meshes, model_sha256=sha, format_version=version,
@@ -369,7 +502,7 @@ def read_tables(path: str | Path, model_path: str | Path | None = None, *, allow
         )
 
 
-def _read_mesh(path: Path, m: str, g: Any, allow_incomplete: bool) -> MeshTable:
+def _read_mesh(path: Path, m: str, g: Any, allow_incomplete: bool, check_values: bool = True) -> MeshTable:
     required = ("position", "load_N", "deflection_m", "no_load_deflection_m", "static_deflection_m", "force_N",
                 "tooth_offsets", "tooth_load_N", "contact_roll_deg", "peak_pressure_Pa", "done_loads",
                 "done_deflections")
@@ -378,27 +511,33 @@ def _read_mesh(path: Path, m: str, g: Any, allow_incomplete: bool) -> MeshTable:
             raise TableError(f"{path}: mesh '{m}' lacks dataset {k!r}")
     if not allow_incomplete:
         for k in ("done_loads", "done_deflections"):
-            d = g[k][()]
+            d = _read(path, g[k])
             if not np.all(d == 1):
                 raise TableError(f"{path}: mesh '{m}' is incomplete ({int(np.count_nonzero(d))}/{d.size} positions "
-                                 f"in {k}); finish it with `hacgear statics MODEL --resume`")
-    strain = {name[len("strain/"):]: ds[()] for name, ds in _walk(g) if name.startswith("strain/")}
-    hub = {name[len("hub_reaction/"):]: ds[()] for name, ds in _walk(g) if name.startswith("hub_reaction/")}
+                                 f"in {k}); finish it with `hacgear statics MODEL`")
+    strain = {name[len("strain/"):]: _read(path, ds) for name, ds in _walk(g) if name.startswith("strain/")}
+    hub = {name[len("hub_reaction/"):]: _read(path, ds) for name, ds in _walk(g) if name.startswith("hub_reaction/")}
     order = _str_list(g.attrs.get("gauge_names", ()))
     strain = {k: strain[k] for k in order if k in strain} | {k: v for k, v in strain.items() if k not in order}
-    F = g["force_N"][()]
+    F = _read(path, g["force_N"])
     if allow_incomplete:
         F = np.nan_to_num(F, nan=0.0)
-    return MeshTable(
+    r = {k: _read(path, g[k]) for k in ("position", "deflection_m", "no_load_deflection_m", "load_N",
+                                        "static_deflection_m", "tooth_offsets", "tooth_load_N", "contact_roll_deg",
+                                        "peak_pressure_Pa")}
+    table = MeshTable(
         name=m, gear_names=_str_list(g.attrs["gear_names"]), teeth=tuple(int(z) for z in g.attrs["teeth"]),
-        base_radius_m=tuple(float(r) for r in g.attrs["base_radius_m"]), position=g["position"][()],
-        deflection_m=g["deflection_m"][()], force_N=F, no_load_deflection_m=g["no_load_deflection_m"][()],
-        load_N=g["load_N"][()], static_deflection_m=g["static_deflection_m"][()],
-        tooth_offsets=g["tooth_offsets"][()], tooth_load_N=g["tooth_load_N"][()],
-        contact_roll_deg=g["contact_roll_deg"][()], peak_pressure_Pa=g["peak_pressure_Pa"][()], strain=strain,
-        half_width_m=g["half_width_m"][()] if "half_width_m" in g else None, hub_reaction=hub,
-        solver=str(g.attrs.get("solver", "")),
+        base_radius_m=tuple(float(rb) for rb in g.attrs["base_radius_m"]), force_N=F, strain=strain,
+        half_width_m=_read(path, g["half_width_m"]) if "half_width_m" in g else None, hub_reaction=hub,
+        solver=str(g.attrs.get("solver", "")), **r,
     )
+    if check_values and not allow_incomplete:
+        bad = hard_problems(table)
+        if bad:
+            raise TableError(f"{path}: mesh '{m}' holds impossible values ({'; '.join(bad)}); the file is corrupted "
+                             "or was written by a faulty solver. Regenerate it with `hacgear statics MODEL`; "
+                             "`hacgear statics MODEL --check` lists every problem")
+    return table
 
 
 def write_tables(path: str | Path, tables: SystemTables) -> None:
@@ -412,6 +551,8 @@ def write_tables(path: str | Path, tables: SystemTables) -> None:
             n_deflections=t.n_deflections, solver_description=t.solver,
         )
     root = {"model_sha256": tables.model_sha256, "model_file": tables.model_file,
+            "model_values_sha256": tables.attrs.get("model_values_sha256", ""),
+            "model_values": tables.attrs.get("model_values", ""),
             "deflection_margin": float(tables.attrs.get("deflection_margin", float("nan")))}
     tmp = path.with_name(path.name + ".tmp")
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -431,6 +572,7 @@ def write_tables(path: str | Path, tables: SystemTables) -> None:
                 g[f"hub_reaction/{gear}"][...] = t.hub_reaction.get(gear, np.nan)
             g["done_loads"][...] = 1
             g["done_deflections"][...] = 1
+        seal_file(f)
     finally:
         f.close()
     os.replace(tmp, path)

@@ -1,0 +1,49 @@
+"""Output paths checked before a command starts its work, so that a long run never ends in a traceback."""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from hacgear_core.errors import HacgearError
+
+__all__ = ["check_out_path", "check_out_dir"]
+
+
+def _writable_folder(folder: Path, what: str) -> None:
+    if not folder.is_dir():
+        raise HacgearError(f"{what}: folder {folder} does not exist (create it first)")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise HacgearError(f"{what}: folder {folder} is not writable")
+
+
+def check_out_path(path: str | Path, option: str = "--out", *, suffixes: tuple[str, ...] | None = None) -> Path:
+    """Check that the file ``path`` can be written: a known suffix (when ``suffixes`` are given), an existing
+    writable folder, not a folder itself.  Returns the path; raises :class:`HacgearError` naming the option."""
+    p = Path(path)
+    what = f"{option} {str(path)!r}"
+    if suffixes and p.suffix.lower() not in suffixes:
+        raise HacgearError(f"{what}: the file must end in {' or '.join(suffixes)}")
+    if p.is_dir():
+        raise HacgearError(f"{what} is a folder; give a file name")
+    if p.exists() and not os.access(p, os.W_OK):
+        raise HacgearError(f"{what}: the file exists and is not writable")
+    _writable_folder(p.parent if str(p.parent) else Path("."), what)
+    return p
+
+
+def check_out_dir(path: str | Path, option: str = "--out") -> Path:
+    """Check that the folder ``path`` exists and is writable, or can be created in an existing writable folder
+    (it is not created here).  Returns the path; raises :class:`HacgearError` naming the option."""
+    p = Path(path)
+    what = f"{option} {str(path)!r}"
+    if p.exists():
+        if not p.is_dir():
+            raise HacgearError(f"{what} is a file; give a folder")
+        _writable_folder(p, what)
+        return p
+    parent = p.parent if str(p.parent) else Path(".")
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
+        raise HacgearError(f"{what}: the folder cannot be created ({parent} is not a writable folder)")
+    return p

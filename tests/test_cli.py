@@ -1,0 +1,92 @@
+"""The command-line interface as a whole (hacgear_core.cli, cli/_paths.py): help texts that match behaviour,
+output paths checked before any work."""
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import pytest
+
+from hacgear_core.cli import build_parser, main
+from hacgear_core.cli._paths import check_out_dir, check_out_path
+from hacgear_core.errors import HacgearError
+
+
+def _subcommands():
+    parser = build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return sub.choices
+
+
+@pytest.mark.parametrize("command", sorted(_subcommands()))
+def test_help_states_defaults_and_never_a_default_for_a_required_option(command):
+    """Every option with a default says so in its help; a required option never claims one (`modes --torque`
+    used to say 'default: ...' while being required)."""
+    p = _subcommands()[command]
+    for a in p._actions:
+        if isinstance(a, (argparse._HelpAction, argparse._StoreTrueAction, argparse._StoreFalseAction)) \
+                or not a.option_strings:
+            continue
+        text = (a.help or "").lower()
+        assert a.help, f"{command} {a.option_strings[0]}: no help text"
+        if a.required:
+            assert "default" not in text, f"{command} {a.option_strings[0]} is required but its help names a default"
+        elif a.default is not None and a.default is not argparse.SUPPRESS:
+            assert "default" in text, f"{command} {a.option_strings[0]}: default {a.default!r} not stated in the help"
+
+
+@pytest.mark.parametrize("argv, suffix", [
+    (["simulate", "synthetic:28t", "--fm", "1000", "--cycles", "100000"], "x.csv"),
+    (["sweep", "synthetic:28t", "--fm", "500:4500:4000"], "r.h5"),
+    (["statics", "spur_28t_asym", "--solver", "analytic", "--workers", "1"], "t.h5"),
+    (["plot", "models/spur_28t_asym/tables.h5"], "f.png"),
+    (["plot-geometry", "spur_28t_asym"], "g.png"),
+])
+def test_output_path_checked_before_any_work(argv, suffix, tmp_path, capsys):
+    """A missing output folder is reported at once (before a long run), naming the option."""
+    root = Path(__file__).resolve().parent.parent
+    argv = [str(root / a) if a.startswith("models/") else a for a in argv]
+    t0 = time.perf_counter()
+    rc = main(argv + ["--out", str(tmp_path / "missing" / suffix)])
+    err = capsys.readouterr().err
+    assert rc == 2 and "--out" in err and "does not exist" in err, err
+    assert time.perf_counter() - t0 < 10.0
+
+
+def test_demo_checks_its_output_folder(tmp_path, capsys):
+    (tmp_path / "file").write_text("x")
+    assert main(["demo", "--out", str(tmp_path / "file")]) == 2
+    assert "is a file; give a folder" in capsys.readouterr().err
+
+
+def test_path_checks(tmp_path):
+    assert check_out_path(tmp_path / "a.png", suffixes=(".png",)) == tmp_path / "a.png"
+    with pytest.raises(HacgearError, match="must end in .csv or .npz"):
+        check_out_path(tmp_path / "a.txt", suffixes=(".csv", ".npz"))
+    with pytest.raises(HacgearError, match="is a folder"):
+        check_out_path(tmp_path)
+    assert check_out_dir(tmp_path / "new" / "deeper") == tmp_path / "new" / "deeper"  # created later by the command
+    (tmp_path / "f").write_text("")
+    with pytest.raises(HacgearError, match="cannot be created"):
+        check_out_dir(tmp_path / "f" / "sub")
+
+
+@pytest.mark.parametrize("module, argv", [
+    ("hacgear_core.plots.tables", []),
+    ("hacgear_core.plots.validation", []),
+])
+def test_module_entry_points_write_only_where_told(module, argv, tmp_path):
+    """`python -m hacgear_core.plots.*` need an output folder and refuse one that cannot be made; nothing is
+    written into the checkout (docs/ used to be the default)."""
+    import subprocess
+    import sys
+
+    r = subprocess.run([sys.executable, "-m", module, *argv], cwd=tmp_path, capture_output=True, text=True,
+                       timeout=120)
+    assert r.returncode == 2 and "--out" in r.stderr, r.stderr
+    (tmp_path / "f").write_text("")
+    r = subprocess.run([sys.executable, "-m", module, *argv, "--out", str(tmp_path / "f" / "x")], cwd=tmp_path,
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and "cannot be created" in r.stderr, r.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f"]

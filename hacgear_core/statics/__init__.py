@@ -2,7 +2,8 @@
 
 :mod:`.fe` (finite-element far field of whole gears, cyclic symmetry, compliance cache), :mod:`.nearfield`
 (analytical Hertz/half-space near field), :mod:`.lcp` (the contact complementarity problem),
-:mod:`.contact` (static contact solver of one mesh), :mod:`.contract` (what a solver returns and provides),
+:mod:`.contact` (static contact solver of one mesh), :mod:`.helical` (the face-resolving solver: helix,
+mesh twist, generalized forces), :mod:`.fe3d` (3D face-wise influence of a tooth), :mod:`.contract` (what a solver returns and provides),
 :mod:`.reference` (analytical reference solver for tests), :mod:`.grid` (statics grid → ``tables.h5``,
 parallel, resumable), :mod:`.studies` (stiffness curves, model variants, root-strain scans).
 """
@@ -19,6 +20,7 @@ from hacgear_core.statics.grid import (
     deflection_grid,
     load_grid,
     nominal_mesh_forces,
+    twist_grid,
     run_statics,
 )
 from hacgear_core.statics.reference import AnalyticFactory, AnalyticPairSolver
@@ -51,6 +53,7 @@ __all__ = [
     "DEFAULT_DEFLECTION_MARGIN",
     "deflection_grid",
     "load_grid",
+    "twist_grid",
     "nominal_mesh_forces",
     "run_statics",
     "compute_statics",

@@ -1311,7 +1311,7 @@ def _gauge_location(gg, gauge: Gauge, n_profile: int):
     p = xy[i] * (1 - f) + xy[i + 1] * f
     n = nrm[i] * (1 - f) + nrm[i + 1] * f
     n /= np.linalg.norm(n)
-    return p, np.array([-n[1], n[0]]), n, float(s[i] * (1 - f) + s[i + 1] * f), int(np.asarray(prof.region)[i])
+    return p, np.array([-n[1], n[0]]), n, float(s[i] * (1 - f) + s[i + 1] * f), int(reg[i + 1] if f >= 0.5 else reg[i])
 
 
 def _hash_inputs(gg, material, options, side, s_grid, depth, gauges, n_profile) -> str:

@@ -363,30 +363,54 @@ class FaceInfluence:
         i = np.clip(np.searchsorted(grid, v, side="right") - 1, 0, grid.size - 2)
         return i, (v - grid[i]) / (grid[i + 1] - grid[i])
 
+    def _aligned(self, grid: np.ndarray, v_load, v_resp):
+        """Interpolation along one axis pair aligned with the diagonal: for each of the two grid nodes bracketing
+        the load coordinate (weight ``w``), the response is read at the same offset from that node as from the
+        load, so the peak of the kernel at coincident points is never smeared by the grid."""
+        i, f = self._cell(grid, v_load)
+        off = np.asarray(v_resp, float) - np.asarray(v_load, float)
+        out = []
+        for di, w in ((0, 1 - f), (1, f)):
+            j, fj = self._cell(grid, grid[i + di] + off)
+            out.append((i + di, w, j, fj))
+        return out
+
     def kernel(self, s_load, z_load, s_resp, z_resp) -> np.ndarray:
-        """3D normal compliance [m/N] between a load at (s_load, z_load) and the response at (s_resp, z_resp),
-        multilinear on the grid (broadcast; arguments clipped to the grid)."""
+        """3D normal compliance [m/N] between a load at (s_load, z_load) and the response at (s_resp, z_resp):
+        piecewise linear on the grid, aligned with the diagonal in both axes (:meth:`_aligned`); broadcast."""
         s_load, z_load, s_resp, z_resp = np.broadcast_arrays(*(np.asarray(a, float) for a in
                                                                (s_load, z_load, s_resp, z_resp)))
-        a, fa = self._cell(self.s_m, s_load)
-        b, fb = self._cell(self.zeta_m, z_load)
-        c, fc = self._cell(self.s_m, s_resp)
-        d, fd = self._cell(self.zeta_m, z_resp)
-        out = np.zeros(a.shape)
-        for da, wa in ((0, 1 - fa), (1, fa)):
-            for db, wb in ((0, 1 - fb), (1, fb)):
+        out = np.zeros(s_load.shape)
+        for a, wa, c, fc in self._aligned(self.s_m, s_load, s_resp):
+            for b, wb, d, fd in self._aligned(self.zeta_m, z_load, z_resp):
                 for dc, wc in ((0, 1 - fc), (1, fc)):
                     for dd, wd in ((0, 1 - fd), (1, fd)):
-                        out += wa * wb * wc * wd * self.disp[a + da, b + db, c + dc, d + dd]
+                        out += wa * wb * wc * wd * self.disp[a, b, c + dc, d + dd]
+        return out
+
+    def mean(self, s_load, s_resp) -> np.ndarray:
+        """Average of :meth:`kernel` over both axial positions [m/N] (aligned interpolation in s)."""
+        s_load, s_resp = np.broadcast_arrays(np.asarray(s_load, float), np.asarray(s_resp, float))
+        out = np.zeros(s_load.shape)
+        for a, wa, c, fc in self._aligned(self.s_m, s_load, s_resp):
+            out += wa * ((1 - fc) * self.disp_mean[a, c] + fc * self.disp_mean[a, c + 1])
         return out
 
     def correction(self, s_load, z_load, s_resp, z_resp) -> np.ndarray:
         """Face-wise 3D correction [m/N]: :meth:`kernel` minus its average over both axial positions."""
-        a, fa = self._cell(self.s_m, s_load)
-        c, fc = self._cell(self.s_m, s_resp)
-        mean = ((1 - fa) * (1 - fc) * self.disp_mean[a, c] + fa * (1 - fc) * self.disp_mean[a + 1, c]
-                + (1 - fa) * fc * self.disp_mean[a, c + 1] + fa * fc * self.disp_mean[a + 1, c + 1])
-        return self.kernel(s_load, z_load, s_resp, z_resp) - mean
+        return self.kernel(s_load, z_load, s_resp, z_resp) - self.mean(s_load, s_resp)
+
+    def slice_correction(self, s_load, z_load, s_resp, z_resp, width_m: float, points: int = 3) -> np.ndarray:
+        """:meth:`correction` averaged over two face slices of width ``width_m`` centred on ``z_load`` and
+        ``z_resp`` (Gauss-Legendre, ``points`` per slice): the compliance between two slice loads, which the
+        kernel's peak at coincident points makes differ from the value at the slice centres."""
+        xi, w = np.polynomial.legendre.leggauss(int(points))
+        xi, w = 0.5 * width_m * xi, 0.5 * w
+        out = 0.0
+        for xl, wl in zip(xi, w):
+            for xr, wr in zip(xi, w):
+                out = out + wl * wr * self.kernel(s_load, np.asarray(z_load) + xl, s_resp, np.asarray(z_resp) + xr)
+        return out - self.mean(s_load, s_resp)
 
     def strain_correction(self, gauge: str, z_gauge: float, s_load, z_load) -> np.ndarray:
         """Face-wise 3D correction [1/N] of the strain at ``gauge`` at axial coordinate ``z_gauge`` (gear frame)."""

@@ -197,7 +197,11 @@ class HelicalMeshContactSolver(MeshContactSolver):
         ref = self._pair_geometry(0, self.frame_angles(0.0))
         if ref is None:
             raise SolverError(f"mesh '{self.mesh_name}': the reference pair does not touch at position 0")
-        n2 = np.asarray(ref["normal"], float)
+        # the involute normal at the pitch point: tangent to the base circle (exact; the sampled flank only gives
+        # the side of the line of action)
+        num = np.asarray(ref["normal"], float)
+        cos_aw = self.base_radius_m[0] / self.operating_pitch_radius_m[0]
+        n2 = np.array([math.copysign(math.sqrt(max(0.0, 1.0 - cos_aw * cos_aw)), num[0]), math.copysign(cos_aw, num[1])])
         P2 = np.array([self.operating_pitch_radius_m[0], 0.0])
         n3c = self._normal3(P2, n2)
         n_ref = self._to_phys(n3c)
@@ -317,7 +321,7 @@ class HelicalMeshContactSolver(MeshContactSolver):
                 same = dk == 0
                 ii, jj = np.nonzero(same)
                 Cg *= np.outer(cos_phi, cos_phi)
-                Cg[ii, jj] += fi.correction(s[jj], zg[jj], s[ii], zg[ii])
+                Cg[ii, jj] += fi.slice_correction(s[jj], zg[jj], s[ii], zg[ii], self.slice_width_m)
             else:
                 Cg *= np.outer(cos_phi, cos_phi)
                 Cg /= self.face_width_m

@@ -106,6 +106,10 @@ class MeshLayout:
     slice_z_m: np.ndarray | None = None        # and the axial coordinates of the face slices [m]
     mesh_frame: Mapping[str, Any] | None = None  # r_mesh, r_twist, e1.., base_helix_angle_rad, lever_arm_m, ...
 
+    #: datasets of every mesh group (format version 1); the twist-axis ones are added for helical meshes
+    base_datasets = ("no_load_deflection_m", "static_deflection_m", "deflection_m", "force_N", "tooth_load_N",
+                     "contact_roll_deg", "half_width_m", "peak_pressure_Pa")
+
     @property
     def shapes(self) -> dict[str, tuple[int, ...]]:
         npos, nl, nd, nw = self.position.size, self.load_N.size, self.n_deflections, len(self.tooth_offsets)
@@ -125,9 +129,19 @@ class MeshLayout:
         return out
 
 
-def _dataset(group: Any, name: str, data: np.ndarray, key: str | None = None) -> None:
+#: twist-axis datasets stored as float32 (post-processing quantities; read back as float64): the generalized FDF
+#: and the deflections keep float64
+_SINGLE = ("generalized_force", "tooth_load_twist_N", "peak_pressure_twist_Pa", "slice_load_N", "slice_pressure_Pa",
+           "strain_twist")
+
+
+def _dataset(group: Any, name: str, data: np.ndarray, key: str | None = None, compress: bool = False) -> None:
     unit, desc = DATASETS[key or name]
-    ds = group.create_dataset(name, data=data)
+    # the large twist-axis datasets are stored deflated (deterministic, and partial writes stay raw-data only)
+    kw = dict(compression="gzip", compression_opts=4, shuffle=True) if compress and np.size(data) > 4096 else {}
+    if (key or name) in _SINGLE:
+        data = np.asarray(data, dtype=np.float32)
+    ds = group.create_dataset(name, data=data, **kw)
     ds.attrs["unit"] = unit
     ds.attrs["description"] = desc
 
@@ -171,8 +185,9 @@ def _create_file(path: Path, layouts: Mapping[str, MeshLayout], root_attrs: Mapp
         _dataset(g, "position", np.asarray(lay.position, float))
         _dataset(g, "load_N", np.asarray(lay.load_N, float))
         _dataset(g, "tooth_offsets", np.asarray(lay.tooth_offsets, dtype=np.int64))
+        base = set(MeshLayout.base_datasets)
         for name, shp in lay.shapes.items():
-            _dataset(g, name, np.full(shp, np.nan))
+            _dataset(g, name, np.full(shp, np.nan), compress=name not in base)
         nd_shape = lay.shapes["tooth_load_N"]
         for gauge in lay.gauge_names:
             _dataset(g, f"strain/{gauge}", np.full(nd_shape, np.nan), key="strain")
@@ -183,7 +198,7 @@ def _create_file(path: Path, layouts: Mapping[str, MeshLayout], root_attrs: Mapp
             _dataset(g, "slice_z_m", np.asarray(lay.slice_z_m, float))
             tw_shape = lay.shapes["tooth_load_twist_N"]
             for gauge in lay.gauge_names:
-                _dataset(g, f"strain_twist/{gauge}", np.full(tw_shape, np.nan), key="strain_twist")
+                _dataset(g, f"strain_twist/{gauge}", np.full(tw_shape, np.nan), key="strain_twist", compress=True)
             for k in FRAME_KEYS:
                 g.attrs[k] = np.asarray(lay.mesh_frame[k], dtype=float)
         _dataset(g, "done_loads", np.zeros(lay.position.size, dtype=np.uint8))

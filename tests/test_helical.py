@@ -281,3 +281,44 @@ def test_elastic_coupling_converges_with_the_slice_count(helical):
         res.append((c.mean_mesh_stiffness_N_per_m, c.ste_m.mean()))
     assert res[1][0] == pytest.approx(res[0][0], rel=5e-3)
     assert res[1][1] == pytest.approx(res[0][1], rel=5e-3)
+
+
+def test_committed_tables_double_contact_widens_with_deflection():
+    """Fig. 5.4: at zero twist the double-contact region of the FDF widens as the deflection grows."""
+    from hacgear_core.tables import load_system_tables
+
+    t = load_system_tables("helical_28_33").mesh("m12")
+    assert t.twist is not None and t.twist.twist_rad.size == 5
+    tl = t.tooth_load_N                                             # zero-twist slice (Np, Nd, Nw)
+    frac = []
+    for j in range(t.n_deflections):
+        F = t.force_N[:, j]
+        loaded = tl[:, j, :] > 1e-3 * np.maximum(F[:, None], 1e-9)
+        frac.append(np.mean(loaded.sum(axis=1) >= 2))
+    frac = np.asarray(frac)
+    j0 = int(np.argmax(t.deflection_m > t.no_load_deflection_m.max()))
+    assert np.all(np.diff(frac[j0:]) >= -1.0 / t.n_positions)      # non-decreasing (one grid position of slack)
+    assert frac[-1] > frac[j0] + 0.2
+    # the generalized FDF: W at zero twist equals the spur-compatible force_N; f_d identity within 1e-3
+    g = t.twist.generalized_fdf
+    np.testing.assert_array_equal(g[:, :, t.twist.zero_index, 0], t.force_N)
+    fd = t.twist.generalized_force
+    ident = g[..., :1] * t.twist.r_mesh + g[..., 1:] * t.twist.r_twist
+    norm = np.linalg.norm(fd, axis=-1)
+    big = norm > 0.05 * norm.max()
+    assert np.max(np.linalg.norm(fd - ident, axis=-1)[big] / norm[big]) < 5e-3
+
+
+def test_stiffness_cli_reports_twist_quantities(capsys):
+    import json
+
+    from hacgear_core.cli import main
+
+    assert main(["stiffness", "helical_28_33", "--torque", "200", "--twist", "1e-4", "--positions", "4",
+                 "--face-coupling", "rigid", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)["meshes"]["m12"]
+    h = d["helical"]
+    assert d["mesh_force_N"] == pytest.approx(200.0 / h["lever_arm_m"][0])
+    assert h["twist_rad"] == 1e-4 and len(h["slice_load_N"][0]) == 11
+    assert h["mean_twist_stiffness_Nm_per_rad"] > 0
+    assert len(h["r_mesh"]) == 12 and len(h["r_twist"]) == 12

@@ -10,6 +10,7 @@ parallel, resumable), :mod:`.studies` (stiffness curves, model variants, root-st
 from __future__ import annotations
 
 from hacgear_core.statics.contact import ContactOptions, MeshContactSolver, make_mesh_solver
+from hacgear_core.statics.helical import HelicalMeshContactSolver, MeshFrame, make_helical_solver, make_solver
 from hacgear_core.statics.lcp import LCPResult, StripContact, solve_contact_lcp, solve_strip_contact
 from hacgear_core.statics.contract import MeshInfo, MeshStaticSolver, SolverFactory, StaticSolution, describe_solver
 from hacgear_core.statics.grid import (
@@ -41,6 +42,10 @@ __all__ = [
     "ContactOptions",
     "MeshContactSolver",
     "make_mesh_solver",
+    "HelicalMeshContactSolver",
+    "MeshFrame",
+    "make_helical_solver",
+    "make_solver",
     "StaticSolution",
     "MeshStaticSolver",
     "SolverFactory",

@@ -292,6 +292,9 @@ class MeshContactSolver:
     options : ContactOptions
     """
 
+    #: True for solvers that resolve the face (3D face coupling, helix): :mod:`hacgear_core.statics.helical`
+    _resolves_face = False
+
     def __init__(self, *, mesh_name: str, gear_names: tuple[str, str], geometry: tuple[Any, Any],
                  flanks: tuple[str, str], center_distance_m: float, compliance: tuple[Any, Any],
                  face_width_m: float, crowning: tuple[Callable, Callable],
@@ -312,6 +315,9 @@ class MeshContactSolver:
                 f"tooth); got flank_a={flanks[0]!r}, flank_b={flanks[1]!r}")
         if not (face_width_m > 0):
             raise ModelError(f"face_width_m must be > 0 m, got {face_width_m!r}")
+        if options.face_coupling == "elastic" and not self._resolves_face:
+            raise SolverError("face_coupling 'elastic' needs the face-resolving solver: "
+                              "hacgear_core.statics.helical.make_solver / make_helical_solver")
         self.mesh_name = mesh_name
         self.gear_names = tuple(gear_names)
         self.teeth = (int(geometry[0].z), int(geometry[1].z))

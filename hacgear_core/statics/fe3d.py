@@ -29,7 +29,7 @@ import json
 import os
 import threading
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -93,7 +93,6 @@ class Mesh3DOptions:
         """Copy with element sizes and layer length divided by ``factor`` (> 0); the influence grid is kept."""
         if not factor > 0:
             raise ModelError(f"refinement factor must be > 0, got {factor!r}")
-        from dataclasses import replace
         return replace(self, flank_size_m=self.flank_size_m / factor, body_size_m=self.body_size_m / factor,
                        layer_size_m=self.layer_size_m / factor)
 

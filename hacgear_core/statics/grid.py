@@ -526,7 +526,8 @@ def compute_statics(
 
     Grid sizes default to the model's ``[statics]`` section; the load grid of each mesh is
     ``linspace(0, max_torque_factor × nominal mesh force, loads)`` (:func:`nominal_mesh_forces`).
-    ``solver``: ``"fe"`` (``hacgear_core.statics.contact.make_mesh_solver``) or ``"analytic"``
+    ``solver``: ``"fe"`` (``hacgear_core.statics.helical.make_solver``: spur, or helical with the model's
+    ``[statics] twist_points`` mesh twists from ``-max_twist_mrad`` to ``+max_twist_mrad``) or ``"analytic"``
     (:class:`AnalyticPairSolver`, reference spring model).
     """
     mdl = load_model(model)

@@ -147,6 +147,8 @@ class HelicalMeshContactSolver(MeshContactSolver):
         3D face-wise influence of each gear (``face_coupling="elastic"``).
     """
 
+    _resolves_face = True
+
     def __init__(self, *, helix_k_per_m: float, helix_k_b_per_m: float, z_centre_m: float,
                  gear_axial_m: tuple[float, float], gear_face_width_m: tuple[float, float],
                  gauge_axial_m: Sequence[float] = (), face_influence: tuple[Any, Any] = (None, None), **kw):

@@ -238,7 +238,7 @@ def test_statics_grid_writes_the_twist_axis(helical, tmp_path):
     W, M = tw.generalized_fdf[i, j, 1]
     assert np.linalg.norm(fd - (W * tw.r_mesh + M * tw.r_twist)) < 2e-3 * np.linalg.norm(fd)
     # the contact pattern sums to the tooth loads; +twist loads the -z side more
-    np.testing.assert_allclose(tw.slice_load_N.sum(axis=-1), tw.tooth_load_N.sum(axis=-1), rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(tw.slice_load_N.sum(axis=-1), tw.tooth_load_N.sum(axis=-1), rtol=1e-5, atol=1e-3)  # float32
     zc = (tw.slice_load_N[:, j] @ tw.slice_z_m) / tw.slice_load_N[:, j].sum(axis=-1)
     assert np.all(zc[:, 0] > zc[:, 2])
     # deterministic and resumable: a second run with resume finds the finished file

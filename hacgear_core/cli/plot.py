@@ -2,7 +2,8 @@
 
 * ``tables.h5`` (from ``hacgear statics``): the force-deflection function over two mesh cycles with the
   single/double contact regions (dissertation Fig. 3.3) and, with ``--gauge``, the strain-deflection
-  function of that gauge (Fig. 4.6), written to ``<out>`` and ``<out stem>_sdf.png``;
+  function of that gauge (Fig. 4.6), written to ``<out>`` and ``<out stem>_sdf.png``; a helical mesh table
+  (twist axis) adds ``<out stem>_helical_{gfdf,twist,pattern,sdf}.png`` (Figs. 5.3, 5.4, 5.6);
 * a sweep results file (from ``hacgear sweep --out``): RMS and mean of the mesh deflection over the mesh
   frequency, up and down branches, confirmed jumps marked (Figs. 3.5, 3.10).
 
@@ -18,6 +19,7 @@ import h5py
 
 from hacgear_core.cli._paths import check_out_path
 from hacgear_core.errors import TableError
+from hacgear_core.plots.helical import write_helical_figures
 from hacgear_core.plots.sweep import plot_sweep_file
 from hacgear_core.plots.tables import plot_fdf, plot_sdf
 from hacgear_core.tables import read_tables
@@ -60,6 +62,11 @@ def run(args) -> int:
             sdf = out.with_name(out.stem + "_sdf.png")
             plot_sdf(table, args.gauge).savefig(sdf, dpi=110)
             print(f"strain-deflection function of {args.gauge}: {sdf}")
+        if table.twist is not None:
+            for p in write_helical_figures(path, out.parent, table.name):
+                target = out.with_name(f"{out.stem}_{p.name}")
+                p.replace(target)
+                print(f"helical mesh figure: {target}")
         return 0
     if kind == "sweep":
         jumps = plot_sweep_file(path, out, args.run)

@@ -110,6 +110,13 @@ def check_report(model: str | Path, tables: str | Path | None = None, *, ignore_
             "peak_pressure_max_Pa": float(np.nanmax(mt.peak_pressure_Pa)),
             "solver": mt.solver, "problems": mp_problems, "notes": resolution_notes(mt),
         }
+        if mt.twist is not None:
+            tw = mt.twist
+            rep["meshes"][m].update(
+                twist_rad=tw.twist_rad.tolist(), slice_z_m=tw.slice_z_m.tolist(),
+                base_helix_angle_rad=tw.base_helix_angle_rad, lever_arm_m=tw.lever_arm_m.tolist(),
+                r_mesh=tw.r_mesh.tolist(), r_twist=tw.r_twist.tolist(),
+                twist_moment_range_Nm=[float(tw.generalized_fdf[..., 1].min()), float(tw.generalized_fdf[..., 1].max())])
         problems += [f"mesh {m}: {q}" for q in mp_problems]
     return rep
 
@@ -138,6 +145,10 @@ def _check(args: argparse.Namespace) -> int:
               f"{r['deflection_grid_max_m'] * 1e6:.4g} µm); NLMD {r['no_load_deflection_min_m'] * 1e6:.4g} … "
               f"{r['no_load_deflection_max_m'] * 1e6:.4g} µm; max force {r['force_max_N']:.6g} N; "
               f"solver: {r['solver']}")
+        if "twist_rad" in r:
+            print(f"    twist axis {len(r['twist_rad'])} points, {r['twist_rad'][0] * 1e3:.4g} … "
+                  f"{r['twist_rad'][-1] * 1e3:.4g} mrad; {len(r['slice_z_m'])} face slices; twist moment "
+                  f"{r['twist_moment_range_Nm'][0]:.4g} … {r['twist_moment_range_Nm'][1]:.4g} N·m")
         for note in r["notes"]:
             print(f"    note: {note}")
     if rep["problems"]:

@@ -30,8 +30,12 @@ def register(subparsers: Any) -> None:
     p.add_argument("--mesh", default=None, help="only this mesh (default: every mesh of the model)")
     p.add_argument("--positions", type=int, default=64, help="mesh positions per cycle (default 64)")
     p.add_argument("--slices", type=int, default=None, help="face slices (default: model [statics] face_slices)")
-    p.add_argument("--face-coupling", choices=("rigid", "slices"), default="rigid",
-                   help="far-field coupling across the face (default rigid; slices = thin-slice model)")
+    p.add_argument("--face-coupling", choices=("rigid", "slices", "elastic"), default=None,
+                   help="far-field coupling across the face: rigid (2D, uniform; spur default), slices (thin-slice "
+                        "model), elastic (2D + 3D face-wise influence; helical default)")
+    p.add_argument("--twist", type=float, default=0.0, metavar="RAD",
+                   help="mesh twist [rad] (helical meshes): relative rotation of the gears about the normal to the "
+                        "plane of action, (theta_a - theta_b) . e1 (docs/helical.md); default 0")
     p.add_argument("--no-relief", action="store_true", help="remove all tip relief (study)")
     p.add_argument("--no-crowning", action="store_true", help="remove all lead crowning (study)")
     p.add_argument("--json", action="store_true", help="print JSON (SI units, unit in the key name)")
@@ -44,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
         model = model_variant(model, tip_relief=not args.no_relief, lead_crowning=not args.no_crowning)
     torque = model.operating.torque_Nm if args.torque is None else args.torque
     d = mesh_stiffness_report(model, torque, mesh=args.mesh, positions=args.positions, slices=args.slices,
-                              face_coupling=args.face_coupling)
+                              face_coupling=args.face_coupling, twist_rad=args.twist)
     if args.json:
         print(dumps(d, indent=1))
         return 0
@@ -61,4 +65,17 @@ def run(args: argparse.Namespace) -> int:
         print(f"  local slope min / max             {min(k) / 1e6:9.2f} / {max(k) / 1e6:.2f} MN/m")
         print(f"  static transmission error mean    {sum(ste) / len(ste) * 1e6:9.3f} µm, peak-to-peak "
               f"{m['ste_peak_to_peak_m'] * 1e6:.3f} µm  ({m['seconds']:.1f} s)")
+        h = m.get("helical")
+        if h:
+            zs = h["slice_z_m"]
+            print(f"  mesh twist {h['twist_rad']:.4g} rad; twist moment mean {h['mean_twist_moment_Nm']:.4g} N·m; "
+                  f"twist stiffness mean {h['mean_twist_stiffness_Nm_per_rad']:.4g} N·m/rad")
+            print(f"  (x and the mesh force are normal to the flank: base helix angle "
+                  f"{abs(h['base_helix_angle_rad']) * 57.29577951308232:.4f} deg, lever arms "
+                  f"{h['lever_arm_m'][0] * 1e3:.4f} / {h['lever_arm_m'][1] * 1e3:.4f} mm)")
+            print(f"  contact pattern (mean load per face slice, z in mm): "
+                  + ", ".join(f"{z * 1e3:.2f}:{f:.0f} N" for z, f in zip(zs, h["mean_slice_load_N"])))
+            print(f"  load centroid across the face {h['mean_load_centroid_z_m'] * 1e3:.3f} mm (face "
+                  f"{h['face_overlap_m'][0] * 1e3:.2f} … {h['face_overlap_m'][1] * 1e3:.2f} mm); peak pressure "
+                  f"{h['max_peak_pressure_Pa'] / 1e9:.3f} GPa")
     return 0

@@ -121,16 +121,20 @@ class Flank:
 
 @dataclass(frozen=True)
 class Gauge:
-    """A strain gauge on the root surface of a flank at a given radius from the gear centre [m]."""
+    """A strain gauge on the root surface of a flank at a given radius from the gear centre [m], at the axial
+    position ``face_fraction`` of the gear's face width (0 = its face at lower axial coordinate, 1 = the other
+    face; 0.5 = mid-face, which face-averaging solvers assume)."""
 
     name: str
     flank: str
     radius_m: float
+    face_fraction: float = 0.5
 
     def __post_init__(self) -> None:
         if self.flank not in FLANKS:
             raise _fail("flank", "", " | ".join(FLANKS), self.flank)
         _check_range("radius_m", self.radius_m, "m", 0.0, 10.0, lo_open=True)
+        _check_range("face_fraction", self.face_fraction, "-", 0.0, 1.0)
 
 
 @dataclass(frozen=True)
@@ -391,7 +395,8 @@ class Operating:
 class StaticsGrid:
     """Grids of the static analyses: ``positions`` per mesh cycle, ``loads`` from 0 to
     ``max_torque_factor`` x nominal torque, ``deflections`` points of the regular FDF deflection grid,
-    ``face_slices`` slices across the face width (crowning, helix), ``twist_points`` (helical)."""
+    ``face_slices`` slices across the face width (crowning, helix), ``twist_points`` mesh twists from
+    ``-max_twist_rad`` to ``+max_twist_rad`` (helical meshes; odd, so that 0 is a grid point)."""
 
     positions: int = 64
     loads: int = 32
@@ -399,6 +404,7 @@ class StaticsGrid:
     max_torque_factor: float = 3.0
     face_slices: int = 21
     twist_points: int = 1
+    max_twist_rad: float = 1.0e-3
 
     def __post_init__(self) -> None:
         for name, lo, hi in (
@@ -412,6 +418,7 @@ class StaticsGrid:
             if not isinstance(v, int) or not lo <= v <= hi:
                 raise _fail(name, "-", f"integer in [{lo}, {hi}]", v)
         _check_range("max_torque_factor", self.max_torque_factor, "-", 1.0, 20.0)
+        _check_range("max_twist_rad", self.max_twist_rad, "rad", 0.0, 0.01, lo_open=True)
 
 
 @dataclass(frozen=True)

@@ -217,7 +217,7 @@ class _Section:
 
 _MATERIAL_KEYS = ("density_kg_per_m3", "youngs_modulus_GPa", "poisson_ratio")
 _FLANK_KEYS = ("pressure_angle_deg", "tip_relief_um", "tip_relief_start_roll_deg", "tip_relief_shape")
-_GAUGE_KEYS = ("name", "flank", "radius_mm")
+_GAUGE_KEYS = ("name", "flank", "radius_mm", "face_fraction")
 _SUPPORT_KEYS = (
     "translational_stiffness_N_per_m", "rotational_stiffness_Nm_per_rad", "axial_stiffness_N_per_m",
     "tilting_stiffness_Nm_per_rad",
@@ -340,8 +340,9 @@ def _read_gear(sec: _Section, materials: dict[str, Material]) -> Gear:
         gname = gsec.string("name")
         gflank = gsec.string("flank", FLANKS)
         grad = gsec.number("radius_mm", "mm", 0.0, 10000.0, lo_open=True)
+        gface = gsec.number("face_fraction", "-", 0.0, 1.0, required=False, default=0.5)
         gsec.done(_GAUGE_KEYS)
-        gauges.append(_wrap(gsec, gsec.path, lambda: Gauge(gname, gflank, grad * 1e-3)))
+        gauges.append(_wrap(gsec, gsec.path, lambda: Gauge(gname, gflank, grad * 1e-3, gface)))
     support = _read_support(sec.table("support", required=False))
     web = _read_web(sec.table("web", required=False), face, bore, root, internal)
     sec.done(_GEAR_KEYS)
@@ -423,6 +424,7 @@ DEFAULT_MEANINGS = {
     "carrier_inertia_kgm2": "carrier without inertia", "carrier_support": "rigid carrier bearings, carrier rotation prescribed by the kinematics",
     "lumped": "gears with tooth geometry (not a lumped model)", "fixed_member": "the ring is held",
     "pin_errors": "no planet pin position errors", "planet_positions_deg": "equally spaced planets",
+    "face_fraction": "gauge at mid face", "max_twist_mrad": "statics grid (mesh twist range, helical pairs)",
 }
 
 
@@ -524,8 +526,11 @@ def parse_model(text: str, *, file: str = "<model>", path: Path | None = None, s
             max_torque_factor=ssec.number("max_torque_factor", "-", 1.0, 20.0, required=False, default=3.0),
             face_slices=ssec.integer("face_slices", 1, 200, required=False, default=21),
             twist_points=ssec.integer("twist_points", 1, 64, required=False, default=1),
+            max_twist_rad=1e-3 * ssec.number("max_twist_mrad", "mrad", 0.0, 10.0, lo_open=True, required=False,
+                                             default=1.0),
         )
-        ssec.done(("positions", "loads", "deflections", "max_torque_factor", "face_slices", "twist_points"))
+        ssec.done(("positions", "loads", "deflections", "max_torque_factor", "face_slices", "twist_points",
+                   "max_twist_mrad"))
     else:
         statics = StaticsGrid()
 

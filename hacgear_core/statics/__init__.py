@@ -2,13 +2,15 @@
 
 :mod:`.fe` (finite-element far field of whole gears, cyclic symmetry, compliance cache), :mod:`.nearfield`
 (analytical Hertz/half-space near field), :mod:`.lcp` (the contact complementarity problem),
-:mod:`.contact` (static contact solver of one mesh), :mod:`.contract` (what a solver returns and provides),
+:mod:`.contact` (static contact solver of one mesh), :mod:`.helical` (the face-resolving solver: helix,
+mesh twist, generalized forces), :mod:`.fe3d` (3D face-wise influence of a tooth), :mod:`.contract` (what a solver returns and provides),
 :mod:`.reference` (analytical reference solver for tests), :mod:`.grid` (statics grid → ``tables.h5``,
 parallel, resumable), :mod:`.studies` (stiffness curves, model variants, root-strain scans).
 """
 from __future__ import annotations
 
 from hacgear_core.statics.contact import ContactOptions, MeshContactSolver, make_mesh_solver
+from hacgear_core.statics.helical import HelicalMeshContactSolver, MeshFrame, make_helical_solver, make_solver
 from hacgear_core.statics.lcp import LCPResult, StripContact, solve_contact_lcp, solve_strip_contact
 from hacgear_core.statics.contract import MeshInfo, MeshStaticSolver, SolverFactory, StaticSolution, describe_solver
 from hacgear_core.statics.grid import (
@@ -19,6 +21,7 @@ from hacgear_core.statics.grid import (
     deflection_grid,
     load_grid,
     nominal_mesh_forces,
+    twist_grid,
     run_statics,
 )
 from hacgear_core.statics.reference import AnalyticFactory, AnalyticPairSolver
@@ -39,6 +42,10 @@ __all__ = [
     "ContactOptions",
     "MeshContactSolver",
     "make_mesh_solver",
+    "HelicalMeshContactSolver",
+    "MeshFrame",
+    "make_helical_solver",
+    "make_solver",
     "StaticSolution",
     "MeshStaticSolver",
     "SolverFactory",
@@ -51,6 +58,7 @@ __all__ = [
     "DEFAULT_DEFLECTION_MARGIN",
     "deflection_grid",
     "load_grid",
+    "twist_grid",
     "nominal_mesh_forces",
     "run_statics",
     "compute_statics",

@@ -74,6 +74,7 @@ __all__ = [
     "ContactState",
     "MeshContactSolver",
     "make_mesh_solver",
+    "mesh_solver_inputs",
 ]
 
 # =============================================================================================
@@ -89,8 +90,10 @@ class ContactOptions:
         Slices across the face width (1..200).  21 (default) resolves parabolic lead crowning: the
         mean local-slope mesh stiffness of the 28-tooth pair moves < 0.2 % from 21 to 41/61/81 slices,
         while 5 slices are off by +0.9 % (docs/static_contact.md, "Face slices").
-    face_coupling : {"rigid", "slices"}
-        Far-field coupling across the face (see the module docstring); default "rigid".
+    face_coupling : {"rigid", "slices", "elastic"}
+        Far-field coupling across the face (see the module docstring); default "rigid".  "elastic" (the 3D
+        face-wise influence of :mod:`hacgear_core.statics.fe3d`) is served by the helical solver
+        (:mod:`hacgear_core.statics.helical`).
     pair_window : int
         Tooth pairs examined on each side of the pair nearest the pitch point (>= 1); reported
         offsets are ``-pair_window..pair_window``.
@@ -115,8 +118,8 @@ class ContactOptions:
     def __post_init__(self):
         if not (isinstance(self.face_slices, (int, np.integer)) and 1 <= self.face_slices <= 200):
             raise ModelError(f"face_slices must be an integer in [1, 200], got {self.face_slices!r}")
-        if self.face_coupling not in ("slices", "rigid"):
-            raise ModelError(f"face_coupling must be 'slices' or 'rigid', got {self.face_coupling!r}")
+        if self.face_coupling not in ("slices", "rigid", "elastic"):
+            raise ModelError(f"face_coupling must be 'slices', 'rigid' or 'elastic', got {self.face_coupling!r}")
         if not (isinstance(self.pair_window, (int, np.integer)) and 1 <= self.pair_window <= 10):
             raise ModelError(f"pair_window must be an integer in [1, 10], got {self.pair_window!r}")
         if not (isinstance(self.n_profile, (int, np.integer)) and 100 <= self.n_profile <= 5000):
@@ -289,6 +292,9 @@ class MeshContactSolver:
     options : ContactOptions
     """
 
+    #: True for solvers that resolve the face (3D face coupling, helix): :mod:`hacgear_core.statics.helical`
+    _resolves_face = False
+
     def __init__(self, *, mesh_name: str, gear_names: tuple[str, str], geometry: tuple[Any, Any],
                  flanks: tuple[str, str], center_distance_m: float, compliance: tuple[Any, Any],
                  face_width_m: float, crowning: tuple[Callable, Callable],
@@ -309,6 +315,9 @@ class MeshContactSolver:
                 f"tooth); got flank_a={flanks[0]!r}, flank_b={flanks[1]!r}")
         if not (face_width_m > 0):
             raise ModelError(f"face_width_m must be > 0 m, got {face_width_m!r}")
+        if options.face_coupling == "elastic" and not self._resolves_face:
+            raise SolverError("face_coupling 'elastic' needs the face-resolving solver: "
+                              "hacgear_core.statics.helical.make_solver / make_helical_solver")
         self.mesh_name = mesh_name
         self.gear_names = tuple(gear_names)
         self.teeth = (int(geometry[0].z), int(geometry[1].z))
@@ -769,17 +778,14 @@ class MeshContactSolver:
 # =============================================================================================
 # Model → solver
 # =============================================================================================
-def make_mesh_solver(model: Any, mesh_name: str, *, options: ContactOptions | None = None,
-                     fe_options: Any = None, plane: str = "stress", cache: bool = True,
-                     gauges: Sequence[tuple[str, Any]] | None = None) -> MeshContactSolver:
-    """Build the static contact solver of mesh ``mesh_name`` of ``model`` (a :class:`~hacgear_core.model.Model`,
-    or a path / system name).  Finite-element influence coefficients come from
-    :func:`hacgear_core.statics.fe.gear_compliance` (cached on disk), so rebuilding in a worker is cheap.
-
-    ``options`` default: ``ContactOptions(face_slices=model.statics.face_slices)``; ``fe_options``: a
-    :class:`hacgear_core.statics.fe.MeshOptions`; ``gauges``: ``(gear name, model Gauge)`` pairs replacing the
-    model's gauges (e.g. a row of points along a fillet).
-    """
+def mesh_solver_inputs(model: Any, mesh_name: str, *, fe_options: Any = None, plane: str = "stress",
+                       cache: bool = True, gauges: Sequence[tuple[str, Any]] | None = None) -> dict[str, Any]:
+    """What every static contact solver of mesh ``mesh_name`` of ``model`` is built from (spur and helical):
+    gear geometries, loaded flanks, centre distance, finite-element compliances of both gears (cached on disk),
+    gauges, the overlapping face width and its centre, crowning per gear, materials.  ``gauges``: ``(gear name,
+    model Gauge)`` pairs replacing the model's gauges.  Returns a dict; ``mesh``, ``gears`` (model gears),
+    ``gauge_models`` (per gear index, the model gauges in the order of ``gauges``) and ``z_centre_m`` are extra
+    to the :class:`MeshContactSolver` keyword arguments."""
     if not isinstance(model, Model):
         model = load_model(model)
     meshes = {m.name: m for m in model.meshes}
@@ -788,20 +794,17 @@ def make_mesh_solver(model: Any, mesh_name: str, *, options: ContactOptions | No
     mesh = meshes[mesh_name]
     gears = {g.name: g for g in model.gears}
     ga, gb = gears[mesh.gear_a], gears[mesh.gear_b]
-    if ga.is_helical or gb.is_helical:
-        raise SolverError(f"mesh '{mesh_name}': helical meshes are not supported by the contact solver yet")
-    if options is None:
-        options = ContactOptions(face_slices=model.statics.face_slices)
     mg = mesh_geometry(model, mesh_name)
     ggs = (gear_geometry(ga), gear_geometry(gb))
     kw = {} if fe_options is None else {"options": fe_options}
-    comps, gauge_list = [], []
+    comps, gauge_list, gauge_models = [], [], ([], [])
     for gi, (g, gg, side) in enumerate(((ga, ggs[0], mesh.flank_a), (gb, ggs[1], mesh.flank_b))):
         glist = g.gauges if gauges is None else tuple(x for name, x in gauges if name == g.name)
         fg = tuple(fe_mod.Gauge(x.name, x.flank, x.radius_m) for x in glist)
         mat = fe_mod.ElasticMaterial(g.material.youngs_modulus_Pa, g.material.poisson_ratio, plane)
         comps.append(fe_mod.gear_compliance(gg, mat, side, gauges=fg, cache=cache, **kw))
         gauge_list += [(gi, k, f"{g.name}/{x.name}") for k, x in enumerate(glist)]
+        gauge_models[gi].extend(glist)
     # overlapping face width (axial positions of both gears)
     lo = max(ga.axial_position_m - ga.face_width_m / 2, gb.axial_position_m - gb.face_width_m / 2)
     hi = min(ga.axial_position_m + ga.face_width_m / 2, gb.axial_position_m + gb.face_width_m / 2)
@@ -817,12 +820,43 @@ def make_mesh_solver(model: Any, mesh_name: str, *, options: ContactOptions | No
         c, b = gear.lead_crowning_m, gear.face_width_m
         return lambda zz: c * (2 * (zz + off) / b) ** 2
 
-    return MeshContactSolver(
+    return dict(
         mesh_name=mesh_name, gear_names=(ga.name, gb.name), geometry=ggs, flanks=(mesh.flank_a, mesh.flank_b),
         center_distance_m=float(mg.center_distance_m), compliance=tuple(comps), face_width_m=hi - lo,
         crowning=(crown(ga, ggs[0]), crown(gb, ggs[1])),
         materials=((ga.material.youngs_modulus_Pa, ga.material.poisson_ratio),
                    (gb.material.youngs_modulus_Pa, gb.material.poisson_ratio)),
-        gauges=gauge_list, options=options, plane=plane,
+        gauges=gauge_list, plane=plane, mesh=mesh, gears=(ga, gb), gauge_models=gauge_models, z_centre_m=zc,
+        model=model)
+
+
+def make_mesh_solver(model: Any, mesh_name: str, *, options: ContactOptions | None = None,
+                     fe_options: Any = None, plane: str = "stress", cache: bool = True,
+                     gauges: Sequence[tuple[str, Any]] | None = None) -> MeshContactSolver:
+    """Build the static contact solver of spur mesh ``mesh_name`` of ``model`` (a :class:`~hacgear_core.model.Model`,
+    or a path / system name).  Finite-element influence coefficients come from
+    :func:`hacgear_core.statics.fe.gear_compliance` (cached on disk), so rebuilding in a worker is cheap.
+    Helical meshes: :func:`hacgear_core.statics.helical.make_solver` (which dispatches on the gears).
+
+    ``options`` default: ``ContactOptions(face_slices=model.statics.face_slices)``; ``fe_options``: a
+    :class:`hacgear_core.statics.fe.MeshOptions`; ``gauges``: ``(gear name, model Gauge)`` pairs replacing the
+    model's gauges (e.g. a row of points along a fillet).
+    """
+    if not isinstance(model, Model):
+        model = load_model(model)
+    meshes = {m.name: m for m in model.meshes}
+    if mesh_name in meshes:
+        gears = {g.name: g for g in model.gears}
+        m = meshes[mesh_name]
+        if gears[m.gear_a].is_helical or gears[m.gear_b].is_helical:
+            raise SolverError(f"mesh '{mesh_name}' is helical: build its solver with "
+                              "hacgear_core.statics.helical.make_solver")
+    if options is None:
+        options = ContactOptions(face_slices=model.statics.face_slices)
+    kw = mesh_solver_inputs(model, mesh_name, fe_options=fe_options, plane=plane, cache=cache, gauges=gauges)
+    for k in ("mesh", "gears", "gauge_models", "z_centre_m", "model"):
+        kw.pop(k)
+    return MeshContactSolver(
+        **kw, options=options,
         description=f"FE far field + Hertz near field, {options.face_slices} slices ({options.face_coupling}), "
                     f"mesh {mesh_name} of {model.name}")

@@ -44,6 +44,15 @@ class StaticSolution:
         [m]; NaN where the pair is unloaded (None when the solver gives none).
     hub_reaction : dict gear → (3,) array
         generalized mesh force on each gear ``[Fx N, Fy N, Mz N·m]``.
+    twist_rad, twist_moment_Nm : float
+        mesh twist and the twist moment conjugate to it (face-resolving solvers; 0 / NaN otherwise).
+    generalized_force : (12,) array or None
+        ``f_d`` of dissertation Eq. 5.1 on ``q = [u_a, theta_a, u_b, theta_b]`` (global frame,
+        :mod:`hacgear_core.statics.helical`); None when the solver gives none.
+    slice_load_N, slice_pressure_Pa : (Ns,) arrays or None
+        load and peak contact pressure per face slice (contact pattern across the face).
+    pattern_load_N : (Nw, Ns) array or None
+        load per tooth pair and face slice.
     """
 
     success: bool
@@ -60,6 +69,12 @@ class StaticSolution:
     hub_reaction: dict[str, np.ndarray] = field(default_factory=dict)
     stress: dict[str, np.ndarray] = field(default_factory=dict)
     contact_s_m: np.ndarray | None = None
+    twist_rad: float = 0.0
+    twist_moment_Nm: float = float("nan")
+    generalized_force: np.ndarray | None = None
+    slice_load_N: np.ndarray | None = None
+    slice_pressure_Pa: np.ndarray | None = None
+    pattern_load_N: np.ndarray | None = None
 
 
 @runtime_checkable
@@ -103,6 +118,9 @@ class MeshInfo:
     tooth_offsets: tuple[int, ...]
     gauge_names: tuple[str, ...]
     description: str
+    lever_arm_m: tuple[float, float] = ()
+    mesh_frame: dict | None = None
+    slice_z_m: tuple[float, ...] = ()
 
 
 def describe_solver(solver: MeshStaticSolver) -> MeshInfo:
@@ -129,7 +147,21 @@ def describe_solver(solver: MeshStaticSolver) -> MeshInfo:
         tooth_offsets=offsets,
         gauge_names=gauges,
         description=str(getattr(solver, "description", type(solver).__name__)),
+        lever_arm_m=tuple(float(r) for r in getattr(solver, "lever_arm_m", rb)),
+        mesh_frame=_frame_dict(getattr(solver, "frame", None)),
+        slice_z_m=tuple(float(z) for z in (getattr(solver, "z_centre_m", 0.0) + np.asarray(solver.slice_z_m))
+                        ) if getattr(solver, "frame", None) is not None else (),
     )
+
+
+def _frame_dict(frame) -> dict | None:
+    """The mesh frame of a face-resolving solver as the table attributes (docs/tables.md)."""
+    if frame is None:
+        return None
+    return dict(r_mesh=frame.r_mesh, r_twist=frame.r_twist, e1=frame.e1, e2=frame.e2, e3=frame.e3,
+                P_ref=frame.P_ref, n_ref=frame.n_ref, O_a=frame.O[0], O_b=frame.O[1],
+                base_helix_angle_rad=frame.base_helix_angle_rad, lever_arm_m=np.asarray(frame.lever_arm_m),
+                reference_plane_z_m=frame.reference_plane_z_m)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -209,7 +209,7 @@ class Gauge:
     radius_m : float
         Distance of the gauge centre from the gear centre [m]; the gauge is the first
         point of that flank's profile, walking from the fillet towards the tip, at
-        this radius.  The measured quantity is the surface tangential strain there:
+        this radius (the root radius itself: the point where the fillet meets the root circle).  The measured quantity is the surface tangential strain there:
         ``t . eps . t`` with ``t`` the profile tangent, from the P2 displacement gradient
         of the element containing the point 2 um below the surface (the gradient is
         linear in each element; converged to ~0.1% on the default mesh of the
@@ -1300,16 +1300,18 @@ def _gauge_location(gg, gauge: Gauge, n_profile: int):
     xy = np.asarray(prof.xy, dtype=float)
     nrm = np.asarray(prof.normal, dtype=float)
     s = np.asarray(prof.s, dtype=float)
-    hit = np.flatnonzero((r[:-1] - gauge.radius_m) * (r[1:] - gauge.radius_m) <= 0)
+    reg = np.asarray(prof.region)
+    # a gauge at the root radius sits where the fillet meets the root circle, not on the root land
+    hit = np.flatnonzero(((r[:-1] - gauge.radius_m) * (r[1:] - gauge.radius_m) <= 0) & (reg[1:] >= 1))
     if hit.size == 0:
         raise GeometryError(f"gauge {gauge.name!r}: radius_m = {gauge.radius_m:.6g} m is not on the {gauge.side} "
                             f"flank profile (radii {r.min():.6g}..{r.max():.6g} m)")
     i = hit[0]
-    f = 0.0 if r[i + 1] == r[i] else (gauge.radius_m - r[i]) / (r[i + 1] - r[i])
+    f = 1.0 if r[i + 1] == r[i] else (gauge.radius_m - r[i]) / (r[i + 1] - r[i])
     p = xy[i] * (1 - f) + xy[i + 1] * f
     n = nrm[i] * (1 - f) + nrm[i + 1] * f
     n /= np.linalg.norm(n)
-    return p, np.array([-n[1], n[0]]), n, float(s[i] * (1 - f) + s[i + 1] * f), int(np.asarray(prof.region)[i])
+    return p, np.array([-n[1], n[0]]), n, float(s[i] * (1 - f) + s[i + 1] * f), int(reg[i + 1] if f >= 0.5 else reg[i])
 
 
 def _hash_inputs(gg, material, options, side, s_grid, depth, gauges, n_profile) -> str:

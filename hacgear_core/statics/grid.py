@@ -54,8 +54,8 @@ from hacgear_core.errors import ModelError, SolverError, TableError
 from hacgear_core.geometry.planetary import planetary_geometry, planetary_torques
 from hacgear_core.model import load_model
 from hacgear_core.model.provenance import model_values_json, model_values_sha256
-from hacgear_core.statics.contact import make_mesh_solver
 from hacgear_core.statics.contract import MeshInfo, MeshStaticSolver, SolverFactory, StaticSolution, describe_solver
+from hacgear_core.statics.helical import make_solver
 from hacgear_core.statics.reference import AnalyticPairSolver
 from hacgear_core.workers import process_pool
 
@@ -65,6 +65,7 @@ __all__ = [
     "DEFAULT_DEFLECTION_MARGIN",
     "deflection_grid",
     "load_grid",
+    "twist_grid",
     "nominal_mesh_forces",
     "run_statics",
     "compute_statics",
@@ -78,8 +79,8 @@ DEFAULT_DEFLECTION_MARGIN = 0.5
 class ModelSolverFactory:
     """Picklable factory: reads the model file in the worker, checks that the values the tables depend on
     (:func:`~hacgear_core.model.provenance.model_values_sha256`) are those the run started from, and builds
-    the solver of ``mesh_name`` (``solver`` = ``"fe"``: :func:`~hacgear_core.statics.contact.make_mesh_solver`;
-    ``"analytic"``: :meth:`AnalyticPairSolver.from_model`)."""
+    the solver of ``mesh_name`` (``solver`` = ``"fe"``: :func:`~hacgear_core.statics.helical.make_solver`, spur or
+    helical; ``"analytic"``: :meth:`AnalyticPairSolver.from_model`)."""
 
     model_path: str
     mesh_name: str
@@ -96,7 +97,7 @@ class ModelSolverFactory:
             return AnalyticPairSolver.from_model(model, self.mesh_name)
         if self.solver != "fe":
             raise SolverError(f"unknown solver {self.solver!r}; allowed: fe | analytic")
-        return make_mesh_solver(model, self.mesh_name)
+        return make_solver(model, self.mesh_name)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -176,6 +177,15 @@ def deflection_grid(no_load_deflection_m: np.ndarray, static_deflection_m: np.nd
     return xb - dx + dx * np.arange(n_deflections, dtype=float)
 
 
+def twist_grid(max_twist_rad: float, n_twists: int) -> np.ndarray:
+    """Regular mesh-twist grid ``linspace(-max, max, n)`` [rad] (n odd, so 0 is a grid point; n = 1: [0])."""
+    if not (isinstance(n_twists, (int, np.integer)) and n_twists >= 1 and n_twists % 2 == 1):
+        raise ModelError(f"twist_points [-] = {n_twists!r}; allowed: odd integer >= 1 (0 must be a grid point)")
+    if not (math.isfinite(max_twist_rad) and 0 < max_twist_rad <= 0.01):
+        raise ModelError(f"max_twist [rad] = {max_twist_rad!r}; allowed: (0, 0.01]")
+    return np.linspace(-max_twist_rad, max_twist_rad, n_twists) if n_twists > 1 else np.zeros(1)
+
+
 # ---------------------------------------------------------------------------------------------
 # Worker side
 # ---------------------------------------------------------------------------------------------
@@ -210,56 +220,91 @@ def _check(sol: StaticSolution, what: str, nw: int) -> None:
 
 
 def _position_task(factory: SolverFactory, phase: int, mesh: str, ip: int, position: float,
-                   values: np.ndarray) -> tuple[str, int, int, dict[str, Any]]:
-    """One position of phase 1 (``values`` = loads [N]) or phase 2 (``values`` = deflections [m])."""
+                   values: np.ndarray, twists: np.ndarray | None = None) -> tuple[str, int, int, dict[str, Any]]:
+    """One position of phase 1 (``values`` = loads [N]) or phase 2 (``values`` = deflections [m]); with
+    ``twists`` [rad] (helical meshes) every twist of the grid, the zero-twist results also filling the
+    datasets without twist axis."""
     solver = _solver_for(factory)
     info = describe_solver(solver)
     nw = len(info.tooth_offsets)
     values = np.asarray(values, float)
-    nlmd = float(solver.no_load_deflection(position))
-    if not math.isfinite(nlmd):
-        raise SolverError(f"mesh '{mesh}': no-load deflection is not finite at position {position}")
     batch = getattr(solver, "solve_position", None)
+    tw = np.zeros(1) if twists is None else np.asarray(twists, float)
+    kw = (lambda g: {}) if twists is None else (lambda g: {"twist_rad": float(g)})  # noqa: E731
+    iz = int(np.argmin(np.abs(tw)))
     if phase == 1:
-        todo = values[values > 0]
-        sols = batch(position, todo, np.empty(0))[0] if batch else [solver.solve_load(position, F) for F in todo]
-        out = np.full(values.shape, nlmd)
-        it = iter(sols)
-        for j, F in enumerate(values):
-            if F > 0:
-                sol = next(it)
-                _check(sol, f"mesh '{mesh}' position {position:.6g} (index {ip}) load {F:.6g} N", nw)
-                out[j] = sol.mesh_deflection_m
-        return mesh, phase, ip, {"no_load_deflection_m": nlmd, "static_deflection_m": out}
-    nd = values.size
-    res: dict[str, Any] = {
-        "force_N": np.zeros(nd),
-        "tooth_load_N": np.zeros((nd, nw)),
-        "contact_roll_deg": np.full((nd, nw), np.nan),
-        "half_width_m": np.zeros((nd, nw)),
-        "peak_pressure_Pa": np.zeros(nd),
-        "strain": {g: np.zeros((nd, nw)) for g in info.gauge_names},
-        "hub_reaction": {g: np.zeros((nd, 3)) for g in info.gear_names},
+        nl_t = np.zeros(tw.size)
+        sd_t = np.zeros((values.size, tw.size))
+        for it, g in enumerate(tw):
+            nlmd = float(solver.no_load_deflection(position, **kw(g)))
+            if not math.isfinite(nlmd):
+                raise SolverError(f"mesh '{mesh}': no-load deflection is not finite at position {position}")
+            todo = values[values > 0]
+            sols = (batch(position, todo, np.empty(0), **kw(g))[0] if batch
+                    else [solver.solve_load(position, F, **kw(g)) for F in todo])
+            out = np.full(values.shape, nlmd)
+            sit = iter(sols)
+            for j, F in enumerate(values):
+                if F > 0:
+                    sol = next(sit)
+                    _check(sol, f"mesh '{mesh}' position {position:.6g} (index {ip}) load {F:.6g} N twist {g:.3g} rad",
+                           nw)
+                    out[j] = sol.mesh_deflection_m
+            nl_t[it], sd_t[:, it] = nlmd, out
+        res = {"no_load_deflection_m": nl_t[iz], "static_deflection_m": sd_t[:, iz].copy()}
+        if twists is not None:
+            res.update(no_load_deflection_twist_m=nl_t, static_deflection_twist_m=sd_t)
+        return mesh, phase, ip, res
+    nd, nt = values.size, tw.size
+    ns = len(info.slice_z_m)
+    T: dict[str, Any] = {
+        "force_N": np.zeros((nd, nt)), "tooth_load_N": np.zeros((nd, nt, nw)),
+        "contact_roll_deg": np.full((nd, nt, nw), np.nan), "half_width_m": np.zeros((nd, nt, nw)),
+        "peak_pressure_Pa": np.zeros((nd, nt)), "strain": {g: np.zeros((nd, nt, nw)) for g in info.gauge_names},
+        "hub_reaction": {g: np.zeros((nd, nt, 3)) for g in info.gear_names},
+        "generalized_fdf": np.zeros((nd, nt, 2)), "generalized_force": np.zeros((nd, nt, 12)),
+        "slice_load_N": np.zeros((nd, nt, ns)), "slice_pressure_Pa": np.zeros((nd, nt, ns)),
     }
-    idx = np.nonzero(values > nlmd)[0]
-    sols = (batch(position, np.empty(0), values[idx])[1] if batch
-            else [solver.solve_deflection(position, values[j]) for j in idx])
-    for j, sol in zip(idx, sols):
-        _check(sol, f"mesh '{mesh}' position {position:.6g} (index {ip}) deflection {values[j]:.6g} m", nw)
-        res["force_N"][j] = sol.mesh_force_N
-        res["tooth_load_N"][j] = sol.tooth_load_N
-        res["contact_roll_deg"][j] = sol.contact_roll_deg
-        res["half_width_m"][j] = sol.half_width_m
-        pp = np.asarray(sol.peak_pressure_Pa, float)
-        res["peak_pressure_Pa"][j] = float(np.nanmax(pp)) if pp.size and np.any(np.isfinite(pp)) else 0.0
-        for g in info.gauge_names:
-            if g not in sol.strain:
-                raise SolverError(f"solver returned no strain for gauge {g!r} at mesh '{mesh}' position {position}")
-            res["strain"][g][j] = sol.strain[g]
-        for g in info.gear_names:
-            if g in sol.hub_reaction:
-                res["hub_reaction"][g][j] = sol.hub_reaction[g]
-    res["n_solves"] = int(idx.size)
+    n_solves = 0
+    for it, g in enumerate(tw):
+        nlmd = float(solver.no_load_deflection(position, **kw(g)))
+        if not math.isfinite(nlmd):
+            raise SolverError(f"mesh '{mesh}': no-load deflection is not finite at position {position}")
+        idx = np.nonzero(values > nlmd)[0]
+        sols = (batch(position, np.empty(0), values[idx], **kw(g))[1] if batch
+                else [solver.solve_deflection(position, values[j], **kw(g)) for j in idx])
+        n_solves += int(idx.size)
+        for j, sol in zip(idx, sols):
+            _check(sol, f"mesh '{mesh}' position {position:.6g} (index {ip}) deflection {values[j]:.6g} m "
+                        f"twist {g:.3g} rad", nw)
+            T["force_N"][j, it] = sol.mesh_force_N
+            T["tooth_load_N"][j, it] = sol.tooth_load_N
+            T["contact_roll_deg"][j, it] = sol.contact_roll_deg
+            T["half_width_m"][j, it] = sol.half_width_m
+            pp = np.asarray(sol.peak_pressure_Pa, float)
+            T["peak_pressure_Pa"][j, it] = float(np.nanmax(pp)) if pp.size and np.any(np.isfinite(pp)) else 0.0
+            for gg in info.gauge_names:
+                if gg not in sol.strain:
+                    raise SolverError(f"solver returned no strain for gauge {gg!r} at mesh '{mesh}' position {position}")
+                T["strain"][gg][j, it] = sol.strain[gg]
+            for gg in info.gear_names:
+                if gg in sol.hub_reaction:
+                    T["hub_reaction"][gg][j, it] = sol.hub_reaction[gg]
+            if twists is not None:
+                T["generalized_fdf"][j, it] = (sol.mesh_force_N, sol.twist_moment_Nm)
+                T["generalized_force"][j, it] = sol.generalized_force
+                T["slice_load_N"][j, it] = sol.slice_load_N
+                T["slice_pressure_Pa"][j, it] = sol.slice_pressure_Pa
+    res: dict[str, Any] = {k: T[k][:, iz] for k in ("force_N", "tooth_load_N", "contact_roll_deg", "half_width_m",
+                                                    "peak_pressure_Pa")}
+    res["strain"] = {g: a[:, iz] for g, a in T["strain"].items()}
+    res["hub_reaction"] = {g: a[:, iz] for g, a in T["hub_reaction"].items()}
+    if twists is not None:
+        res.update(generalized_fdf=T["generalized_fdf"], generalized_force=T["generalized_force"],
+                   tooth_load_twist_N=T["tooth_load_N"], peak_pressure_twist_Pa=T["peak_pressure_Pa"],
+                   slice_load_N=T["slice_load_N"], slice_pressure_Pa=T["slice_pressure_Pa"],
+                   strain_twist=T["strain"])
+    res["n_solves"] = n_solves
     return mesh, phase, ip, res
 
 
@@ -306,6 +351,7 @@ def run_statics(
     workers: int | None = None,
     resume: bool = True,
     progress: bool = True,
+    twists_rad: np.ndarray | None = None,
 ) -> StaticsReport:
     """Run the static grid of every mesh and write ``out`` (HDF5, format of :mod:`hacgear_core.tables`).
 
@@ -330,6 +376,8 @@ def run_statics(
         silently) and do nothing when ``<out>`` is already complete for them.  False: discard both and start
         afresh (``--fresh``); the report's message says what was discarded.
     progress : show a tqdm progress bar (stderr).
+    twists_rad : mesh-twist grid [rad] (odd length, contains 0) for the meshes whose solver resolves the face
+        (helical: :class:`~hacgear_core.statics.helical.HelicalMeshContactSolver`); None: no twist axis.
     """
     t0 = time.perf_counter()
     out = Path(out)
@@ -364,6 +412,9 @@ def run_statics(
                 base_radius_m=infos[m].base_radius_m, tooth_offsets=np.asarray(infos[m].tooth_offsets),
                 gauge_names=infos[m].gauge_names, position=positions, load_N=loads[m],
                 n_deflections=int(n_deflections), solver_description=infos[m].description,
+                **({} if twists_rad is None or infos[m].mesh_frame is None else dict(
+                    twist_rad=np.asarray(twists_rad, float), slice_z_m=np.asarray(infos[m].slice_z_m, float),
+                    mesh_frame=infos[m].mesh_frame)),
             )
             for m in names
         }
@@ -417,19 +468,22 @@ def _run_phases(f, tb, factories, layouts, positions, executor, margin, progress
 
         bar = tqdm(total=total, initial=done0, desc="hacgear statics", unit="pos", dynamic_ncols=True)
 
+    twists = {m: layouts[m].twist_rad for m in names}
+
     def run(phase: int, jobs: list[tuple[str, int, np.ndarray]]) -> None:
         nonlocal computed
         if not jobs:
             return
         if executor is None:
-            results = (_position_task(factories[m], phase, m, ip, positions[ip], v) for m, ip, v in jobs)
+            results = (_position_task(factories[m], phase, m, ip, positions[ip], v, twists[m]) for m, ip, v in jobs)
             for r in results:
                 tb.write_position(f, *r)
                 computed += 1
                 if bar is not None:
                     bar.update(1)
             return
-        futs = [executor.submit(_position_task, factories[m], phase, m, ip, positions[ip], v) for m, ip, v in jobs]
+        futs = [executor.submit(_position_task, factories[m], phase, m, ip, positions[ip], v, twists[m])
+                for m, ip, v in jobs]
         try:
             for fut in cf.as_completed(futs):
                 tb.write_position(f, *fut.result())
@@ -448,7 +502,9 @@ def _run_phases(f, tb, factories, layouts, positions, executor, margin, progress
         grids = {}
         for m in names:
             g = f[f"meshes/{m}"]
-            grid = deflection_grid(g["no_load_deflection_m"][()], g["static_deflection_m"][()],
+            tw = "no_load_deflection_twist_m" in g
+            grid = deflection_grid(g["no_load_deflection_twist_m" if tw else "no_load_deflection_m"][()],
+                                   g["static_deflection_twist_m" if tw else "static_deflection_m"][()],
                                    layouts[m].n_deflections, margin)
             tb.write_deflection_grid(f, m, grid)
             grids[m] = grid
@@ -490,7 +546,8 @@ def compute_statics(
 
     Grid sizes default to the model's ``[statics]`` section; the load grid of each mesh is
     ``linspace(0, max_torque_factor × nominal mesh force, loads)`` (:func:`nominal_mesh_forces`).
-    ``solver``: ``"fe"`` (``hacgear_core.statics.contact.make_mesh_solver``) or ``"analytic"``
+    ``solver``: ``"fe"`` (``hacgear_core.statics.helical.make_solver``: spur, or helical with the model's
+    ``[statics] twist_points`` mesh twists from ``-max_twist_mrad`` to ``+max_twist_mrad``) or ``"analytic"``
     (:class:`AnalyticPairSolver`, reference spring model).
     """
     mdl = load_model(model)
@@ -507,14 +564,18 @@ def compute_statics(
     values = model_values_json(mdl)
     factories = {m.name: ModelSolverFactory(str(mdl.path), m.name, model_values_sha256(mdl), solver)
                  for m in mdl.meshes}
+    helical = any(g.is_helical for g in mdl.gears) and solver == "fe"
+    twists = twist_grid(st.max_twist_rad, st.twist_points) if helical and st.twist_points > 1 else (
+        np.zeros(1) if helical else None)
 
     def loads_for(infos: dict[str, MeshInfo]) -> dict[str, np.ndarray]:
-        fn = nominal_mesh_forces(mdl, {m: i.base_radius_m for m, i in infos.items()})
+        # the mesh force is conjugate to the mesh deflection: torque = force x lever arm (r_b cos(beta_b))
+        fn = nominal_mesh_forces(mdl, {m: i.lever_arm_m or i.base_radius_m for m, i in infos.items()})
         return {m: load_grid(factor * fn[m], n_loads) for m in infos}
 
     return run_statics(
         factories, out_path, n_positions=n_pos, n_deflections=n_def, loads_N=loads_for,
         deflection_margin=deflection_margin, model_sha256=mdl.sha256, model_file=str(mdl.path.name),
         model_values=values,
-        executor=executor, workers=workers, resume=resume, progress=progress,
+        executor=executor, workers=workers, resume=resume, progress=progress, twists_rad=twists,
     )

@@ -13,11 +13,13 @@ from hacgear_core.errors import GeometryError, ModelError, SolverError
 from hacgear_core.geometry import gear_geometry, mesh_geometry, nominal_mesh_forces
 from hacgear_core.model import Flank, Gauge, Model, load_model
 from hacgear_core.statics.contact import ContactOptions, MeshContactSolver, make_mesh_solver
+from hacgear_core.statics.helical import HelicalMeshContactSolver, make_solver
 
 __all__ = [
     "StiffnessCurve",
     "mesh_stiffness_curve",
     "mesh_stiffness_report",
+    "helical_mesh_report",
     "model_variant",
     "RootStrainScan",
     "root_strain_scan",
@@ -47,12 +49,16 @@ class StiffnessCurve:
 
 
 def mesh_stiffness_curve(solver: MeshContactSolver, mesh_force_N: float, positions: int = 64,
-                         rel_step: float = 0.02) -> StiffnessCurve:
-    """Static transmission error and mesh stiffness over one mesh cycle.
+                         rel_step: float = 0.02, twist_rad: float = 0.0) -> StiffnessCurve:
+    """Static transmission error and mesh stiffness over one mesh cycle (at mesh twist ``twist_rad`` [rad] for a
+    face-resolving solver).
 
     The local-slope stiffness at each position is the central difference ``dW/dx`` from two
     load-controlled solves at ``W (1 ± rel_step)``.
     """
+    tw = {} if not isinstance(solver, HelicalMeshContactSolver) else {"twist_rad": float(twist_rad)}
+    if twist_rad and not tw:
+        raise ModelError("a mesh twist needs the face-resolving (helical) solver")
     if not (isinstance(positions, (int, np.integer)) and 2 <= positions <= 4096):
         raise ModelError(f"positions must be an integer in [2, 4096], got {positions!r}")
     W = float(mesh_force_N)
@@ -65,13 +71,13 @@ def mesh_stiffness_curve(solver: MeshContactSolver, mesh_force_N: float, positio
     k = np.zeros(positions)
     loads = np.zeros((positions, len(solver.tooth_offsets)))
     for i, p in enumerate(pos):
-        st = solver.state_load(p, W)
+        st = solver.state_load(p, W, **tw)
         if not st.success:
             raise SolverError(f"contact solve failed at position {p:.4f}: {st.message}")
-        lo = solver.state_load(p, W * (1 - rel_step), warm=st.force_N)
-        hi = solver.state_load(p, W * (1 + rel_step), warm=st.force_N)
+        lo = solver.state_load(p, W * (1 - rel_step), warm=st.force_N, **tw)
+        hi = solver.state_load(p, W * (1 + rel_step), warm=st.force_N, **tw)
         x[i] = st.mesh_deflection_m
-        x0[i] = solver.no_load_deflection(p)
+        x0[i] = solver.no_load_deflection(p, **tw)
         k[i] = 2 * rel_step * W / (hi.mesh_deflection_m - lo.mesh_deflection_m)
         pr = solver.pair_results(st)
         for j, pp in enumerate(st.setup.pairs):
@@ -232,8 +238,61 @@ def root_strain_scan(model: Any, mesh_name: str, mesh_force_N: float, *, gear: i
                           max_s_m=float(s_g[k[1]]), sampling=sampling, gauge_length_m=float(gauge_length_m))
 
 
+def helical_mesh_report(solver: HelicalMeshContactSolver, mesh_force_N: float, positions: int = 64,
+                        twist_rad: float = 0.0, twist_step_rad: float = 1e-5) -> dict:
+    """What a face-resolving solve adds over a mesh cycle at the mesh force [N] and twist [rad] (load control):
+    twist moment, twist stiffness ``dM/dgamma`` at the static deflection (central difference, deflection control,
+    ``± twist_step_rad``), contact pattern (load per face slice), load centroid across the face, peak pressure,
+    the generalized forces f_d, gauge strains, and the definitions (r_mesh, r_twist).  SI, unit in the keys."""
+    pos = np.arange(positions) / positions
+    ns = solver.options.face_slices
+    M = np.zeros(positions)
+    kg = np.zeros(positions)
+    pat = np.zeros((positions, ns))
+    pres = np.zeros(positions)
+    fd = np.zeros((positions, 12))
+    resid = np.zeros(positions)
+    strains = {g: np.zeros(positions) for g in solver.gauge_names}
+    zs = solver.z_centre_m + solver.slice_z_m
+    for i, p in enumerate(pos):
+        st = solver.state_load(p, mesh_force_N, twist_rad=twist_rad)
+        if not st.success:
+            raise SolverError(f"contact solve failed at position {p:.4f}: {st.message}")
+        gf = solver.generalized_forces(st)
+        M[i], fd[i], resid[i] = gf["twist_moment_Nm"], gf["f_d"], gf["identity_residual"]
+        pt = solver.pattern(st)
+        pat[i] = pt["load_N"].sum(axis=0)
+        pres[i] = float(st.peak_pressure_Pa.max())
+        eps = solver.strains(st, offsets=[0])
+        for g in strains:
+            strains[g][i] = eps[g][0]
+        x = st.mesh_deflection_m
+        up = solver.state_deflection(p, x, warm=st.force_N, twist_rad=twist_rad + twist_step_rad)
+        dn = solver.state_deflection(p, x, warm=st.force_N, twist_rad=twist_rad - twist_step_rad)
+        kg[i] = (solver.generalized_forces(up)["twist_moment_Nm"] - solver.generalized_forces(dn)["twist_moment_Nm"]) \
+            / (2 * twist_step_rad)
+    tot = pat.sum(axis=1)
+    centroid = (pat @ zs) / np.where(tot > 0, tot, 1.0)
+    fr = solver.frame
+    return {
+        "twist_rad": float(twist_rad), "twist_moment_Nm": M.tolist(), "mean_twist_moment_Nm": float(M.mean()),
+        "twist_stiffness_Nm_per_rad": kg.tolist(), "mean_twist_stiffness_Nm_per_rad": float(kg.mean()),
+        "slice_z_m": zs.tolist(), "slice_load_N": pat.tolist(), "mean_slice_load_N": pat.mean(axis=0).tolist(),
+        "load_centroid_z_m": centroid.tolist(), "mean_load_centroid_z_m": float(centroid.mean()),
+        "face_overlap_m": [float(zs[0] - solver.slice_width_m / 2), float(zs[-1] + solver.slice_width_m / 2)],
+        "peak_pressure_Pa": pres.tolist(), "max_peak_pressure_Pa": float(pres.max()),
+        "generalized_force": fd.tolist(), "identity_residual_max": float(resid.max()),
+        "gauge_strain": {g: v.tolist() for g, v in strains.items()},
+        "r_mesh": fr.r_mesh.tolist(), "r_twist": fr.r_twist.tolist(),
+        "base_helix_angle_rad": fr.base_helix_angle_rad, "lever_arm_m": list(fr.lever_arm_m),
+        "reference_plane_z_m": fr.reference_plane_z_m,
+        "mesh_frame": {"e1": fr.e1.tolist(), "e2": fr.e2.tolist(), "e3": fr.e3.tolist(), "P_ref_m": fr.P_ref.tolist(),
+                       "n_ref": fr.n_ref.tolist(), "O_a_m": fr.O[0].tolist(), "O_b_m": fr.O[1].tolist()},
+    }
+
+
 def mesh_stiffness_report(model: Any, torque_Nm: float, *, mesh: str | None = None, positions: int = 64,
-                          slices: int | None = None, face_coupling: str = "rigid") -> dict:
+                          slices: int | None = None, face_coupling: str | None = None, twist_rad: float = 0.0) -> dict:
     """Static transmission error and mesh stiffness of every mesh (or of ``mesh``) of ``model`` under ``torque_Nm``
     [N m] on ``model.operating.torque_gear``: each mesh is loaded with the force that the torque flow through the
     train gives it (:func:`hacgear_core.geometry.nominal_mesh_forces`), reported as the torque on its gear_a.
@@ -249,7 +308,11 @@ def mesh_stiffness_report(model: Any, torque_Nm: float, *, mesh: str | None = No
     names = [m.name for m in model.meshes]
     if mesh is not None and mesh not in names:
         raise ModelError(f"mesh {mesh!r} is not a mesh of the model; allowed: {', '.join(names)}")
-    forces = nominal_mesh_forces(model, torque_Nm=torque_Nm)
+    helical = any(g.is_helical for g in model.gears)
+    if face_coupling is None:
+        face_coupling = "elastic" if helical else "rigid"
+    if twist_rad and not (helical or face_coupling == "elastic"):
+        raise ModelError("--twist [rad] applies to helical meshes (or face_coupling 'elastic') only")
     opts = ContactOptions(face_slices=slices if slices is not None else model.statics.face_slices,
                           face_coupling=face_coupling)
     out = {"model": model.name, "torque_Nm": float(torque_Nm), "torque_gear": model.operating.torque_gear,
@@ -257,9 +320,11 @@ def mesh_stiffness_report(model: Any, torque_Nm: float, *, mesh: str | None = No
     for m in model.meshes:
         if mesh is not None and m.name != mesh:
             continue
-        solver = make_mesh_solver(model, m.name, options=opts)
-        force = forces[m.name]
-        c = mesh_stiffness_curve(solver, force, positions=positions)
+        solver = make_solver(model, m.name, options=opts)
+        lever = getattr(solver, "lever_arm_m", solver.base_radius_m)
+        force = nominal_mesh_forces(model, {m.name: tuple(lever)}, torque_Nm=torque_Nm)[m.name] \
+            if len(model.meshes) == 1 else _train_force(model, torque_Nm, m.name, solver)
+        c = mesh_stiffness_curve(solver, force, positions=positions, twist_rad=twist_rad)
         out["meshes"][m.name] = {
             "gear_a": solver.gear_names[0], "gear_b": solver.gear_names[1],
             "torque_Nm": force * solver.base_radius_m[0], "torque_gear": solver.gear_names[0],
@@ -276,4 +341,16 @@ def mesh_stiffness_report(model: Any, torque_Nm: float, *, mesh: str | None = No
             "tooth_load_N": c.tooth_load_N.tolist(),
             "seconds": c.seconds,
         }
+        if isinstance(solver, HelicalMeshContactSolver):
+            out["meshes"][m.name]["torque_Nm"] = force * lever[0]
+            out["meshes"][m.name]["helical"] = helical_mesh_report(solver, force, positions=positions,
+                                                                   twist_rad=twist_rad)
     return out
+
+
+def _train_force(model: Any, torque_Nm: float, mesh_name: str, solver: Any) -> float:
+    """Force of one mesh of a train under ``torque_Nm``: the train's torque flow (base radii), divided by the
+    cosine of the base helix angle when the solver's mesh force is normal to the flank."""
+    f = nominal_mesh_forces(model, torque_Nm=torque_Nm)[mesh_name]
+    lever = getattr(solver, "lever_arm_m", None)
+    return f if lever is None else f * solver.base_radius_m[0] / lever[0]

@@ -10,6 +10,7 @@ from hacgear_core.tables.format import (
     DATASETS,
     FORMAT,
     FORMAT_VERSION,
+    TWIST_FORMAT_VERSION,
     MeshLayout,
     completed_table_matches,
     consistency_summary,
@@ -22,12 +23,14 @@ from hacgear_core.tables.format import (
     write_position,
     write_tables,
 )
-from hacgear_core.tables.table import InterpolationStats, MeshTable, StrainTable, SystemTables
+from hacgear_core.tables.table import InterpolationStats, MeshTable, StrainTable, SystemTables, TwistTable
 
 __all__ = [
     "FORMAT",
     "FORMAT_VERSION",
+    "TWIST_FORMAT_VERSION",
     "DATASETS",
+    "TwistTable",
     "InterpolationStats",
     "MeshTable",
     "StrainTable",

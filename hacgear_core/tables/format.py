@@ -23,11 +23,12 @@ from hacgear_core.errors import TableError
 from hacgear_core.model import load_model, model_sha256, resolve_model_path
 from hacgear_core.model.provenance import model_values_json, model_values_sha256, values_diff
 from hacgear_core.tables.check import hard_problems
-from hacgear_core.tables.table import MeshTable, SystemTables
+from hacgear_core.tables.table import MeshTable, SystemTables, TwistTable
 
 __all__ = [
     "FORMAT",
     "FORMAT_VERSION",
+    "TWIST_FORMAT_VERSION",
     "DATASETS",
     "MeshLayout",
     "read_tables",
@@ -45,6 +46,9 @@ __all__ = [
 
 FORMAT = "hacgear-tables"
 FORMAT_VERSION = 1
+#: files holding a helical mesh (a twist axis) are written as version 2: version 1 plus the twist datasets
+TWIST_FORMAT_VERSION = 2
+_READABLE = (FORMAT_VERSION, TWIST_FORMAT_VERSION)
 
 #: dataset name → (unit, description); ``strain/<gear>/<gauge>`` and ``hub_reaction/<gear>`` are per gauge/gear
 DATASETS: dict[str, tuple[str, str]] = {
@@ -66,6 +70,22 @@ DATASETS: dict[str, tuple[str, str]] = {
     "strain": ("1", "root strain at gauge <gear>/<gauge> on the tooth of pair offset k per (position, "
                     "deflection, offset): the strain-deflection function"),
     "hub_reaction": ("N, N, N*m", "generalized mesh force on the gear [Fx, Fy, Mz] per (position, deflection)"),
+    "twist_rad": ("rad", "regular mesh-twist grid gamma = (theta_a - theta_b) . e1 (helical meshes; contains 0; the "
+                          "datasets without twist axis hold the gamma = 0 slice)"),
+    "slice_z_m": ("m", "axial coordinate of the face slices (global frame)"),
+    "no_load_deflection_twist_m": ("m", "NLMD per (position, twist)"),
+    "static_deflection_twist_m": ("m", "static mesh deflection per (position, load, twist) under load control"),
+    "generalized_fdf": ("N, N*m", "generalized FDF per (position, deflection, twist): [mesh force W, twist moment M]; "
+                                  "f_d = W r_mesh + M r_twist (exact for involute contacts)"),
+    "generalized_force": ("N, N*m", "f_d of Eq. 5.1 per (position, deflection, twist), 12 components on "
+                                    "q = [u_a, theta_a, u_b, theta_b] (global frame), summed contact by contact"),
+    "tooth_load_twist_N": ("N", "load of tooth pair k per (position, deflection, twist, offset)"),
+    "peak_pressure_twist_Pa": ("Pa", "maximum contact pressure per (position, deflection, twist)"),
+    "slice_load_N": ("N", "load per face slice (all pairs) per (position, deflection, twist, slice): the contact "
+                          "pattern across the face"),
+    "slice_pressure_Pa": ("Pa", "peak contact pressure per face slice per (position, deflection, twist, slice)"),
+    "strain_twist": ("1", "root strain at gauge <gear>/<gauge> (at its axial position) on the tooth of pair offset k "
+                          "per (position, deflection, twist, offset)"),
     "done_loads": ("1", "1 where phase 1 (load control, NLMD) of this position is complete"),
     "done_deflections": ("1", "1 where phase 2 (deflection control) of this position is complete"),
 }
@@ -89,28 +109,63 @@ class MeshLayout:
     load_N: np.ndarray
     n_deflections: int
     solver_description: str = ""
+    twist_rad: np.ndarray | None = None        # helical meshes: the twist grid [rad]
+    slice_z_m: np.ndarray | None = None        # and the axial coordinates of the face slices [m]
+    mesh_frame: Mapping[str, Any] | None = None  # r_mesh, r_twist, e1.., base_helix_angle_rad, lever_arm_m, ...
+
+    #: datasets of every mesh group (format version 1); the twist-axis ones are added for helical meshes
+    base_datasets = ("no_load_deflection_m", "static_deflection_m", "deflection_m", "force_N", "tooth_load_N",
+                     "contact_roll_deg", "half_width_m", "peak_pressure_Pa")
 
     @property
     def shapes(self) -> dict[str, tuple[int, ...]]:
         npos, nl, nd, nw = self.position.size, self.load_N.size, self.n_deflections, len(self.tooth_offsets)
-        return {
+        out = {
             "no_load_deflection_m": (npos,), "static_deflection_m": (npos, nl), "deflection_m": (nd,),
             "force_N": (npos, nd), "tooth_load_N": (npos, nd, nw), "contact_roll_deg": (npos, nd, nw),
             "half_width_m": (npos, nd, nw), "peak_pressure_Pa": (npos, nd),
         }
+        if self.twist_rad is not None:
+            nt, ns = self.twist_rad.size, self.slice_z_m.size
+            out.update({
+                "no_load_deflection_twist_m": (npos, nt), "static_deflection_twist_m": (npos, nl, nt),
+                "generalized_fdf": (npos, nd, nt, 2), "generalized_force": (npos, nd, nt, 12),
+                "tooth_load_twist_N": (npos, nd, nt, nw), "peak_pressure_twist_Pa": (npos, nd, nt),
+                "slice_load_N": (npos, nd, nt, ns), "slice_pressure_Pa": (npos, nd, nt, ns),
+            })
+        return out
 
 
-def _dataset(group: Any, name: str, data: np.ndarray, key: str | None = None) -> None:
+#: twist-axis datasets stored as float32 (post-processing quantities; read back as float64): the generalized FDF
+#: and the deflections keep float64
+_SINGLE = ("generalized_force", "tooth_load_twist_N", "peak_pressure_twist_Pa", "slice_load_N", "slice_pressure_Pa",
+           "strain_twist")
+
+
+def _dataset(group: Any, name: str, data: np.ndarray, key: str | None = None, compress: bool = False) -> None:
     unit, desc = DATASETS[key or name]
-    ds = group.create_dataset(name, data=data, fletcher32=True)  # per-chunk checksum, verified on every read
+    # per-chunk checksums (verified on every read); the large twist-axis datasets also deflated (deterministic)
+    kw = dict(compression="gzip", compression_opts=4, shuffle=True) if compress and np.size(data) > 4096 else {}
+    if (key or name) in _SINGLE:
+        data = np.asarray(data, dtype=np.float32)
+    ds = group.create_dataset(name, data=data, fletcher32=True, **kw)
     ds.attrs["unit"] = unit
     ds.attrs["description"] = desc
+
+
+def _version(layouts: Mapping[str, MeshLayout]) -> int:
+    return TWIST_FORMAT_VERSION if any(lay.twist_rad is not None for lay in layouts.values()) else FORMAT_VERSION
+
+
+#: mesh-frame attributes of a helical mesh group (vectors in the global frame, docs/tables.md)
+FRAME_KEYS = ("r_mesh", "r_twist", "e1", "e2", "e3", "P_ref", "n_ref", "O_a", "O_b", "base_helix_angle_rad",
+              "lever_arm_m", "reference_plane_z_m")
 
 
 def _create_file(path: Path, layouts: Mapping[str, MeshLayout], root_attrs: Mapping[str, Any]) -> Any:
     f = h5py.File(path, "w")
     f.attrs["format"] = FORMAT
-    f.attrs["format_version"] = FORMAT_VERSION
+    f.attrs["format_version"] = _version(layouts)
     f.attrs["hacgear_version"] = str(__version__)
     f.attrs["created"] = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
     f.attrs["model_sha256"] = str(root_attrs.get("model_sha256", ""))
@@ -139,13 +194,22 @@ def _create_file(path: Path, layouts: Mapping[str, MeshLayout], root_attrs: Mapp
         _dataset(g, "position", np.asarray(lay.position, float))
         _dataset(g, "load_N", np.asarray(lay.load_N, float))
         _dataset(g, "tooth_offsets", np.asarray(lay.tooth_offsets, dtype=np.int64))
+        base = set(MeshLayout.base_datasets)
         for name, shp in lay.shapes.items():
-            _dataset(g, name, np.full(shp, np.nan))
+            _dataset(g, name, np.full(shp, np.nan), compress=name not in base)
         nd_shape = lay.shapes["tooth_load_N"]
         for gauge in lay.gauge_names:
             _dataset(g, f"strain/{gauge}", np.full(nd_shape, np.nan), key="strain")
         for gear in lay.gear_names:
             _dataset(g, f"hub_reaction/{gear}", np.full(nd_shape[:2] + (3,), np.nan), key="hub_reaction")
+        if lay.twist_rad is not None:
+            _dataset(g, "twist_rad", np.asarray(lay.twist_rad, float))
+            _dataset(g, "slice_z_m", np.asarray(lay.slice_z_m, float))
+            tw_shape = lay.shapes["tooth_load_twist_N"]
+            for gauge in lay.gauge_names:
+                _dataset(g, f"strain_twist/{gauge}", np.full(tw_shape, np.nan), key="strain_twist", compress=True)
+            for k in FRAME_KEYS:
+                g.attrs[k] = np.asarray(lay.mesh_frame[k], dtype=float)
         _dataset(g, "done_loads", np.zeros(lay.position.size, dtype=np.uint8))
         _dataset(g, "done_deflections", np.zeros(lay.position.size, dtype=np.uint8))
     f.attrs["layout_complete"] = 1  # written last: a file killed while being laid out lacks it
@@ -188,7 +252,7 @@ def seal_file(f: Any) -> None:
 
 def _same_layout(f: Any, layouts: Mapping[str, MeshLayout], root_attrs: Mapping[str, Any]) -> str | None:
     """None if ``f`` was created for these layouts/settings, else what differs."""
-    if f.attrs.get("format") != FORMAT or int(f.attrs.get("format_version", -1)) != FORMAT_VERSION:
+    if f.attrs.get("format") != FORMAT or int(f.attrs.get("format_version", -1)) != _version(layouts):
         return "format/format_version"
     for k in ("model_values_sha256", "deflection_margin"):
         a, b = f.attrs.get(k), root_attrs.get(k)
@@ -202,6 +266,9 @@ def _same_layout(f: Any, layouts: Mapping[str, MeshLayout], root_attrs: Mapping[
             "position": np.asarray(lay.position, float), "load_N": np.asarray(lay.load_N, float),
             "tooth_offsets": np.asarray(lay.tooth_offsets),
         }
+        if lay.twist_rad is not None:
+            checks["twist_rad"] = np.asarray(lay.twist_rad, float)
+            checks["slice_z_m"] = np.asarray(lay.slice_z_m, float)
         for k, v in checks.items():
             if k not in g or g[k].shape != v.shape or not np.array_equal(g[k][()], v):
                 return f"mesh '{m}': {k}"
@@ -302,6 +369,9 @@ def write_position(f: Any, mesh: str, phase: int, ip: int, payload: Mapping[str,
     if phase == 1:
         g["no_load_deflection_m"][ip] = payload["no_load_deflection_m"]
         g["static_deflection_m"][ip, :] = payload["static_deflection_m"]
+        for k in ("no_load_deflection_twist_m", "static_deflection_twist_m"):
+            if k in payload:
+                g[k][ip] = payload[k]
         flag = "done_loads"
     else:
         for k in ("force_N", "tooth_load_N", "contact_roll_deg", "half_width_m", "peak_pressure_Pa"):
@@ -310,6 +380,12 @@ def write_position(f: Any, mesh: str, phase: int, ip: int, payload: Mapping[str,
             g[f"strain/{gauge}"][ip] = a
         for gear, a in payload["hub_reaction"].items():
             g[f"hub_reaction/{gear}"][ip] = a
+        for k in ("generalized_fdf", "generalized_force", "tooth_load_twist_N", "peak_pressure_twist_Pa",
+                  "slice_load_N", "slice_pressure_Pa"):
+            if k in payload:
+                g[k][ip] = payload[k]
+        for gauge, a in payload.get("strain_twist", {}).items():
+            g[f"strain_twist/{gauge}"][ip] = a
         flag = "done_deflections"
     f.flush()
     g[flag][ip] = 1
@@ -472,9 +548,9 @@ def read_tables(path: str | Path, model_path: str | Path | None = None, *, allow
             raise TableError(f"{path} is not a hacgear table (root attribute format = {f.attrs.get('format')!r}, "
                              f"expected {FORMAT!r})")
         version = int(f.attrs.get("format_version", -1))
-        if version != FORMAT_VERSION:
-            raise TableError(f"{path} has format_version {version}; this hacgear reads version {FORMAT_VERSION}. "
-                             "Regenerate it with `hacgear statics MODEL`.")
+        if version not in _READABLE:
+            raise TableError(f"{path} has format_version {version}; this hacgear reads versions "
+                             f"{', '.join(map(str, _READABLE))}. Regenerate it with `hacgear statics MODEL`.")
         sha = _attr_str(f.attrs.get("model_sha256", ""))
         if model_path is not None:
             mp = Path(model_path)
@@ -525,7 +601,22 @@ def _read_mesh(path: Path, m: str, g: Any, allow_incomplete: bool, check_values:
     r = {k: _read(path, g[k]) for k in ("position", "deflection_m", "no_load_deflection_m", "load_N",
                                         "static_deflection_m", "tooth_offsets", "tooth_load_N", "contact_roll_deg",
                                         "peak_pressure_Pa")}
+    twist = None
+    if "twist_rad" in g:
+        strain_tw = {name[len("strain_twist/"):]: _read(path, ds) for name, ds in _walk(g) if name.startswith("strain_twist/")}
+        fr = {k: g.attrs[k] for k in FRAME_KEYS}
+        twist = TwistTable(
+            twist_rad=_read(path, g["twist_rad"]), no_load_deflection_m=g["no_load_deflection_twist_m"][()],
+            static_deflection_m=g["static_deflection_twist_m"][()], generalized_fdf=g["generalized_fdf"][()],
+            generalized_force=g["generalized_force"][()], tooth_load_N=g["tooth_load_twist_N"][()],
+            peak_pressure_Pa=g["peak_pressure_twist_Pa"][()], slice_load_N=g["slice_load_N"][()],
+            slice_pressure_Pa=g["slice_pressure_Pa"][()], slice_z_m=g["slice_z_m"][()],
+            strain={k: strain_tw[k] for k in order if k in strain_tw}, r_mesh=fr["r_mesh"], r_twist=fr["r_twist"],
+            frame={k: fr[k] for k in ("e1", "e2", "e3", "P_ref", "n_ref", "O_a", "O_b")},
+            base_helix_angle_rad=float(fr["base_helix_angle_rad"]), lever_arm_m=fr["lever_arm_m"],
+            reference_plane_z_m=float(fr["reference_plane_z_m"]))
     table = MeshTable(
+        twist=twist,
         name=m, gear_names=_str_list(g.attrs["gear_names"]), teeth=tuple(int(z) for z in g.attrs["teeth"]),
         base_radius_m=tuple(float(rb) for rb in g.attrs["base_radius_m"]), force_N=F, strain=strain,
         half_width_m=_read(path, g["half_width_m"]) if "half_width_m" in g else None, hub_reaction=hub,
@@ -549,6 +640,9 @@ def write_tables(path: str | Path, tables: SystemTables) -> None:
             name=m, gear_names=t.gear_names, teeth=t.teeth, base_radius_m=t.base_radius_m,
             tooth_offsets=t.tooth_offsets, gauge_names=t.gauge_names, position=t.position, load_N=t.load_N,
             n_deflections=t.n_deflections, solver_description=t.solver,
+            twist_rad=None if t.twist is None else t.twist.twist_rad,
+            slice_z_m=None if t.twist is None else t.twist.slice_z_m,
+            mesh_frame=None if t.twist is None else _frame_of(t.twist),
         )
     root = {"model_sha256": tables.model_sha256, "model_file": tables.model_file,
             "model_values_sha256": tables.attrs.get("model_values_sha256", ""),
@@ -570,12 +664,27 @@ def write_tables(path: str | Path, tables: SystemTables) -> None:
                 g[f"strain/{gauge}"][...] = a
             for gear in t.gear_names:
                 g[f"hub_reaction/{gear}"][...] = t.hub_reaction.get(gear, np.nan)
+            tw = t.twist
+            if tw is not None:
+                for k, attr in (("no_load_deflection_twist_m", "no_load_deflection_m"),
+                                ("static_deflection_twist_m", "static_deflection_m"),
+                                ("generalized_fdf", "generalized_fdf"), ("generalized_force", "generalized_force"),
+                                ("tooth_load_twist_N", "tooth_load_N"), ("peak_pressure_twist_Pa", "peak_pressure_Pa"),
+                                ("slice_load_N", "slice_load_N"), ("slice_pressure_Pa", "slice_pressure_Pa")):
+                    g[k][...] = getattr(tw, attr)
+                for gauge, a in tw.strain.items():
+                    g[f"strain_twist/{gauge}"][...] = a
             g["done_loads"][...] = 1
             g["done_deflections"][...] = 1
         seal_file(f)
     finally:
         f.close()
     os.replace(tmp, path)
+
+
+def _frame_of(tw: TwistTable) -> dict[str, Any]:
+    return dict(tw.frame, r_mesh=tw.r_mesh, r_twist=tw.r_twist, base_helix_angle_rad=tw.base_helix_angle_rad,
+                lever_arm_m=tw.lever_arm_m, reference_plane_z_m=tw.reference_plane_z_m)
 
 
 def load_system_tables(model_path: str | Path, tables_path: str | Path | None = None, *,

@@ -13,6 +13,11 @@ through the functions of this module, so one rule holds everywhere:
   Callers that must know when a state leaves the grid count it (:class:`~hacgear_core.tables.table.MeshTable`).
 * NaN in a position or deflection gives NaN.
 
+* **twist axis** (helical meshes, third axis of ``(Np, Nd, Nt, ...)`` tables): a regular grid
+  ``g_k = g0 + k dg``, the same rule as the deflection axis (linear inside, linear extrapolation from the
+  outermost two points beyond it): :func:`trilinear_vec` returns every trailing component of one cell at
+  once (the mesh force and the twist moment of the generalized FDF from one lookup).
+
 Force tables are non-negative on the grid and zero in their first two columns (teeth apart), so the
 extrapolated force below the grid is zero and above it grows with the last cell's slope.
 
@@ -34,6 +39,8 @@ __all__ = [
     "interp_rows",
     "pair_rows",
     "deflection_at_force",
+    "trilinear_vec",
+    "trilinear_many",
 ]
 
 # only floating-point contraction (fused multiply-add): NaN/inf semantics are kept
@@ -181,3 +188,33 @@ def deflection_at_force(tab, x0, dx, tau, force):
     if hi > lo:
         return x0 + dx * ((nd - 2) + (force - lo) / (hi - lo))
     return math.nan
+
+
+@njit(cache=True, fastmath=_FM)
+def trilinear_vec(tab, x0, inv_dx, g0, inv_dg, tau, x, g, out):
+    """Trilinear value of ``tab`` (Np, Nd, Nt, K) at mesh position ``tau`` [cycles] (periodic), deflection ``x``
+    [m] and twist ``g`` [rad] (both regular grids, linear extrapolation beyond them) for all K trailing
+    components at once → ``out`` (K,).  NaN in any argument gives NaN."""
+    kk = tab.shape[3]
+    if math.isnan(tau) or math.isnan(x) or math.isnan(g):
+        for c in range(kk):
+            out[c] = math.nan
+        return
+    i, i1, a = periodic_cell(tab.shape[0], tau)
+    j, b = deflection_cell(tab.shape[1], x0, inv_dx, x)
+    m, t = deflection_cell(tab.shape[2], g0, inv_dg, g)
+    for c in range(kk):
+        v00 = tab[i, j, m, c] + b * (tab[i, j + 1, m, c] - tab[i, j, m, c])
+        v01 = tab[i, j, m + 1, c] + b * (tab[i, j + 1, m + 1, c] - tab[i, j, m + 1, c])
+        v10 = tab[i1, j, m, c] + b * (tab[i1, j + 1, m, c] - tab[i1, j, m, c])
+        v11 = tab[i1, j, m + 1, c] + b * (tab[i1, j + 1, m + 1, c] - tab[i1, j, m + 1, c])
+        v0 = v00 + t * (v01 - v00)
+        v1 = v10 + t * (v11 - v10)
+        out[c] = v0 + a * (v1 - v0)
+
+
+@njit(cache=True, fastmath=_FM)
+def trilinear_many(tab, x0, inv_dx, g0, inv_dg, tau, x, g, out):
+    """:func:`trilinear_vec` over equal-length arrays ``tau``, ``x``, ``g`` → ``out`` (n, K)."""
+    for k in range(tau.shape[0]):
+        trilinear_vec(tab, x0, inv_dx, g0, inv_dg, tau[k], x[k], g[k], out[k])

@@ -17,9 +17,9 @@ from typing import Any, Mapping
 import numpy as np
 
 from hacgear_core.errors import TableError
-from hacgear_core.tables.interp import interp_rows, pair_rows
+from hacgear_core.tables.interp import interp_rows, pair_rows, trilinear_many
 
-__all__ = ["InterpolationStats", "MeshTable", "StrainTable", "SystemTables"]
+__all__ = ["InterpolationStats", "MeshTable", "StrainTable", "SystemTables", "TwistTable"]
 
 
 @dataclass
@@ -81,6 +81,85 @@ class StrainTable(dict):
 
 
 
+#: names of the arrays of a :class:`TwistTable` with their trailing shape after (Np, Nd, Nt) (None: not gridded)
+TWIST_GRIDDED = ("generalized_fdf", "generalized_force", "tooth_load_N", "peak_pressure_Pa", "slice_load_N",
+                 "slice_pressure_Pa")
+
+
+@dataclass(frozen=True, eq=False)
+class TwistTable:
+    """The twist axis of a helical mesh table (docs/tables.md, "Helical meshes").  Nt twists, Ns face slices.
+
+    ``twist_rad`` (Nt,) regular grid containing 0; ``no_load_deflection_m`` (Np, Nt); ``static_deflection_m``
+    (Np, Nl, Nt); ``generalized_fdf`` (Np, Nd, Nt, 2): mesh force W [N] and twist moment M [N m], the generalized
+    FDF: ``f_d = W r_mesh + M r_twist`` (exact for involute contacts); ``generalized_force`` (Np, Nd, Nt, 12): f_d
+    summed contact by contact; ``tooth_load_N`` (Np, Nd, Nt, Nw); ``peak_pressure_Pa`` (Np, Nd, Nt);
+    ``slice_load_N``, ``slice_pressure_Pa`` (Np, Nd, Nt, Ns) at ``slice_z_m`` (Ns,) (global axial coordinate);
+    ``strain`` gauge → (Np, Nd, Nt, Nw); ``r_mesh``, ``r_twist`` (12,): x = r_mesh·q, gamma = r_twist·q;
+    ``frame``: e1, e2, e3, P_ref, n_ref, O_a, O_b (global frame), ``base_helix_angle_rad``, ``lever_arm_m``
+    (2,), ``reference_plane_z_m``."""
+
+    twist_rad: np.ndarray
+    no_load_deflection_m: np.ndarray
+    static_deflection_m: np.ndarray
+    generalized_fdf: np.ndarray
+    generalized_force: np.ndarray
+    tooth_load_N: np.ndarray
+    peak_pressure_Pa: np.ndarray
+    slice_load_N: np.ndarray
+    slice_pressure_Pa: np.ndarray
+    slice_z_m: np.ndarray
+    strain: dict
+    r_mesh: np.ndarray
+    r_twist: np.ndarray
+    frame: dict
+    base_helix_angle_rad: float
+    lever_arm_m: np.ndarray
+    reference_plane_z_m: float
+
+    def __post_init__(self) -> None:
+        for k in ("twist_rad", "no_load_deflection_m", "static_deflection_m", "generalized_fdf", "generalized_force",
+                  "tooth_load_N", "peak_pressure_Pa", "slice_load_N", "slice_pressure_Pa", "slice_z_m", "r_mesh",
+                  "r_twist", "lever_arm_m"):
+            object.__setattr__(self, k, _f64(getattr(self, k)))
+        object.__setattr__(self, "strain", {k: _f64(v) for k, v in self.strain.items()})
+        object.__setattr__(self, "frame", {k: _f64(v) for k, v in self.frame.items()})
+        t = self.twist_rad
+        if t.size < 1 or (t.size > 1 and not np.allclose(np.diff(t), t[1] - t[0], rtol=1e-9, atol=0)) \
+                or not np.any(np.abs(t) < 1e-15):
+            raise TableError(f"twist_rad [rad] must be a regular increasing grid containing 0, got {t.tolist()}")
+        if self.r_mesh.shape != (12,) or self.r_twist.shape != (12,):
+            raise TableError("r_mesh and r_twist must have 12 entries (q = [u_a, theta_a, u_b, theta_b])")
+        npos, nd, nt = self.generalized_fdf.shape[:3]
+        if self.generalized_fdf.shape != (npos, nd, nt, 2) or nt != t.size:
+            raise TableError(f"generalized_fdf has shape {self.generalized_fdf.shape}, expected (Np, Nd, {t.size}, 2)")
+        if self.generalized_force.shape != (npos, nd, nt, 12):
+            raise TableError(f"generalized_force has shape {self.generalized_force.shape}, expected "
+                             f"{(npos, nd, nt, 12)}")
+        if self.no_load_deflection_m.shape != (npos, nt):
+            raise TableError(f"no_load_deflection_m has shape {self.no_load_deflection_m.shape}, expected {(npos, nt)}")
+
+    @property
+    def zero_index(self) -> int:
+        return int(np.argmin(np.abs(self.twist_rad)))
+
+    @property
+    def dg(self) -> float:
+        return float(self.twist_rad[1] - self.twist_rad[0]) if self.twist_rad.size > 1 else 1.0
+
+    def _lookup(self, values: np.ndarray, x0: float, inv_dx: float, position, deflection, twist) -> np.ndarray:
+        p, x, g = np.broadcast_arrays(*(np.asarray(a, float) for a in (position, deflection, twist)))
+        v = values
+        if v.shape[2] == 1:                          # a single twist: constant along the twist axis
+            v = np.concatenate([v, v], axis=2)
+        tail = v.shape[3:]
+        v4 = np.ascontiguousarray(v.reshape(v.shape[:3] + (-1,)))
+        out = np.empty((p.size, v4.shape[3]))
+        trilinear_many(v4, x0, inv_dx, float(self.twist_rad[0]), 1.0 / self.dg, np.ascontiguousarray(p.ravel()),
+                       np.ascontiguousarray(x.ravel()), np.ascontiguousarray(g.ravel()), out)
+        return out.reshape(p.shape + tail)
+
+
 @dataclass(frozen=True, eq=False)
 class MeshTable:
     """Tables of one gear mesh, all SI.  Np positions, Nd deflections, Nl loads, Nw tooth offsets.
@@ -115,6 +194,7 @@ class MeshTable:
     hub_reaction: dict[str, np.ndarray] = field(default_factory=dict)
     solver: str = ""
     stats: InterpolationStats = field(default_factory=InterpolationStats, repr=False)
+    twist: TwistTable | None = None
     coast: "MeshTable | None" = None
     backlash_normal_m: float | None = None
     backlash_circular_m: float | None = None
@@ -301,6 +381,29 @@ class MeshTable:
     @property
     def gauge_names(self) -> tuple[str, ...]:
         return tuple(self.strain)
+
+    # -- helical meshes: the twist axis ----------------------------------------------------------
+    def _twist(self) -> TwistTable:
+        if self.twist is None:
+            raise TableError(f"mesh table '{self.name}' has no twist axis (not a helical mesh table)")
+        return self.twist
+
+    def generalized(self, position: Any, deflection: Any, twist: Any) -> np.ndarray:
+        """Mesh force W [N] and twist moment M [N m] at (position [cycles], deflection [m], twist [rad]) from one
+        trilinear lookup → (..., 2); ``f_d = W r_mesh + M r_twist``.  Deflections outside the grid are counted."""
+        tw = self._twist()
+        self._count(np.ravel(deflection))
+        return tw._lookup(tw.generalized_fdf, self.x0_m, self.inv_dx, position, deflection, twist)
+
+    def generalized_force(self, position: Any, deflection: Any, twist: Any) -> np.ndarray:
+        """The 12 components of f_d (Eq. 5.1) summed contact by contact → (..., 12)."""
+        tw = self._twist()
+        self._count(np.ravel(deflection))
+        return tw._lookup(tw.generalized_force, self.x0_m, self.inv_dx, position, deflection, twist)
+
+    def twist_quantity(self, values: np.ndarray, position: Any, deflection: Any, twist: Any) -> np.ndarray:
+        """Any (Np, Nd, Nt, ...) array of the twist table at (position, deflection, twist)."""
+        return self._twist()._lookup(values, self.x0_m, self.inv_dx, position, deflection, twist)
 
 
 @dataclass(frozen=True, eq=False)

@@ -801,3 +801,67 @@ def test_fillet_matches_brute_force_rack_envelope(asym28, rho_mm, tol_um):
     geo = radii * np.abs(ang["drive"] - ang["coast"])
     assert np.all(np.isfinite(env))
     assert np.max(np.abs(geo - env)) < tol_um * 1e-6, (geo - env) * 1e6
+
+
+# ----------------------------------------------------------------------------------------------
+# backlash (issue #13): closed form and placed flank polylines
+# ----------------------------------------------------------------------------------------------
+def _textbook_backlash(model, mesh_name):
+    """j_t = p_w - s_w1 - s_w2 with s_w from the reference-circle thickness by the involute function of each flank:
+    s(R) = R [s/r +- sum_f (inv a_f - inv a_f(R))], cos a_f(R) = r cos a_f / R (- for an internal gear's tooth)."""
+    mesh = model.mesh(mesh_name)
+    ga, gb = model.gear(mesh.gear_a), model.gear(mesh.gear_b)
+    internal = ga.internal or gb.internal
+    a = mesh.center_distance_m if mesh.center_distance_m is not None else model.planetary.carrier_radius_m
+    k = a / (abs(gb.teeth - ga.teeth) if internal else ga.teeth + gb.teeth)
+    s_w = []
+    for g in (ga, gb):
+        r, rw = 0.5 * g.module_m * g.teeth, k * g.teeth
+        d = sum(involute_function(f.pressure_angle_rad) - involute_function(math.acos(r * math.cos(f.pressure_angle_rad)
+                                                                                       / rw))
+                for f in (g.flanks["drive"], g.flanks["coast"]))
+        s_w.append(rw * (g.tooth_thickness_m / r + (-d if g.internal else d)))
+    return 2 * math.pi * k - s_w[0] - s_w[1]     # p_w = 2 pi r_w / z = 2 pi k
+
+
+@pytest.mark.parametrize("system,mesh,expect_um", [("spur_28t_asym", "m12", 427.96), ("spur_50t_icr18", "m12", 144.78),
+                                                   ("idler_28_33_39", "m23", 432.96),
+                                                   ("planetary_65_55_175", "ring_planet", 1054.82)])
+def test_backlash_closed_form(system, mesh, expect_um):
+    model = load_model(system)
+    mg = mesh_geometry(model, mesh, strict=False)
+    jt = _textbook_backlash(model, mesh)
+    assert mg.backlash_circular_m == pytest.approx(jt, abs=1e-10) == pytest.approx(expect_um * 1e-6, abs=0.01e-6)
+    assert mg.backlash_m == mg.backlash_circular_m
+    rw = mg.operating_pitch_radius_m[mg.gear_a]
+    cos_aw = mg.base_radius_coast_m[mg.gear_a] / rw
+    assert mg.backlash_normal_m == pytest.approx(jt * cos_aw, rel=1e-12)
+    assert mg.operating_pressure_angle_coast_rad == pytest.approx(math.acos(cos_aw), rel=1e-12)
+    from hacgear_core.cli.info import info_dict
+
+    d = info_dict(model, strict=False)["meshes"][mesh]
+    assert (d["backlash_circular_m"], d["backlash_normal_m"]) == (mg.backlash_circular_m, mg.backlash_normal_m)
+
+
+@pytest.mark.parametrize("system,mesh,gear,thickness_m", [("spur_28t_asym", "m12", "pinion", 7.9e-3),
+                                                          ("planetary_65_55_175", "ring_planet", "planet", 2.2e-3)])
+def test_backlash_and_coast_offset_match_placed_flanks(system, mesh, gear, thickness_m):
+    """Gears placed at drive positions, closed on the coast side from their flank polylines: the first touch comes
+    after j_n at every position (ideal involutes) and, at drive position c0, on the pitch point (external and
+    internal mesh, unequal tooth thicknesses so that c0 != -1/2)."""
+    import sys
+    from pathlib import Path
+
+    from hacgear_core.statics import model_variant
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from _coast_brute import CoastClosure, thickness_variant
+
+    model = thickness_variant(model_variant(load_model(system), tip_relief=False), gear, thickness_m)
+    brute = CoastClosure(model, mesh)
+    mg = brute.mg
+    assert abs(mg.coast_position_offset + 0.5) > 0.005
+    for tau in (0.23, mg.coast_position_offset):
+        x, touching = brute.close(tau)
+        assert x == pytest.approx(mg.backlash_normal_m, abs=0.05e-6)
+    assert min(np.linalg.norm(pt - brute.P) for pt, _ in touching.values()) < 20e-6

@@ -214,7 +214,7 @@ class _RigidHelical:
 
 def test_statics_grid_writes_the_twist_axis(helical, tmp_path):
     from hacgear_core.statics import run_statics
-    from hacgear_core.tables import TWIST_FORMAT_VERSION, read_tables
+    from hacgear_core.tables import FORMAT_VERSION, read_tables
 
     twists = np.array([-2e-4, 0.0, 2e-4])
     out = tmp_path / "t.h5"
@@ -223,7 +223,7 @@ def test_statics_grid_writes_the_twist_axis(helical, tmp_path):
     rep = run_statics({"m12": _RigidHelical(helical.path)}, out, **kw)
     assert rep.success
     t = read_tables(out)
-    assert t.format_version == TWIST_FORMAT_VERSION
+    assert t.format_version == FORMAT_VERSION
     m = t.mesh("m12")
     tw = m.twist
     np.testing.assert_array_equal(tw.twist_rad, twists)

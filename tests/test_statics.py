@@ -171,6 +171,34 @@ def test_deflection_grid_rule():
         deflection_grid(nl, sd, 3)
     with pytest.raises(SolverError, match="NaN"):
         deflection_grid(nl, sd * np.nan, 10)
+    # coast side: ideal flanks touch at the backlash, the grid starts one step below min(backlash, NLMD)
+    jn = 400e-6
+    g3 = deflection_grid(nl + jn, sd + jn, 10, margin=0.5, contact_deflection_m=jn)
+    assert g3[1] == pytest.approx(jn) and g3[-1] == pytest.approx(jn + 40e-6 * 1.5)
+    g4 = deflection_grid(nl + jn - 1e-6, sd + jn, 10, margin=0.0, contact_deflection_m=jn)
+    assert g4[1] == pytest.approx(jn - 1e-6)
+
+
+def test_region_keys_and_sides(tmp_path):
+    from hacgear_core.statics import region_key, region_mesh
+
+    assert (region_key("m12"), region_key("m12", "coast")) == ("m12", "m12/coast")
+    assert region_mesh("m12/coast") == ("m12", "coast") and region_mesh("m12") == ("m12", "drive")
+    with pytest.raises(ModelError, match="side"):
+        region_key("m12", "back")
+    with pytest.raises(ModelError, match="region key 'm12/coast'"):   # a coast side needs its drive side
+        run_statics({"m12/coast": AnalyticFactory()}, tmp_path / "t.h5", n_positions=4, n_deflections=8,
+                    loads_N={"m12/coast": load_grid(1e3, 3)}, workers=1, progress=False)
+    with pytest.raises(SolverError, match="side 'drive'"):              # the factory must build a coast solver
+        run_statics({"m12": AnalyticFactory(), "m12/coast": AnalyticFactory()}, tmp_path / "t.h5", n_positions=4,
+                    n_deflections=8, loads_N={"m12": load_grid(1e3, 3), "m12/coast": load_grid(1e3, 3)}, workers=1,
+                    progress=False)
+    shutil.copy(MODEL, tmp_path / "model.toml")
+    with pytest.raises(ModelError, match="sides"):
+        compute_statics(tmp_path / "model.toml", solver="analytic", sides=("coast",), workers=1, progress=False)
+    rep = compute_statics(tmp_path / "model.toml", tmp_path / "one.h5", positions=4, loads=3, deflections=8,
+                          solver="analytic", sides=("drive",), workers=1, progress=False)
+    assert set(rep.meshes) == {"m12"} and rep.tasks_computed == 8
 
 
 def test_load_grid_and_nominal_forces():
@@ -337,16 +365,16 @@ def test_cli_refuses_small_torque_factor(tmp_path):
 
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
 def test_sigkill_midway_leaves_no_workers_and_rerun_resumes_equal_to_uninterrupted(tmp_path):
-    """A real `hacgear statics --workers 2` process is SIGKILLed (the main process only, as `kill -9 PID` does)
-    in the middle of phase 2: its worker processes must end by themselves within seconds; running the same
-    command again (no flag) continues the partial file, says so, computes exactly the positions not flagged
-    done, and the result equals an uninterrupted run."""
+    """A real `hacgear statics --workers 2` process (both sides of the mesh) is SIGKILLed (the main process only,
+    as `kill -9 PID` does) in the middle of the coast side's phase 2: its worker processes must end by themselves
+    within seconds; running the same command again (no flag) continues the partial file, says so, computes
+    exactly the positions not flagged done, and the result equals an uninterrupted run, both sides."""
     model = tmp_path / "model.toml"
     shutil.copy(MODEL, model)
     grid = ["--positions", "32", "--loads", "16", "--deflections", "64"]
     ref = compute_statics(model, tmp_path / "ref.h5", positions=32, loads=16, deflections=64, solver="analytic",
                           workers=1, progress=False)
-    assert ref.tasks_computed == 64
+    assert ref.tasks_computed == 128 and set(ref.meshes) == {"m12", "m12/coast"}
     out = tmp_path / "tables.h5"
     partial = tmp_path / "tables.h5.partial"
     cmd = [sys.executable, "-c", "import sys; from hacgear_core.cli import main; sys.exit(main())", "statics", str(model), "--solver", "analytic",
@@ -362,10 +390,10 @@ def test_sigkill_midway_leaves_no_workers_and_rerun_resumes_equal_to_uninterrupt
                 continue
             try:
                 with h5py.File(partial, "r", locking=False) as f:
-                    n2 = int(f["meshes/m12/done_deflections"][()].sum())
+                    n2 = int(f["meshes/m12/coast/done_deflections"][()].sum())
             except (OSError, KeyError):
                 continue
-            if n2 >= 12:
+            if n2 >= 6:
                 workers_seen = [p for p, _ in session_processes(proc.pid) if p != proc.pid]
                 os.kill(proc.pid, signal.SIGKILL)
                 break
@@ -379,8 +407,10 @@ def test_sigkill_midway_leaves_no_workers_and_rerun_resumes_equal_to_uninterrupt
     assert not orphans, f"processes left behind by the killed run: {orphans}"
     assert partial.exists() and not out.exists()
     with h5py.File(partial, "r") as f:
-        done_at_kill = int(f["meshes/m12/done_loads"][()].sum() + f["meshes/m12/done_deflections"][()].sum())
-    assert 32 + 12 <= done_at_kill < 64
+        done_at_kill = sum(int(f[f"meshes/{r}/{d}"][()].sum()) for r in ("m12", "m12/coast")
+                           for d in ("done_loads", "done_deflections"))
+        coast_done = int(f["meshes/m12/coast/done_deflections"][()].sum())
+    assert 64 + 6 <= done_at_kill < 128 and 6 <= coast_done < 32
     cmd[cmd.index("--workers") + 1] = "1"  # the resumed run in-process (cheaper; the pool ran above)
     res = subprocess.run(cmd + ["--json"], cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert res.returncode == 0, res.stderr
@@ -389,13 +419,15 @@ def test_sigkill_midway_leaves_no_workers_and_rerun_resumes_equal_to_uninterrupt
     rep = json.loads(res.stdout)
     assert f"resumed tables.h5.partial: {done_at_kill} position task(s) already done" in rep["message"]
     assert rep["tasks_resumed"] == done_at_kill
-    assert rep["tasks_computed"] == 64 - done_at_kill
+    assert rep["tasks_computed"] == 128 - done_at_kill
     _assert_same_file(tmp_path / "ref.h5", out)
+    with h5py.File(out, "r") as f:
+        assert f["meshes/m12"].attrs["side"] == "drive" and f["meshes/m12/coast"].attrs["side"] == "coast"
     again = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert "already complete for these settings; nothing to do" in again.stdout
     fresh = subprocess.run(cmd + ["--fresh", "--positions", "8"], cwd=tmp_path, capture_output=True, text=True,
                            timeout=300)
-    assert fresh.returncode == 0 and "16 position task(s) computed" in fresh.stdout, fresh.stderr
+    assert fresh.returncode == 0 and "32 position task(s) computed" in fresh.stdout, fresh.stderr
 
 
 def test_worker_pool_ends_when_its_parent_is_killed(tmp_path):
@@ -457,9 +489,9 @@ def test_partial_file_in_use_by_another_process_is_not_touched(tmp_path):
 
 @pytest.mark.parametrize("system", ["spur_28t_asym", "spur_50t_icr137", "spur_50t_icr18"])
 def test_committed_tables_agree_with_a_coarse_regeneration(tmp_path, system):
-    """The committed models/<system>/tables.h5 (>= 64 positions) belong to their model file, and a
-    coarse regeneration with the current solver agrees with them where the grids coincide: static
-    deflection per (position, load) and NLMD exactly at shared positions (same loads), the FDF at the
+    """The committed models/<system>/tables.h5 (>= 64 positions, both sides) belong to their model file, and a
+    coarse regeneration with the current solver agrees with them where the grids coincide, drive and coast side:
+    static deflection per (position, load) and NLMD exactly at shared positions (same loads), the FDF at the
     committed (position, deflection) nodes by interpolation of the coarse deflection grid."""
     pytest.importorskip("hacgear_core.statics.contact")
     from hacgear_core.model import load_model
@@ -475,16 +507,19 @@ def test_committed_tables_agree_with_a_coarse_regeneration(tmp_path, system):
     shutil.copy(root / "model.toml", tmp_path / "model.toml")
     compute_statics(tmp_path / "model.toml", tmp_path / "coarse.h5", positions=8, loads=n_loads, deflections=48,
                     workers=1, progress=False)
-    coarse = read_tables(tmp_path / "coarse.h5", tmp_path / "model.toml").meshes[mesh]
+    coarse_d = read_tables(tmp_path / "coarse.h5", tmp_path / "model.toml").meshes[mesh]
     step = len(ref.position) // 8
-    np.testing.assert_allclose(coarse.load_N, ref.load_N, rtol=1e-12)
-    scale = float(np.max(ref.static_deflection_m))
-    np.testing.assert_allclose(coarse.static_deflection_m, ref.static_deflection_m[::step], atol=1e-3 * scale)
-    np.testing.assert_allclose(coarse.no_load_deflection_m, ref.no_load_deflection_m[::step], atol=1e-3 * scale)
-    # FDF: compare at committed deflection nodes inside both grids, 2 % of the largest force
-    x = ref.deflection_m
-    inside = (x >= coarse.deflection_m[0]) & (x <= coarse.deflection_m[-1])
-    for ic in range(8):
-        f_ref = ref.force_N[ic * step, inside]
-        f_coarse = np.interp(x[inside], coarse.deflection_m, coarse.force_N[ic])
-        np.testing.assert_allclose(f_coarse, f_ref, atol=0.02 * float(ref.force_N.max()))
+    for ref, coarse in ((ref, coarse_d), (ref.require_coast(), coarse_d.require_coast())):
+        np.testing.assert_allclose(coarse.load_N, ref.load_N, rtol=1e-12)
+        # deflections relative to where ideal flanks touch (0 drive, the normal backlash coast)
+        x_k = 0.0 if ref.side == "drive" else ref.backlash_normal_m
+        scale = float(np.max(ref.static_deflection_m)) - x_k
+        np.testing.assert_allclose(coarse.static_deflection_m, ref.static_deflection_m[::step], atol=1e-3 * scale)
+        np.testing.assert_allclose(coarse.no_load_deflection_m, ref.no_load_deflection_m[::step], atol=1e-3 * scale)
+        # FDF: compare at committed deflection nodes inside both grids, 2 % of the largest force
+        x = ref.deflection_m
+        inside = (x >= coarse.deflection_m[0]) & (x <= coarse.deflection_m[-1])
+        for ic in range(8):
+            f_ref = ref.force_N[ic * step, inside]
+            f_coarse = np.interp(x[inside], coarse.deflection_m, coarse.force_N[ic])
+            np.testing.assert_allclose(f_coarse, f_ref, atol=0.02 * float(ref.force_N.max()))

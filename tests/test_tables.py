@@ -450,3 +450,97 @@ def test_meshtable_validation_names_the_field(table):
         MeshTable(**{**kw, "deflection_m": table.deflection_m ** 2})
     with pytest.raises(TableError, match="position"):
         MeshTable(**{**kw, "position": table.position * 0.5})
+
+
+# ----------------------------------------------------------------------------------------------
+# two sides (coast subgroup), old one-sided files
+# ----------------------------------------------------------------------------------------------
+def test_coast_subgroup_layout_and_attributes(model_run):
+    from hacgear_core.geometry import mesh_geometry
+    from hacgear_core.model import load_model
+
+    model, tables = model_run
+    mg = mesh_geometry(load_model(model), "m12")
+    with h5py.File(tables, "r") as f:
+        assert list(f.attrs["mesh_names"]) == ["m12"] and f.attrs["n_meshes"] == 1
+        d, c = f["meshes/m12"], f["meshes/m12/coast"]
+        assert d.attrs["side"] == "drive" and tuple(d.attrs["flanks"]) == ()   # the analytic solver names none
+        assert c.attrs["side"] == "coast"
+        assert c.attrs["backlash_normal_m"] == mg.backlash_normal_m
+        assert c.attrs["backlash_circular_m"] == mg.backlash_circular_m
+        assert c.attrs["position_offset"] == mg.coast_position_offset
+        assert list(c.attrs["pair_shift"]) == [1, 0] and list(c.attrs["gear_names"]) == ["pinion", "wheel"]
+        assert np.array_equal(c["position"][()], d["position"][()])
+        names = []
+        c.visititems(lambda n, o: names.append(n) if isinstance(o, h5py.Dataset) else None)
+        for n in names:
+            assert c[n].attrs["unit"] and c[n].attrs["description"], n
+        assert {"force_N", "deflection_m", "strain/wheel/SG20", "hub_reaction/pinion"} <= set(names)
+    t = read_tables(tables, model).mesh("m12")
+    c = t.require_coast()
+    assert (c.side, c.name, c.pair_shift) == ("coast", "m12", {"pinion": 1, "wheel": 0})
+    assert c.base_radius_m == pytest.approx((0.07 * math.cos(math.radians(20.0)),) * 2, rel=1e-12)
+    # the coast load grid carries the operating torque over the coast base radius
+    assert c.load_N[-1] == pytest.approx(3 * 300.0 / c.base_radius_m[0], rel=1e-12)
+    assert c.deflection_m[1] <= c.backlash_normal_m and np.all(c.force_N[:, :2] == 0)
+
+
+def test_two_sided_round_trip(model_run, tmp_path):
+    model, tables = model_run
+    t = read_tables(tables, model)
+    write_tables(tmp_path / "copy.h5", t)
+    a, b = t.mesh().coast, read_tables(tmp_path / "copy.h5", model).mesh().coast
+    for k in ("position", "deflection_m", "force_N", "no_load_deflection_m", "load_N", "static_deflection_m",
+              "tooth_load_N", "contact_roll_deg", "peak_pressure_Pa", "half_width_m"):
+        np.testing.assert_array_equal(getattr(a, k), getattr(b, k), err_msg=k)
+    for g in a.gauge_names:
+        np.testing.assert_array_equal(a.strain[g], b.strain[g])
+    for k in ("side", "flanks", "backlash_normal_m", "backlash_circular_m", "position_offset", "pair_shift", "solver"):
+        assert getattr(a, k) == getattr(b, k), k
+    c = pickle.loads(pickle.dumps(t.mesh()))
+    assert c.coast.force(0.3, 450e-6) == pytest.approx(a.force(0.3, 450e-6))
+
+
+def test_format_version_1_reads_as_drive_only(model_run, tmp_path, capsys):
+    from hacgear_core.cli import main
+
+    model, tables = model_run
+    old = tmp_path / "tables.h5"
+    shutil.copy(tables, old)
+    with h5py.File(old, "r+") as f:   # what a version-1 writer left: no coast group, no side attributes
+        del f["meshes/m12/coast"]
+        for k in ("side", "flanks"):
+            del f["meshes/m12"].attrs[k]
+        f.attrs["format_version"] = 1
+        del f.attrs["attributes_sha256"]  # version-1 writers stored no attribute digest
+    t = read_tables(old, model)
+    m = t.mesh("m12")
+    assert t.format_version == 1 and m.coast is None and m.side == "drive"
+    np.testing.assert_array_equal(m.force_N, read_tables(tables, model).mesh().force_N)
+    with pytest.raises(TableError, match=r"no coast side.*hacgear statics"):
+        m.require_coast()
+    assert main(["statics", str(model), "--check", "--out", str(old)]) == 0
+    assert "no coast side" in capsys.readouterr().err
+    with h5py.File(old, "r+") as f:
+        f.attrs["format_version"] = 4
+    with pytest.raises(TableError, match="format_version 4"):
+        read_tables(old, model)
+
+
+def test_coast_table_validation(model_run):
+    import dataclasses
+
+    model, tables = model_run
+    m = read_tables(tables, model).mesh()
+    c = m.coast
+    with pytest.raises(TableError, match="backlash_normal_m"):
+        dataclasses.replace(c, backlash_normal_m=float("nan"))
+    with pytest.raises(TableError, match="pair_shift"):
+        dataclasses.replace(c, pair_shift={"pinion": 1})
+    with pytest.raises(TableError, match="side"):
+        dataclasses.replace(c, side="back")
+    with pytest.raises(TableError, match="coast must be a MeshTable"):
+        dataclasses.replace(m, coast=m)
+    other = read_tables(tables, model).mesh().coast
+    with pytest.raises(TableError, match="positions"):
+        dataclasses.replace(m, coast=dataclasses.replace(other, position=other.position, teeth=(28, 29)))

@@ -1,6 +1,7 @@
 """``hacgear info MODEL [--json]``: derived geometry of every gear and mesh.
 
-Per mesh: centre distance, base radii, operating pressure angles, contact ratios (loaded and
+Per mesh: centre distance, backlash (circular on the operating pitch circle and normal along the unloaded
+flanks' line of action), base radii, operating pressure angles, contact ratios (loaded and
 unloaded flank, face and total), base pitch, roll angles of SAP/LPSTC/HPSTC/EAP per gear (loaded
 flank, degrees of tan(pressure angle)); per gear: profile shift, tool addendum, form and tip
 radii, tip thickness, mass and inertias; per mesh also its phase in the train (mesh cycles, from the gear placement)
@@ -78,6 +79,8 @@ def info_dict(model: Any, *, strict: bool = True) -> dict:
             "internal": mg.internal, "center_distance_m": mg.center_distance_m,
             "center_distance_source": mg.center_distance_source,
             "zero_backlash_center_distance_m": mg.zero_backlash_center_distance_m, "backlash_m": mg.backlash_m,
+            "backlash_circular_m": mg.backlash_circular_m, "backlash_normal_m": mg.backlash_normal_m,
+            "coast_position_offset": mg.coast_position_offset,
             "gear_ratio": mg.gear_ratio, "base_radius_m": dict(mg.base_radius_m),
             "base_radius_coast_m": dict(mg.base_radius_coast_m),
             "operating_pitch_radius_m": dict(mg.operating_pitch_radius_m),
@@ -131,8 +134,10 @@ def _text(d: dict) -> str:
         ga, gb = m["gear_a"], m["gear_b"]
         lines.append(f"  {n}: {ga} ({m['flank_a']}) -> {gb} ({m['flank_b']}){'  internal' if m['internal'] else ''}")
         lines.append(f"    centre distance        {m['center_distance_m'] * 1e3:10.4f} mm ({m['center_distance_source']}; "
-                     f"zero backlash {m['zero_backlash_center_distance_m'] * 1e3:.4f} mm, backlash "
-                     f"{m['backlash_m'] * 1e6:.1f} µm)")
+                     f"zero backlash {m['zero_backlash_center_distance_m'] * 1e3:.4f} mm)")
+        lines.append(f"    backlash               {m['backlash_circular_m'] * 1e6:10.1f} µm circular (operating pitch "
+                     f"circle), {_f(None if m['backlash_normal_m'] is None else m['backlash_normal_m'] * 1e6, '.1f')}"
+                     f" µm normal (unloaded flanks' line of action)")
         lines.append(f"    base radius            {ga}: {m['base_radius_m'][ga] * 1e3:.4f} mm, "
                      f"{gb}: {m['base_radius_m'][gb] * 1e3:.4f} mm (loaded flanks)")
         lines.append(f"    operating press. angle {m['operating_pressure_angle_deg']:10.4f} deg loaded, "

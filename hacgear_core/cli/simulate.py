@@ -3,6 +3,7 @@ torques in) with table post-processing (root strain, contact pressure, dynamic m
 from __future__ import annotations
 
 import argparse
+import sys
 
 import numpy as np
 
@@ -100,6 +101,7 @@ def run(args: argparse.Namespace) -> int:
         chunks.append(sim.run(1.0 / fm, 1.0 / (fm * args.steps_per_cycle)))
     raw = {k: np.concatenate([c[k] for c in chunks]) for k in chunks[0] if k != "state"}
     tau, x, f = raw["mesh_position"], raw["mesh_deflection_m"], raw["mesh_force_N"]
+    xc, fc = raw["coast_approach_m"], raw["coast_force_N"]
     moving = any(g.translations for g in sy.gears.values())
     tr = {"time_s": raw["time_s"]}
     for k, c in enumerate(sy.meshes):
@@ -107,13 +109,17 @@ def run(args: argparse.Namespace) -> int:
         tr[f"{m}.position"] = tau[:, k]
         tr[f"{m}.deflection_m"] = x[:, k]
         tr[f"{m}.force_N"] = f[:, k]
+        if c.coast_table is not None:
+            tr[f"{m}.coast_approach_m"] = xc[:, k]
+            tr[f"{m}.coast_force_N"] = fc[:, k]
+            tr[f"{m}.contact_state"] = raw["contact_state"][:, k]
         if moving:
             tr[f"{m}.dynamic_transmission_error_m"] = raw["dynamic_transmission_error_m"][:, k]
         tr[f"{m}.dynamic_mesh_stiffness_N_per_m"] = dynamic_mesh_stiffness(c.table, tau[:, k], x[:, k])
         tr[f"{m}.peak_pressure_Pa"] = dynamic_contact_pressure(c.table, tau[:, k], x[:, k])
     gauges = system_gauges(sy)
     for g in gauges:
-        tr[f"strain[{g}]"] = strain_of_tooth(sy, g, tau, x)
+        tr[f"strain[{g}]"] = strain_of_tooth(sy, g, tau, x, xc)
     per_mesh = {}
     for k, c in enumerate(sy.meshes):
         xk = x[:, k]
@@ -121,6 +127,10 @@ def run(args: argparse.Namespace) -> int:
             "mean_deflection_m": float(xk.mean()), "rms_deflection_m": float(np.sqrt(np.mean((xk - xk.mean()) ** 2))),
             "peak_force_N": float(f[:, k].max()), "contact_loss_fraction": float(np.mean(f[:, k] <= 0)),
             "max_peak_pressure_Pa": float(tr[f"{c.name}.peak_pressure_Pa"].max()),
+            "coast_contact_fraction": float(np.mean(fc[:, k] > 0)), "peak_coast_force_N": float(fc[:, k].max()),
+            "back_side_impacts": int(np.sum((fc[1:, k] > 0) & (fc[:-1, k] <= 0))),
+            "steps_beyond_tables": sim.out_of_range_steps[k],
+            "table_deflection_range_m": [float(c.table.deflection_m[0]), float(c.table.deflection_m[-1])],
         }
     summary = {
         "model": inp.label, "synthetic_table": inp.synthetic, "torque_Nm": sy.torque_Nm,
@@ -152,6 +162,16 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {m}, last {args.record_cycles} cycles: mean x {s['mean_deflection_m'] * 1e6:.3f} µm, rms "
               f"{s['rms_deflection_m'] * 1e6:.3f} µm, F_max {s['peak_force_N']:.1f} N, contact loss "
               f"{s['contact_loss_fraction']:.3f}, max contact pressure {s['max_peak_pressure_Pa'] / 1e6:.1f} MPa")
+        if sy.meshes[list(per_mesh).index(m)].coast_table is not None:
+            print(f"    coast flanks in contact {s['coast_contact_fraction']:.3f} of the time, peak coast force "
+                  f"{s['peak_coast_force_N']:.1f} N, {s['back_side_impacts']} back-side impact(s)")
+    beyond = {m: s["steps_beyond_tables"] for m, s in per_mesh.items() if s["steps_beyond_tables"]}
+    if beyond:
+        print("  WARNING: the state left the tables' deflection range in " + ", ".join(
+            f"{m}: {n} integration steps (grid {per_mesh[m]['table_deflection_range_m'][0] * 1e6:.4g} … "
+            f"{per_mesh[m]['table_deflection_range_m'][1] * 1e6:.4g} µm)" for m, n in beyond.items())
+            + "; forces, pressures and strains there are extrapolated. Extend the tables: raise [statics] "
+            "max_torque_factor in the model file and run `hacgear statics MODEL`", file=sys.stderr)
     if gauges:
         print("  root strain, largest magnitude: "
               + ", ".join(f"{g}: {v * 1e6:+.1f} µε" for g, v in summary["extreme_strain"].items()))

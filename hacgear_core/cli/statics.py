@@ -28,7 +28,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description=(
             "Run the static contact solver of every mesh on a grid of mesh positions (one mesh cycle) × "
             "mesh forces 0 … max_torque_factor × nominal (load control) and × a regular mesh-deflection grid "
-            "(deflection control: the force-deflection function), in parallel over positions. Results go "
+            "(deflection control: the force-deflection function), for both sides of every mesh (drive flanks; coast "
+            "flanks: positions in drive terms, deflection = coast approach from the drive kinematic position), in "
+            "parallel over positions. Results go "
             "into <out>.partial position by position; a run killed at any time (even kill -9, whose worker "
             "processes end by themselves) continues where it stopped when the same command is run again, and "
             "the output says so; --fresh discards the partial file instead. A partial file made with other "
@@ -90,9 +92,10 @@ def check_report(model: str | Path, tables: str | Path | None = None, *, ignore_
         nominal = nominal_mesh_forces(model_obj, {m: mt.base_radius_m for m, mt in t.meshes.items()})
     except (ModelError, KeyError):
         nominal = {}
-    for m, mt in t.meshes.items():
+    regions = [(m, mt0, nominal.get(m)) for m, mt0 in t.meshes.items()]
+    regions += [(f"{m}/coast", mt0.coast, None) for m, mt0 in t.meshes.items() if mt0.coast is not None]
+    for m, mt, fn in regions:
         mp_problems = sanity_problems(mt)
-        fn = nominal.get(m)
         if fn is not None and mt.load_N[-1] < 3.0 * fn * (1 - 1e-9):
             mp_problems.append(
                 f"load_N: the table spans loads up to {mt.load_N[-1]:.6g} N = {mt.load_N[-1] / fn:.3g} x the model's "
@@ -109,7 +112,11 @@ def check_report(model: str | Path, tables: str | Path | None = None, *, ignore_
             "force_max_N": float(np.max(mt.force_N[finite])) if finite.any() else float("nan"),
             "peak_pressure_max_Pa": float(np.nanmax(mt.peak_pressure_Pa)),
             "solver": mt.solver, "problems": mp_problems, "notes": resolution_notes(mt),
+            "side": mt.side, "flanks": list(mt.flanks),
         }
+        if mt.side == "coast":
+            rep["meshes"][m].update(backlash_normal_m=mt.backlash_normal_m, backlash_circular_m=mt.backlash_circular_m,
+                                    position_offset=mt.position_offset, pair_shift=dict(mt.pair_shift))
         if mt.twist is not None:
             tw = mt.twist
             rep["meshes"][m].update(
@@ -118,6 +125,11 @@ def check_report(model: str | Path, tables: str | Path | None = None, *, ignore_
                 r_mesh=tw.r_mesh.tolist(), r_twist=tw.r_twist.tolist(),
                 twist_moment_range_Nm=[float(tw.generalized_fdf[..., 1].min()), float(tw.generalized_fdf[..., 1].max())])
         problems += [f"mesh {m}: {q}" for q in mp_problems]
+    for m, mt0 in t.meshes.items():
+        if mt0.coast is None:
+            rep.setdefault("warnings", []).append(
+                f"mesh {m}: no coast side (one-sided table, format_version {t.format_version}); regenerate with "
+                f"`hacgear statics {mp}` for torque reversal and backlash")
     return rep
 
 
@@ -140,10 +152,16 @@ def _check(args: argparse.Namespace) -> int:
               f"{rep['hacgear_version']})")
     for m, r in rep["meshes"].items():
         nom = "" if r["nominal_mesh_force_N"] is None else f" = {r['load_max_N'] / r['nominal_mesh_force_N']:.3g} x nominal"
-        print(f"  mesh {m}: {r['positions']} positions x {r['loads']} loads (0 … {r['load_max_N']:.6g} N{nom}) x "
+        extra = ""
+        if r["side"] == "coast":
+            extra = (f"; coast approach from the drive kinematic position, backlash "
+                     f"{r['backlash_normal_m'] * 1e6:.4g} µm normal / {r['backlash_circular_m'] * 1e6:.4g} µm "
+                     f"circular")
+        print(f"  mesh {m} ({r['side']}, {'/'.join(r['flanks']) or '?'} flanks): {r['positions']} positions x "
+              f"{r['loads']} loads (0 … {r['load_max_N']:.6g} N{nom}) x "
               f"{r['deflections']} deflections ({r['deflection_grid_min_m'] * 1e6:.4g} … "
               f"{r['deflection_grid_max_m'] * 1e6:.4g} µm); NLMD {r['no_load_deflection_min_m'] * 1e6:.4g} … "
-              f"{r['no_load_deflection_max_m'] * 1e6:.4g} µm; max force {r['force_max_N']:.6g} N; "
+              f"{r['no_load_deflection_max_m'] * 1e6:.4g} µm; max force {r['force_max_N']:.6g} N{extra}; "
               f"solver: {r['solver']}")
         if "twist_rad" in r:
             print(f"    twist axis {len(r['twist_rad'])} points, {r['twist_rad'][0] * 1e3:.4g} … "
@@ -151,6 +169,8 @@ def _check(args: argparse.Namespace) -> int:
                   f"{r['twist_moment_range_Nm'][0]:.4g} … {r['twist_moment_range_Nm'][1]:.4g} N·m")
         for note in r["notes"]:
             print(f"    note: {note}")
+    for w in rep.get("warnings", []):
+        print(f"warning: {w}", file=sys.stderr)
     if rep["problems"]:
         print(f"FAILED: {len(rep['problems'])} problem(s)")
         for q in rep["problems"]:

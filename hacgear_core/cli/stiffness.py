@@ -5,7 +5,8 @@ Solves the static contact (finite-element far field + Hertz near field, :mod:`ha
 ``operating.torque_gear`` sends through it (an idler chain's second mesh carries ``T r_b,12 / (r_b,11 r_b,21)``
 times its base radius...), and reports per mesh the static transmission error (mesh deflection), the local-slope
 mesh stiffness ``dF/dx`` at that load at every position and its mean, and the secant stiffness
-(:func:`hacgear_core.statics.studies.mesh_stiffness_report`).
+(:func:`hacgear_core.statics.studies.mesh_stiffness_report`).  ``--side coast``: the torque reversed, loading the
+other flank of each gear (the coast side of the tables).
 """
 from __future__ import annotations
 
@@ -36,6 +37,9 @@ def register(subparsers: Any) -> None:
     p.add_argument("--twist", type=float, default=0.0, metavar="RAD",
                    help="mesh twist [rad] (helical meshes): relative rotation of the gears about the normal to the "
                         "plane of action, (theta_a - theta_b) . e1 (docs/helical.md); default 0")
+    p.add_argument("--side", choices=("drive", "coast"), default="drive",
+                   help="drive: the mesh's loaded flanks (default); coast: the torque reversed, loading the other "
+                        "flank of each gear (STE measured from the coast flanks' kinematic contact)")
     p.add_argument("--no-relief", action="store_true", help="remove all tip relief (study)")
     p.add_argument("--no-crowning", action="store_true", help="remove all lead crowning (study)")
     p.add_argument("--json", action="store_true", help="print JSON (SI units, unit in the key name)")
@@ -48,7 +52,7 @@ def run(args: argparse.Namespace) -> int:
         model = model_variant(model, tip_relief=not args.no_relief, lead_crowning=not args.no_crowning)
     torque = model.operating.torque_Nm if args.torque is None else args.torque
     d = mesh_stiffness_report(model, torque, mesh=args.mesh, positions=args.positions, slices=args.slices,
-                              face_coupling=args.face_coupling, twist_rad=args.twist)
+                              face_coupling=args.face_coupling, twist_rad=args.twist, side=args.side)
     if args.json:
         print(dumps(d, indent=1))
         return 0
@@ -57,8 +61,12 @@ def run(args: argparse.Namespace) -> int:
     for name, m in d["meshes"].items():
         ste = m["ste_m"]
         k = m["local_slope_stiffness_N_per_m"]
-        print(f"mesh {name} ({m['gear_a']}-{m['gear_b']}): {m['torque_Nm']:.1f} N·m on {m['torque_gear']}, "
-              f"mesh force {m['mesh_force_N']:.1f} N, {len(ste)} positions")
+        print(f"mesh {name} ({m['gear_a']}-{m['gear_b']}, {m['side']} side: {'/'.join(m['flanks'])} flanks): "
+              f"{m['torque_Nm']:.1f} N·m on {m['torque_gear']}, mesh force {m['mesh_force_N']:.1f} N, "
+              f"{len(ste)} positions")
+        if m["side"] == "coast":
+            print(f"  backlash {m['backlash_normal_m'] * 1e6:.2f} µm normal, {m['backlash_circular_m'] * 1e6:.2f} µm "
+                  "circular; STE from the coast flanks' kinematic contact")
         print(f"  mean mesh stiffness (local slope) {m['mean_mesh_stiffness_N_per_m'] / 1e6:9.2f} MN/m")
         print(f"  secant mesh stiffness             {m['secant_mesh_stiffness_N_per_m'] / 1e6:9.2f} MN/m")
         print(f"  mean average-slope stiffness      {m['mean_average_slope_stiffness_N_per_m'] / 1e6:9.2f} MN/m")

@@ -334,7 +334,7 @@ def _integrate_impl(n, m, variant, s, kin, n_steps, h, mode, fext, rec_every, re
         # stages 1 and 2: their lookups need only the state
         for k in range(m):
             t1 = tau_ref + phase[k] + wk[o_wq + k]
-            t2 = t1 + 0.5 * dtau + hh * wk[o_wd + k]
+            t2 = tau_ref + 0.5 * dtau + phase[k] + wk[o_wq + k] + hh * wk[o_wd + k]
             wk[o_f1 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t1, wk[o_xq + k])
             wk[o_f2 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t2, wk[o_xq + k] + hh * wk[o_xd + k])
             if two_sided:
@@ -388,9 +388,8 @@ def _integrate_impl(n, m, variant, s, kin, n_steps, h, mode, fext, rec_every, re
                     d -= mf[o_wvc + k * m + j] * wk[o_c2 + j]
                     e1 -= mf[o_cv + k * m + j] * wk[o_f1 + j] + mf[o_cvc + k * m + j] * wk[o_c1 + j]
                     e2 -= mf[o_cv + k * m + j] * wk[o_f2 + j] + mf[o_cvc + k * m + j] * wk[o_c2 + j]
-            t0 = tau_ref + phase[k] + wk[o_wq + k]
-            t3 = t0 + 0.5 * dtau + hh * (wk[o_wd + k] + hh * b)
-            t4 = t0 + dtau + h * (wk[o_wd + k] + hh * d)
+            t3 = tau_ref + 0.5 * dtau + phase[k] + wk[o_wq + k] + hh * (wk[o_wd + k] + hh * b)
+            t4 = tau_ref + dtau + phase[k] + wk[o_wq + k] + h * (wk[o_wd + k] + hh * d)
             wk[o_f3 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t3,
                                       wk[o_xq + k] + hh * (wk[o_xd + k] + hh * a))
             wk[o_f4 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t4,

@@ -44,12 +44,16 @@ def _pair_phase(tau: np.ndarray, passage: int, z: int) -> np.ndarray:
     return ((np.asarray(tau, float) - passage + 0.5 * z) % z) - 0.5 * z
 
 
-def strain_of_tooth(system: LumpedSystem, gauge: str, tau: np.ndarray, x: np.ndarray) -> np.ndarray:
+def strain_of_tooth(system: LumpedSystem, gauge: str, tau: np.ndarray, x: np.ndarray,
+                    xc: np.ndarray | None = None) -> np.ndarray:
     """Root strain [-] at ``gauge`` (``"<gear>/<gauge>"``) on tooth 0 of its gear along a trajectory: the sum over
-    every mesh of that gear of its strain-deflection function at the tooth's pair phase (an idler's tooth is
-    loaded on one flank by one mesh and on the other by the next).
+    every mesh of that gear of its strain-deflection functions at the tooth's pair phase — the drive side's at
+    the mesh deflection and, where the table has one, the coast side's at the coast approach (its pair
+    ``phase - pair_shift[gear]``, docs/tables.md "The coast side").  An idler's tooth is loaded on one flank by one
+    mesh and on the other by the next; any tooth is loaded on its other flank across the backlash.
 
-    ``tau``, ``x``: (nr, m) unwrapped mesh positions [cycles] and deflections [m] of all meshes.
+    ``tau``, ``x``, ``xc``: (nr, m) unwrapped mesh positions [cycles], deflections [m] and coast approaches [m] of
+    all meshes (``xc`` None: the drive sides only).
     """
     gear, _, gname = gauge.partition("/")
     if gear not in system.gears:
@@ -67,7 +71,12 @@ def strain_of_tooth(system: LumpedSystem, gauge: str, tau: np.ndarray, x: np.nda
         if key not in strain:
             continue
         found = True
-        total = total + c.table.sdf(key, _pair_phase(tau[:, k], c.tooth_passage.get(gear, 0), z), x[:, k])
+        phase = _pair_phase(tau[:, k], c.tooth_passage.get(gear, 0), z)
+        total = total + c.table.sdf(key, phase, x[:, k])
+        coast = c.coast_table
+        if coast is not None and xc is not None and key in (getattr(coast, "strain", None) or {}):
+            shift = coast.pair_shift.get(c.gear_alias.get(gear, gear), 0)
+            total = total + coast.sdf(key, phase - shift, xc[:, k])
     if not found:
         raise ModelError(f"no strain gauge {gauge!r} in the tables of {system.name}; gauges: {system_gauges(system)}")
     return total
@@ -375,7 +384,8 @@ class Simulator:
 
     def strain(self, gauge: str) -> float:
         """Root strain [-] now at ``gauge`` ("<gear>/<gauge>") on tooth 0 of its gear (:func:`strain_of_tooth`)."""
-        return float(strain_of_tooth(self.system, gauge, [self.mesh_position], [self.mesh_deflection_m])[0])
+        return float(strain_of_tooth(self.system, gauge, [self.mesh_position], [self.mesh_deflection_m],
+                                     [self.coast_approach_m])[0])
 
     def peak_pressure_Pa(self, mesh: int = 0) -> float:
         """Maximum contact pressure over all teeth of mesh ``mesh`` now [Pa] (table lookup)."""

@@ -112,25 +112,29 @@ def _static_scale(system: LumpedSystem, torque_Nm: float | None) -> float:
     c = system._cache
     if key not in c:
         eq = static_equilibrium(system, 0.0, system.fext_speed(torque_Nm))
-        c[key] = max(float(np.max(np.abs(eq.mesh_deflections_m))), float(np.max(np.abs(eq.coast_approach_m))), 1e-7)
+        if np.any(eq.coast_forces_N > 0):  # coast flanks loaded: their approach beyond the backlash
+            c[key] = max(float(np.max(np.abs(eq.coast_approach_m - system.backlash_m))), 1e-7)
+        else:
+            c[key] = max(float(np.max(np.abs(eq.mesh_deflections_m))), 1e-7)
     return c[key]
 
 
-def _static_strain(system: LumpedSystem, forces: np.ndarray) -> list[dict]:
-    key = ("strain_max", tuple(forces))
+def _static_strain(system: LumpedSystem, forces: np.ndarray, tables) -> list[dict]:
+    key = ("strain_max", tuple(forces), tuple(id(t) for t in tables))
     c = system._cache
     if key not in c:
-        c[key] = [static_strain_max(m.table, f) if getattr(m.table, "strain", None) else {}
-                  for m, f in zip(system.meshes, forces)]
+        c[key] = [static_strain_max(t, f) if getattr(t, "strain", None) else {} for t, f in zip(tables, forces)]
     return c[key]
 
 
 def trace_metrics(system: LumpedSystem, x, f, dte, tau=None, static_forces_N=None, fc=None, cycles: int = 1,
-                  coast_static_forces_N=None) -> dict:
+                  coast_static_forces_N=None, xc=None) -> dict:
     """Steady-state metrics (:data:`METRIC_NAMES`, each an (m,) array) of one recorded period of ``cycles`` mesh
-    cycles: ``x``, ``f``, ``dte``, ``tau``, coast force ``fc`` (nr, m).  ``static_forces_N`` (m,) the drive-flank
-    and ``coast_static_forces_N`` the coast-flank static forces (default: the system's nominal ones); the force
-    dynamic factor is taken on the flanks that carry a static force."""
+    cycles: ``x``, ``f``, ``dte``, ``tau``, coast force ``fc`` and coast approach ``xc`` (nr, m).
+    ``static_forces_N`` (m,) the drive-flank and ``coast_static_forces_N`` the coast-flank static forces (default:
+    the system's nominal ones).  The dynamic factors are taken on the flanks that carry the static force (for a
+    negative torque the coast side: its table at the coast approach); the other flank pair loads the far side of
+    a tooth's root and only compresses the loaded side's gauges, so it cannot raise their maximum."""
     x, f, dte = (np.atleast_2d(np.asarray(a, float)) for a in (x, f, dte))
     if x.shape[0] == 1 and x.shape[1] != system.m:
         x, f, dte = x.T, f.T, dte.T
@@ -162,11 +166,17 @@ def trace_metrics(system: LumpedSystem, x, f, dte, tau=None, static_forces_N=Non
         tau = np.atleast_2d(np.asarray(tau, float))
         if tau.shape[0] == 1 and tau.shape[1] != system.m:
             tau = tau.T
-        smax = _static_strain(system, fs)
-        for k, c in enumerate(system.meshes):
+        if coast_loaded and xc is not None:
+            tabs = [c.coast_table for c in system.meshes]
+            fl, xl = fsc, np.atleast_2d(np.asarray(xc, float)).reshape(x.shape)
+        else:
+            tabs = [c.table for c in system.meshes]
+            fl, xl = fs, x
+        smax = _static_strain(system, fl, tabs)
+        for k, t in enumerate(tabs):
             if not smax[k]:
                 continue
-            dfs = strain_dynamic_factor(c.table, tau[:, k], x[:, k], fs[k], smax[k])
+            dfs = strain_dynamic_factor(t, tau[:, k], xl[:, k], fl[k], smax[k])
             if dfs:
                 m["dynamic_factor_strain"][k] = float(max(dfs.values()))
     return m
@@ -253,7 +263,7 @@ def steady_state(system: LumpedSystem, mesh_frequency_Hz: float, state0: np.ndar
     rf = kernels.record_fields(ro, mm)
     tau, x, f, dte = rf["mesh_position"], rf["mesh_deflection_m"], rf["mesh_force_N"], rf["dynamic_transmission_error_m"]
     metrics = trace_metrics(system, x, f, dte, tau=tau, static_forces_N=fs, fc=rf["coast_force_N"],
-                            cycles=nrec_cyc, coast_static_forces_N=fsc)
+                            cycles=nrec_cyc, coast_static_forces_N=fsc, xc=rf["coast_approach_m"])
     trace = {}
     if keep_trace:
         trace = dict(rf)

@@ -201,9 +201,11 @@ def linear_fdf_table(
     if coast_stiffness_N_per_m is not None:
         rbc = tuple(base_radius_m) if coast_base_radius_m is None else tuple(coast_base_radius_m)
         coast = linear_fdf_table(coast_stiffness_N_per_m, teeth=teeth, base_radius_m=rbc, offset_mean_m=backlash_m,
-                                 x_max_m=backlash_m + x_max_m,
-                                 n_positions=n_positions, n_deflections=2 * n_deflections, name=f"{name}.coast")
-        coast = replace(coast, backlash_normal_m=float(backlash_m))
+                                 x_max_m=backlash_m + x_max_m, n_positions=n_positions,
+                                 n_deflections=2 * n_deflections, name=name)
+        coast = replace(coast, side="coast", backlash_normal_m=float(backlash_m),
+                        backlash_circular_m=float(backlash_m), position_offset=-0.5,
+                        pair_shift={"gear1": 1, "gear2": 0})
     pos = np.arange(n_positions) / n_positions
     xd = np.linspace(0.0, x_max_m, n_deflections)
     e = offset_mean_m + offset_amplitude_m * np.sin(2 * np.pi * pos)

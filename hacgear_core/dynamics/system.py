@@ -291,12 +291,12 @@ class LumpedSystem:
         kmax = np.array([max(kb, float(np.max(np.diff(ta.ftab, axis=1))) * ta.inv_dx,
                              float(np.max(lw.lin[0])) if lw.law == kernels.LAW_LINEAR else 0.0)
                          for kb, ta, lw in zip(kbar, self.table_arrays, self.laws)])
-        kk = self.K + (self.V.T * kmax) @ self.V
-        for k, ca in enumerate(self.coast_arrays):
-            if ca is not None:
-                kc = max(float(np.max(np.diff(ca.ftab, axis=1))) * ca.inv_dx, 0.0)
-                kk = kk + kc * np.outer(self.Vc[k], self.Vc[k])
-        w2max, _ = _sym_eig(kk, self.M)
+        # (the flanks the nominal torque loads: a coast contact across the backlash is as stiff as the loaded
+        # flanks, and the step resolves it as well)
+        if self.torque_Nm < 0:
+            kmax = np.array([max(kb, float(np.max(np.diff(ca.ftab, axis=1))) * ca.inv_dx)
+                             for kb, ca in zip(kbar, self.coast_arrays)])
+        w2max, _ = _sym_eig(self.K + (vl.T * kmax) @ vl, self.M)
         self.max_frequency_Hz = float(np.sqrt(max(w2max.max(), 0.0)) / (2 * math.pi))
         self.minv = np.ascontiguousarray(np.linalg.inv(self.M))
         self.kernel = kernels.select_kernel(self.law, n, self.m, self.two_sided)

@@ -4,7 +4,7 @@ placed in a train: line-of-action vectors, mesh phases, the torque through each 
 from __future__ import annotations
 
 from hacgear_core.geometry.gear import GearGeometry, WebGeometry, gear_geometry
-from hacgear_core.geometry.mesh import MeshGeometry, mesh_geometry, model_geometry
+from hacgear_core.geometry.mesh import MeshGeometry, mesh_backlash, mesh_geometry, model_geometry
 from hacgear_core.geometry.train import (
     MeshPlacement,
     TrainGeometry,
@@ -46,6 +46,7 @@ __all__ = [
     "MeshGeometry",
     "gear_geometry",
     "mesh_geometry",
+    "mesh_backlash",
     "model_geometry",
     "zero_backlash_center_distance",
     "fillet_root_curvature_radius_rack",

@@ -12,7 +12,7 @@ from hacgear_core.errors import GeometryError
 from hacgear_core.geometry.gear import GearGeometry, gear_geometry
 from hacgear_core.geometry.tooth import zero_backlash_center_distance
 
-__all__ = ["MeshGeometry", "mesh_geometry", "model_geometry", "zero_backlash_center_distance"]
+__all__ = ["MeshGeometry", "mesh_backlash", "mesh_geometry", "model_geometry", "zero_backlash_center_distance"]
 
 @dataclass(frozen=True, eq=False)
 class MeshGeometry:
@@ -20,6 +20,14 @@ class MeshGeometry:
 
     The line of action (loaded flank) is parametrised by ``xi`` [m], the distance from gear a's base
     tangent point; ``contact_start_m``/``contact_end_m`` bound the active path of contact.
+
+    Backlash (:func:`mesh_backlash`): ``backlash_circular_m`` ``j_t = p_w - s_wa - s_wb`` on the operating
+    pitch circle (``s_w`` the tooth thickness there, each flank's own involute), ``backlash_normal_m``
+    ``j_n = j_t cos(alpha_w,unloaded)`` along the line of action of the unloaded ("coast") flanks: the rigid
+    approach of those flanks from the loaded-flank kinematic position (loaded flanks touching) to their
+    contact.  ``coast_position_offset`` [mesh cycles]: the unloaded flanks' own mesh position is
+    ``coast_position_offset - tau`` at loaded-flank mesh position ``tau`` (``docs/tables.md``, coast side).
+    ``backlash_m`` is ``backlash_circular_m``.
     """
 
     name: str
@@ -31,7 +39,9 @@ class MeshGeometry:
     center_distance_m: float
     center_distance_source: str
     zero_backlash_center_distance_m: float
-    backlash_m: float
+    backlash_circular_m: float
+    backlash_normal_m: float
+    coast_position_offset: float
     gear_ratio: float
     operating_pitch_radius_m: Mapping[str, float]
     base_radius_m: Mapping[str, float]
@@ -54,6 +64,11 @@ class MeshGeometry:
     tip_clearance_m: Mapping[str, float]
     warnings: tuple[str, ...]
     _aff: Mapping[str, tuple] = field(default_factory=dict, repr=False, compare=False)
+
+    @property
+    def backlash_m(self) -> float:
+        """Circumferential backlash on the operating pitch circle [m] (= ``backlash_circular_m``)."""
+        return self.backlash_circular_m
 
     def roll_angle_rad_at(self, gear: str, xi_m: Any) -> Any:
         """Roll angle [rad] of gear ``gear`` (loaded flank) at line-of-action position ``xi_m`` [m]
@@ -145,6 +160,31 @@ def _line_of_action(ga: GearGeometry, gb: GearGeometry, sa: str, sb: str, a: flo
     return dict(aw=aw, L=L, lo=lo, hi=hi, pb=pb, eps=eps, roll=roll, aff=aff)
 
 
+def mesh_backlash(ga: GearGeometry, gb: GearGeometry, r_wa: float, r_wb: float,
+                  cos_alpha_w_unloaded: float) -> tuple[float, float, float]:
+    """Backlash of a mesh from the tooth thicknesses on the operating pitch circles.
+
+    ``s_w = r_w Theta(r_w)`` is each gear's tooth thickness at its operating pitch radius ``r_w``, with
+    ``Theta`` the angular thickness from both flanks' own involutes (asymmetric teeth: each flank's
+    polar half-angle, :meth:`~hacgear_core.geometry.tooth._ToothForm.thickness_angle`); ``p_w = 2 pi r_wa / z_a``.
+
+    Returns
+    -------
+    (j_t, j_n, c0)
+        circumferential backlash ``j_t = p_w - s_wa - s_wb`` [m], normal backlash ``j_n = j_t cos(alpha_w)``
+        along the line of action of the unloaded flanks [m] (the rigid approach that closes them from the
+        loaded flanks' kinematic position), and the unloaded flanks' mesh-position offset
+        ``c0 = (s_wa - s_wb - p_w) / (2 p_w)`` [mesh cycles]: at loaded-flank mesh position ``tau`` (integer =
+        a loaded pair at the pitch point) the unloaded pair numbered 0 of the opposite-side contact solver is
+        at its own position ``c0 - tau`` (``docs/tables.md``, coast side).
+    """
+    p_w = 2 * math.pi * r_wa / ga.z
+    s_a = r_wa * float(ga._form.thickness_angle(r_wa))
+    s_b = r_wb * float(gb._form.thickness_angle(r_wb))
+    j_t = p_w - s_a - s_b
+    return j_t, j_t * cos_alpha_w_unloaded, (s_a - s_b - p_w) / (2 * p_w)
+
+
 def _standard_pitch_radii(ga: GearGeometry, gb: GearGeometry, a: float) -> tuple[float, float]:
     if ga.internal or gb.internal:
         k = a / abs(gb.z - ga.z)
@@ -202,8 +242,7 @@ def mesh_geometry(model: Any, mesh_name: str | None = None, *, gears: Mapping[st
     r_wa, r_wb = _standard_pitch_radii(ga, gb, a)
     sa, sb = mesh.flank_a, mesh.flank_b
     # backlash on the operating pitch circle (circumferential)
-    p_w = 2 * math.pi * r_wa / ga.z
-    backlash = p_w - r_wa * float(ga._form.thickness_angle(r_wa)) - r_wb * float(gb._form.thickness_angle(r_wb))
+    backlash, _, _ = mesh_backlash(ga, gb, r_wa, r_wb, 1.0)
     if backlash < -1e-7:
         raise GeometryError(f"mesh '{mesh.name}': negative backlash {backlash * 1e6:.2f} um at centre distance "
                             f"{a * 1e3:.4f} mm (zero-backlash centre distance {a0 * 1e3:.4f} mm): the teeth overlap")
@@ -216,6 +255,7 @@ def mesh_geometry(model: Any, mesh_name: str | None = None, *, gears: Mapping[st
     except GeometryError as exc:
         warnings.append(f"mesh '{mesh.name}' unloaded flanks: {exc}")
         coast = dict(aw=math.nan, eps=math.nan, pb=math.nan, roll={ga.name: {}, gb.name: {}})
+    _, backlash_n, c0 = mesh_backlash(ga, gb, r_wa, r_wb, math.cos(coast["aw"]))
     # helical overlap
     beta = ga.helix_angle_rad
     za0, za1 = ga.axial_position_m - ga.face_width_m / 2, ga.axial_position_m + ga.face_width_m / 2
@@ -256,7 +296,8 @@ def mesh_geometry(model: Any, mesh_name: str | None = None, *, gears: Mapping[st
         warnings.extend(w for w in g.warnings if w not in warnings)
     mg = MeshGeometry(
         name=mesh.name, gear_a=ga.name, gear_b=gb.name, internal=internal, flank_a=sa, flank_b=sb,
-        center_distance_m=a, center_distance_source=src, zero_backlash_center_distance_m=a0, backlash_m=backlash,
+        center_distance_m=a, center_distance_source=src, zero_backlash_center_distance_m=a0,
+        backlash_circular_m=backlash, backlash_normal_m=backlash_n, coast_position_offset=c0,
         gear_ratio=gb.z / ga.z, operating_pitch_radius_m={ga.name: r_wa, gb.name: r_wb},
         base_radius_m={ga.name: ga.base_radius_m[sa], gb.name: gb.base_radius_m[sb]},
         base_radius_coast_m={ga.name: ga.base_radius_m[_other(sa)], gb.name: gb.base_radius_m[_other(sb)]},

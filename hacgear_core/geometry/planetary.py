@@ -154,7 +154,9 @@ class PlanetMesh:
     gear instances ``gear_a``/``gear_b`` (gear_a pushes gear_b along ``line_of_action`` (2,)), ``moment_arm_m``
     {gear: m_g} (``x = (u_a - u_b).n + m_a th_a - m_b th_b``), ``phase`` [cycles] (kernel convention), ``delay``
     [cycles] (Parker's gamma, relative to planet 1), ``tooth_passage`` {gear: integer position},
-    ``base_radius_m`` (gear_a, gear_b), ``teeth`` (gear_a, gear_b), ``pitch_point_m`` (2,)."""
+    ``base_radius_m`` (gear_a, gear_b), ``teeth`` (gear_a, gear_b), ``pitch_point_m`` (2,); the coast side
+    (:class:`~hacgear_core.geometry.train.MeshPlacement`): ``coast_line_of_action``, ``coast_moment_arm_m``,
+    ``coast_base_radius_m``, ``backlash_normal_m`` (None / inf for lumped models)."""
 
     name: str
     kind: str
@@ -170,6 +172,10 @@ class PlanetMesh:
     base_radius_m: tuple[float, float]
     teeth: tuple[int, int]
     pitch_point_m: np.ndarray
+    coast_line_of_action: np.ndarray | None = None
+    coast_moment_arm_m: Mapping[str, float] | None = None
+    coast_base_radius_m: tuple[float, float] | None = None
+    backlash_normal_m: float = math.inf
 
 
 @dataclass(frozen=True)
@@ -320,7 +326,13 @@ def planetary_geometry(model: Any, planet_count: int | None = None) -> Planetary
                           tooth_passage={pl.gear_a: tg.tooth_passage[pl.gear_a][mn],
                                          pl.gear_b: tg.tooth_passage[pl.gear_b][mn]},
                           base_radius_m=tuple(pl.base_radius_m), teeth=tuple(pl.teeth),
-                          pitch_point_m=np.asarray(pl.pitch_point_m, float))
+                          pitch_point_m=np.asarray(pl.pitch_point_m, float),
+                          coast_line_of_action=None if pl.coast_line_of_action is None
+                          else np.asarray(pl.coast_line_of_action, float),
+                          coast_moment_arm_m=None if pl.coast_moment_arm_m is None else dict(pl.coast_moment_arm_m),
+                          coast_base_radius_m=tuple(inst_mg[mn].base_radius_coast_m[mem.planet if g in planets else g]
+                                                    for g in (pl.gear_a, pl.gear_b)),
+                          backlash_normal_m=float(pl.backlash_normal_m))
     return _finish(model, mem, pos, rc, planets, teeth, dict(tg.sense), meshes, lumped=False)
 
 

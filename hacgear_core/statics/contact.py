@@ -132,6 +132,9 @@ class ContactOptions:
             raise ModelError(f"max_fixed_point must be in [1, 1000], got {self.max_fixed_point!r}")
 
 
+_OTHER_FLANK = {"drive": "coast", "coast": "drive"}
+
+
 def _rot(a: float) -> np.ndarray:
     c, s = math.cos(a), math.sin(a)
     return np.array([[c, -s], [s, c]])
@@ -779,30 +782,38 @@ class MeshContactSolver:
 # Model → solver
 # =============================================================================================
 def mesh_solver_inputs(model: Any, mesh_name: str, *, fe_options: Any = None, plane: str = "stress",
-                       cache: bool = True, gauges: Sequence[tuple[str, Any]] | None = None) -> dict[str, Any]:
+                       cache: bool = True, gauges: Sequence[tuple[str, Any]] | None = None,
+                       side: str = "drive") -> dict[str, Any]:
     """What every static contact solver of mesh ``mesh_name`` of ``model`` is built from (spur and helical):
     gear geometries, loaded flanks, centre distance, finite-element compliances of both gears (cached on disk),
     gauges, the overlapping face width and its centre, crowning per gear, materials.  ``gauges``: ``(gear name,
-    model Gauge)`` pairs replacing the model's gauges.  Returns a dict; ``mesh``, ``gears`` (model gears),
-    ``gauge_models`` (per gear index, the model gauges in the order of ``gauges``) and ``z_centre_m`` are extra
-    to the :class:`MeshContactSolver` keyword arguments."""
+    model Gauge)`` pairs replacing the model's gauges.  ``side``: ``"drive"`` loads the mesh's flanks
+    (``flank_a``/``flank_b`` of the model); ``"coast"`` the other flank of each gear (the contact after a torque
+    reversal).  Returns a dict; ``mesh``, ``gears`` (model gears), ``gauge_models`` (per gear index, the model
+    gauges in the order of ``gauges``) and ``z_centre_m`` are extra to the :class:`MeshContactSolver` keyword
+    arguments."""
+    if side not in ("drive", "coast"):
+        raise ModelError(f"side = {side!r}; allowed: drive | coast")
     if not isinstance(model, Model):
         model = load_model(model)
     meshes = {m.name: m for m in model.meshes}
     if mesh_name not in meshes:
         raise ModelError(f"unknown mesh {mesh_name!r}; the model has: {', '.join(meshes) or '(none)'}")
     mesh = meshes[mesh_name]
+    flank_a, flank_b = mesh.flank_a, mesh.flank_b
+    if side == "coast":
+        flank_a, flank_b = (_OTHER_FLANK[flank_a], _OTHER_FLANK[flank_b])
     gears = {g.name: g for g in model.gears}
     ga, gb = gears[mesh.gear_a], gears[mesh.gear_b]
     mg = mesh_geometry(model, mesh_name)
     ggs = (gear_geometry(ga), gear_geometry(gb))
     kw = {} if fe_options is None else {"options": fe_options}
     comps, gauge_list, gauge_models = [], [], ([], [])
-    for gi, (g, gg, side) in enumerate(((ga, ggs[0], mesh.flank_a), (gb, ggs[1], mesh.flank_b))):
+    for gi, (g, gg, loaded) in enumerate(((ga, ggs[0], flank_a), (gb, ggs[1], flank_b))):
         glist = g.gauges if gauges is None else tuple(x for name, x in gauges if name == g.name)
         fg = tuple(fe_mod.Gauge(x.name, x.flank, x.radius_m) for x in glist)
         mat = fe_mod.ElasticMaterial(g.material.youngs_modulus_Pa, g.material.poisson_ratio, plane)
-        comps.append(fe_mod.gear_compliance(gg, mat, side, gauges=fg, cache=cache, **kw))
+        comps.append(fe_mod.gear_compliance(gg, mat, loaded, gauges=fg, cache=cache, **kw))
         gauge_list += [(gi, k, f"{g.name}/{x.name}") for k, x in enumerate(glist)]
         gauge_models[gi].extend(glist)
     # overlapping face width (axial positions of both gears)
@@ -821,7 +832,7 @@ def mesh_solver_inputs(model: Any, mesh_name: str, *, fe_options: Any = None, pl
         return lambda zz: c * (2 * (zz + off) / b) ** 2
 
     return dict(
-        mesh_name=mesh_name, gear_names=(ga.name, gb.name), geometry=ggs, flanks=(mesh.flank_a, mesh.flank_b),
+        mesh_name=mesh_name, gear_names=(ga.name, gb.name), geometry=ggs, flanks=(flank_a, flank_b),
         center_distance_m=float(mg.center_distance_m), compliance=tuple(comps), face_width_m=hi - lo,
         crowning=(crown(ga, ggs[0]), crown(gb, ggs[1])),
         materials=((ga.material.youngs_modulus_Pa, ga.material.poisson_ratio),
@@ -832,7 +843,7 @@ def mesh_solver_inputs(model: Any, mesh_name: str, *, fe_options: Any = None, pl
 
 def make_mesh_solver(model: Any, mesh_name: str, *, options: ContactOptions | None = None,
                      fe_options: Any = None, plane: str = "stress", cache: bool = True,
-                     gauges: Sequence[tuple[str, Any]] | None = None) -> MeshContactSolver:
+                     gauges: Sequence[tuple[str, Any]] | None = None, side: str = "drive") -> MeshContactSolver:
     """Build the static contact solver of spur mesh ``mesh_name`` of ``model`` (a :class:`~hacgear_core.model.Model`,
     or a path / system name).  Finite-element influence coefficients come from
     :func:`hacgear_core.statics.fe.gear_compliance` (cached on disk), so rebuilding in a worker is cheap.
@@ -840,7 +851,9 @@ def make_mesh_solver(model: Any, mesh_name: str, *, options: ContactOptions | No
 
     ``options`` default: ``ContactOptions(face_slices=model.statics.face_slices)``; ``fe_options``: a
     :class:`hacgear_core.statics.fe.MeshOptions`; ``gauges``: ``(gear name, model Gauge)`` pairs replacing the
-    model's gauges (e.g. a row of points along a fillet).
+    model's gauges (e.g. a row of points along a fillet).  ``side``: ``"drive"`` loads the mesh's flanks;
+    ``"coast"`` the other flank of each gear, in that flank pair's own canonical picture and positions —
+    :func:`hacgear_core.statics.coast.make_coast_solver` maps it onto the drive side's positions and deflections.
     """
     if not isinstance(model, Model):
         model = load_model(model)
@@ -853,10 +866,13 @@ def make_mesh_solver(model: Any, mesh_name: str, *, options: ContactOptions | No
                               "hacgear_core.statics.helical.make_solver")
     if options is None:
         options = ContactOptions(face_slices=model.statics.face_slices)
-    kw = mesh_solver_inputs(model, mesh_name, fe_options=fe_options, plane=plane, cache=cache, gauges=gauges)
+    kw = mesh_solver_inputs(model, mesh_name, fe_options=fe_options, plane=plane, cache=cache, gauges=gauges,
+                            side=side)
     for k in ("mesh", "gears", "gauge_models", "z_centre_m", "model"):
         kw.pop(k)
+    fl = kw["flanks"]
     return MeshContactSolver(
         **kw, options=options,
         description=f"FE far field + Hertz near field, {options.face_slices} slices ({options.face_coupling}), "
-                    f"mesh {mesh_name} of {model.name}")
+                    f"mesh {mesh_name} of {model.name}" + ("" if side == "drive" else
+                                                           f", {side} side ({fl[0]}/{fl[1]} flanks)"))

@@ -9,7 +9,7 @@ import numpy as np
 
 from hacgear_core.errors import SolverError
 
-__all__ = ["StaticSolution", "MeshStaticSolver", "SolverFactory", "MeshInfo", "describe_solver"]
+__all__ = ["StaticSolution", "MeshStaticSolver", "SolverFactory", "MeshInfo", "describe_solver", "COAST_ATTRIBUTES"]
 
 # Solver protocol
 # ---------------------------------------------------------------------------------------------
@@ -87,6 +87,11 @@ class MeshStaticSolver(Protocol):
     the state at ``position + 1`` equals the state at ``position`` with offsets shifted by one.
     ``solve_position`` is optional: a batch of all loads and deflections at one position, reusing the
     per-position set-up; when absent the grid calls ``solve_load``/``solve_deflection`` one by one.
+
+    Optional attributes a solver of a mesh's coast side has (:class:`hacgear_core.statics.coast.CoastSideSolver`):
+    ``side = "coast"``, ``flanks`` (its flank of gear_a, gear_b), ``contact_deflection_m`` (the deflection at
+    which ideal flanks touch: 0 on the drive side, the normal backlash on the coast side), ``backlash_normal_m``,
+    ``backlash_circular_m``, ``position_offset``, ``pair_shift``.
     """
 
     mesh_name: str
@@ -121,6 +126,14 @@ class MeshInfo:
     lever_arm_m: tuple[float, float] = ()
     mesh_frame: dict | None = None
     slice_z_m: tuple[float, ...] = ()
+    side: str = "drive"
+    flanks: tuple[str, ...] = ()
+    contact_deflection_m: float = 0.0
+    coast: dict = field(default_factory=dict, compare=False)
+
+
+#: attributes of a coast-side solver stored with its table region
+COAST_ATTRIBUTES = ("backlash_normal_m", "backlash_circular_m", "position_offset", "pair_shift")
 
 
 def describe_solver(solver: MeshStaticSolver) -> MeshInfo:
@@ -139,6 +152,16 @@ def describe_solver(solver: MeshStaticSolver) -> MeshInfo:
     rb = tuple(float(r) for r in solver.base_radius_m)
     if len(rb) != 2 or not all(r > 0 and math.isfinite(r) for r in rb):
         raise SolverError(f"solver.base_radius_m must be two positive radii [m], got {rb}")
+    side = str(getattr(solver, "side", "drive"))
+    if side not in ("drive", "coast"):
+        raise SolverError(f"solver.side must be 'drive' or 'coast', got {side!r}")
+    coast = {}
+    if side == "coast":
+        missing = [a for a in COAST_ATTRIBUTES if not hasattr(solver, a)]
+        if missing:
+            raise SolverError(f"coast-side solver {type(solver).__name__} lacks {missing}")
+        coast = {a: getattr(solver, a) for a in COAST_ATTRIBUTES}
+        coast["pair_shift"] = {str(g): int(v) for g, v in coast["pair_shift"].items()}
     return MeshInfo(
         mesh_name=str(solver.mesh_name),
         gear_names=tuple(str(g) for g in solver.gear_names),
@@ -151,6 +174,8 @@ def describe_solver(solver: MeshStaticSolver) -> MeshInfo:
         mesh_frame=_frame_dict(getattr(solver, "frame", None)),
         slice_z_m=tuple(float(z) for z in (getattr(solver, "z_centre_m", 0.0) + np.asarray(solver.slice_z_m))
                         ) if getattr(solver, "frame", None) is not None else (),
+        side=side, flanks=tuple(str(f) for f in getattr(solver, "flanks", ())),
+        contact_deflection_m=float(getattr(solver, "contact_deflection_m", 0.0)), coast=coast,
     )
 
 

@@ -54,12 +54,16 @@ from hacgear_core.errors import ModelError, SolverError, TableError
 from hacgear_core.geometry.planetary import planetary_geometry, planetary_torques
 from hacgear_core.model import load_model
 from hacgear_core.model.provenance import model_values_json, model_values_sha256
+from hacgear_core.statics.coast import CoastSideSolver, coast_mapping, make_coast_solver
 from hacgear_core.statics.contract import MeshInfo, MeshStaticSolver, SolverFactory, StaticSolution, describe_solver
 from hacgear_core.statics.helical import make_solver
 from hacgear_core.statics.reference import AnalyticPairSolver
 from hacgear_core.workers import process_pool
 
 __all__ = [
+    "SIDES",
+    "region_key",
+    "region_mesh",
     "ModelSolverFactory",
     "StaticsReport",
     "DEFAULT_DEFLECTION_MARGIN",
@@ -74,18 +78,37 @@ __all__ = [
 #: fraction of the static deflection range added above the largest static deflection (resonance margin)
 DEFAULT_DEFLECTION_MARGIN = 0.5
 
+#: the two sides of every mesh: the loaded ("drive") flanks and the opposite ("coast") flanks
+SIDES = ("drive", "coast")
+
+
+def region_key(mesh: str, side: str = "drive") -> str:
+    """Key of one side of a mesh in a statics run and below ``/meshes`` in ``tables.h5``: ``<mesh>`` (drive),
+    ``<mesh>/coast`` (coast)."""
+    if side not in SIDES:
+        raise ModelError(f"side = {side!r}; allowed: drive | coast")
+    return mesh if side == "drive" else f"{mesh}/coast"
+
+
+def region_mesh(key: str) -> tuple[str, str]:
+    """``(mesh, side)`` of a region key (:func:`region_key`)."""
+    mesh, _, side = key.partition("/")
+    return mesh, (side or "drive")
+
 
 @dataclass(frozen=True)
 class ModelSolverFactory:
     """Picklable factory: reads the model file in the worker, checks that the values the tables depend on
     (:func:`~hacgear_core.model.provenance.model_values_sha256`) are those the run started from, and builds
-    the solver of ``mesh_name`` (``solver`` = ``"fe"``: :func:`~hacgear_core.statics.helical.make_solver`, spur or
-    helical; ``"analytic"``: :meth:`AnalyticPairSolver.from_model`)."""
+    the solver of one side of ``mesh_name`` (``solver`` = ``"fe"``: :func:`~hacgear_core.statics.helical.make_solver`
+    (spur or helical) / :func:`~hacgear_core.statics.coast.make_coast_solver`; ``"analytic"``:
+    :meth:`AnalyticPairSolver.from_model`, the coast side wrapped in :class:`CoastSideSolver`)."""
 
     model_path: str
     mesh_name: str
     model_values_sha256: str
     solver: str = "fe"
+    side: str = "drive"
 
     def __call__(self) -> MeshStaticSolver:
         model = load_model(self.model_path)
@@ -93,10 +116,17 @@ class ModelSolverFactory:
         if self.model_values_sha256 and now != self.model_values_sha256:
             raise TableError(f"{self.model_path} changed while `hacgear statics` was running (model values "
                              f"sha256 {now[:12]}… != {self.model_values_sha256[:12]}…); start again")
+        if self.side not in SIDES:
+            raise ModelError(f"side = {self.side!r}; allowed: drive | coast")
         if self.solver == "analytic":
+            if self.side == "coast":
+                return CoastSideSolver(AnalyticPairSolver.from_model(model, self.mesh_name, side="coast"),
+                                       coast_mapping(model, self.mesh_name))
             return AnalyticPairSolver.from_model(model, self.mesh_name)
         if self.solver != "fe":
             raise SolverError(f"unknown solver {self.solver!r}; allowed: fe | analytic")
+        if self.side == "coast":
+            return make_coast_solver(model, self.mesh_name)
         return make_solver(model, self.mesh_name)
 
 
@@ -149,11 +179,12 @@ def load_grid(max_force_N: float, n_loads: int) -> np.ndarray:
 
 
 def deflection_grid(no_load_deflection_m: np.ndarray, static_deflection_m: np.ndarray, n_deflections: int,
-                    margin: float = DEFAULT_DEFLECTION_MARGIN) -> np.ndarray:
+                    margin: float = DEFAULT_DEFLECTION_MARGIN, contact_deflection_m: float = 0.0) -> np.ndarray:
     """The regular FDF deflection grid [m] (rule of ``tables.h5``).
 
-    With ``x_b = min(0, min NLMD)`` and ``x_s = max static deflection`` (at the largest load, over all
-    positions)::
+    With ``x_b = min(x_k, min NLMD)`` (``x_k = contact_deflection_m``, the deflection at which ideal flanks
+    touch: 0 on the drive side, the normal backlash on the coast side) and ``x_s = max static deflection``
+    (at the largest load, over all positions)::
 
         dx = (x_s − x_b)·(1 + margin) / (Nd − 2),   x_j = x_b − dx + j·dx,  j = 0 … Nd−1
 
@@ -169,7 +200,9 @@ def deflection_grid(no_load_deflection_m: np.ndarray, static_deflection_m: np.nd
         raise ModelError(f"deflection_margin [-] = {margin!r}; allowed: finite >= 0")
     if not (np.all(np.isfinite(nl)) and np.all(np.isfinite(sd))):
         raise SolverError("no-load or static mesh deflections contain NaN/inf: cannot build the deflection grid")
-    xb = min(0.0, float(nl.min()))
+    if not math.isfinite(contact_deflection_m):
+        raise ModelError(f"contact_deflection_m [m] = {contact_deflection_m!r}; allowed: finite")
+    xb = min(float(contact_deflection_m), float(nl.min()))
     xs = float(sd.max())
     if not xs > xb:
         raise SolverError(f"largest static mesh deflection {xs:g} m does not exceed the smallest NLMD {xb:g} m")
@@ -357,11 +390,13 @@ def run_statics(
 
     Parameters
     ----------
-    factories : mesh name → picklable zero-argument solver factory.
+    factories : region key (:func:`region_key`: ``<mesh>`` for the drive side, ``<mesh>/coast`` for the coast
+        side, whose solver has ``side = "coast"``) → picklable zero-argument solver factory; a coast region needs
+        its drive region.
     out : final path; the run writes ``<out>.partial`` and renames it when complete.
     n_positions, n_deflections : grid sizes (positions ``k / n_positions`` of one mesh cycle).
-    loads_N : mesh name → load grid [N] (ascending, first value >= 0), or a function of the
-        :class:`MeshInfo` of all meshes returning that mapping.
+    loads_N : region key → load grid [N] (ascending, first value >= 0), or a function of the
+        :class:`MeshInfo` of all regions returning that mapping.
     deflection_margin : see :func:`deflection_grid`.
     model_sha256, model_file : provenance written to the root attributes (hash of the model file's bytes,
         its name; informative).
@@ -384,7 +419,13 @@ def run_statics(
     partial = _partial_path(out)
     if n_positions < 2:
         raise ModelError(f"positions [-] = {n_positions}; allowed: integer >= 2")
-    names = list(factories)
+    for k in factories:
+        mesh, side = region_mesh(k)
+        if side not in SIDES or "/" in mesh or (side == "coast" and mesh not in factories):
+            raise ModelError(f"region key {k!r}: allowed '<mesh>' or '<mesh>/coast' (with '<mesh>' present)")
+    # each mesh's drive region, then its coast region (the HDF5 group of the coast side lies inside the drive's)
+    names = [r for k in factories if region_mesh(k)[1] == "drive"
+             for r in (k, region_key(k, "coast")) if r in factories]
     if not names:
         raise ModelError("no mesh to analyse")
     own_executor = None
@@ -398,8 +439,9 @@ def run_statics(
             futs = {m: executor.submit(_describe_task, factories[m]) for m in names}
             infos = {m: f.result() for m, f in futs.items()}
         for m, info in infos.items():
-            if info.mesh_name != m:
-                raise SolverError(f"factory for mesh '{m}' built a solver of mesh '{info.mesh_name}'")
+            if (info.mesh_name, info.side) != region_mesh(m):
+                raise SolverError(f"factory for region '{m}' built a solver of mesh '{info.mesh_name}', "
+                                  f"side {info.side!r}")
         loads = loads_N(infos) if callable(loads_N) else loads_N
         loads = {m: np.asarray(loads[m], float) for m in names}
         for m, ld in loads.items():
@@ -415,6 +457,8 @@ def run_statics(
                 **({} if twists_rad is None or infos[m].mesh_frame is None else dict(
                     twist_rad=np.asarray(twists_rad, float), slice_z_m=np.asarray(infos[m].slice_z_m, float),
                     mesh_frame=infos[m].mesh_frame)),
+                side=infos[m].side, flanks=infos[m].flanks, contact_deflection_m=infos[m].contact_deflection_m,
+                coast=infos[m].coast,
             )
             for m in names
         }
@@ -505,7 +549,7 @@ def _run_phases(f, tb, factories, layouts, positions, executor, margin, progress
             tw = "no_load_deflection_twist_m" in g
             grid = deflection_grid(g["no_load_deflection_twist_m" if tw else "no_load_deflection_m"][()],
                                    g["static_deflection_twist_m" if tw else "static_deflection_m"][()],
-                                   layouts[m].n_deflections, margin)
+                                   layouts[m].n_deflections, margin, layouts[m].contact_deflection_m)
             tb.write_deflection_grid(f, m, grid)
             grids[m] = grid
         jobs2 = [(m, ip, grids[m]) for m in names
@@ -521,7 +565,9 @@ def _run_phases(f, tb, factories, layouts, positions, executor, margin, progress
     tb.seal_file(f)
     f.close()
     os.replace(partial, out)
-    msg = f"wrote {out} ({len(names)} mesh(es), {n_pos} positions)"
+    n_mesh = len({region_mesh(m)[0] for m in names})
+    n_coast = sum(region_mesh(m)[1] == "coast" for m in names)
+    msg = f"wrote {out} ({n_mesh} mesh(es), {n_coast} with the coast side, {n_pos} positions)"
     if note:
         msg += f"; {note}"
     return StaticsReport(True, msg, out, total, computed, total - computed, time.perf_counter() - t0, summary)
@@ -541,14 +587,18 @@ def compute_statics(
     executor: cf.Executor | None = None,
     resume: bool = True,
     progress: bool = True,
+    sides: Sequence[str] = SIDES,
 ) -> StaticsReport:
-    """``hacgear statics``: the static grids of every mesh of a model file → ``tables.h5``.
+    """``hacgear statics``: the static grids of both sides of every mesh of a model file → ``tables.h5``.
 
-    Grid sizes default to the model's ``[statics]`` section; the load grid of each mesh is
-    ``linspace(0, max_torque_factor × nominal mesh force, loads)`` (:func:`nominal_mesh_forces`).
-    ``solver``: ``"fe"`` (``hacgear_core.statics.helical.make_solver``: spur, or helical with the model's
-    ``[statics] twist_points`` mesh twists from ``-max_twist_mrad`` to ``+max_twist_mrad``) or ``"analytic"``
-    (:class:`AnalyticPairSolver`, reference spring model).
+    Grid sizes default to the model's ``[statics]`` section; the load grid of each side of each mesh is
+    ``linspace(0, max_torque_factor × nominal mesh force, loads)`` (:func:`nominal_mesh_forces` with that side's
+    base radii or lever arms: the coast side carries the operating torque reversed).  ``solver``: ``"fe"``
+    (``hacgear_core.statics.helical.make_solver``: spur, or helical with the model's ``[statics] twist_points``
+    mesh twists from ``-max_twist_mrad`` to ``+max_twist_mrad``; the coast side
+    ``hacgear_core.statics.coast.make_coast_solver``) or ``"analytic"`` (:class:`AnalyticPairSolver`, reference
+    spring model).  ``sides``: ``("drive", "coast")`` (default; helical meshes: the drive side only, their coast
+    side is issue #16) or ``("drive",)`` (a one-sided table, e.g. for quick studies).
     """
     mdl = load_model(model)
     if solver not in ("fe", "analytic"):
@@ -562,16 +612,26 @@ def compute_statics(
         raise ModelError(f"max_torque_factor [-] = {factor:g}; allowed: >= 3 (tables span 0 … >= 3 x nominal torque)")
     out_path = Path(out) if out is not None else mdl.tables_path
     values = model_values_json(mdl)
-    factories = {m.name: ModelSolverFactory(str(mdl.path), m.name, model_values_sha256(mdl), solver)
-                 for m in mdl.meshes}
     helical = any(g.is_helical for g in mdl.gears) and solver == "fe"
     twists = twist_grid(st.max_twist_rad, st.twist_points) if helical and st.twist_points > 1 else (
         np.zeros(1) if helical else None)
+    sides = tuple(sides)
+    if "drive" not in sides or not set(sides) <= set(SIDES):
+        raise ModelError(f"sides = {sides!r}; allowed: ('drive',) or ('drive', 'coast')")
+    if any(g.is_helical for g in mdl.gears):
+        sides = ("drive",)
+    factories = {region_key(m.name, side): ModelSolverFactory(str(mdl.path), m.name, model_values_sha256(mdl),
+                                                              solver, side)
+                 for m in mdl.meshes for side in sides}
 
     def loads_for(infos: dict[str, MeshInfo]) -> dict[str, np.ndarray]:
         # the mesh force is conjugate to the mesh deflection: torque = force x lever arm (r_b cos(beta_b))
-        fn = nominal_mesh_forces(mdl, {m: i.lever_arm_m or i.base_radius_m for m, i in infos.items()})
-        return {m: load_grid(factor * fn[m], n_loads) for m in infos}
+        out = {}
+        for side in sides:
+            keys = {region_mesh(k)[0]: k for k in infos if region_mesh(k)[1] == side}
+            fn = nominal_mesh_forces(mdl, {m: infos[k].lever_arm_m or infos[k].base_radius_m for m, k in keys.items()})
+            out.update({k: load_grid(factor * fn[m], n_loads) for m, k in keys.items()})
+        return out
 
     return run_statics(
         factories, out_path, n_positions=n_pos, n_deflections=n_def, loads_N=loads_for,

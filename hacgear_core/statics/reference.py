@@ -146,23 +146,31 @@ class AnalyticPairSolver:
 
     # -- construction from a model file ------------------------------------------------------
     @classmethod
-    def from_model(cls, model: Any, mesh_name: str | None = None, **overrides: Any) -> "AnalyticPairSolver":
+    def from_model(cls, model: Any, mesh_name: str | None = None, *, side: str = "drive",
+                   **overrides: Any) -> "AnalyticPairSolver":
         """Build the reference model of mesh ``mesh_name`` of a :class:`hacgear_core.model.Model`
         (external spur meshes only).  Root thickness is estimated as ``0.7 π m`` (chord of a standard
-        tooth at the root); stiffness parameters keep their defaults unless overridden."""
+        tooth at the root); stiffness parameters keep their defaults unless overridden.  ``side="coast"``:
+        the other flank of each gear (its own positions and deflections, like
+        ``make_mesh_solver(..., side="coast")``)."""
         mesh = model.mesh(mesh_name)
         ga, gb = model.gear(mesh.gear_a), model.gear(mesh.gear_b)
         if ga.internal or gb.internal or ga.is_helical or gb.is_helical:
             raise SolverError(
                 f"mesh '{mesh.name}': the analytical reference solver handles external spur meshes only; "
                 "use the finite-element contact solver (--solver fe)")
-        fa, fb = ga.flanks[mesh.flank_a], gb.flanks[mesh.flank_b]
+        if side not in ("drive", "coast"):
+            raise ModelError(f"side = {side!r}; allowed: drive | coast")
+        other = {"drive": "coast", "coast": "drive"}
+        flank_a, flank_b = (mesh.flank_a, mesh.flank_b) if side == "drive" else (other[mesh.flank_a],
+                                                                                 other[mesh.flank_b])
+        fa, fb = ga.flanks[flank_a], gb.flanks[flank_b]
         rb = tuple(0.5 * g.module_m * g.teeth * math.cos(f.pressure_angle_rad) for g, f in ((ga, fa), (gb, fb)))
         ra = (0.5 * ga.tip_diameter_m, 0.5 * gb.tip_diameter_m)
         cd = mesh.center_distance_m or 0.5 * ga.module_m * (ga.teeth + gb.teeth)
         expo = {"none": 2.0, "linear": 1.0, "parabolic": 2.0}
         gauges = []
-        for gi, (g, flank) in enumerate(((ga, mesh.flank_a), (gb, mesh.flank_b))):
+        for gi, (g, flank) in enumerate(((ga, flank_a), (gb, flank_b))):
             for gg in g.gauges:
                 gauges.append((gi, gg.name, gg.radius_m, gg.flank == flank))
         kw: dict[str, Any] = dict(

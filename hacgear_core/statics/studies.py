@@ -292,15 +292,26 @@ def helical_mesh_report(solver: HelicalMeshContactSolver, mesh_force_N: float, p
 
 
 def mesh_stiffness_report(model: Any, torque_Nm: float, *, mesh: str | None = None, positions: int = 64,
-                          slices: int | None = None, face_coupling: str | None = None, twist_rad: float = 0.0) -> dict:
+                          slices: int | None = None, face_coupling: str | None = None, twist_rad: float = 0.0,
+                          side: str = "drive") -> dict:
     """Static transmission error and mesh stiffness of every mesh (or of ``mesh``) of ``model`` under ``torque_Nm``
     [N m] on ``model.operating.torque_gear``: each mesh is loaded with the force that the torque flow through the
     train gives it (:func:`hacgear_core.geometry.nominal_mesh_forces`), reported as the torque on its gear_a.
 
-    Returns a dict (SI, unit in the key names): ``model``, ``torque_Nm``, ``torque_gear`` and ``meshes`` {name:
-    mesh force, base radii, mean (local-slope), secant and average-slope stiffness, STE over the cycle, NLMD,
-    tooth loads, seconds}.
+    ``side="coast"`` (spur meshes): the same torque reversed, loading the opposite flank of each gear (base radii,
+    flanks, relief and gauges of that side).  Positions (``mesh_cycle``) are then the coast flank pair's own (0 =
+    a coast pair at the pitch point; ``mesh_cycle_drive`` gives the drive-side position of each) and the STE is
+    the coast mesh deflection from the coast flanks' kinematic contact (add ``backlash_normal_m`` for the coast
+    approach from the drive kinematic position, the coast tables' deflection axis).  ``twist_rad``: mesh twist of
+    helical meshes.
+
+    Returns a dict (SI, unit in the key names): ``model``, ``torque_Nm``, ``torque_gear``, ``side`` and ``meshes``
+    {name: mesh force, base radii, flanks, mean (local-slope), secant and average-slope stiffness, STE over the
+    cycle, NLMD, tooth loads, seconds; coast side also the backlash; helical meshes also twist moment, stiffness
+    and contact pattern}.
     """
+    if side not in ("drive", "coast"):
+        raise ModelError(f"side = {side!r}; allowed: drive | coast")
     if not (math.isfinite(torque_Nm) and torque_Nm > 0):
         raise ModelError(f"torque [N*m] must be finite and > 0, got {torque_Nm!r}")
     if not 2 <= positions <= 4096:
@@ -309,23 +320,40 @@ def mesh_stiffness_report(model: Any, torque_Nm: float, *, mesh: str | None = No
     if mesh is not None and mesh not in names:
         raise ModelError(f"mesh {mesh!r} is not a mesh of the model; allowed: {', '.join(names)}")
     helical = any(g.is_helical for g in model.gears)
+    if helical and side == "coast":
+        raise ModelError("side = 'coast' is not available for helical meshes yet (the coast side of the helical "
+                         "solver is part of issue #16); allowed: drive")
     if face_coupling is None:
         face_coupling = "elastic" if helical else "rigid"
     if twist_rad and not (helical or face_coupling == "elastic"):
         raise ModelError("--twist [rad] applies to helical meshes (or face_coupling 'elastic') only")
+    geo = {m.name: mesh_geometry(model, m.name, strict=False) for m in model.meshes}
     opts = ContactOptions(face_slices=slices if slices is not None else model.statics.face_slices,
                           face_coupling=face_coupling)
     out = {"model": model.name, "torque_Nm": float(torque_Nm), "torque_gear": model.operating.torque_gear,
-           "face_slices": opts.face_slices, "face_coupling": opts.face_coupling, "meshes": {}}
+           "side": side, "face_slices": opts.face_slices, "face_coupling": opts.face_coupling, "meshes": {}}
+    if side == "coast":
+        radii = {n: (g.base_radius_coast_m[g.gear_a], g.base_radius_coast_m[g.gear_b]) for n, g in geo.items()}
+        coast_forces = nominal_mesh_forces(model, radii, torque_Nm=torque_Nm)
     for m in model.meshes:
         if mesh is not None and m.name != mesh:
             continue
-        solver = make_solver(model, m.name, options=opts)
-        lever = getattr(solver, "lever_arm_m", solver.base_radius_m)
-        force = nominal_mesh_forces(model, {m.name: tuple(lever)}, torque_Nm=torque_Nm)[m.name] \
-            if len(model.meshes) == 1 else _train_force(model, torque_Nm, m.name, solver)
+        if side == "coast":
+            solver = make_mesh_solver(model, m.name, options=opts, side="coast")
+            force = coast_forces[m.name]
+        else:
+            solver = make_solver(model, m.name, options=opts)
+            lever = getattr(solver, "lever_arm_m", solver.base_radius_m)
+            force = nominal_mesh_forces(model, {m.name: tuple(lever)}, torque_Nm=torque_Nm)[m.name] \
+                if len(model.meshes) == 1 else _train_force(model, torque_Nm, m.name, solver)
         c = mesh_stiffness_curve(solver, force, positions=positions, twist_rad=twist_rad)
+        extra = {}
+        if side == "coast":
+            g = geo[m.name]
+            extra = {"backlash_normal_m": g.backlash_normal_m, "backlash_circular_m": g.backlash_circular_m,
+                     "mesh_cycle_drive": np.mod(g.coast_position_offset - c.mesh_cycle, 1.0).tolist()}
         out["meshes"][m.name] = {
+            "side": side, "flanks": list(solver.flanks), **extra,
             "gear_a": solver.gear_names[0], "gear_b": solver.gear_names[1],
             "torque_Nm": force * solver.base_radius_m[0], "torque_gear": solver.gear_names[0],
             "mesh_force_N": force, "base_radius_m": list(solver.base_radius_m),

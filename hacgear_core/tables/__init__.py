@@ -10,7 +10,7 @@ from hacgear_core.tables.format import (
     DATASETS,
     FORMAT,
     FORMAT_VERSION,
-    TWIST_FORMAT_VERSION,
+    READABLE_VERSIONS,
     MeshLayout,
     completed_table_matches,
     consistency_summary,
@@ -28,7 +28,7 @@ from hacgear_core.tables.table import InterpolationStats, MeshTable, StrainTable
 __all__ = [
     "FORMAT",
     "FORMAT_VERSION",
-    "TWIST_FORMAT_VERSION",
+    "READABLE_VERSIONS",
     "DATASETS",
     "TwistTable",
     "InterpolationStats",

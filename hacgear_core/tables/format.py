@@ -3,15 +3,20 @@
 Root attributes ``format = "hacgear-tables"``, ``format_version``, ``model_values_sha256`` and
 ``model_values`` (hash and canonical JSON of the model values the tables depend on,
 :mod:`hacgear_core.model.provenance`), ``model_sha256`` (hash of the model file's bytes, informative),
-``hacgear_version``, ``created``, grid sizes; one group per mesh ``/meshes/<name>/`` with datasets carrying
-``unit`` and ``description`` attributes (:data:`DATASETS`), each stored with HDF5's Fletcher-32 checksum filter
-so that corrupted bytes are refused on read.  The full description is ``docs/tables.md``.
+``hacgear_version``, ``created``, grid sizes; one group per mesh ``/meshes/<name>/`` (its drive side, attribute
+``side = "drive"``) with datasets carrying ``unit`` and ``description`` attributes (:data:`DATASETS`), each
+stored with HDF5's Fletcher-32 checksum filter so that corrupted bytes are refused on read; inside it the
+subgroup ``coast/`` (``side = "coast"``): the same datasets for the mesh's opposite flank pair, in the drive
+side's positions, the deflection axis being the coast approach; helical meshes add the twist-axis datasets.
+Versions: 1 = drive side only; 2 = drive side with the twist axis of helical meshes; 3 (written now) = both
+sides where computed, the twist axis for helical meshes.  Files without a ``coast/`` subgroup are read with
+``coast = None``.  The full description is ``docs/tables.md``.
 """
 from __future__ import annotations
 
 import datetime as _dt
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterator, Mapping
 
@@ -28,7 +33,7 @@ from hacgear_core.tables.table import MeshTable, SystemTables, TwistTable
 __all__ = [
     "FORMAT",
     "FORMAT_VERSION",
-    "TWIST_FORMAT_VERSION",
+    "READABLE_VERSIONS",
     "DATASETS",
     "MeshLayout",
     "read_tables",
@@ -45,17 +50,20 @@ __all__ = [
 ]
 
 FORMAT = "hacgear-tables"
-FORMAT_VERSION = 1
-#: files holding a helical mesh (a twist axis) are written as version 2: version 1 plus the twist datasets
-TWIST_FORMAT_VERSION = 2
-_READABLE = (FORMAT_VERSION, TWIST_FORMAT_VERSION)
+FORMAT_VERSION = 3
+#: versions this reader accepts: 1 = drive side only, 2 = drive side + twist axis (helical), 3 = the coast side
+#: where computed and the twist axis where helical (a table without its ``coast/`` subgroup reads ``coast = None``)
+READABLE_VERSIONS = (1, 2, 3)
 
 #: dataset name → (unit, description); ``strain/<gear>/<gauge>`` and ``hub_reaction/<gear>`` are per gauge/gear
 DATASETS: dict[str, tuple[str, str]] = {
     "position": ("1", "mesh position [mesh cycles], position[k] = k/Np; integer = pitch-point contact of the "
-                      "reference tooth pair (offset 0); periodic with period 1"),
+                      "reference drive tooth pair (offset 0); periodic with period 1 (the coast side uses the same "
+                      "positions)"),
     "load_N": ("N", "static mesh-force grid (load control); load_N[0] = 0 gives the no-load mesh deflection"),
-    "deflection_m": ("m", "regular mesh-deflection grid of the FDF, x = r_b1*theta1 + r_b2*theta2 (+ y1 - y2)"),
+    "deflection_m": ("m", "regular mesh-deflection grid of the FDF: drive side x = r_b1*theta1 + r_b2*theta2 "
+                          "(+ y1 - y2); coast side the coast approach along the coast line of action from the drive "
+                          "kinematic position (coast flanks touch near x = backlash_normal_m)"),
     "no_load_deflection_m": ("m", "no-load mesh deflection (NLMD) per position: teeth touch for x > NLMD"),
     "static_deflection_m": ("m", "static mesh deflection per (position, load) under load control"),
     "force_N": ("N", "force-deflection function: mesh force along the line of action per (position, "
@@ -113,6 +121,11 @@ class MeshLayout:
     slice_z_m: np.ndarray | None = None        # and the axial coordinates of the face slices [m]
     mesh_frame: Mapping[str, Any] | None = None  # r_mesh, r_twist, e1.., base_helix_angle_rad, lever_arm_m, ...
 
+    side: str = "drive"
+    flanks: tuple[str, ...] = ()
+    contact_deflection_m: float = 0.0
+    coast: Mapping[str, Any] = field(default_factory=dict)
+
     #: datasets of every mesh group (format version 1); the twist-axis ones are added for helical meshes
     base_datasets = ("no_load_deflection_m", "static_deflection_m", "deflection_m", "force_N", "tooth_load_N",
                      "contact_roll_deg", "half_width_m", "peak_pressure_Pa")
@@ -154,7 +167,8 @@ def _dataset(group: Any, name: str, data: np.ndarray, key: str | None = None, co
 
 
 def _version(layouts: Mapping[str, MeshLayout]) -> int:
-    return TWIST_FORMAT_VERSION if any(lay.twist_rad is not None for lay in layouts.values()) else FORMAT_VERSION
+    """The format version a file of ``layouts`` is written with (every new file: :data:`FORMAT_VERSION`)."""
+    return FORMAT_VERSION
 
 
 #: mesh-frame attributes of a helical mesh group (vectors in the global frame, docs/tables.md)
@@ -173,15 +187,23 @@ def _create_file(path: Path, layouts: Mapping[str, MeshLayout], root_attrs: Mapp
     f.attrs["model_values"] = str(root_attrs.get("model_values", ""))
     f.attrs["model_file"] = str(root_attrs.get("model_file", ""))
     f.attrs["deflection_margin"] = float(root_attrs.get("deflection_margin", float("nan")))
-    f.attrs["mesh_names"] = np.array(list(layouts), dtype=h5py.string_dtype())
-    f.attrs["n_meshes"] = len(layouts)
+    meshes = [m for m, lay in layouts.items() if lay.side == "drive"]
+    f.attrs["mesh_names"] = np.array(meshes, dtype=h5py.string_dtype())
+    f.attrs["n_meshes"] = len(meshes)
     first = next(iter(layouts.values()))
     f.attrs["n_positions"] = int(first.position.size)
     f.attrs["n_loads"] = int(first.load_N.size)
     f.attrs["n_deflections"] = int(first.n_deflections)
     top = f.create_group("meshes")
     for m, lay in layouts.items():
-        g = top.create_group(m)
+        g = top.create_group(m)       # "<mesh>/coast" inside "<mesh>" (layouts list each mesh's drive side first)
+        g.attrs["side"] = lay.side
+        g.attrs["flanks"] = np.array(lay.flanks, dtype=h5py.string_dtype())
+        if lay.side == "coast":
+            for k in ("backlash_normal_m", "backlash_circular_m", "position_offset"):
+                g.attrs[k] = float(lay.coast[k])
+            g.attrs["pair_shift"] = np.array([int(lay.coast["pair_shift"][gn]) for gn in lay.gear_names],
+                                             dtype=np.int64)
         g.attrs["gear_names"] = np.array(lay.gear_names, dtype=h5py.string_dtype())
         g.attrs["teeth"] = np.array(lay.teeth, dtype=np.int64)
         g.attrs["base_radius_m"] = np.array(lay.base_radius_m, dtype=float)
@@ -258,10 +280,12 @@ def _same_layout(f: Any, layouts: Mapping[str, MeshLayout], root_attrs: Mapping[
         a, b = f.attrs.get(k), root_attrs.get(k)
         if (a != b) if not isinstance(b, float) else not (a == b):
             return f"{k} ({a!r} in the file, {b!r} now)"
-    if "meshes" not in f or sorted(f["meshes"]) != sorted(layouts):
-        return "mesh names"
+    if "meshes" not in f or sorted(_regions(f["meshes"])) != sorted(layouts):
+        return "mesh names / sides"
     for m, lay in layouts.items():
         g = f["meshes"][m]
+        if str(g.attrs.get("side", "drive")) != lay.side:
+            return f"mesh '{m}': side"
         checks = {
             "position": np.asarray(lay.position, float), "load_N": np.asarray(lay.load_N, float),
             "tooth_offsets": np.asarray(lay.tooth_offsets),
@@ -283,6 +307,16 @@ def _same_layout(f: Any, layouts: Mapping[str, MeshLayout], root_attrs: Mapping[
             if k not in g:
                 return f"mesh '{m}': {k}"
     return None
+
+
+def _regions(top: Any) -> list[str]:
+    """Region keys below ``/meshes``: ``<mesh>`` and, where present, ``<mesh>/coast``."""
+    out = []
+    for m, g in top.items():
+        out.append(m)
+        if "coast" in g and isinstance(g["coast"], h5py.Group):
+            out.append(f"{m}/coast")
+    return out
 
 
 def open_statics_file(path: str | Path, layouts: Mapping[str, MeshLayout], root_attrs: Mapping[str, Any],
@@ -337,7 +371,9 @@ def _done_tasks(f: Any) -> int:
     """Position tasks flagged done in an open statics file (0 where the flags are missing or unreadable)."""
     n = 0
     try:
-        for g in f["meshes"].values():
+        top = f["meshes"]
+        for key in _regions(top):
+            g = top[key]
             for d in ("done_loads", "done_deflections"):
                 if d in g:
                     n += int(np.count_nonzero(g[d][()]))
@@ -548,9 +584,9 @@ def read_tables(path: str | Path, model_path: str | Path | None = None, *, allow
             raise TableError(f"{path} is not a hacgear table (root attribute format = {f.attrs.get('format')!r}, "
                              f"expected {FORMAT!r})")
         version = int(f.attrs.get("format_version", -1))
-        if version not in _READABLE:
+        if version not in READABLE_VERSIONS:
             raise TableError(f"{path} has format_version {version}; this hacgear reads versions "
-                             f"{', '.join(map(str, _READABLE))}. Regenerate it with `hacgear statics MODEL`.")
+                             f"{', '.join(map(str, READABLE_VERSIONS))}. Regenerate it with `hacgear statics MODEL`.")
         sha = _attr_str(f.attrs.get("model_sha256", ""))
         if model_path is not None:
             mp = Path(model_path)
@@ -579,6 +615,16 @@ def read_tables(path: str | Path, model_path: str | Path | None = None, *, allow
 
 
 def _read_mesh(path: Path, m: str, g: Any, allow_incomplete: bool, check_values: bool = True) -> MeshTable:
+    """One mesh group → :class:`MeshTable` (drive side) with its ``coast/`` subgroup as ``.coast`` (None when
+    absent: a format_version 1 or 2 file or a table written without the coast side)."""
+    coast = None
+    if "coast" in g and isinstance(g["coast"], h5py.Group):
+        coast = _read_side(path, f"{m}/coast", g["coast"], allow_incomplete, None, check_values)
+    return _read_side(path, m, g, allow_incomplete, coast, check_values)
+
+
+def _read_side(path: Path, m: str, g: Any, allow_incomplete: bool, coast: MeshTable | None,
+               check_values: bool) -> MeshTable:
     required = ("position", "load_N", "deflection_m", "no_load_deflection_m", "static_deflection_m", "force_N",
                 "tooth_offsets", "tooth_load_N", "contact_roll_deg", "peak_pressure_Pa", "done_loads",
                 "done_deflections")
@@ -591,8 +637,10 @@ def _read_mesh(path: Path, m: str, g: Any, allow_incomplete: bool, check_values:
             if not np.all(d == 1):
                 raise TableError(f"{path}: mesh '{m}' is incomplete ({int(np.count_nonzero(d))}/{d.size} positions "
                                  f"in {k}); finish it with `hacgear statics MODEL`")
-    strain = {name[len("strain/"):]: _read(path, ds) for name, ds in _walk(g) if name.startswith("strain/")}
-    hub = {name[len("hub_reaction/"):]: _read(path, ds) for name, ds in _walk(g) if name.startswith("hub_reaction/")}
+    strain = ({name[len("strain/"):]: _read(path, ds) for name, ds in _walk(g["strain"], "strain/")}
+              if "strain" in g else {})
+    hub = ({name[len("hub_reaction/"):]: _read(path, ds) for name, ds in _walk(g["hub_reaction"], "hub_reaction/")}
+           if "hub_reaction" in g else {})
     order = _str_list(g.attrs.get("gauge_names", ()))
     strain = {k: strain[k] for k in order if k in strain} | {k: v for k, v in strain.items() if k not in order}
     F = _read(path, g["force_N"])
@@ -603,7 +651,7 @@ def _read_mesh(path: Path, m: str, g: Any, allow_incomplete: bool, check_values:
                                         "peak_pressure_Pa")}
     twist = None
     if "twist_rad" in g:
-        strain_tw = {name[len("strain_twist/"):]: _read(path, ds) for name, ds in _walk(g) if name.startswith("strain_twist/")}
+        strain_tw = {name[len("strain_twist/"):]: _read(path, ds) for name, ds in _walk(g["strain_twist"], "strain_twist/")}
         fr = {k: g.attrs[k] for k in FRAME_KEYS}
         twist = TwistTable(
             twist_rad=_read(path, g["twist_rad"]), no_load_deflection_m=g["no_load_deflection_twist_m"][()],
@@ -615,12 +663,21 @@ def _read_mesh(path: Path, m: str, g: Any, allow_incomplete: bool, check_values:
             frame={k: fr[k] for k in ("e1", "e2", "e3", "P_ref", "n_ref", "O_a", "O_b")},
             base_helix_angle_rad=float(fr["base_helix_angle_rad"]), lever_arm_m=fr["lever_arm_m"],
             reference_plane_z_m=float(fr["reference_plane_z_m"]))
+    side = str(g.attrs.get("side", "drive"))
+    gear_names = _str_list(g.attrs["gear_names"])
+    extra: dict[str, Any] = {"side": side, "flanks": _str_list(g.attrs.get("flanks", ()))}
+    if side == "coast":
+        for k in ("backlash_normal_m", "backlash_circular_m", "position_offset"):
+            if k not in g.attrs:
+                raise TableError(f"{path}: coast side of mesh '{m}' lacks attribute {k!r}")
+            extra[k] = float(g.attrs[k])
+        extra["pair_shift"] = {gn: int(v) for gn, v in zip(gear_names, g.attrs["pair_shift"])}
     table = MeshTable(
         twist=twist,
-        name=m, gear_names=_str_list(g.attrs["gear_names"]), teeth=tuple(int(z) for z in g.attrs["teeth"]),
+        name=m.split("/")[0], gear_names=gear_names, teeth=tuple(int(z) for z in g.attrs["teeth"]),
         base_radius_m=tuple(float(rb) for rb in g.attrs["base_radius_m"]), force_N=F, strain=strain,
         half_width_m=_read(path, g["half_width_m"]) if "half_width_m" in g else None, hub_reaction=hub,
-        solver=str(g.attrs.get("solver", "")), **r,
+        solver=str(g.attrs.get("solver", "")), coast=coast, **extra, **r,
     )
     if check_values and not allow_incomplete:
         bad = hard_problems(table)
@@ -635,15 +692,25 @@ def write_tables(path: str | Path, tables: SystemTables) -> None:
     """Write complete in-memory tables to ``path`` (atomically: via ``<path>.tmp`` and rename)."""
     path = Path(path)
     layouts = {}
-    for m, t in tables.meshes.items():
-        layouts[m] = MeshLayout(
-            name=m, gear_names=t.gear_names, teeth=t.teeth, base_radius_m=t.base_radius_m,
-            tooth_offsets=t.tooth_offsets, gauge_names=t.gauge_names, position=t.position, load_N=t.load_N,
-            n_deflections=t.n_deflections, solver_description=t.solver,
-            twist_rad=None if t.twist is None else t.twist.twist_rad,
-            slice_z_m=None if t.twist is None else t.twist.slice_z_m,
-            mesh_frame=None if t.twist is None else _frame_of(t.twist),
-        )
+    sides = {}
+    for m, t0 in tables.meshes.items():
+        for key, t in ((m, t0), (f"{m}/coast", t0.coast)):
+            if t is None:
+                continue
+            sides[key] = t
+            coast = {}
+            if t.side == "coast":
+                coast = {"backlash_normal_m": t.backlash_normal_m, "backlash_circular_m": t.backlash_circular_m,
+                         "position_offset": t.position_offset, "pair_shift": dict(t.pair_shift)}
+            layouts[key] = MeshLayout(
+                name=key, gear_names=t.gear_names, teeth=t.teeth, base_radius_m=t.base_radius_m,
+                tooth_offsets=t.tooth_offsets, gauge_names=t.gauge_names, position=t.position, load_N=t.load_N,
+                n_deflections=t.n_deflections, solver_description=t.solver, side=t.side, flanks=t.flanks,
+                coast=coast,
+                twist_rad=None if t.twist is None else t.twist.twist_rad,
+                slice_z_m=None if t.twist is None else t.twist.slice_z_m,
+                mesh_frame=None if t.twist is None else _frame_of(t.twist),
+            )
     root = {"model_sha256": tables.model_sha256, "model_file": tables.model_file,
             "model_values_sha256": tables.attrs.get("model_values_sha256", ""),
             "model_values": tables.attrs.get("model_values", ""),
@@ -654,7 +721,7 @@ def write_tables(path: str | Path, tables: SystemTables) -> None:
     try:
         if tables.created:
             f.attrs["created"] = tables.created
-        for m, t in tables.meshes.items():
+        for m, t in sides.items():
             g = f["meshes"][m]
             for k in ("deflection_m", "no_load_deflection_m", "static_deflection_m", "force_N", "tooth_load_N",
                       "contact_roll_deg", "peak_pressure_Pa"):

@@ -10,6 +10,7 @@ and count every state outside the deflection grid in :attr:`MeshTable.stats`.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
@@ -169,10 +170,17 @@ class MeshTable:
     Query methods are vectorised (NumPy broadcasting over ``position`` and ``deflection``) and count
     deflection-grid extrapolations in :attr:`stats`.
 
-    ``coast``: the tables of the opposite flank pair (contact across the backlash), a MeshTable on the same
-    position grid whose deflection axis is the coast approach along the coast line of action from the drive flanks'
-    kinematic contact (so its no-load deflection is about the normal backlash); None for a drive-only table.
-    ``backlash_normal_m`` / ``backlash_circular_m``: the backlash from the geometry (on a coast table).
+    Two sides.  A mesh's table is its drive side (``side = "drive"``, the loaded flanks ``flanks``); ``coast``
+    holds the tables of its opposite flank pair (``side = "coast"``), or None for a one-sided table (a
+    ``format_version`` 1 file: :meth:`require_coast` says so).  The coast table has the drive table's positions
+    (row i = the gear pair at drive mesh position ``position[i]``); its deflection axis is the coast approach
+    along the coast line of action from the drive kinematic position (coast contact begins near
+    ``backlash_normal_m``); ``force_N`` >= 0 is the coast contact force.  Its per-pair arrays follow the same
+    phase rule; coast pair ``k`` holds the tooth of gear ``g`` that drive pair ``k - pair_shift[g]`` holds, so
+    the strain of one physical tooth whose drive pair phase is ``phi`` is
+    ``coast.sdf(gauge, phi - pair_shift[gear], x_c)``.  ``backlash_normal_m`` [m] (along the coast line of
+    action), ``backlash_circular_m`` [m] (operating pitch circle) and ``position_offset`` [mesh cycles] (the
+    coast solver's own position is ``position_offset - position``) come from the geometry.
     """
 
     name: str
@@ -195,9 +203,13 @@ class MeshTable:
     solver: str = ""
     stats: InterpolationStats = field(default_factory=InterpolationStats, repr=False)
     twist: TwistTable | None = None
+    side: str = "drive"
+    flanks: tuple[str, ...] = ()
+    backlash_normal_m: float = float("nan")
+    backlash_circular_m: float = float("nan")
+    position_offset: float = float("nan")
+    pair_shift: dict[str, int] = field(default_factory=dict)
     coast: "MeshTable | None" = None
-    backlash_normal_m: float | None = None
-    backlash_circular_m: float | None = None
 
     def __post_init__(self) -> None:
         conv = {k: _f64(getattr(self, k)) for k in (
@@ -240,12 +252,46 @@ class MeshTable:
                 raise TableError(f"{where}: hub_reaction[{g!r}] has shape {a.shape}, expected {(npos, nd, 3)}")
         if not np.all(np.isfinite(self.force_N)):
             raise TableError(f"{where}: force_N contains NaN/inf (incomplete table?)")
+        object.__setattr__(self, "flanks", tuple(str(f) for f in self.flanks))
+        object.__setattr__(self, "pair_shift", {str(g): int(v) for g, v in self.pair_shift.items()})
+        for k in ("backlash_normal_m", "backlash_circular_m", "position_offset"):
+            object.__setattr__(self, k, float(getattr(self, k)))
+        if self.side not in ("drive", "coast"):
+            raise TableError(f"{where}: side must be 'drive' or 'coast', got {self.side!r}")
+        if self.side == "coast":
+            if self.coast is not None:
+                raise TableError(f"{where}: a coast table cannot have a coast table")
+            for k in ("backlash_normal_m", "backlash_circular_m"):
+                v = getattr(self, k)
+                if not (math.isfinite(v) and v >= 0):
+                    raise TableError(f"{where} (coast side): {k} [m] must be finite and >= 0, got {v!r}")
+            if not math.isfinite(self.position_offset):
+                raise TableError(f"{where} (coast side): position_offset [mesh cycles] must be finite")
+            if sorted(self.pair_shift) != sorted(self.gear_names):
+                raise TableError(f"{where} (coast side): pair_shift must give an integer for each of "
+                                 f"{list(self.gear_names)}, got {self.pair_shift}")
+        elif self.coast is not None:
+            c = self.coast
+            if not isinstance(c, MeshTable) or c.side != "coast":
+                raise TableError(f"{where}: coast must be a MeshTable with side 'coast'")
+            if c.gear_names != self.gear_names or c.teeth != self.teeth or not np.array_equal(c.position,
+                                                                                               self.position):
+                raise TableError(f"{where}: the coast table must have the drive table's gears, teeth and positions")
 
     def __getstate__(self) -> dict[str, Any]:
         return {k: v for k, v in self.__dict__.items() if k != "_unrolled_cache"}
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
+
+    def require_coast(self) -> "MeshTable":
+        """The coast-side table; :class:`TableError` with the remedy when this table is one-sided."""
+        if self.coast is None:
+            raise TableError(
+                f"the tables of mesh '{self.name}' have no coast side (a one-sided table: format_version 1, or "
+                "written without it); torque reversal, backlash and coast contact need both sides. Regenerate "
+                "the tables with `hacgear statics MODEL`.")
+        return self.coast
 
     # -- grid facts ------------------------------------------------------------------------
     @property

@@ -316,6 +316,18 @@ def planetary_from_model(model: Any, tables: Any = None, *, force_law: str = "ha
             if g_ in rot:
                 v[rot[g_]] += sgn * pm.moment_arm_m[g_]
                 vr[rot[g_]] += sgn * pm.moment_arm_m[g_]
+        # coast side (opposite flanks): the same form along the coast line of action with the coast arms
+        vc, fc = None, 0.0
+        if pm.coast_line_of_action is not None and getattr(tabs[pm.kind], "coast", None) is not None:
+            vc = np.zeros(n)
+            for g_, sgn in ((pm.gear_a, 1.0), (pm.gear_b, -1.0)):
+                for i_, d in trans.get(g_, []):
+                    vc[i_] += sgn * float(d @ pm.coast_line_of_action)
+                if g_ in rot:
+                    vc[rot[g_]] += sgn * pm.coast_moment_arm_m[g_]
+            # the reversed torque through gear_a's coast flank (exact where each mesh's gears share their pressure
+            # angles)
+            fc = float(flow["force_N"][mn]) * pm.base_radius_m[0] / pm.coast_base_radius_m[0]
         # mesh position: gear_a's rotation relative to the line of centres through the planet's centre
         p_name = geo.planets[pm.planet - 1]
         za = geo.teeth[pm.gear_a]
@@ -330,7 +342,8 @@ def planetary_from_model(model: Any, tables: Any = None, *, force_law: str = "ha
             name=mn, gear_a=pm.gear_a, gear_b=pm.gear_b, table=tabs[pm.kind], v=v, w=w, v_rot=vr, phase=pm.phase,
             nominal_force_N=float(flow["force_N"][mn]), teeth=tuple(pm.teeth),
             base_radius_m=(abs(pm.moment_arm_m[pm.gear_a]), abs(pm.moment_arm_m[pm.gear_b])),
-            tooth_passage=dict(pm.tooth_passage), line_of_action=tuple(nvec), group=pm.kind, gear_alias=alias))
+            tooth_passage=dict(pm.tooth_passage), line_of_action=tuple(nvec), group=pm.kind, gear_alias=alias,
+            v_c=vc, nominal_coast_force_N=fc, backlash_m=float(pm.backlash_normal_m)))
 
     # ---------------------------------------------------------------- bodies, reference, rigid mode
     ab = geo.absolute_ratio

@@ -1,0 +1,171 @@
+"""The coast side of a mesh: the opposite flank pair's static contact, in the drive side's positions.
+
+When the torque through a mesh reverses, or the teeth cross the backlash, the *other* flank of each gear
+comes into contact (gear_a's and gear_b's unloaded flanks; for the 28-tooth pair the 20° side).  The
+static contact solver of that flank pair is the ordinary :class:`~hacgear_core.statics.contact.MeshContactSolver`
+(or any :class:`~hacgear_core.statics.contract.MeshStaticSolver`) built with the flanks swapped
+(``make_mesh_solver(..., side="coast")``): its canonical picture is the mirror image of the drive side's, its
+positions run the other way and its deflection is measured from the coast flanks' own kinematic contact.
+:class:`CoastSideSolver` wraps it so that the coast side speaks the drive side's coordinates:
+
+* **position** ``tau`` [mesh cycles]: the drive side's mesh position (integer when a drive pair touches at the
+  pitch point, growing as gear_a turns in its operating sense).  The inner solver is asked at its own position
+  ``tau_c = c0 - tau`` with ``c0 = (s_wa - s_wb - p_w) / (2 p_w)`` (:func:`hacgear_core.geometry.mesh_backlash`).
+* **deflection** ``x_c`` [m]: the coast *approach* along the coast line of action, measured from the drive
+  kinematic position (ideal drive involutes touching, ``x_d = 0``): ``x_c = x_s + j_n`` with ``x_s`` the inner
+  solver's deflection and ``j_n`` the normal backlash along the coast line of action.  Coast contact begins
+  near ``x_c = j_n`` (the coast no-load deflection).  For rigid gears ``x_c = -(r_bc / r_b) x_d``.
+* **tooth pairs**: inner pair ``k`` becomes coast pair ``k' = -k`` (``X_k'(tau + 1) = X_k'-1(tau)`` as on the
+  drive side).  Coast pair ``k'`` holds the physical tooth of gear ``g`` that drive pair ``k' - pair_shift[g]``
+  holds, with ``pair_shift = {gear_a: 1, gear_b: 0}``: the strain of one physical tooth whose drive pair phase
+  is ``phi`` is ``coast.sdf(gauge, phi - pair_shift[gear], x_c)``.
+* **hub reactions** are returned in the drive side's solver frame (the inner frame mirrored: ``Fy``, ``Mz``
+  change sign).
+
+The derivation (``docs/tables.md``, "The coast side"): with both hubs sharing the mesh deflection equally, each
+gear's rotation in mesh cycles is ``u_a = tau + x_d/(2 p_b)``, ``u_b = tau - x_d/(2 p_b)``; the coast-side
+coordinates of the same gear angles are ``u'_a = -u_a + s_wa/p_w``, ``u'_b = -u_b - s_wb/p_w``; the inner
+solver's pair 0 meets the coast flank of gear_a's tooth one pitch later than the drive pair 0 does
+(``u'_a = tau_c + x_s/(2 p_bc) + 1``, ``u'_b = tau_c - x_s/(2 p_bc)``), which gives ``tau_c = c0 - tau``,
+``x_s = x_c - j_n`` and the pair shifts above, for external and internal meshes alike.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Any, Sequence
+
+import numpy as np
+
+from hacgear_core.errors import SolverError
+from hacgear_core.geometry import mesh_geometry
+from hacgear_core.model import Model, load_model
+from hacgear_core.statics.contact import make_mesh_solver
+from hacgear_core.statics.contract import MeshStaticSolver, StaticSolution
+
+__all__ = ["CoastSideSolver", "CoastMapping", "coast_mapping", "make_coast_solver", "COAST_PAIR_SHIFT"]
+
+#: coast pair k' holds the tooth of gear_a (index 0) / gear_b (index 1) that drive pair k' - shift holds
+COAST_PAIR_SHIFT = (1, 0)
+
+
+@dataclass(frozen=True)
+class CoastMapping:
+    """How a mesh's coast side maps onto its drive side (from the geometry).
+
+    ``position_offset`` ``c0`` [mesh cycles] (inner coast position = ``c0 - tau``), ``backlash_normal_m``
+    ``j_n`` [m] along the coast line of action, ``backlash_circular_m`` ``j_t`` [m] on the operating pitch
+    circle, ``flanks`` the coast flank of (gear_a, gear_b), ``pair_shift`` {gear: int}.
+    """
+
+    position_offset: float
+    backlash_normal_m: float
+    backlash_circular_m: float
+    flanks: tuple[str, str]
+    pair_shift: dict[str, int]
+
+
+def coast_mapping(model: Any, mesh_name: str) -> CoastMapping:
+    """:class:`CoastMapping` of mesh ``mesh_name`` of ``model`` (a :class:`~hacgear_core.model.Model` or path)."""
+    if not isinstance(model, Model):
+        model = load_model(model)
+    mg = mesh_geometry(model, mesh_name, strict=False)
+    other = {"drive": "coast", "coast": "drive"}
+    if not (math.isfinite(mg.backlash_normal_m) and mg.backlash_normal_m >= 0):
+        raise SolverError(f"mesh '{mesh_name}': the coast flanks have no line of action (normal backlash "
+                          f"{mg.backlash_normal_m!r} m); see `hacgear info` warnings")
+    return CoastMapping(position_offset=float(mg.coast_position_offset),
+                        backlash_normal_m=float(mg.backlash_normal_m),
+                        backlash_circular_m=float(mg.backlash_circular_m),
+                        flanks=(other[mg.flank_a], other[mg.flank_b]),
+                        pair_shift={mg.gear_a: COAST_PAIR_SHIFT[0], mg.gear_b: COAST_PAIR_SHIFT[1]})
+
+
+class CoastSideSolver:
+    """The coast side of a mesh as a :class:`~hacgear_core.statics.contract.MeshStaticSolver` in drive-side
+    positions (``tau``) and coast approach (``x_c``, from the drive kinematic position); see the module docstring.
+
+    Parameters
+    ----------
+    inner : MeshStaticSolver
+        Static solver of the coast flank pair in its own canonical picture (e.g.
+        ``make_mesh_solver(model, mesh, side="coast")``).
+    mapping : CoastMapping
+        From :func:`coast_mapping`.
+    """
+
+    side = "coast"
+
+    def __init__(self, inner: MeshStaticSolver, mapping: CoastMapping) -> None:
+        self.inner = inner
+        self.mapping = mapping
+        self.mesh_name = inner.mesh_name
+        self.gear_names = tuple(inner.gear_names)
+        self.teeth = tuple(inner.teeth)
+        self.base_radius_m = tuple(inner.base_radius_m)
+        self.gauge_names = tuple(inner.gauge_names)
+        offs = np.asarray(inner.tooth_offsets, dtype=np.int64)
+        self.tooth_offsets = np.sort(-offs)
+        # row of the inner per-pair arrays for each coast offset k' (inner offset -k')
+        self._rows = np.array([int(np.flatnonzero(offs == -k)[0]) for k in self.tooth_offsets])
+        self.flanks = mapping.flanks
+        self.backlash_normal_m = mapping.backlash_normal_m
+        self.backlash_circular_m = mapping.backlash_circular_m
+        self.position_offset = mapping.position_offset
+        self.pair_shift = dict(mapping.pair_shift)
+        self.contact_deflection_m = mapping.backlash_normal_m
+        self.description = (f"{getattr(inner, 'description', type(inner).__name__)}; coast side in drive positions "
+                            f"(inner position = {mapping.position_offset:.12g} - position, deflection = inner + "
+                            f"{mapping.backlash_normal_m:.9g} m)")
+
+    # -- coordinates ------------------------------------------------------------------------------
+    def inner_position(self, position: float) -> float:
+        """Inner solver's own position [mesh cycles] at drive-side ``position``."""
+        return self.position_offset - float(position)
+
+    def _convert(self, sol: StaticSolution, position: float) -> StaticSolution:
+        r = self._rows
+
+        def per_pair(d: dict) -> dict:
+            return {k: np.asarray(v)[r] for k, v in d.items()}
+
+        hub = {g: np.asarray(v, float) * [1.0, -1.0, -1.0] for g, v in sol.hub_reaction.items()}
+        return replace(sol, position=float(position), mesh_deflection_m=sol.mesh_deflection_m + self.backlash_normal_m,
+                       tooth_load_N=np.asarray(sol.tooth_load_N)[r], contact_roll_deg=np.asarray(sol.contact_roll_deg)[r],
+                       half_width_m=np.asarray(sol.half_width_m)[r], peak_pressure_Pa=np.asarray(sol.peak_pressure_Pa)[r],
+                       strain=per_pair(sol.strain), stress=per_pair(sol.stress), hub_reaction=hub,
+                       contact_s_m=None if sol.contact_s_m is None else np.asarray(sol.contact_s_m)[r])
+
+    # -- protocol -----------------------------------------------------------------------------------
+    def no_load_deflection(self, position: float) -> float:
+        """Coast no-load deflection [m] (coast approach at which the coast flanks first touch) at drive ``position``."""
+        return float(self.inner.no_load_deflection(self.inner_position(position))) + self.backlash_normal_m
+
+    def solve_load(self, position: float, mesh_force_N: float) -> StaticSolution:
+        """Load control: coast contact force [N] >= 0 at drive ``position`` → coast approach etc."""
+        return self._convert(self.inner.solve_load(self.inner_position(position), mesh_force_N), position)
+
+    def solve_deflection(self, position: float, mesh_deflection_m: float) -> StaticSolution:
+        """Deflection control: coast approach ``x_c`` [m] at drive ``position`` → coast contact force etc."""
+        return self._convert(self.inner.solve_deflection(self.inner_position(position),
+                                                         float(mesh_deflection_m) - self.backlash_normal_m), position)
+
+    def solve_position(self, position: float, loads_N: Sequence[float], deflections_m: Sequence[float]):
+        """Batch at one position (see :meth:`MeshContactSolver.solve_position`)."""
+        p = self.inner_position(position)
+        x = np.asarray(deflections_m, dtype=float).ravel() - self.backlash_normal_m
+        batch = getattr(self.inner, "solve_position", None)
+        if batch is not None:
+            a, b = batch(p, np.asarray(loads_N, float).ravel(), x)
+        else:
+            a = [self.inner.solve_load(p, F) for F in np.asarray(loads_N, float).ravel()]
+            b = [self.inner.solve_deflection(p, v) for v in x]
+        return [self._convert(s, position) for s in a], [self._convert(s, position) for s in b]
+
+
+def make_coast_solver(model: Any, mesh_name: str, **kwargs: Any) -> CoastSideSolver:
+    """Coast side of mesh ``mesh_name``: :func:`~hacgear_core.statics.contact.make_mesh_solver` with
+    ``side="coast"`` (``kwargs`` passed on) wrapped in :class:`CoastSideSolver` with the geometry's mapping."""
+    if not isinstance(model, Model):
+        model = load_model(model)
+    return CoastSideSolver(make_mesh_solver(model, mesh_name, side="coast", **kwargs), coast_mapping(model, mesh_name))

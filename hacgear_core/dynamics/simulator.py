@@ -245,9 +245,11 @@ class Simulator:
 
     # ------------------------------------------------------------------ state snapshots (FMI get/set state)
     def get_state(self) -> dict:
-        """A snapshot of everything :meth:`advance` depends on (arrays copied)."""
+        """A snapshot of everything :meth:`advance` depends on (arrays copied) and of the outputs as they are (the
+        kernel's end-of-step record), so that :meth:`set_state` restores both bit for bit."""
         return {"s": self.s.copy(), "kin": self.kin.copy(), "time_s": self.time_s, "mode": self.mode,
-                "fext": self.fext.copy(), "torque_Nm": self.torque_Nm, "port_torques_Nm": dict(self.port_torques_Nm)}
+                "fext": self.fext.copy(), "torque_Nm": self.torque_Nm, "port_torques_Nm": dict(self.port_torques_Nm),
+                "outputs": tuple(list(v) for v in self._output_source)}
 
     def set_state(self, snap: dict) -> None:
         """Restore a snapshot of :meth:`get_state` (in place; outputs updated)."""
@@ -258,7 +260,10 @@ class Simulator:
         self.fext = snap["fext"].copy()
         self.time_s, self.mode = snap["time_s"], snap["mode"]
         self.torque_Nm, self.port_torques_Nm = snap["torque_Nm"], dict(snap["port_torques_Nm"])
-        self._update_outputs()
+        if "outputs" in snap:
+            self._set_outputs(*(list(v) for v in snap["outputs"]))
+        else:
+            self._update_outputs()
 
     # ------------------------------------------------------------------ outputs
     def _update_outputs(self) -> None:
@@ -281,6 +286,7 @@ class Simulator:
         record ``rec`` (4m + 1 floats)."""
         sy = self.system
         n, m = sy.n, sy.m
+        self._output_source = (st, kt, rec)
         self.mesh_position = rec[0:4 * m:4]
         self.mesh_deflection_m = rec[1:4 * m:4]
         self.mesh_force_N = rec[2:4 * m:4]

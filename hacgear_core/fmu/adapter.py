@@ -6,10 +6,10 @@ kind-specific.  Names are structured (``<gear>.speed``, ``<mesh>.force``, ``<gea
 
 Two experiments, chosen by the parameter ``mode`` (fixed after initialization):
 
-* ``mode = 0`` (constant speed): input ``<reference gear>.speed_in``; the torque set-point is the parameter
+* ``mode = constant_speed`` (0): input ``<reference gear>.speed_in``; the torque set-point is the parameter
   ``torque`` on the input gear; the gear deviations are integrated around the imposed rotation, with the model's
   shaft stiffnesses (dissertation Eqs. 3.1, 4.1);
-* ``mode = 1`` (drivetrain coupling): inputs ``<port>.torque_in`` (shaft torques on the port gears: the input
+* ``mode = drivetrain`` (1, drivetrain coupling): inputs ``<port>.torque_in`` (shaft torques on the port gears: the input
   gear and the output gears); outputs ``<gear>.angle`` and ``<gear>.speed`` are the absolute gear motions to feed
   back into the shafts (the shafts belong to the drivetrain model: rotational supports are dropped).  Starts
   from rest relative to ``<reference gear>.speed_start``.
@@ -20,23 +20,53 @@ is negative.
 from __future__ import annotations
 
 import math
+import os
+import pickle
 from dataclasses import replace
 from pathlib import Path
 from typing import Callable
 
+import numpy as np
+
 from hacgear_core.dynamics.build import build_system
-from hacgear_core.dynamics.simulator import Simulator
+from hacgear_core.dynamics.simulator import Simulator, strain_of_tooth
 from hacgear_core.errors import HacgearError, ModelError
 from hacgear_core.fmu.spec import FmuVariable, ident
 from hacgear_core.model import load_model
 from hacgear_core.tables import read_tables
 
-__all__ = ["MODE_SPEED", "MODE_TORQUE", "MODEL_FILE", "TABLES_FILE", "Adapter", "make_adapter", "variables_for"]
+__all__ = ["MODE_SPEED", "MODE_TORQUE", "MODEL_FILE", "TABLES_FILE", "Adapter", "contact_state", "make_adapter",
+           "variables_for"]
 
 MODEL_FILE = "model.toml"
 TABLES_FILE = "tables.h5"
 MODE_SPEED = 0
 MODE_TORQUE = 1
+#: ContactState items (spec.ENUMERATIONS)
+CONTACT_SEPARATED, CONTACT_DRIVE, CONTACT_COAST = 0, 1, 2
+
+
+def contact_state(force_N: float) -> int:
+    """ContactState of a mesh from its signed mesh force [N]: drive flanks (> 0), coast flanks (< 0), separated."""
+    return CONTACT_DRIVE if force_N > 0.0 else (CONTACT_COAST if force_N < 0.0 else CONTACT_SEPARATED)
+
+
+def _nice_floor(x: float) -> float:
+    """Largest 1, 2 or 5 x 10^k <= x."""
+    e = math.floor(math.log10(x))
+    for m in (5.0, 2.0, 1.0):
+        if m * 10.0 ** e <= x:
+            return float(f"{m * 10.0 ** e:.1g}")
+    return float(f"{10.0 ** e:.1g}")  # pragma: no cover
+
+
+def _nice_ceil(x: float) -> float:
+    """Smallest 1, 2 or 5 x 10^k >= x."""
+    e = math.floor(math.log10(x))
+    for m in (1.0, 2.0, 5.0, 10.0):
+        if m * 10.0 ** e >= x:
+            return float(f"{m * 10.0 ** e:.1g}")
+    return float(f"{10.0 ** (e + 1):.1g}")  # pragma: no cover
 
 
 class Adapter:
@@ -46,29 +76,40 @@ class Adapter:
     ----------
     model : Model
     tables : SystemTables
+    prepared : dict, optional
+        :meth:`prepared` of an adapter of the same model and tables (the lumped system and the nominal values,
+        e.g. unpickled from a cache): skips assembling the system.
     """
 
-    def __init__(self, model, tables) -> None:
+    def __init__(self, model, tables, prepared: dict | None = None) -> None:
         self.model = model
         self.tables = tables
         self.kind = model.kind
-        base = build_system(model, tables)
+        base = build_system(model, tables) if prepared is None else prepared["system"]
         self.base_system = base
         self.sim = Simulator(base)
         self._built_key = self._key(base.torque_Nm, base.modal_damping_ratio, self._bearings_of(base), None, True)
         self.ref = base.reference_gear
         self.ports = self.sim.ports
+        self.ref_ident = ident(self.ref)
+        self.port_idents = tuple(ident(g) for g in self.ports)
         self.gear_names = self.sim.gear_names
         self.mesh_names = base.mesh_names
         self.gauges = tuple(sorted({g for c in base.meshes for g in (getattr(c.table, "strain", None) or {})}))
+        self.nominal = self._nominals() if prepared is None else prepared["nominal"]
         self.variables = self._spec()
         self.by_name = {v.name: v for v in self.variables}
         #: outputs computed by table post-processing (guarded by the slave: NaN and a log line on failure)
         self.fallible = {v.name for v in self.variables if v.name.endswith((".peak_pressure", ".root_strain"))}
         self._last_inputs: tuple | None = None
+        self._simulators: dict = {}
         self.mode = MODE_SPEED
         self.input_checks: tuple = ()
         self.step_floor_s = 0.0
+
+    def prepared(self) -> dict:
+        """What a new adapter of the same model and tables can start from (see the ``prepared`` parameter)."""
+        return {"system": self.base_system, "nominal": self.nominal}
 
     @staticmethod
     def _bearings_of(system) -> tuple:
@@ -79,19 +120,65 @@ class Adapter:
         return (torque, zeta, bearings, h, shafts)
 
     # ------------------------------------------------------------------ the spec (declared once)
+    def _nominals(self) -> dict:
+        """Typical magnitudes of the outputs at the nominal torque (FMI ``nominal``) and the resonance speed of the
+        default experiment."""
+        sy = self.base_system
+        forces = np.abs(sy.nominal_forces_N())
+        defl = np.abs(sy.mean_static_deflections_m())
+        out = {"force": [float(f) if f > 0 else None for f in forces],
+               "deflection": [float(x) if x > 0 else None for x in defl]}
+        # the elastic mode with the largest share of mesh strain energy: its natural frequency as mesh frequency
+        w, phi = sy.modal_omega, sy.modal_shapes
+        best, fm = -1.0, float(sy.natural_frequencies_Hz()[0])
+        for j in np.flatnonzero(~sy.rigid_modes):
+            e_mesh = float(np.sum(sy.mesh_stiffness_N_per_m * (sy.V @ phi[:, j]) ** 2))
+            e_tot = float(w[j] ** 2 * phi[:, j] @ sy.M @ phi[:, j])
+            if e_tot > 0 and e_mesh / e_tot > best:
+                best, fm = e_mesh / e_tot, float(w[j] / (2 * math.pi))
+        out["resonance_mesh_frequency_Hz"] = fm
+        out["resonance_speed_rad_s"] = sy.reference_speed(fm)
+        out["strain"] = {}
+        for gauge in self.gauges:
+            gear = gauge.partition("/")[0]
+            z = sy.gears[gear].teeth if gear in sy.gears else 1
+            tau = np.linspace(-0.5 * z, 0.5 * z, 16 * z)[:, None] + np.zeros(sy.m)
+            x = np.zeros_like(tau) + defl
+            try:
+                e = float(np.max(np.abs(strain_of_tooth(sy, gauge, tau, x))))
+            except HacgearError:
+                e = 0.0
+            out["strain"][gauge] = e if e > 0 and math.isfinite(e) else None
+        return out
+
+    def default_experiment(self) -> dict:
+        """The FMU's DefaultExperiment: constant speed at the mesh resonance (the mesh frequency equals the natural
+        frequency of the mode with the largest share of mesh strain energy), long enough for the resonant
+        response to build up (>= 10 time constants of its modal damping, >= 40 mesh cycles), with a communication
+        step of 1/10 of a mesh period or longer so that the run has at most 1000 steps (fmpy doubles the output
+        interval of longer runs): ``startTime``, ``stopTime``, ``stepSize`` [s]."""
+        fm = self.nominal["resonance_mesh_frequency_Hz"]
+        zeta = max(self.base_system.modal_damping_ratio, 1e-3)
+        stop = _nice_ceil(max(10.0 / (zeta * 2 * math.pi * fm), 40.0 / fm))
+        step = _nice_floor(max(1.0 / (10.0 * fm), stop / 1000.0))
+        return {"startTime": 0.0, "stopTime": stop, "stepSize": step}
+
     def _spec(self) -> tuple[FmuVariable, ...]:
         sy = self.base_system
         V = FmuVariable
         ref, inp = self.ref, sy.input_gear
         port_t = self.sim.port_torques_Nm
+        nom = self.nominal
+        w_res = nom["resonance_speed_rad_s"]
         spec = [
-            V("mode", "Integer", "parameter", "fixed", "",
-              f"experiment: 0 = constant speed (input {ref}.speed_in, torque set-point = parameter torque); "
-              f"1 = drivetrain coupling (inputs <port>.torque_in on {', '.join(self.ports)}; outputs angles and "
-              "speeds)", MODE_SPEED, 0, 1),
+            V("mode", "Enumeration", "parameter", "fixed", "",
+              f"experiment: constant_speed = the reference gear {ref} turns at {ref}.speed_in, torque set-point = "
+              f"parameter torque; drivetrain = inputs <port>.torque_in on {', '.join(self.ports)}, outputs angles "
+              "and speeds", MODE_SPEED, declared_type="Experiment"),
             V("torque", "Real", "parameter", "fixed", "N.m",
               f"nominal torque on the input gear {inp}: torque set-point of the constant-speed experiment; in both "
-              "modes it sets the linearisation used for the modal damping", sy.torque_Nm, 1e-3, 1e6),
+              "modes it sets the linearisation used for the modal damping", sy.torque_Nm, 1e-3, 1e6,
+              nominal=sy.torque_Nm),
             V("modal_damping_ratio", "Real", "parameter", "fixed", "1",
               "modal damping ratio of every elastic mode of the linearised system", sy.modal_damping_ratio, 0.0, 0.99),
         ]
@@ -99,78 +186,98 @@ class Adapter:
             k = sy.gears[g].support[0]
             spec.append(V(f"{ident(g)}.bearing_stiffness", "Real", "parameter", "fixed", "N/m",
                           f"translational bearing stiffness of gear {g}; 0 = rigid (no translation)",
-                          0.0 if math.isinf(k) else k, 0.0, 1e15))
+                          0.0 if math.isinf(k) else k, 0.0, 1e15, display_unit="N/µm"))
         spec += [
             V("internal_step", "Real", "parameter", "fixed", "s",
               "largest internal RK4 step; 0 = automatic (mesh period / 128 at the current speed and 1/32 of the "
               "period of the highest natural frequency); doStep sub-steps any communication step with equal steps "
               "no larger than this", 0.0, 0.0, 1e-3),
             V(f"{ident(ref)}.speed_start", "Real", "parameter", "fixed", "rad/s",
-              f"mode 1: initial speed of gear {ref} in its sense of rotation; mode 0 starts at {ref}.speed_in",
-              0.0, -2e4, 2e4),
+              f"drivetrain mode: initial speed of gear {ref} in its sense of rotation (constant-speed mode starts at "
+              f"{ref}.speed_in); default: the mesh resonance", w_res, -2e4, 2e4, display_unit="rpm", nominal=w_res),
             V(f"{ident(ref)}.speed_in", "Real", "input", "continuous", "rad/s",
-              f"mode 0: imposed speed of gear {ref}, positive in its sense of rotation (ignored in mode 1)",
-              0.0, -2e4, 2e4),
+              f"constant-speed mode: imposed speed of gear {ref}, positive in its sense of rotation (ignored in "
+              "drivetrain mode); default: the mesh resonance", w_res, -2e4, 2e4, display_unit="rpm", nominal=w_res),
         ]
         for g in self.ports:
             role = "driving (positive)" if g == inp else "a braking load is negative"
             spec.append(V(f"{ident(g)}.torque_in", "Real", "input", "continuous", "N.m",
-                          f"mode 1: shaft torque on gear {g}, positive in its sense of rotation ({role})",
-                          port_t[g], -1e6, 1e6))
+                          f"drivetrain mode: shaft torque on gear {g}, positive in its sense of rotation ({role})",
+                          port_t[g], -1e6, 1e6, nominal=abs(port_t[g]) or None))
+        pressure = self._static_pressures()
         for k, mn in enumerate(self.mesh_names):
             c = sy.meshes[k]
             m_ = ident(mn)
+            f_nom, x_nom = nom["force"][k], nom["deflection"][k]
             spec += [
                 V(f"{m_}.force", "Real", "output", "continuous", "N",
                   f"dynamic mesh force of mesh {mn} ({c.gear_a}-{c.gear_b}) along its line of action "
-                  "(0 = contact loss)"),
+                  "(0 = contact loss)", display_unit="kN", nominal=f_nom),
                 V(f"{m_}.deflection", "Real", "output", "continuous", "m",
                   f"mesh deflection of mesh {mn}: approach of the loaded flanks along the line of action "
-                  "(dissertation Eqs. 3.4, 4.4)"),
+                  "(dissertation Eqs. 3.4, 4.4)", display_unit="µm", nominal=x_nom),
                 V(f"{m_}.dte", "Real", "output", "continuous", "m",
-                  f"dynamic transmission error of mesh {mn}: rotational part of its mesh deflection"),
+                  f"dynamic transmission error of mesh {mn}: rotational part of its mesh deflection",
+                  display_unit="µm", nominal=x_nom),
                 V(f"{m_}.position", "Real", "output", "continuous", "1",
                   f"mesh position of mesh {mn} in mesh cycles (integer = pitch-point contact of a tooth pair), "
-                  "unwrapped"),
-                V(f"{m_}.contact", "Real", "output", "continuous", "1",
-                  f"contact state of mesh {mn}: 1 = teeth in contact (mesh force > 0), 0 = contact loss"),
+                  "unwrapped", nominal=1.0),
+                V(f"{m_}.contact", "Enumeration", "output", "discrete", "",
+                  f"contact state of mesh {mn} at the end of the step (separated = contact loss)",
+                  declared_type="ContactState"),
                 V(f"{m_}.peak_pressure", "Real", "output", "continuous", "Pa",
-                  f"maximum contact pressure over all teeth of mesh {mn} (table lookup)"),
+                  f"maximum contact pressure over all teeth of mesh {mn} (table lookup)", display_unit="MPa",
+                  nominal=pressure[k]),
             ]
-        for g in self.gear_names:
+        f_max = max((f for f in nom["force"] if f), default=None)
+        for i, g in enumerate(self.gear_names):
             g_ = ident(g)
+            w_nom = abs(sy.gears[g].speed_ratio) * w_res or None
             spec += [
-                V(f"{g_}.angle", "Real", "output", "continuous", "rad", f"rotation angle of gear {g} in its sense of rotation"),
-                V(f"{g_}.speed", "Real", "output", "continuous", "rad/s", f"speed of gear {g} in its sense of rotation"),
+                V(f"{g_}.angle", "Real", "output", "continuous", "rad",
+                  f"rotation angle of gear {g} in its sense of rotation", display_unit="deg"),
+                V(f"{g_}.speed", "Real", "output", "continuous", "rad/s", f"speed of gear {g} in its sense of rotation",
+                  display_unit="rpm", nominal=w_nom),
                 V(f"{g_}.bearing_force_x", "Real", "output", "continuous", "N",
-                  f"force of gear {g} on its bearing, x component (fixed frame of the model's gear placement)"),
+                  f"force of gear {g} on its bearing, x component (fixed frame of the model's gear placement)",
+                  display_unit="kN", nominal=f_max),
                 V(f"{g_}.bearing_force_y", "Real", "output", "continuous", "N",
-                  f"force of gear {g} on its bearing, y component (fixed frame)"),
+                  f"force of gear {g} on its bearing, y component (fixed frame)", display_unit="kN", nominal=f_max),
             ]
         for gauge in self.gauges:
             gear, _, gname = gauge.partition("/")
             z = sy.gears[gear].teeth if gear in sy.gears else 0
             spec.append(V(f"{ident(gear)}.{ident(gname or gear)}.root_strain", "Real", "output", "continuous", "1",
                           f"root strain at gauge '{gauge}' of tooth 0 of {gear} (in mesh every {z} mesh cycles, "
-                          "all its meshes superposed; table lookup)"))
+                          "all its meshes superposed; table lookup)", display_unit="µε", nominal=nom["strain"][gauge]))
         names = [v.name for v in spec]
         if len(set(names)) != len(names):
             raise ModelError(f"FMU variable names are not unique: {names}")
         return tuple(spec)
 
+    def _static_pressures(self) -> list:
+        out = []
+        for k in range(self.base_system.m):
+            try:
+                p = float(self.sim.peak_pressure_Pa(k))
+            except HacgearError:
+                p = 0.0
+            out.append(p if p > 0 and math.isfinite(p) else None)
+        return out
+
     # ------------------------------------------------------------------ outputs
-    def getters(self) -> dict[str, Callable[[], float]]:
-        """Output name -> zero-argument getter returning a Python float for the current step (the simulator's own
-        outputs, kept current by its ``advance``, and the table post-processing)."""
+    def getters(self) -> dict[str, Callable[[], float | int]]:
+        """Output name -> zero-argument getter of its current value: a Python float (Real) or int (Enumeration)
+        from the simulator's own outputs, kept current by its ``advance``, and the table post-processing."""
         a = self
-        out: dict[str, Callable[[], float]] = {}
+        out: dict[str, Callable[[], float | int]] = {}
         for k, mn in enumerate(self.mesh_names):
             m_ = ident(mn)
             out[f"{m_}.force"] = (lambda k: lambda: a.sim.mesh_force_N[k])(k)
             out[f"{m_}.deflection"] = (lambda k: lambda: a.sim.mesh_deflection_m[k])(k)
             out[f"{m_}.dte"] = (lambda k: lambda: a.sim.dynamic_transmission_error_m[k])(k)
             out[f"{m_}.position"] = (lambda k: lambda: a.sim.mesh_position[k])(k)
-            out[f"{m_}.contact"] = (lambda k: lambda: 1.0 if a.sim.mesh_force_N[k] > 0.0 else 0.0)(k)
+            out[f"{m_}.contact"] = (lambda k: lambda: contact_state(a.sim.mesh_force_N[k]))(k)
             out[f"{m_}.peak_pressure"] = (lambda k: lambda: a.sim.peak_pressure_Pa(k))(k)
         for i, g in enumerate(self.gear_names):
             g_ = ident(g)
@@ -199,14 +306,21 @@ class Adapter:
         h = float(values["internal_step"]) or None
         key = self._key(float(values["torque"]), float(values["modal_damping_ratio"]), bearings, h, shafts)
         if key != self._built_key:
-            model = self.model
-            if bearings != self._bearings_of(self.base_system):
-                gears = tuple(replace(g, support=replace(g.support, translational_stiffness_N_per_m=k))
-                              for g, k in zip((model.gear(n) for n in self.gear_names), bearings))
-                model = replace(model, gears=gears)
-            system = build_system(model, self.tables, torque_Nm=float(values["torque"]),
-                                  modal_damping_ratio=float(values["modal_damping_ratio"]), shafts=shafts)
-            self.sim = Simulator(system, internal_step_s=h)
+            sim = self._simulators.pop(key, None)
+            if sim is None:
+                model = self.model
+                if bearings != self._bearings_of(self.base_system):
+                    gears = tuple(replace(g, support=replace(g.support, translational_stiffness_N_per_m=k))
+                                  for g, k in zip((model.gear(n) for n in self.gear_names), bearings))
+                    model = replace(model, gears=gears)
+                system = build_system(model, self.tables, torque_Nm=float(values["torque"]),
+                                      modal_damping_ratio=float(values["modal_damping_ratio"]), shafts=shafts)
+                sim = Simulator(system, internal_step_s=h)
+            # keep the last few simulators: masters that reset and re-initialize do not assemble again
+            self._simulators[self._built_key] = self.sim
+            while len(self._simulators) > 4:
+                self._simulators.pop(next(iter(self._simulators)))
+            self.sim = sim
             self._built_key = key
         self.mode = mode
         ref = ident(self.ref)
@@ -255,6 +369,19 @@ class Adapter:
         """Internal step the simulator would use now [s]."""
         return float(self.sim.current_internal_step_s)
 
+    # ------------------------------------------------------------------ state snapshots (FMI get/set FMU state)
+    def get_state(self) -> dict:
+        """Snapshot of everything a later :meth:`advance` and the outputs depend on (the simulator's own
+        :meth:`~hacgear_core.dynamics.simulator.Simulator.get_state`, the experiment and the last inputs)."""
+        return {"sim": self.sim.get_state(), "mode": self.mode, "last_inputs": self._last_inputs}
+
+    def set_state(self, snap: dict) -> None:
+        """Restore a :meth:`get_state` snapshot taken with the same parameters (the caller configures first)."""
+        self.sim.set_state(snap["sim"])
+        self.mode = snap["mode"]
+        li = snap["last_inputs"]
+        self._last_inputs = None if li is None else tuple(li)
+
 
 def load_resources(resources: str | Path):
     """Model and tables from an FMU's (or a build's) resources folder, or a model folder (model.toml, tables.h5);
@@ -268,10 +395,30 @@ def load_resources(resources: str | Path):
     return model, tables
 
 
-def make_adapter(resources: str | Path) -> Adapter:
-    """The adapter of the system in ``resources`` (see :func:`load_resources`)."""
+def make_adapter(resources: str | Path, cache_file: str | Path | None = None) -> Adapter:
+    """The adapter of the system in ``resources`` (see :func:`load_resources`).
+
+    ``cache_file``: where the assembled lumped system and nominal values are kept between processes (pickle;
+    read when present, written when not; unreadable or unwritable files are ignored): the key must identify the
+    model, the tables and the code (an FMU's GUID does).
+    """
     model, tables = load_resources(resources)
-    return Adapter(model, tables)
+    if cache_file is not None:
+        path = Path(cache_file)
+        try:
+            return Adapter(model, tables, prepared=pickle.loads(path.read_bytes()))
+        except Exception:  # no cache yet, or one that does not fit: assemble
+            pass
+    adapter = Adapter(model, tables)
+    if cache_file is not None:
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            tmp = path.with_name(f".{path.name}.{os.getpid()}")
+            tmp.write_bytes(pickle.dumps(adapter.prepared(), protocol=pickle.HIGHEST_PROTOCOL))
+            os.replace(tmp, path)
+        except OSError:
+            pass
+    return adapter
 
 
 def variables_for(resources: str | Path) -> tuple[FmuVariable, ...]:

@@ -1,6 +1,6 @@
 """Drivetrain bench on fmpy's low-level API: motor -> shaft -> gear-system FMU -> shaft -> load.
 
-The gear system is a hacgear FMU in drivetrain mode (``mode = 1``: shaft torques in on its two port gears, gear
+The gear system is a hacgear FMU in drivetrain mode (``mode = drivetrain`` (1): shaft torques in on its two port gears, gear
 angles and speeds out).  Everything else is plain Python, integrated by the bench with the FMU's communication
 step (semi-implicit Euler; the shaft torques are held over a step):
 
@@ -63,7 +63,8 @@ class BenchConfig:
 def run_drivetrain_bench(fmu_path: str | Path, config: BenchConfig = BenchConfig()) -> dict[str, np.ndarray]:
     """Run the bench; returns time series (SI): ``time_s``, ``speed_ref_rad_s``, ``motor_speed_rad_s``,
     ``input_speed_rad_s``, ``output_speed_rad_s``, ``load_speed_rad_s``, ``shaft1_torque_Nm``, ``shaft2_torque_Nm``,
-    per mesh ``<mesh>.force`` / ``<mesh>.dte`` / ``<mesh>.contact``, ``mesh_frequency_Hz``; and ``info`` (the FMU's
+    per mesh ``<mesh>.force`` / ``<mesh>.dte`` / ``<mesh>.contact`` (ContactState: 0 = separated),
+    ``mesh_frequency_Hz``; and ``info`` (the FMU's
     hacgear_fmu.json) with the port names."""
     cfg = config
     md = read_model_description(str(fmu_path))
@@ -109,7 +110,8 @@ def run_drivetrain_bench(fmu_path: str | Path, config: BenchConfig = BenchConfig
         for q in ("force", "dte", "contact"):
             res[f"{mn}.{q}"] = np.empty(n + 1)
     read = [vr[f"{inp}.angle"], vr[f"{inp}.speed"], vr[f"{out_g}.angle"], vr[f"{out_g}.speed"]]
-    read += [vr[f"{mn}.{q}"] for mn in meshes for q in ("force", "dte", "contact")]
+    read += [vr[f"{mn}.{q}"] for mn in meshes for q in ("force", "dte")]
+    read_contact = [vr[f"{mn}.contact"] for mn in meshes]  # Enumeration ContactState: 0 = separated
     fmu.instantiate()
     try:
         fmu.setupExperiment(startTime=0.0)
@@ -121,6 +123,7 @@ def run_drivetrain_bench(fmu_path: str | Path, config: BenchConfig = BenchConfig
         t = 0.0
         for k in range(n + 1):
             vals = fmu.getReal(read)
+            contact = fmu.getInteger(read_contact)
             a1, w1, a2, w2 = vals[:4]
             t_sh1 = k1 * (phi_m - a1) + c1 * (w_m - w1)
             t_sh2 = k2 * (phi_l - a2) + c2 * (w_l - w2)
@@ -129,10 +132,10 @@ def run_drivetrain_bench(fmu_path: str | Path, config: BenchConfig = BenchConfig
             for key, val in zip(keys, (t, w_ref, w_m, w1, w2, w_l, t_sh1, t_sh2)):
                 res[key][k] = val
             j = 4
-            for mn in meshes:
-                for q in ("force", "dte", "contact"):
-                    res[f"{mn}.{q}"][k] = vals[j]
-                    j += 1
+            for i, mn in enumerate(meshes):
+                res[f"{mn}.force"][k], res[f"{mn}.dte"][k] = vals[j], vals[j + 1]
+                res[f"{mn}.contact"][k] = contact[i]
+                j += 2
             if k == n:
                 break
             err = w_ref - w_m

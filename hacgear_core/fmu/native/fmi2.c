@@ -67,12 +67,16 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     if (!inst) {
         const char *e = error ? error : "unknown error";
         /* the reason reaches the user without debug logging: the logger (status Error) and stderr */
-        char *msg = (char *)malloc(strlen(e) + 64);
+        /* FMI 2.0 loggers take a printf format (masters written in Python do not format): '%' doubled */
+        char *msg = (char *)malloc(2 * strlen(e) + 64);
         if (msg) {
-            sprintf(msg, "instantiation failed: %s", e);
-            /* FMI 2.0 loggers are printf-like: the text goes in as an argument */
-            if (I->cb.logger)
-                I->cb.logger(I->cb.componentEnvironment, I->h.name, fmi2Error, "logStatusError", "%s", msg);
+            char *o = msg + sprintf(msg, "instantiation failed: ");
+            for (const char *p = e; *p; p++) {
+                if (*p == '%') *o++ = '%';
+                *o++ = *p;
+            }
+            *o = '\0';
+            if (I->cb.logger) I->cb.logger(I->cb.componentEnvironment, I->h.name, fmi2Error, "logStatusError", msg);
             free(msg);
         }
         fprintf(stderr, "hacgear FMU '%s': instantiation failed: %s\n", I->h.name, e);

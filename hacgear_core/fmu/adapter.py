@@ -102,7 +102,7 @@ class Adapter:
         #: outputs computed by table post-processing (guarded by the slave: NaN and a log line on failure)
         self.fallible = {v.name for v in self.variables if v.name.endswith((".peak_pressure", ".root_strain"))}
         self._last_inputs: tuple | None = None
-        self._simulators: dict = {}
+        self._systems: dict = {self._built_key[:3] + self._built_key[4:]: base}
         self.mode = MODE_SPEED
         self.input_checks: tuple = ()
         self.step_floor_s = 0.0
@@ -306,8 +306,9 @@ class Adapter:
         h = float(values["internal_step"]) or None
         key = self._key(float(values["torque"]), float(values["modal_damping_ratio"]), bearings, h, shafts)
         if key != self._built_key:
-            sim = self._simulators.pop(key, None)
-            if sim is None:
+            skey = key[:3] + key[4:]  # the lumped system does not depend on the internal step
+            system = self._systems.pop(skey, None)
+            if system is None:
                 model = self.model
                 if bearings != self._bearings_of(self.base_system):
                     gears = tuple(replace(g, support=replace(g.support, translational_stiffness_N_per_m=k))
@@ -315,12 +316,11 @@ class Adapter:
                     model = replace(model, gears=gears)
                 system = build_system(model, self.tables, torque_Nm=float(values["torque"]),
                                       modal_damping_ratio=float(values["modal_damping_ratio"]), shafts=shafts)
-                sim = Simulator(system, internal_step_s=h)
-            # keep the last few simulators: masters that reset and re-initialize do not assemble again
-            self._simulators[self._built_key] = self.sim
-            while len(self._simulators) > 4:
-                self._simulators.pop(next(iter(self._simulators)))
-            self.sim = sim
+            # keep the last few systems: masters that reset and re-initialize do not assemble them again
+            self._systems[skey] = system
+            while len(self._systems) > 8:
+                self._systems.pop(next(iter(self._systems)))
+            self.sim = Simulator(system, internal_step_s=h)
             self._built_key = key
         self.mode = mode
         ref = ident(self.ref)

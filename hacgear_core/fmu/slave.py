@@ -182,23 +182,29 @@ class FmuInstance:
         return get
 
     def _configure(self, parameters_only: bool = False) -> str:
-        """Check parameters and the chosen experiment's inputs, then build the simulator and put it at its initial
-        state (only when they changed since the last call; with ``parameters_only`` only when the parameters
-        changed); '' or the reasons."""
+        """Check the parameters and the chosen experiment's inputs, then build the simulator and put it at its
+        initial state (only when they changed since the last call); '' or the reasons.  With ``parameters_only``
+        (restoring an FMU state, which then sets the simulator's state): only the parameters are checked and
+        only a change of parameters rebuilds."""
         values = self.values
+        ad = self.adapter
         errors = [msg for v in self.var.values() if v.causality == "parameter" for msg in [v.check(values[v.name])]
                   if msg]
         if errors:
             return "; ".join(errors)
-        ad = self.adapter
-        mode = int(values["mode"])
-        inputs = ([f"{ad.ref_ident}.speed_in"] if mode == 0 else [f"{p}.torque_in" for p in ad.port_idents])
-        errors = [msg for n in inputs for msg in [ad.by_name[n].check(values[n])] if msg]
-        if errors:
-            return "; ".join(errors)
+        if parameters_only:
+            if self._configured_key is not None and self._keys(values)[0] == self._configured_key[0]:
+                return ""
+            # invalid inputs do not matter here (the restored state replaces the initial one): use start values
+            values = {n: (x if not ad.by_name[n].check(x) else ad.by_name[n].start) for n, x in values.items()}
+        else:
+            mode = int(values["mode"])
+            inputs = ([f"{ad.ref_ident}.speed_in"] if mode == 0 else [f"{p}.torque_in" for p in ad.port_idents])
+            errors = [msg for n in inputs for msg in [ad.by_name[n].check(values[n])] if msg]
+            if errors:
+                return "; ".join(errors)
         key = self._keys(values)
-        if key != self._configured_key and not (parameters_only and self._configured_key is not None
-                                                 and key[0] == self._configured_key[0]):
+        if key != self._configured_key:
             try:
                 ad.configure(values)
             except (HacgearError, ValueError, ArithmeticError) as exc:
@@ -288,7 +294,7 @@ class FmuInstance:
                 return self._error(f"{self._fn('DoStep')}: communication step size [s] must be finite and > 0, got "
                                    f"{h!r}")
             t = self.time
-            if current_time != t and not abs(current_time - t) <= 1e-9 * max(1.0, abs(t), h):
+            if current_time != t and not abs(current_time - t) <= 1e-9 * max(1.0, abs(t)):
                 return self._error(f"{self._fn('DoStep')}: currentCommunicationPoint = {current_time!r} s is not the "
                                    f"end of the previous step ({t!r} s)")
             ad = self.adapter
@@ -437,10 +443,9 @@ class FmuInstance:
                 return self._error(f"{self._fn('SetFMUstate')}: not a state of this FMU")
             self.values.clear()
             self.values.update(snap["values"])
-            if snap["adapter"] is not None:
-                msg = self._configure(parameters_only=True)
-                if msg:
-                    return self._error(f"{self._fn('SetFMUstate')}: {msg}")
+            # the simulator's state where it has one (a state taken while the parameters were invalid, in
+            # initialization or after an Error there, restores the values only)
+            if snap["adapter"] is not None and not self._configure(parameters_only=True):
                 self.adapter.set_state(snap["adapter"])
             self.state, self.time, self.stop_time = snap["state"], snap["time"], snap["stop_time"]
             return OK

@@ -96,6 +96,20 @@ static void hg_drain(HgInstance *h) {
     PyErr_Clear();
 }
 
+/* An Error the binary finds (null pointers, unknown FMU states...): logged and the instance put in its error state
+ * by FmuInstance._error, like the errors the instance finds itself. */
+static int hg_fail(HgInstance *h, const char *msg) {
+    PyObject *r = h->inst ? PyObject_CallMethod(h->inst, "_error", "s", msg) : NULL;
+    if (!r) {
+        PyErr_Clear();
+        h->emit(h, HG_ERROR, "logStatusError", msg);
+    } else {
+        Py_DECREF(r);
+    }
+    hg_drain(h);
+    return HG_ERROR;
+}
+
 /* Status of a method's result (a new reference, consumed); an escaped exception is logged as Error. */
 static int hg_status(HgInstance *h, PyObject *res, const char *call) {
     int st = HG_ERROR;
@@ -232,10 +246,7 @@ typedef int (*hg_conv_fn)(PyObject *item, void *dst, size_t i);
 static int hg_get(HgInstance *h, PyObject *method_or_null, const char *kind, const char *call,
                   const unsigned int *vr, size_t nvr, void *values, hg_conv_fn conv) {
     if (nvr == 0) return HG_OK;
-    if (!vr || !values) {
-        h->emit(h, HG_ERROR, "logStatusError", "null pointer for value references or values");
-        return HG_ERROR;
-    }
+    if (!vr || !values) return hg_fail(h, "null pointer for value references or values");
     PyObject *vrs = hg_vrs(vr, nvr);
     PyObject *res = NULL;
     if (vrs) {
@@ -275,8 +286,7 @@ static int hg_set(HgInstance *h, PyObject *method_or_null, const char *kind, con
     if (nvr == 0) { Py_DECREF(vals); return HG_OK; }
     if (!vr) {
         Py_DECREF(vals);
-        h->emit(h, HG_ERROR, "logStatusError", "null pointer for value references");
-        return HG_ERROR;
+        return hg_fail(h, "null pointer for value references");
     }
     PyObject *vrs = hg_vrs(vr, nvr);
     PyObject *res = NULL;

@@ -24,12 +24,23 @@ static void emit2(HgInstance *h, int status, const char *category, const char *m
     PyGILState_Release(gil);                        \
     return (fmi2Status)st;
 
+/* A function this FMU does not provide (its capability flag says so): Error, the instance in its error state. */
 static void unsupported(fmi2Component c, const char *what) {
     if (!c) return;
     Fmi2Instance *I = (Fmi2Instance *)c;
     char buf[256];
     snprintf(buf, sizeof buf, "%s is not supported by this FMU", what);
-    emit2(&I->h, HG_ERROR, "logStatusError", buf);
+    PyGILState_STATE gil = PyGILState_Ensure();
+    hg_fail(&I->h, buf);
+    PyGILState_Release(gil);
+}
+
+/* A status inquiry without an answer: Discard, logged, no change of state. */
+static void not_available(fmi2Component c, const char *what) {
+    if (!c) return;
+    char buf[256];
+    snprintf(buf, sizeof buf, "%s is not available from this FMU", what);
+    emit2(&((Fmi2Instance *)c)->h, HG_DISCARD, "logStatusDiscard", buf);
 }
 
 const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
@@ -240,7 +251,7 @@ fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
 fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
     ENTER(c)
     if (!FMUstate) {
-        emit2(H, HG_ERROR, "logStatusError", "fmi2GetFMUstate: FMUstate is a null pointer");
+        st = hg_fail(H, "fmi2GetFMUstate: FMUstate is a null pointer");
     } else {
         if (*FMUstate) hg_release_state(H, *FMUstate); /* a previous state of this instance is reused: replace */
         void *s = hg_get_state(H, "fmi2GetFMUstate");
@@ -254,7 +265,7 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate) {
     ENTER(c)
     PyObject *snap = hg_known_state(H, FMUstate);
     if (!snap) {
-        emit2(H, HG_ERROR, "logStatusError", "fmi2SetFMUstate: not an FMU state of this instance (freed or foreign)");
+        st = hg_fail(H, "fmi2SetFMUstate: not an FMU state of this instance (freed or foreign)");
     } else {
         st = hg_call(H, "set_state", "fmi2SetFMUstate", "(O)", snap);
     }
@@ -269,7 +280,7 @@ fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
             *FMUstate = NULL;
             st = HG_OK;
         } else {
-            emit2(H, HG_ERROR, "logStatusError", "fmi2FreeFMUstate: not an FMU state of this instance");
+            st = hg_fail(H, "fmi2FreeFMUstate: not an FMU state of this instance");
         }
     } else {
         st = HG_OK;
@@ -282,7 +293,7 @@ static PyObject *serialized(HgInstance *H, fmi2FMUstate state, const char *call)
     if (!snap) {
         char buf[160];
         snprintf(buf, sizeof buf, "%s: not an FMU state of this instance", call);
-        emit2(H, HG_ERROR, "logStatusError", buf);
+        hg_fail(H, buf);
         return NULL;
     }
     PyObject *b = PyObject_CallMethod(H->inst, "serialize_state", "(O)", snap);
@@ -309,7 +320,7 @@ fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate FMUstate, fmi2Byt
     if (b) {
         size_t n = (size_t)PyBytes_Size(b);
         if (!serializedState || size < n) {
-            emit2(H, HG_ERROR, "logStatusError", "fmi2SerializeFMUstate: buffer missing or smaller than "
+            st = hg_fail(H, "fmi2SerializeFMUstate: buffer missing or smaller than "
                                                  "fmi2SerializedFMUstateSize");
         } else {
             memcpy(serializedState, PyBytes_AsString(b), n);
@@ -324,7 +335,7 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedSta
                                    fmi2FMUstate *FMUstate) {
     ENTER(c)
     if (!FMUstate || (size && !serializedState)) {
-        emit2(H, HG_ERROR, "logStatusError", "fmi2DeSerializeFMUstate: null pointer");
+        st = hg_fail(H, "fmi2DeSerializeFMUstate: null pointer");
     } else {
         PyObject *b = PyBytes_FromStringAndSize(serializedState, (Py_ssize_t)size);
         PyObject *snap = b ? PyObject_CallMethod(H->inst, "deserialize_state", "(O)", b) : NULL;
@@ -374,13 +385,13 @@ fmi2Status fmi2CancelStep(fmi2Component c) {
 
 fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value) {
     (void)s; (void)value;
-    unsupported(c, "fmi2GetStatus (doStep is synchronous)");
+    not_available(c, "fmi2GetStatus (doStep is synchronous)");
     return fmi2Discard;
 }
 
 fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value) {
     if (s != fmi2LastSuccessfulTime || !value) {
-        unsupported(c, "fmi2GetRealStatus of a kind other than fmi2LastSuccessfulTime");
+        not_available(c, "fmi2GetRealStatus of a kind other than fmi2LastSuccessfulTime");
         return fmi2Discard;
     }
     ENTER(c)
@@ -398,7 +409,7 @@ fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *
 
 fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Integer *value) {
     (void)s; (void)value;
-    unsupported(c, "fmi2GetIntegerStatus");
+    not_available(c, "fmi2GetIntegerStatus");
     return fmi2Discard;
 }
 
@@ -407,13 +418,13 @@ fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boo
         *value = fmi2False; /* the FMU never asks to end the simulation */
         return fmi2OK;
     }
-    unsupported(c, "fmi2GetBooleanStatus of a kind other than fmi2Terminated");
+    not_available(c, "fmi2GetBooleanStatus of a kind other than fmi2Terminated");
     return fmi2Discard;
 }
 
 fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String *value) {
     (void)s; (void)value;
-    unsupported(c, "fmi2GetStringStatus");
+    not_available(c, "fmi2GetStringStatus");
     return fmi2Discard;
 }
 

@@ -26,11 +26,14 @@ static void emit3(HgInstance *h, int status, const char *category, const char *m
     PyGILState_Release(gil);                        \
     return (fmi3Status)st;
 
+/* A function this FMU does not provide (its capability flags say so): Error, the instance in its error state. */
 static fmi3Status unsupported(fmi3Instance c, const char *what) {
     if (c) {
         char buf[256];
         snprintf(buf, sizeof buf, "%s is not supported by this FMU", what);
-        emit3(&((Fmi3Instance *)c)->h, HG_ERROR, "logStatusError", buf);
+        PyGILState_STATE gil = PyGILState_Ensure();
+        hg_fail(&((Fmi3Instance *)c)->h, buf);
+        PyGILState_Release(gil);
     }
     return fmi3Error;
 }
@@ -198,7 +201,7 @@ static int conv_none(PyObject *o, void *dst, size_t i) { (void)o; (void)dst; (vo
 /* scalars only: nValues must equal nValueReferences */
 #define CHECK_N(fn)                                                                                       \
     if (nValues != nValueReferences) {                                                                    \
-        emit3(H, HG_ERROR, "logStatusError", fn ": nValues must equal nValueReferences (no array variables)"); \
+        st = hg_fail(H, fn ": nValues must equal nValueReferences (no array variables)");                   \
         LEAVE()                                                                                           \
     }
 
@@ -502,7 +505,7 @@ fmi3Status fmi3ActivateModelPartition(fmi3Instance c, fmi3ValueReference clockRe
 fmi3Status fmi3GetFMUState(fmi3Instance c, fmi3FMUState *FMUState) {
     ENTER(c)
     if (!FMUState) {
-        emit3(H, HG_ERROR, "logStatusError", "fmi3GetFMUState: FMUState is a null pointer");
+        st = hg_fail(H, "fmi3GetFMUState: FMUState is a null pointer");
     } else {
         if (*FMUState) hg_release_state(H, *FMUState);
         void *s = hg_get_state(H, "fmi3GetFMUState");
@@ -516,7 +519,7 @@ fmi3Status fmi3SetFMUState(fmi3Instance c, fmi3FMUState FMUState) {
     ENTER(c)
     PyObject *snap = hg_known_state(H, FMUState);
     if (!snap) {
-        emit3(H, HG_ERROR, "logStatusError", "fmi3SetFMUState: not an FMU state of this instance (freed or foreign)");
+        st = hg_fail(H, "fmi3SetFMUState: not an FMU state of this instance (freed or foreign)");
     } else {
         st = hg_call(H, "set_state", "fmi3SetFMUState", "(O)", snap);
     }
@@ -531,7 +534,7 @@ fmi3Status fmi3FreeFMUState(fmi3Instance c, fmi3FMUState *FMUState) {
             *FMUState = NULL;
             st = HG_OK;
         } else {
-            emit3(H, HG_ERROR, "logStatusError", "fmi3FreeFMUState: not an FMU state of this instance");
+            st = hg_fail(H, "fmi3FreeFMUState: not an FMU state of this instance");
         }
     } else {
         st = HG_OK;
@@ -544,7 +547,7 @@ static PyObject *serialized3(HgInstance *H, fmi3FMUState state, const char *call
     if (!snap) {
         char buf[160];
         snprintf(buf, sizeof buf, "%s: not an FMU state of this instance", call);
-        emit3(H, HG_ERROR, "logStatusError", buf);
+        hg_fail(H, buf);
         return NULL;
     }
     PyObject *b = PyObject_CallMethod(H->inst, "serialize_state", "(O)", snap);
@@ -571,7 +574,7 @@ fmi3Status fmi3SerializeFMUState(fmi3Instance c, fmi3FMUState FMUState, fmi3Byte
     if (b) {
         size_t n = (size_t)PyBytes_Size(b);
         if (!serializedState || size < n) {
-            emit3(H, HG_ERROR, "logStatusError", "fmi3SerializeFMUState: buffer missing or smaller than "
+            st = hg_fail(H, "fmi3SerializeFMUState: buffer missing or smaller than "
                                                  "fmi3SerializedFMUStateSize");
         } else {
             memcpy(serializedState, PyBytes_AsString(b), n);
@@ -586,7 +589,7 @@ fmi3Status fmi3DeserializeFMUState(fmi3Instance c, const fmi3Byte serializedStat
                                    fmi3FMUState *FMUState) {
     ENTER(c)
     if (!FMUState || (size && !serializedState)) {
-        emit3(H, HG_ERROR, "logStatusError", "fmi3DeserializeFMUState: null pointer");
+        st = hg_fail(H, "fmi3DeserializeFMUState: null pointer");
     } else {
         PyObject *b = PyBytes_FromStringAndSize((const char *)serializedState, (Py_ssize_t)size);
         PyObject *snap = b ? PyObject_CallMethod(H->inst, "deserialize_state", "(O)", b) : NULL;

@@ -136,6 +136,7 @@ class Adapter:
             e_tot = float(w[j] ** 2 * phi[:, j] @ sy.M @ phi[:, j])
             if e_tot > 0 and e_mesh / e_tot > best:
                 best, fm = e_mesh / e_tot, float(w[j] / (2 * math.pi))
+        out["pressure"] = self._static_pressures()
         out["resonance_mesh_frequency_Hz"] = fm
         out["resonance_speed_rad_s"] = sy.reference_speed(fm)
         out["strain"] = {}
@@ -204,7 +205,7 @@ class Adapter:
             spec.append(V(f"{ident(g)}.torque_in", "Real", "input", "continuous", "N.m",
                           f"drivetrain mode: shaft torque on gear {g}, positive in its sense of rotation ({role})",
                           port_t[g], -1e6, 1e6, nominal=abs(port_t[g]) or None))
-        pressure = self._static_pressures()
+        pressure = nom["pressure"]
         for k, mn in enumerate(self.mesh_names):
             c = sy.meshes[k]
             m_ = ident(mn)
@@ -266,6 +267,20 @@ class Adapter:
         return out
 
     # ------------------------------------------------------------------ outputs
+    def output_expressions(self) -> dict[str, str]:
+        """Output name -> Python expression of its value in terms of ``s`` (the simulator), for the outputs that
+        are plain attributes of the simulator (the per-step fast path of the slave's getReal; the others have
+        only :meth:`getters`)."""
+        out = {}
+        for k, mn in enumerate(self.mesh_names):
+            m_ = ident(mn)
+            out.update({f"{m_}.force": f"s.mesh_force_N[{k}]", f"{m_}.deflection": f"s.mesh_deflection_m[{k}]",
+                        f"{m_}.dte": f"s.dynamic_transmission_error_m[{k}]",
+                        f"{m_}.position": f"s.mesh_position[{k}]"})
+        for i, g in enumerate(self.gear_names):
+            out.update({f"{ident(g)}.angle": f"s.angle_rad[{i}]", f"{ident(g)}.speed": f"s.speed_rad_s[{i}]"})
+        return out
+
     def getters(self) -> dict[str, Callable[[], float | int]]:
         """Output name -> zero-argument getter of its current value: a Python float (Real) or int (Enumeration)
         from the simulator's own outputs, kept current by its ``advance``, and the table post-processing."""

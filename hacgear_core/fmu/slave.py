@@ -146,6 +146,10 @@ class FmuInstance:
         self.stop_time: float | None = None
         self._configured_key = None
         self._issued: dict[int, object] = {}  # FMU states handed to the binary, by address
+        self._inputs_changed = True
+        self._long_step_s = 0.0
+        self._advance = None
+        self._readers: dict = {}
         for note in notes:
             self.log(WARNING, str(note))
 
@@ -194,6 +198,7 @@ class FmuInstance:
             return "; ".join(errors)
         if parameters_only:
             if self._configured_key is not None and self._keys(values)[0] == self._configured_key[0]:
+                self._bind()
                 return ""
             # invalid inputs do not matter here (the restored state replaces the initial one): use start values
             values = {n: (x if not ad.by_name[n].check(x) else ad.by_name[n].start) for n, x in values.items()}
@@ -211,7 +216,15 @@ class FmuInstance:
                 self._configured_key = None
                 return str(exc)
             self._configured_key = key
+        self._bind()
         return ""
+
+    def _bind(self) -> None:
+        """The per-step path of the simulator configured now (see :meth:`do_step`)."""
+        ad = self.adapter
+        self._advance = ad.sim.advance
+        self._long_step_s = MAX_SUBSTEPS_PER_STEP * ad.step_floor_s
+        self._inputs_changed = True
 
     def _keys(self, values: dict) -> tuple:
         """(parameter values, input values): what the simulator was configured with."""
@@ -297,23 +310,25 @@ class FmuInstance:
             if current_time != t and not abs(current_time - t) <= 1e-9 * max(1.0, abs(t)):
                 return self._error(f"{self._fn('DoStep')}: currentCommunicationPoint = {current_time!r} s is not the "
                                    f"end of the previous step ({t!r} s)")
-            ad = self.adapter
-            values = self.values
-            for name, lo, hi in ad.input_checks:
-                if not (lo <= values[name] <= hi):  # False for NaN
-                    return self._error(f"{self._fn('DoStep')} at t = {t:g} s: {ad.by_name[name].check(values[name])}; "
-                                       "step refused, state unchanged")
-            ad.apply_inputs(values)
-            if h > MAX_SUBSTEPS_PER_STEP * ad.step_floor_s:  # only then can the step be too long: ask exactly
-                hi_ = ad.internal_step()
+            if self._inputs_changed:  # check and apply the inputs only when the master set them
+                ad = self.adapter
+                values = self.values
+                for name, lo, hi in ad.input_checks:
+                    if not (lo <= values[name] <= hi):  # False for NaN
+                        return self._error(f"{self._fn('DoStep')} at t = {t:g} s: "
+                                           f"{ad.by_name[name].check(values[name])}; step refused, state unchanged")
+                ad.apply_inputs(values)
+                self._inputs_changed = False
+            if h > self._long_step_s:  # only then can the step need too many internal steps: ask exactly
+                hi_ = self.adapter.internal_step()
                 if h / hi_ > MAX_SUBSTEPS_PER_STEP:
                     self.log(DISCARD, f"{self._fn('DoStep')}: communication step {h:g} s needs {h / hi_:.3g} internal "
                                       f"steps of {hi_:.3g} s (limit {MAX_SUBSTEPS_PER_STEP:g}); use shorter steps")
                     self.state = STEP_FAILED
                     return DISCARD
-            msg = ad.advance(h)
-            if msg:
-                self.log(DISCARD, f"{self._fn('DoStep')} at t = {t:g} s: {msg}")
+            r = self._advance(h)
+            if not r.success:
+                self.log(DISCARD, f"{self._fn('DoStep')} at t = {t:g} s: {r.message}")
                 self.state = STEP_FAILED
                 return DISCARD
             self.time = current_time + h
@@ -335,14 +350,45 @@ class FmuInstance:
 
     def get_real(self, vrs) -> list | None:
         """fmiGetReal/GetFloat64: the values of the Real variables ``vrs`` (a list of floats), or None (Error,
-        logged)."""
+        logged).  In step mode a master's repeated request (the same value references every step) is answered by
+        one function compiled for it (:meth:`_reader`)."""
         if self.state == STEP or self.state == TERMINATED:
             try:
-                get = self._real_get
-                return [get[vr]() for vr in vrs]
+                return self._readers[vrs]()
+            except KeyError:
+                try:
+                    reader = self._reader(vrs)
+                except Exception:
+                    reader = None
+                if reader is not None:
+                    return reader()
             except Exception:
                 pass
         return self.get_values("real", vrs)
+
+    def _reader(self, vrs):
+        """A function returning the values of the Real variables ``vrs`` (a tuple) as a list: the simulator's
+        attributes read directly (:meth:`Adapter.output_expressions`), parameters and inputs from the stored
+        values, other outputs through their getters.  None when a reference is not a Real variable."""
+        if not isinstance(vrs, tuple) or len(self._readers) >= 64:
+            return None
+        exprs = self.adapter.output_expressions()
+        items = []
+        for vr in vrs:
+            v = self.var.get(vr)
+            if v is None or v.type != "Real":
+                return None
+            if v is TIME:
+                items.append("inst.time")
+            elif v.causality == "output":
+                items.append(exprs.get(v.name) or f"get[{vr!r}]()")
+            else:
+                items.append(f"values[{v.name!r}]")
+        src = f"def read():\n    s = ad.sim\n    return [{', '.join(items)}]\n"
+        ns = {"ad": self.adapter, "get": self._get, "values": self.values, "inst": self}
+        exec(compile(src, "<hacgear getReal>", "exec"), ns)
+        self._readers[vrs] = ns["read"]
+        return ns["read"]
 
     def get_values(self, kind: str, vrs) -> list | None:
         """Values of ``vrs`` through the access family ``kind`` (``real``, ``integer``, ``int64``, ``boolean``,
@@ -385,6 +431,7 @@ class FmuInstance:
                 if all(vr in ok for vr in vrs):
                     for vr, x in zip(vrs, values):
                         vals[var[vr].name] = float(x)
+                    self._inputs_changed = True
                     return OK
             except Exception:
                 pass
@@ -416,6 +463,7 @@ class FmuInstance:
                                        "initialization ends")
                 new.append((v.name, conv(x)))
             self.values.update(new)
+            self._inputs_changed = True
             return OK
         except Exception as exc:
             return self._error(f"{self._fn(call)}: {type(exc).__name__}: {exc}")
@@ -447,6 +495,7 @@ class FmuInstance:
             # initialization or after an Error there, restores the values only)
             if snap["adapter"] is not None and not self._configure(parameters_only=True):
                 self.adapter.set_state(snap["adapter"])
+            self._inputs_changed = True
             self.state, self.time, self.stop_time = snap["state"], snap["time"], snap["stop_time"]
             return OK
         except Exception as exc:

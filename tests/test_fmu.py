@@ -122,7 +122,7 @@ class _Low:
                 f = self.fmu.setFloat64 if self.v3 else self.fmu.setReal
                 worst = max(worst, status(f, [self.vr[k]], [float(v)]))
             else:
-                f = self.fmu.setInt64 if self.v3 else self.fmu.setInteger
+                f = (self.fmu.setInt64 if t == "Enumeration" else self.fmu.setInt32) if self.v3 else self.fmu.setInteger
                 worst = max(worst, status(f, [self.vr[k]], [int(v)]))
         return worst
 
@@ -187,7 +187,7 @@ def test_model_description_fmi2(built):
                 assert float(t.get("min")) <= float(t.get("start")) <= float(t.get("max"))
         if v.type == "Real" and t.get("displayUnit"):
             assert t.get("displayUnit") in displays[t.get("unit")]
-    assert by["mode"].find("Enumeration").get("declaredType") == "Experiment"
+    assert by["mode"].find("Integer").get("min") == "0" and by["mode"].find("Integer").get("max") == "1"
     assert by["m12.contact"].find("Enumeration").get("declaredType") == "ContactState"
     assert by["m12.contact"].get("variability") == "discrete"
     assert by["pinion.speed"].find("Real").get("displayUnit") == "rpm"
@@ -217,7 +217,7 @@ def test_model_description_fmi3_and_bundle(built):
     mv = list(root.find("ModelVariables"))
     assert mv[0].tag == "Float64" and mv[0].get("causality") == "independent" and mv[0].get("valueReference") == "0"
     tags = {v.get("name"): v.tag for v in mv}
-    assert tags["mode"] == "Enumeration" and tags["m12.contact"] == "Enumeration" and tags["m12.force"] == "Float64"
+    assert tags["mode"] == "Int32" and tags["m12.contact"] == "Enumeration" and tags["m12.force"] == "Float64"
     outs = {v.get("valueReference") for v in mv if v.get("causality") == "output"}
     assert {o.get("valueReference") for o in root.find("ModelStructure").findall("Output")} == outs
     assert {o.get("valueReference") for o in root.find("ModelStructure").findall("InitialUnknown")} == outs
@@ -261,8 +261,8 @@ def test_field_checks_name_value_unit_and_range():
     msg = v.check(float("nan"))
     assert "torque" in msg and "N.m" in msg and "[0, 10]" in msg and "nan" in msg
     assert "= 11.0" in v.check(11.0) and "outside" in v.check(11.0)
-    e = hf.FmuVariable("mode", "Enumeration", "parameter", "fixed", "", "switch", 0, declared_type="Experiment")
-    assert e.check(1) == "" and "constant_speed" in e.check(7)
+    e = hf.FmuVariable("contact", "Enumeration", "output", "discrete", "", "state", declared_type="ContactState")
+    assert e.check(2) == "" and "drive_flank" in e.check(7)
     with pytest.raises(ValueError):
         hf.FmuVariable("x", "Real", "output", "continuous", "furlong", "bad unit")
     with pytest.raises(ValueError):
@@ -501,7 +501,7 @@ def test_bad_parameters_fail_initialization_with_a_message(built, version):
     low = _Low(built[version]["spur_28t_asym"])
     try:
         assert low.enter() == OK and low.set(mode=5) == OK and low.exit() == ERROR
-        assert "not an item of Experiment" in low.text()
+        assert "mode' = 5.0 is outside the allowed range [0, 1]" in low.text()
     finally:
         low.close()
 

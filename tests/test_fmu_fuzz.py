@@ -131,7 +131,7 @@ class Driver:
         f = self.fmu
         self.set_real = f.setFloat64 if self.v3 else f.setReal
         self.get_real = f.getFloat64 if self.v3 else f.getReal
-        self.set_enum = f.setInt64 if self.v3 else f.setInteger
+        self.set_int = f.setInt32 if self.v3 else f.setInteger
         self.get_enum = f.getInt64 if self.v3 else f.getInteger
         self.get_state = f.getFMUState if self.v3 else f.getFMUstate
         self.set_state = f.setFMUState if self.v3 else f.setFMUstate
@@ -230,7 +230,7 @@ def run_sequence(drv: Driver, model: Model, seq, counter: Counter) -> None:
                 want = OK
             expect(got, want, f"set {name} = {v!r}")
         elif kind == "set_mode":
-            got = _status(drv.set_enum, [vr["mode"]], [op[1]])[0]
+            got = _status(drv.set_int, [vr["mode"]], [op[1]])[0]
             if model.state not in ("instantiated", "initialization"):
                 want = model.fail()
             else:
@@ -241,8 +241,8 @@ def run_sequence(drv: Driver, model: Model, seq, counter: Counter) -> None:
             got = _status(drv.set_real, [vr[op[1]]], [1.0])[0]
             expect(got, model.fail(), f"set output {op[1]}")
         elif kind == "set_wrong_type":
-            got = _status(drv.set_real, [vr["mode"]], [1.0])[0]  # an Enumeration through the Real setter
-            expect(got, model.fail(), "setReal of an Enumeration")
+            got = _status(drv.set_real, [vr["mode"]], [1.0])[0]  # an Integer through the Real setter
+            expect(got, model.fail(), "setReal of an Integer")
         elif kind == "enter":
             t0 = op[1]
             got = drv.enter(t0)
@@ -431,7 +431,7 @@ def test_nan_step_outputs_never_reach_the_master(fmus):
     vr = drv.vr
     try:
         assert drv.enter(0.0) == OK
-        drv.set_enum([vr["mode"]], [1])
+        drv.set_int([vr["mode"]], [1])
         drv.set_real([vr["pinion.torque_in"], vr["wheel.torque_in"]], [1e6, 1e6])
         drv.fmu.exitInitializationMode()
         outs = [vr[n] for n in ("m12.force", "pinion.speed", "m12.dte", "pinion.angle")]

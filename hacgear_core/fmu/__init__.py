@@ -28,12 +28,13 @@ __all__ = [
     "fmu_info",
     "value_references",
     "build_fmu",
+    "build_component_fmu",
     "model_description",
     "synthetic_system_folder",
     "fmu_file_name",
 ]
 
-_BUILD_NAMES = ("build_fmu", "model_description", "synthetic_system_folder", "fmu_file_name", "bundle_package",
+_BUILD_NAMES = ("build_fmu", "build_component_fmu", "model_description", "synthetic_system_folder", "fmu_file_name", "bundle_package",
                 "compile_binary")
 
 

@@ -6,10 +6,10 @@ kind-specific.  Names are structured (``<gear>.speed``, ``<mesh>.force``, ``<gea
 
 Two experiments, chosen by the parameter ``mode`` (fixed after initialization):
 
-* ``mode = constant_speed`` (0): input ``<reference gear>.speed_in``; the torque set-point is the parameter
+* ``mode = 0`` (constant speed): input ``<reference gear>.speed_in``; the torque set-point is the parameter
   ``torque`` on the input gear; the gear deviations are integrated around the imposed rotation, with the model's
   shaft stiffnesses (dissertation Eqs. 3.1, 4.1);
-* ``mode = drivetrain`` (1, drivetrain coupling): inputs ``<port>.torque_in`` (shaft torques on the port gears: the input
+* ``mode = 1`` (drivetrain coupling): inputs ``<port>.torque_in`` (shaft torques on the port gears: the input
   gear and the output gears); outputs ``<gear>.angle`` and ``<gear>.speed`` are the absolute gear motions to feed
   back into the shafts (the shafts belong to the drivetrain model: rotational supports are dropped).  Starts
   from rest relative to ``<reference gear>.speed_start``.
@@ -172,10 +172,10 @@ class Adapter:
         nom = self.nominal
         w_res = nom["resonance_speed_rad_s"]
         spec = [
-            V("mode", "Enumeration", "parameter", "fixed", "",
-              f"experiment: constant_speed = the reference gear {ref} turns at {ref}.speed_in, torque set-point = "
-              f"parameter torque; drivetrain = inputs <port>.torque_in on {', '.join(self.ports)}, outputs angles "
-              "and speeds", MODE_SPEED, declared_type="Experiment"),
+            V("mode", "Integer", "parameter", "fixed", "",
+              f"experiment: 0 = constant speed (the reference gear {ref} turns at {ref}.speed_in, torque set-point "
+              f"= parameter torque); 1 = drivetrain (inputs <port>.torque_in on {', '.join(self.ports)}, outputs "
+              "angles and speeds)", MODE_SPEED, 0, 1),
             V("torque", "Real", "parameter", "fixed", "N.m",
               f"nominal torque on the input gear {inp}: torque set-point of the constant-speed experiment; in both "
               "modes it sets the linearisation used for the modal damping", sy.torque_Nm, 1e-3, 1e6,
@@ -356,6 +356,12 @@ class Adapter:
         fm_max = 4.0 * max(abs(v.min), abs(v.max)) * sy.zref_2pi  # mesh frequency bound, margin for vibration [Hz]
         floor = min(1.0 / (32.0 * sy.max_frequency_Hz), 1.0 / (128.0 * fm_max))
         self.step_floor_s = min(floor, h) if h else floor
+
+    def active_inputs(self, values: dict) -> tuple[str, ...]:
+        """The inputs the experiment chosen in ``values`` reads (checked when initialization ends)."""
+        if int(values["mode"]) == MODE_SPEED:
+            return (f"{self.ref_ident}.speed_in",)
+        return tuple(f"{p}.torque_in" for p in self.port_idents)
 
     def input_names(self) -> tuple[str, ...]:
         """Inputs read in the current mode (only these are checked and applied)."""

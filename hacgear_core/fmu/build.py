@@ -35,13 +35,14 @@ from hacgear_core import __version__
 from hacgear_core.dynamics.synthetic import spur_fdf_table
 from hacgear_core.errors import HacgearError
 from hacgear_core.fmu import bootstrap
-from hacgear_core.fmu.adapter import MODEL_FILE, TABLES_FILE, Adapter, make_adapter
+from hacgear_core.fmu.adapter import MODEL_FILE, TABLES_FILE, make_adapter
+from hacgear_core.fmu.components import ComponentAdapter
 from hacgear_core.fmu.slave import FMU_INFO_FILE, value_references
 from hacgear_core.fmu.spec import DISPLAY_UNITS, ENUMERATIONS, TIME, UNITS
 from hacgear_core.model import load_model, model_sha256
 from hacgear_core.tables import SystemTables, write_tables
 
-__all__ = ["build_fmu", "model_description", "bundle_package", "compile_binary", "synthetic_system_folder",
+__all__ = ["build_fmu", "build_component_fmu", "model_description", "bundle_package", "compile_binary", "synthetic_system_folder",
            "REQUIREMENTS", "PYTHON_REQUIREMENT", "fmu_file_name"]
 
 #: Lowest versions of the importer's packages the FMUs are tested with (docs/fmu.md, "What the importer needs").
@@ -138,8 +139,10 @@ def _guid(info: dict) -> str:
     return "{" + f"{h[:8]}-{h[8:12]}-{h[12:16]}-{h[16:20]}-{h[20:32]}" + "}"
 
 
-def model_description(adapter: Adapter, info: dict, fmi_version: int = 2) -> bytes:
-    """modelDescription.xml (UTF-8) of the adapter's system for FMI 2.0 or 3.0 co-simulation.
+def model_description(adapter, info: dict, fmi_version: int = 2) -> bytes:
+    """modelDescription.xml (UTF-8) of an adapter's variables (a gear system's
+    :class:`~hacgear_core.fmu.adapter.Adapter` or a :class:`~hacgear_core.fmu.components.ComponentAdapter`) for
+    FMI 2.0 or 3.0 co-simulation.
 
     Value references are :func:`~hacgear_core.fmu.slave.value_references` of the spec (what the slave uses).
     """
@@ -265,34 +268,55 @@ def build_fmu(system_dir: str | Path, out_dir: str | Path, *, fmi_version: int =
     if not tables.exists():
         raise HacgearError(f"{system_dir}: no {TABLES_FILE} (run `hacgear statics {model.name}` first)")
     adapter = make_adapter(system_dir)  # refuses tables of another model
+    sy = adapter.base_system
+    info = {
+        "system": model.name, "kind": model.kind,
+        "description": f"hacgear {model.kind} FMU: {model.title or model.name}",
+        "ports": {g: {"speed_ratio": sy.gears[g].speed_ratio, "nominal_torque_Nm": adapter.sim.port_torques_Nm[g]}
+                  for g in adapter.ports},
+        "reference_gear": adapter.ref, "input_gear": sy.input_gear, "reference_teeth": sy.gears[adapter.ref].teeth,
+        "meshes": {m: {"nominal_force_N": float(f)} for m, f in zip(adapter.mesh_names, sy.nominal_forces_N())},
+        "resonance_mesh_frequency_Hz": adapter.nominal["resonance_mesh_frequency_Hz"],
+    }
+    files = {MODEL_FILE: system_dir / MODEL_FILE, TABLES_FILE: tables}
     out_dir.mkdir(parents=True, exist_ok=True)
-    dest = out_dir / fmu_file_name(model.name, fmi_version)
+    return _package(adapter, info, files, out_dir / fmu_file_name(model.name, fmi_version), fmi_version)
+
+
+def build_component_fmu(kind: str, out_dir: str | Path, *, fmi_version: int = 2) -> Path:
+    """Build ``<out_dir>/hacgear_<kind>.fmu`` (FMI 2.0) or ``..._fmi3.fmu``: a drivetrain component of the SSP
+    benches (:mod:`~hacgear_core.fmu.components`: ``motor``, ``shaft``, ``load``)."""
+    if fmi_version not in (2, 3):
+        raise HacgearError(f"FMI version must be 2 or 3, got {fmi_version!r}")
+    adapter = ComponentAdapter(kind)
+    name = f"hacgear_{kind}"
+    info = {"system": name, "kind": kind, "description": f"hacgear drivetrain component: {adapter.description}"}
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    return _package(adapter, info, {}, out_dir / fmu_file_name(name, fmi_version), fmi_version)
+
+
+def _package(adapter, info: dict, files: dict, dest: Path, fmi_version: int) -> Path:
+    """Write the FMU ``dest``: binary, modelDescription.xml, resources (``files``: name -> path), the loader and
+    the bundled code; ``info`` completed into hacgear_fmu.json."""
     with tempfile.TemporaryDirectory(prefix="hacgear_fmu_") as td:
         td = Path(td)
         res = td / "resources"
         res.mkdir()
-        shutil.copy2(system_dir / MODEL_FILE, res / MODEL_FILE)
-        shutil.copy2(tables, res / TABLES_FILE)
+        for name, path in files.items():
+            shutil.copy2(path, res / name)
         shutil.copy2(Path(bootstrap.__file__), res / bootstrap.BOOT_FILE)
         package, digest = bundle_package(res)
-        sy = adapter.base_system
-        info = {
-            "format": "hacgear-fmu", "format_version": 2, "system": model.name, "kind": model.kind,
-            "description": f"hacgear {model.kind} FMU: {model.title or model.name}",
-            "hacgear_version": __version__, "fmi_version": fmi_version, "python": PYTHON_REQUIREMENT,
-            "requirements": dict(REQUIREMENTS), "bundle": {"package": package, "sha256": digest},
-            "model_sha256": _sha256(res / MODEL_FILE), "tables_sha256": _sha256(res / TABLES_FILE),
-            "variables": [v.name for v in adapter.variables],
-            "ports": {g: {"speed_ratio": sy.gears[g].speed_ratio, "nominal_torque_Nm": adapter.sim.port_torques_Nm[g]}
-                      for g in adapter.ports},
-            "reference_gear": adapter.ref, "input_gear": sy.input_gear, "reference_teeth": sy.gears[adapter.ref].teeth,
-            "meshes": {m: {"nominal_force_N": float(f)} for m, f in zip(adapter.mesh_names, sy.nominal_forces_N())},
-            "default_experiment": adapter.default_experiment(),
-            "resonance_mesh_frequency_Hz": adapter.nominal["resonance_mesh_frequency_Hz"],
-        }
+        info = {"format": "hacgear-fmu", "format_version": 2, **info, "hacgear_version": __version__,
+                "fmi_version": fmi_version, "python": PYTHON_REQUIREMENT, "requirements": dict(REQUIREMENTS),
+                "bundle": {"package": package, "sha256": digest},
+                "model_sha256": _sha256(res / MODEL_FILE) if (res / MODEL_FILE).exists() else "",
+                "tables_sha256": _sha256(res / TABLES_FILE) if (res / TABLES_FILE).exists() else "",
+                "variables": [v.name for v in adapter.variables],
+                "default_experiment": adapter.default_experiment()}
         info["guid"] = _guid(info)
         (res / FMU_INFO_FILE).write_text(json.dumps(info, indent=1), encoding="utf-8")
-        binary = compile_binary(fmi_version, td / "binaries" / _PLATFORM[fmi_version] / f"{model.name}.so")
+        binary = compile_binary(fmi_version, td / "binaries" / _PLATFORM[fmi_version] / f"{info['system']}.so")
         xml = model_description(adapter, info, fmi_version)
         tmp = dest.with_name(dest.name + ".tmp")
         with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:

@@ -33,6 +33,7 @@ from pathlib import Path
 
 from hacgear_core.errors import HacgearError
 from hacgear_core.fmu.adapter import make_adapter
+from hacgear_core.fmu.components import COMPONENTS, ComponentAdapter
 from hacgear_core.fmu.spec import TIME, TYPES, FmuVariable
 
 __all__ = ["FMU_INFO_FILE", "FmuInstance", "fmu_info", "value_references", "MAX_SUBSTEPS_PER_STEP",
@@ -114,7 +115,10 @@ class FmuInstance:
             raise HacgearError(f"instantiation token {token!r} is not this FMU's ({self.info.get('guid')!r}): the "
                                "modelDescription.xml read by the master belongs to another FMU or build")
         cache_file = None if cache_dir is None else Path(cache_dir) / f"{str(token).strip('{}')}.pickle"
-        self.adapter = make_adapter(self.resources, cache_file)
+        if self.info.get("kind") in COMPONENTS:
+            self.adapter = ComponentAdapter(self.info["kind"])
+        else:
+            self.adapter = make_adapter(self.resources, cache_file)
         variables = self.adapter.variables
         names = [v.name for v in variables]
         if names != self.info.get("variables"):
@@ -203,9 +207,7 @@ class FmuInstance:
             # invalid inputs do not matter here (the restored state replaces the initial one): use start values
             values = {n: (x if not ad.by_name[n].check(x) else ad.by_name[n].start) for n, x in values.items()}
         else:
-            mode = int(values["mode"])
-            inputs = ([f"{ad.ref_ident}.speed_in"] if mode == 0 else [f"{p}.torque_in" for p in ad.port_idents])
-            errors = [msg for n in inputs for msg in [ad.by_name[n].check(values[n])] if msg]
+            errors = [msg for n in ad.active_inputs(values) for msg in [ad.by_name[n].check(values[n])] if msg]
             if errors:
                 return "; ".join(errors)
         key = self._keys(values)

@@ -20,6 +20,9 @@ UNITS: dict[str, dict[str, int]] = {
     "N/m": {"kg": 1, "s": -2},
     "Pa": {"kg": 1, "m": -1, "s": -2},
     "Hz": {"s": -1},
+    "kg.m2": {"kg": 1, "m": 2},
+    "N.m/rad": {"kg": 1, "m": 2, "s": -2, "rad": -1},
+    "N.m.s/rad": {"kg": 1, "m": 2, "s": -1, "rad": -1},
 }
 
 #: Display units per unit: name -> factor (display value = factor * SI value; FMI ``DisplayUnit``).
@@ -36,10 +39,6 @@ DISPLAY_UNITS: dict[str, dict[str, float]] = {
 
 #: Enumeration types: name -> (description, ((item name, value, description), ...)).
 ENUMERATIONS: dict[str, tuple[str, tuple[tuple[str, int, str], ...]]] = {
-    "Experiment": ("experiment of a hacgear gear-system FMU", (
-        ("constant_speed", 0, "the reference gear turns at the imposed speed input (dissertation experiment)"),
-        ("drivetrain", 1, "shaft torques in, gear angles and speeds out (coupling into a drivetrain)"),
-    )),
     "ContactState": ("state of a gear mesh's tooth contact", (
         ("separated", 0, "no tooth in contact (contact loss: the mesh force is zero)"),
         ("drive_flank", 1, "contact on the drive flanks (positive mesh force)"),
@@ -64,7 +63,8 @@ class FmuVariable:
         FMI name (structured naming convention: identifiers joined by ``.``).
     type : str
         ``"Real"``, ``"Integer"``, ``"Boolean"`` or ``"Enumeration"`` (then ``declared_type`` names one of
-        :data:`ENUMERATIONS`).  Discrete quantities (experiment, contact states) are never Real.
+        :data:`ENUMERATIONS`).  Discrete quantities are never Real: switches a master sets are Integer (libcosim,
+        for one, cannot set Enumeration variables), discrete outputs such as contact states are Enumerations.
     causality : str
         ``parameter`` | ``input`` | ``output`` | ``independent`` (time, FMI 3.0 only).
     variability : str

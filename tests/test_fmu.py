@@ -6,12 +6,10 @@ from __future__ import annotations
 import importlib.metadata as md_
 import json
 import math
-import os
 import re
 import shutil
 import subprocess
 import sys
-import sysconfig
 import zipfile
 from pathlib import Path
 from xml.etree import ElementTree as ET

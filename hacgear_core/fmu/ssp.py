@@ -168,7 +168,7 @@ def run_ssp_libcosim(ssp: str | Path, steps: int, step_s: float, record) -> dict
         out = {f"{c}.{v}": np.empty(steps + 1) for c, v in record}
         time = np.empty(steps + 1)
 
-        def sample(k):
+        def sample(k, ex=ex):
             for (c, v), (i, r, typ) in refs.items():
                 if typ == CosimVariableType.REAL.value:
                     out[f"{c}.{v}"][k] = obs.last_real_values(i, [r])[0]
@@ -183,7 +183,6 @@ def run_ssp_libcosim(ssp: str | Path, steps: int, step_s: float, record) -> dict
             ex.step(1)
             sample(k)
         out["time_s"] = time
-        del ex
         return out
     finally:
         shutil.rmtree(work, ignore_errors=True)

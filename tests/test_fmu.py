@@ -328,7 +328,7 @@ except Exception as exc:
     print('INSTANTIATE FAILED', log)
     raise SystemExit(0)
 vr = {{v.name: v.valueReference for v in md.modelVariables}}
-f.setupExperiment(startTime=0.0); f.enterInitializationMode(); f.setReal([vr['pinion.speed_in']], [300.0])
+f.setupExperiment(startTime=0.0); f.enterInitializationMode(); f.setReal([vr[{speed_in!r}]], [300.0])
 f.exitInitializationMode()
 for k in range(20):
     f.doStep(k * 1e-4, 1e-4)
@@ -338,22 +338,22 @@ f.terminate(); f.freeInstance()
 
 
 def test_fmu_runs_in_an_environment_without_hacgear(built, tmp_path):
-    """A Python with only numpy, scipy, h5py, numba and fmpy (and what they require): the FMU instantiates and
-    runs; without numba the instantiation fails and the log (debug logging off) and stderr say what is missing."""
-    fmu = str(built["fmu"]["spur_28t_asym"])
+    """A Python with only numpy, scipy, h5py, numba and fmpy (and what they require): the FMUs instantiate and
+    run; without numba the instantiation fails and the log (debug logging off) and stderr say what is missing."""
     full = _isolated_site(tmp_path / "site", ["numpy", "scipy", "h5py", "numba", "fmpy"])
-    p = subprocess.run([sys.executable, "-S", "-c", _ISOLATED_RUN.format(site=str(full), fmu=fmu)],
-                       capture_output=True, text=True, timeout=600)
-    assert p.returncode == 0, p.stdout[-2000:] + p.stderr[-3000:]
-    assert "FORCE" in p.stdout, p.stdout[-2000:] + p.stderr[-3000:]
-    force = float(p.stdout.split("FORCE")[1].split()[0])
-    assert 1e3 < force < 1e5
-    loaded = set(eval(p.stdout.split("FORCE")[1].split(None, 1)[1]))
-    assert {"numpy", "scipy", "h5py", "numba"} <= loaded and not {"hacgear_core", "tqdm", "pythonfmu"} & loaded
+    for system, speed_in in (("spur_28t_asym", "pinion.speed_in"), ("idler_28_33_39", "gear1.speed_in")):
+        code = _ISOLATED_RUN.format(site=str(full), fmu=str(built["fmu"][system]), speed_in=speed_in)
+        p = subprocess.run([sys.executable, "-S", "-c", code], capture_output=True, text=True, timeout=600)
+        assert p.returncode == 0, p.stdout[-2000:] + p.stderr[-3000:]
+        assert "FORCE" in p.stdout, p.stdout[-2000:] + p.stderr[-3000:]
+        force = float(p.stdout.split("FORCE")[1].split()[0])
+        assert 1e3 < force < 1e5, system
+        loaded = set(eval(p.stdout.split("FORCE")[1].split(None, 1)[1]))
+        assert {"numpy", "scipy", "h5py", "numba"} <= loaded and not {"hacgear_core", "tqdm", "pythonfmu"} & loaded
     lean = _isolated_site(tmp_path / "lean", ["numpy", "scipy", "h5py", "fmpy"])
     assert not (lean / "numba").exists()
-    p = subprocess.run([sys.executable, "-S", "-c", _ISOLATED_RUN.format(site=str(lean), fmu=fmu)],
-                       capture_output=True, text=True, timeout=600)
+    code = _ISOLATED_RUN.format(site=str(lean), fmu=str(built["fmu"]["spur_28t_asym"]), speed_in="pinion.speed_in")
+    p = subprocess.run([sys.executable, "-S", "-c", code], capture_output=True, text=True, timeout=600)
     assert p.returncode == 0 and "INSTANTIATE FAILED" in p.stdout, p.stdout[-2000:] + p.stderr[-3000:]
     assert "numba>=" in p.stdout and "is not installed" in p.stdout and "pip install" in p.stdout
     assert "(3," in p.stdout.split("INSTANTIATE FAILED")[1]  # logged with status Error (3)

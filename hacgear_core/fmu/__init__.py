@@ -1,8 +1,9 @@
 """FMI 2.0 and FMI 3.0 co-simulation FMUs of gear systems: :mod:`.spec` (variables declared once), :mod:`.adapter`
 (the one adapter of every kind: FMI variables <-> simulator), :mod:`.slave` (the FMI state machine and statuses
 the FMU's binary calls), :mod:`.bootstrap` (the loader that runs in the importer's Python), ``native/`` (the C
-sources of the FMU binaries), :mod:`.build` (FMU build, modelDescription.xml), :mod:`.bench` (drivetrain bench on
-fmpy's low-level API).
+sources of the FMU binaries), :mod:`.build` (FMU build, modelDescription.xml), :mod:`.components` (motor, shaft,
+load of the benches), :mod:`.bench` (drivetrain benches of any number of gear stages), :mod:`.ssp` (the benches as
+SSP files, run under fmpy and libcosim).
 
 Only the run-time modules are imported here; the build-time names (``build_fmu``, ``synthetic_system_folder``,
 ...) load :mod:`.build` on first use.

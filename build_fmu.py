@@ -1,15 +1,16 @@
 #!/usr/bin/env python
-"""Build FMI 2.0 co-simulation FMUs of the gear systems: ``dist/<system>.fmu``.
+"""Build FMI 2.0 and FMI 3.0 co-simulation FMUs of the gear systems: ``dist/<system>.fmu`` (FMI 2.0) and
+``dist/<system>_fmi3.fmu`` (FMI 3.0).
 
-    python build_fmu.py                      # every models/<system>/ that has tables.h5
-    python build_fmu.py --system spur_28t_asym --out dist
+    python build_fmu.py                      # every models/<system>/ that has tables.h5, both FMI versions
+    python build_fmu.py --system spur_28t_asym --fmi 2 --out dist
     python build_fmu.py --models /tmp/models --check   # other models folder; validate after building
 
-One FMU per system whose kind has a slave in ``fmu_src/`` (spur_pair, idler_chain, planetary).  The model file and its
-tables travel as FMU resources; the FMU runs its model in the importer's Python and checks at
-instantiation that the packages it names (hacgear, numpy, scipy, numba, h5py) are installed in
-compatible versions.  ``--check`` runs ``fmpy validate`` and ``fmutool -check`` on each FMU.
-Exit status: 0 when every requested FMU was built (and passed the checks), 1 otherwise.
+Each FMU is self-contained: the model file, its tables and the hacgear code travel inside it; the importer's
+Python needs only numpy, scipy, h5py and numba (an FMU says what is missing when it cannot run).  Building needs
+a C compiler and Python's headers (the FMU binary is compiled per build).  ``--check`` runs ``fmpy validate``
+and ``fmutool -check`` on each FMU.  Exit status: 0 when every requested FMU was built (and passed the checks),
+1 otherwise.
 """
 from __future__ import annotations
 
@@ -42,12 +43,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--system", action="append", help="system folder name in --models (repeatable; default: all)")
     ap.add_argument("--out", default=str(HERE / "dist"), help="output folder (default: dist/)")
     ap.add_argument("--models", default=str(HERE / "models"), help="models folder (default: models/)")
+    ap.add_argument("--fmi", choices=("2", "3", "all"), default="all",
+                    help="FMI version of the FMUs: 2, 3 or all (default: all)")
     ap.add_argument("--check", action="store_true", help="run fmpy validate and fmutool -check on each FMU")
     args = ap.parse_args(argv)
 
     from hacgear_core.errors import HacgearError
     from hacgear_core.fmu import build_fmu
 
+    versions = (2, 3) if args.fmi == "all" else (int(args.fmi),)
     models = Path(args.models)
     if args.system:
         dirs = [models / s for s in args.system]
@@ -68,22 +72,23 @@ def main(argv: list[str] | None = None) -> int:
             else:
                 print(f"build_fmu: {msg}")
             continue
-        try:
-            fmu = build_fmu(d, args.out, slave_dir=HERE / "fmu_src")
-        except HacgearError as exc:
-            print(f"build_fmu: error: {exc}", file=sys.stderr)
-            status = 1
-            continue
-        built += 1
-        print(f"build_fmu: {d.name} -> {fmu}")
-        if args.check:
-            problems = validate_fmu(fmu)
-            for p in problems:
-                print(f"build_fmu: {fmu.name}: {p}", file=sys.stderr)
-            if problems:
+        for version in versions:
+            try:
+                fmu = build_fmu(d, args.out, fmi_version=version)
+            except HacgearError as exc:
+                print(f"build_fmu: error: {d}: {exc}", file=sys.stderr)
                 status = 1
-            else:
-                print(f"build_fmu: {fmu.name}: fmpy validate and fmutool -check passed")
+                break
+            built += 1
+            print(f"build_fmu: {d.name} -> {fmu} (FMI {version}.0)")
+            if args.check:
+                problems = validate_fmu(fmu)
+                for p in problems:
+                    print(f"build_fmu: {fmu.name}: {p}", file=sys.stderr)
+                if problems:
+                    status = 1
+                else:
+                    print(f"build_fmu: {fmu.name}: fmpy validate and fmutool -check passed")
     if built == 0 and status == 0:
         print("build_fmu: nothing built (no model folder with tables.h5)")
     return status

@@ -1,209 +1,204 @@
 #!/usr/bin/env python
-"""FMU overhead: 1 s of simulated time through fmpy at a 1e-4 s communication step against the library run
-directly with the same internal step, in one process.
+"""FMU per-step cost: 1 s of simulated time at a 1e-4 s communication step (10 000 steps), in one process.
 
-Printed figures (wall seconds, best of ``--repeat``):
+Printed figures (CPU microseconds of this process per communication step, the best of ``--repeat`` runs taken
+in turns, so that other load on the machine affects all alike):
 
-* ``library advance``: :class:`~hacgear_core.dynamics.simulator.Simulator` stepped with ``advance(1e-4)``
-  10 000 times (the same communication grid, outputs read each step): the reference of the judged ratio;
-* ``library run``: one ``run(1.0, record_dt_s=1e-4)`` call (the kernel's own loop, no per-step Python);
-* ``fmpy simulate_fmu``: the FMU under ``fmpy.simulate_fmu`` (step 1e-4, outputs recorded every step);
-* ``fmpy low-level``: ``doStep`` + ``getReal`` of the same outputs on fmpy's FMU2Slave;
-* ``slave without importer`` (not judged): the FMU's Python slave class called directly (``do_step`` +
-  ``get_real``), i.e. the FMU's own per-step work; ``fmpy low-level`` minus this is what pythonfmu's C wrapper
-  and fmpy add per step;
-* instantiate-to-first-doStep time of the FMU in this (warm) process.
+* ``library advance``: :class:`~hacgear_core.dynamics.simulator.Simulator` stepped with ``advance(dt)``, the
+  same outputs read each step: the reference of the judged ratio;
+* ``FMU slave``: the FMU's own Python side (:class:`~hacgear_core.fmu.slave.FmuInstance` of the FMU's bundled
+  code, ``do_step`` + ``get_real`` of the same outputs) called directly: the FMU's own cost per step;
+* ``fmpy low-level``: ``doStep`` + ``getReal`` through fmpy's FMU2Slave, i.e. the FMU's binary and fmpy's
+  ctypes layer on top of the slave (reported, not judged: no slave can remove it);
+* ``fmpy simulate_fmu``: fmpy's high-level call with its recording (reported);
+* real-time factors (simulated time / CPU time) of the library, the slave and fmpy low-level at this step;
+* fresh processes: instantiate -> end of the first ``doStep`` in two successive fresh processes (the second
+  loads the compiled kernels and the assembled system from the per-user cache; goal <= 1 s).
 
-Judged ratio: fmpy simulate_fmu / library advance (goal <= 1.5).
+Judged: FMU slave / library advance (goal <= 1.25).
 
-    python benchmarks/bench_fmu.py [--fmu dist/spur_28t_asym.fmu] [--speed-rpm 3000] [--repeat 3]
+    python benchmarks/bench_fmu.py [--system spur_28t_asym] [--fmu FILE] [--speed-rpm 3000] [--repeat 5]
 """
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import shutil
+import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-OUTPUTS = ["m12.force", "m12.deflection", "m12.dte", "m12.position", "pinion.speed"]
-SPEED_IN = "pinion.speed_in"
+GOAL = 1.25
+
+_FRESH = r"""
+import json, shutil, time
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+p = {fmu!r}
+md = read_model_description(p); d = extract(p)
+vr = {{v.name: v.valueReference for v in md.modelVariables}}
+t0, c0 = time.perf_counter(), time.process_time()
+f = FMU2Slave(guid=md.guid, unzipDirectory=d, modelIdentifier=md.coSimulation.modelIdentifier, instanceName='x')
+f.instantiate(); f.setupExperiment(startTime=0.0); f.enterInitializationMode()
+f.setReal([vr[{speed_in!r}]], [{speed!r}]); f.exitInitializationMode(); f.doStep(0.0, 1e-4)
+print(json.dumps([time.perf_counter() - t0, time.process_time() - c0]))
+f.terminate(); f.freeInstance(); shutil.rmtree(d, ignore_errors=True)
+"""
 
 
-def _fresh_process_first_step(fmu_path: Path, speed: float) -> list[float]:
-    """Seconds from fmi2Instantiate to the end of the first doStep in two successive fresh processes."""
-    import subprocess
-
-    code = (
-        "import time, json\n"
-        "from fmpy import extract, read_model_description\n"
-        "from fmpy.fmi2 import FMU2Slave\n"
-        f"p = {str(fmu_path)!r}\n"
-        "md = read_model_description(p); d = extract(p)\n"
-        "vr = {v.name: v.valueReference for v in md.modelVariables}\n"
-        "t0 = time.perf_counter()\n"
-        "f = FMU2Slave(guid=md.guid, unzipDirectory=d, modelIdentifier=md.coSimulation.modelIdentifier,"
-        " instanceName='x')\n"
-        "f.instantiate(); f.setupExperiment(startTime=0.0); f.enterInitializationMode()\n"
-        f"f.setReal([vr[{SPEED_IN!r}]], [{speed!r}]); f.exitInitializationMode(); f.doStep(0.0, 1e-4)\n"
-        "print(json.dumps(time.perf_counter() - t0))\n"
-        "f.terminate(); f.freeInstance()\n"
-        "import shutil; shutil.rmtree(d, ignore_errors=True)\n"
-    )
+def fresh_process_first_step(fmu_path: Path, speed_in: str, speed: float, runs: int = 2) -> list[list[float]]:
+    """[wall, CPU] seconds from fmi2Instantiate to the end of the first doStep in ``runs`` successive fresh
+    processes."""
     out = []
-    for _ in range(2):
-        p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
+    for _ in range(runs):
+        p = subprocess.run([sys.executable, "-c", _FRESH.format(fmu=str(fmu_path), speed_in=speed_in, speed=speed)],
+                           capture_output=True, text=True, timeout=900)
         if p.returncode != 0:
             raise SystemExit(f"fresh-process run failed ({p.returncode}): {p.stderr[-2000:]}")
-        out.append(float(p.stdout.strip().splitlines()[-1]))
+        out.append(json.loads(p.stdout.strip().splitlines()[-1]))
     return out
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--fmu", help="spur-pair FMU (default: dist/spur_28t_asym.fmu, else a synthetic build)")
-    ap.add_argument("--speed-rpm", type=float, default=3000.0, help="pinion speed [rpm]")
-    ap.add_argument("--internal-step", type=float, default=2e-6, help="internal RK4 step [s]")
-    ap.add_argument("--comm-step", type=float, default=1e-4,
-                    help="communication step [s] (the judged figure uses 1e-4; larger steps show the per-step "
-                         "cost of pythonfmu + fmpy amortised)")
-    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--system", default="spur_28t_asym", help="system to build when --fmu is not given")
+    ap.add_argument("--fmu", help="hacgear FMI 2.0 FMU (default: built from --system's committed tables)")
+    ap.add_argument("--speed-rpm", type=float, default=3000.0, help="speed of the reference gear [rpm]")
+    ap.add_argument("--internal-step", type=float, default=2e-6, help="internal RK4 step [s] (0 = automatic)")
+    ap.add_argument("--comm-step", type=float, default=1e-4, help="communication step [s]")
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--json", action="store_true", help="print the figures as JSON")
     args = ap.parse_args(argv)
 
     import fmpy
-    import numpy as np
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import FMU2Slave
 
     from hacgear_core.dynamics.build import build_system
     from hacgear_core.dynamics.simulator import Simulator
-    from hacgear_core.model import load_model
+    from hacgear_core.fmu import bootstrap, build_fmu
+    from hacgear_core.model import load_model, resolve_model_path
     from hacgear_core.tables import read_tables
 
     work = Path(tempfile.mkdtemp(prefix="hacgear_bench_fmu_"))
-    synthetic = False
-    if args.fmu:
-        fmu_path = Path(args.fmu)
-    elif (ROOT / "dist" / "spur_28t_asym.fmu").exists():
-        fmu_path = ROOT / "dist" / "spur_28t_asym.fmu"
-    else:
-        from hacgear_core.fmu import build_fmu, synthetic_system_folder
+    try:
+        fmu_path = Path(args.fmu) if args.fmu else build_fmu(resolve_model_path(args.system).parent, work)
+        unz = Path(extract(str(fmu_path)))
+        res = unz / "resources"
+        info = json.loads((res / "hacgear_fmu.json").read_text())
+        ref, mesh = info["reference_gear"], next(iter(info["meshes"]))
+        outputs = [f"{mesh}.force", f"{mesh}.deflection", f"{mesh}.dte", f"{mesh}.position", f"{ref}.speed"]
+        speed = args.speed_rpm * 2 * math.pi / 60
+        h_int = args.internal_step or None
+        dt, t_end = args.comm_step, 1.0
+        n = int(round(t_end / dt))
 
-        folder = synthetic_system_folder(ROOT / "models" / "spur_28t_asym" / "model.toml", work / "models")
-        fmu_path = build_fmu(folder, work / "dist")
-        synthetic = True
-    speed = args.speed_rpm * 2 * math.pi / 60
-    h_int, dt, t_end = args.internal_step, args.comm_step, 1.0
-    n = int(round(t_end / dt))
+        model = load_model(res / "model.toml")
+        sim = Simulator(build_system(model, read_tables(res / "tables.h5", res / "model.toml")), internal_step_s=h_int)
 
-    unz = extract(str(fmu_path))
-    model = load_model(Path(unz) / "resources" / "model.toml")
-    sim = Simulator(build_system(model, read_tables(Path(unz) / "resources" / "tables.h5")), internal_step_s=h_int)
-    ip = sim.gear_index("pinion")
+        def library():
+            sim.reset(speed_rad_s=speed)
+            sim.set_speed_input(speed_rad_s=speed)
+            adv = sim.advance
+            for _ in range(n):
+                adv(dt)
+                (sim.mesh_force_N[0], sim.mesh_deflection_m[0], sim.dynamic_transmission_error_m[0],
+                 sim.mesh_position[0], sim.speed_rad_s[0])
 
-    def lib_advance():
-        sim.reset(speed_rad_s=speed)
-        sim.set_speed_input(speed_rad_s=speed)
-        rec = np.empty((n, len(OUTPUTS)))
-        for k in range(n):
-            sim.advance(dt)
-            rec[k] = (sim.mesh_force_N[0], sim.mesh_deflection_m[0], sim.dynamic_transmission_error_m[0],
-                      sim.mesh_position[0], sim.speed_rad_s[ip])
-        return rec
+        # the FMU's own Python side, from its bundled code (as the binary loads it)
+        inst = bootstrap.instantiate("bench", str(res), info["guid"], False, 2)
+        vrs = tuple(inst.vrs[o] for o in outputs)  # the binary passes a tuple
 
-    def lib_run():
-        sim.reset(speed_rad_s=speed)
-        sim.set_speed_input(speed_rad_s=speed)
-        return sim.run(t_end, dt)
+        def slave():
+            inst.reset()
+            inst.enter_initialization_mode(0.0)
+            inst.set_real([inst.vrs[f"{ref}.speed_in"], inst.vrs["internal_step"]], [speed, args.internal_step])
+            assert inst.exit_initialization_mode() == 0, inst.messages
+            step, get = inst.do_step, inst.get_real
+            t = 0.0
+            for _ in range(n):
+                step(t, dt)
+                t += dt
+                get(vrs)
 
-    def fmu_high():
-        return fmpy.simulate_fmu(str(fmu_path), stop_time=t_end, step_size=dt, output_interval=dt,
-                                 start_values={SPEED_IN: speed, "internal_step": h_int}, output=OUTPUTS)
+        md = read_model_description(str(fmu_path))
+        vr = {v.name: v.valueReference for v in md.modelVariables}
+        low_vrs = [vr[o] for o in outputs]
 
-    md = read_model_description(str(fmu_path))
-    vr = {v.name: v.valueReference for v in md.modelVariables}
-    outs = [vr[o] for o in OUTPUTS]
-    first_step = []
+        def low_level():
+            f = FMU2Slave(guid=md.guid, unzipDirectory=str(unz), modelIdentifier=md.coSimulation.modelIdentifier,
+                          instanceName="bench")
+            f.instantiate()
+            f.setupExperiment(startTime=0.0)
+            f.enterInitializationMode()
+            f.setReal([vr[f"{ref}.speed_in"], vr["internal_step"]], [speed, args.internal_step])
+            f.exitInitializationMode()
+            step, get = f.doStep, f.getReal
+            t = 0.0
+            t0 = time.process_time()
+            for _ in range(n):
+                step(t, dt)
+                t += dt
+                get(low_vrs)
+            wall = time.process_time() - t0
+            f.terminate()
+            f.freeInstance()
+            return wall
 
-    def fmu_low():
-        t0 = time.perf_counter()
-        f = FMU2Slave(guid=md.guid, unzipDirectory=unz, modelIdentifier=md.coSimulation.modelIdentifier,
-                      instanceName="bench")
-        f.instantiate()
-        f.setupExperiment(startTime=0.0)
-        f.enterInitializationMode()
-        f.setReal([vr[SPEED_IN], vr["internal_step"]], [speed, h_int])
-        f.exitInitializationMode()
-        rec = np.empty((n, len(OUTPUTS)))
-        t = 0.0
-        for k in range(n):
-            f.doStep(t, dt)
-            if k == 0:
-                first_step.append(time.perf_counter() - t0)
-            t += dt
-            rec[k] = f.getReal(outs)
-        f.terminate()
-        f.freeInstance()
-        return rec
+        def high_level():
+            fmpy.simulate_fmu(str(fmu_path), stop_time=t_end, output_interval=dt, output=outputs,
+                              start_values={f"{ref}.speed_in": speed, "internal_step": args.internal_step})
 
-    def slave_direct():
-        from hacgear_core.fmu import HacgearSlave
+        def timed(fn):
+            t0 = time.process_time()
+            r = fn()
+            return r if isinstance(r, float) else time.process_time() - t0
 
-        sl = HacgearSlave(instance_name="direct", resources=str(Path(unz) / "resources"))  # KIND "" accepts any
-        sl.setup_experiment(0.0)
-        sl.set_real([vr[SPEED_IN], vr["internal_step"]], [speed, h_int])
-        sl.exit_initialization_mode()
-        rec = np.empty((n, len(OUTPUTS)))
-        t = 0.0
-        for k in range(n):
-            if not sl.do_step(t, dt):
-                raise SystemExit(f"direct slave step failed: {[m.msg for m in sl.log_queue]}")
-            t += dt
-            rec[k] = sl.get_real(outs)
-        return rec
-
-    def best(fn):
-        times, out = [], None
-        for _ in range(args.repeat):
-            t0 = time.perf_counter()
-            out = fn()
-            times.append(time.perf_counter() - t0)
-        return min(times), out
-
-    fresh = _fresh_process_first_step(fmu_path, speed)
-    fmu_high()  # warm-up (first instantiation in this process imports the slave module)
-    t_adv, rec_adv = best(lib_advance)
-    t_run, _ = best(lib_run)
-    t_high, res = best(fmu_high)
-    t_low, rec_low = best(fmu_low)
-    t_direct, _ = best(slave_direct)
-    same = np.max(np.abs(rec_low[:, 0] - rec_adv[:, 0])) / np.max(np.abs(rec_adv[:, 0]))
-    nsub = int(math.ceil(dt / h_int - 1e-9))
-    print(f"bench_fmu: {fmu_path.name}{' (synthetic tables)' if synthetic else ''}, pinion {args.speed_rpm:g} rpm, "
-          f"1 s simulated, communication step {dt:g} s, internal step {dt / nsub:.3g} s ({nsub} RK4 sub-steps per "
-          f"step, {n * nsub} in all), best of {args.repeat}")
-    print(f"  library advance({dt:g}) x {n}:        {t_adv:7.3f} s")
-    print(f"  library run(1 s, record {dt:g}):      {t_run:7.3f} s")
-    print(f"  fmpy simulate_fmu:                  {t_high:7.3f} s")
-    print(f"  fmpy low-level doStep+getReal:      {t_low:7.3f} s")
-    print(f"  slave without importer (not judged): {t_direct:7.3f} s")
-    print(f"  instantiate -> first doStep (warm): {min(first_step):7.3f} s")
-    print(f"  fresh process, instantiate -> first doStep: {fresh[0]:.3f} s (1st process), {fresh[1]:.3f} s "
-          f"(2nd process, numba cache warm; goal <= 1 s)")
-    print(f"  max relative difference FMU vs library (mesh force): {same:.2e}")
-    print(f"  per communication step: library {t_adv / n * 1e6:.1f} us, fmpy simulate_fmu {t_high / n * 1e6:.1f} us, "
-          f"fmpy low-level {t_low / n * 1e6:.1f} us, slave without importer {t_direct / n * 1e6:.1f} us "
-          f"(pythonfmu wrapper + fmpy add {(t_low - t_direct) / n * 1e6:.1f} us low-level, "
-          f"{(t_high - t_direct) / n * 1e6:.1f} us in simulate_fmu)")
-    print(f"RATIO fmpy simulate_fmu / library advance = {t_high / t_adv:.2f} (goal <= 1.5); "
-          f"low-level / library advance = {t_low / t_adv:.2f}; simulate_fmu / library run = {t_high / t_run:.2f}")
-    shutil.rmtree(unz, ignore_errors=True)
-    shutil.rmtree(work, ignore_errors=True)
+        library()  # warm-up (compilation, caches)
+        slave()
+        runs = {"library": [], "slave": [], "low": [], "high": []}
+        for _ in range(args.repeat):  # in turns
+            for key, fn in (("library", library), ("slave", slave), ("low", low_level), ("high", high_level)):
+                runs[key].append(timed(fn))
+        t_lib, t_slave, t_low, t_high = (min(runs[k]) for k in ("library", "slave", "low", "high"))
+        first = fresh_process_first_step(fmu_path, f"{ref}.speed_in", speed)
+        us = 1e6 / n
+        fig = {"system": info["system"], "communication_step_s": dt, "internal_step_s": args.internal_step,
+               "speed_rpm": args.speed_rpm, "steps": n,
+               "library_advance_us": t_lib * us, "fmu_slave_us": t_slave * us, "fmpy_low_level_us": t_low * us,
+               "fmpy_simulate_fmu_us": t_high * us,
+               "ratio_slave_over_library": t_slave / t_lib, "goal": GOAL,
+               "binary_and_fmpy_floor_us": (t_low - t_slave) * us,
+               "real_time_factor": {"library": t_end / t_lib, "fmu_slave": t_end / t_slave,
+                                    "fmpy_low_level": t_end / t_low},
+               "fresh_process_first_step_s": first}
+        if args.json:
+            print(json.dumps(fig, indent=1))
+        else:
+            print(f"bench_fmu: {info['system']}, {n} communication steps of {dt:g} s at {args.speed_rpm:g} rpm, "
+                  f"internal step {args.internal_step:g} s (best of {args.repeat})")
+            print(f"  library advance          {fig['library_advance_us']:7.2f} us/step   real-time factor "
+                  f"{fig['real_time_factor']['library']:.1f}")
+            print(f"  FMU slave (own cost)     {fig['fmu_slave_us']:7.2f} us/step   real-time factor "
+                  f"{fig['real_time_factor']['fmu_slave']:.1f}")
+            print(f"  fmpy low-level           {fig['fmpy_low_level_us']:7.2f} us/step   real-time factor "
+                  f"{fig['real_time_factor']['fmpy_low_level']:.1f}")
+            print(f"  fmpy simulate_fmu        {fig['fmpy_simulate_fmu_us']:7.2f} us/step")
+            print(f"  binary + fmpy floor      {fig['binary_and_fmpy_floor_us']:7.2f} us/step (reported, not judged)")
+            print(f"  fresh process, instantiate -> first doStep: {first[0][0]:.2f} s (CPU {first[0][1]:.2f} s), "
+                  f"then {first[1][0]:.2f} s (CPU {first[1][1]:.2f} s); goal <= 1 s for the second")
+            verdict = "met" if fig["ratio_slave_over_library"] <= GOAL else "MISSED"
+            print(f"  judged: FMU slave / library advance = {fig['ratio_slave_over_library']:.3f} (goal <= {GOAL}): "
+                  f"{verdict}")
+        shutil.rmtree(unz, ignore_errors=True)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
     return 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    raise SystemExit(main())

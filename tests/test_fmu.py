@@ -1,9 +1,13 @@
-"""FMUs (hacgear_core.fmu, fmu_src/, build_fmu.py): built once per session from synthetic tables into a
-temporary folder, then run under fmpy (high- and low-level API) in this process."""
+"""FMUs (hacgear_core.fmu, build_fmu.py): FMI 2.0 and 3.0 FMUs of spur_28t_asym and idler_28_33_39 (committed FE
+tables) built once per session into a temporary folder, then run under fmpy (high- and low-level API), in this
+process and in fresh, isolated ones."""
 from __future__ import annotations
 
+import importlib.metadata as md_
 import json
 import math
+import re
+import shutil
 import subprocess
 import sys
 import zipfile
@@ -17,215 +21,381 @@ fmpy = pytest.importorskip("fmpy")
 from fmpy import extract, read_model_description  # noqa: E402
 from fmpy.fmi1 import FMICallException  # noqa: E402
 from fmpy.fmi2 import FMU2Slave  # noqa: E402
+from fmpy.fmi3 import FMU3Slave  # noqa: E402
 
 import hacgear_core.fmu as hf  # noqa: E402
 from hacgear_core.dynamics.build import build_system  # noqa: E402
 from hacgear_core.dynamics.simulator import Simulator  # noqa: E402
 from hacgear_core.errors import HacgearError  # noqa: E402
+from hacgear_core.fmu import bootstrap  # noqa: E402
 from hacgear_core.fmu.bench import BenchConfig, run_drivetrain_bench  # noqa: E402
+from hacgear_core.fmu.slave import DISCARD, ERROR, OK, FmuInstance  # noqa: E402
 from hacgear_core.model import load_model  # noqa: E402
 from hacgear_core.tables import read_tables  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
-SYSTEMS = ("spur_28t_asym", "spur_50t_icr137")
-GEARS = {"spur_28t_asym": ("pinion", "wheel"), "spur_50t_icr137": ("input", "output")}
-
-
-def var(system, key):
-    """The FMU variable name of a quantity of the spur pair ``system`` (gear 1 = driver, gear 2)."""
-    g1, g2 = GEARS[system]
-    names = {"speed1_in": f"{g1}.speed_in", "speed1_start": f"{g1}.speed_start", "torque1_in": f"{g1}.torque_in",
-             "torque2_in": f"{g2}.torque_in", "m12.force": "m12.force", "mesh_deflection": "m12.deflection",
-             "m12.dte": "m12.dte", "m12.position": "m12.position", "contact": "m12.contact",
-             "peak_pressure": "m12.peak_pressure", "angle1": f"{g1}.angle", "angle2": f"{g2}.angle",
-             "speed1": f"{g1}.speed", "speed2": f"{g2}.speed", "bearing_stiffness1": f"{g1}.bearing_stiffness",
-             "bearing_force1_y": f"{g1}.bearing_force_y", "bearing_force2_y": f"{g2}.bearing_force_y"}
-    return names.get(key, key)
-
-
-def v28(key):
-    return var("spur_28t_asym", key)
+SYSTEMS = ("spur_28t_asym", "idler_28_33_39")
 
 
 @pytest.fixture(scope="module")
 def built(tmp_path_factory):
-    """Two spur-pair FMUs (synthetic tables) built by build_fmu.py's main() into a temporary folder."""
+    """FMI 2.0 and 3.0 FMUs of both systems (committed tables) built by build_fmu.py's main()."""
     base = tmp_path_factory.mktemp("fmu")
-    models = base / "models"
-    for s in SYSTEMS:
-        hf.synthetic_system_folder(ROOT / "models" / s / "model.toml", models)
     sys.path.insert(0, str(ROOT))
     try:
         import build_fmu
     finally:
         sys.path.remove(str(ROOT))
-    rc = build_fmu.main(["--models", str(models), "--out", str(base / "dist")])
-    assert rc == 0
-    return {"models": models, "dist": base / "dist", "fmu": {s: base / "dist" / f"{s}.fmu" for s in SYSTEMS},
-            "build_fmu": build_fmu}
+    out = base / "dist"
+    for s in SYSTEMS:
+        assert build_fmu.main(["--models", str(ROOT / "models"), "--system", s, "--out", str(out)]) == 0
+    return {"dist": out, "build_fmu": build_fmu,
+            "fmu": {s: out / f"{s}.fmu" for s in SYSTEMS}, "fmu3": {s: out / f"{s}_fmi3.fmu" for s in SYSTEMS}}
 
 
-def _library(built, system, internal_step, torque=None, shafts=True):
-    folder = built["models"] / system
+def _library(system, internal_step=None, torque=None, shafts=True):
+    folder = ROOT / "models" / system
     model = load_model(folder / "model.toml")
     tables = read_tables(folder / "tables.h5")
-    sy = build_system(model, tables, torque_Nm=torque, shafts=shafts)
-    return Simulator(sy, internal_step_s=internal_step), tables.mesh(model.mesh().name)
+    return Simulator(build_system(model, tables, torque_Nm=torque, shafts=shafts), internal_step_s=internal_step)
+
+
+def status(call, *args):
+    """FMI status of an fmpy low-level call (fmpy raises for statuses above Warning)."""
+    try:
+        call(*args)
+        return OK
+    except FMICallException as exc:
+        return exc.status
 
 
 class _Low:
-    """fmpy low-level co-simulation session that records log messages."""
+    """fmpy low-level co-simulation session (FMI 2.0 or 3.0) that records the log; debug logging off."""
 
-    def __init__(self, path, name="inst"):
+    def __init__(self, path, name="inst", logging_on=False):
         self.md = read_model_description(str(path))
+        self.v3 = self.md.fmiVersion.startswith("3")
         self.dir = extract(str(path))
         self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
+        self.types = {v.name: v.type for v in self.md.modelVariables}
         self.messages = []
+        kw = dict(guid=self.md.guid, unzipDirectory=self.dir, modelIdentifier=self.md.coSimulation.modelIdentifier,
+                  instanceName=name)
+        if self.v3:
+            def log3(env, st, category, message):
+                self.messages.append((st, message.decode(errors="replace")))
 
-        def logger(component, instance, status, category, message):
-            self.messages.append((status, message.decode(errors="replace")))
+            self.fmu = FMU3Slave(**kw)
+            self.fmu.instantiate(loggingOn=logging_on, logMessage=log3)
+        else:
+            from fmpy.fmi2 import (calloc, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+                                   fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, free)
 
-        from fmpy.fmi2 import (calloc, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
-                               fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, free)
+            def log2(component, instance, st, category, message):
+                self.messages.append((st, message.decode(errors="replace")))
 
-        cb = fmi2CallbackFunctions()
-        cb.logger = fmi2CallbackLoggerTYPE(logger)
-        cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-        cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-        self._cb = cb
-        self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=self.dir,
-                             modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
-        self.fmu.instantiate(loggingOn=True, callbacks=cb)
+            cb = fmi2CallbackFunctions()
+            cb.logger = fmi2CallbackLoggerTYPE(log2)
+            cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+            cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+            self._cb = cb
+            self.fmu = FMU2Slave(**kw)
+            self.fmu.instantiate(loggingOn=logging_on, callbacks=cb)
+
+    # FMI 2.0 / 3.0 neutral calls returning the status
+    def enter(self):
+        if self.v3:
+            return status(self.fmu.enterInitializationMode, None, 0.0, None)
+        s = status(self.fmu.setupExperiment, None, 0.0, None)
+        return max(s, status(self.fmu.enterInitializationMode))
+
+    def exit(self):
+        return status(self.fmu.exitInitializationMode)
+
+    def set(self, **values):
+        worst = OK
+        for k, v in values.items():
+            t = self.types[k]
+            if t in ("Real", "Float64"):
+                f = self.fmu.setFloat64 if self.v3 else self.fmu.setReal
+                worst = max(worst, status(f, [self.vr[k]], [float(v)]))
+            else:
+                f = (self.fmu.setInt64 if t == "Enumeration" else self.fmu.setInt32) if self.v3 else self.fmu.setInteger
+                worst = max(worst, status(f, [self.vr[k]], [int(v)]))
+        return worst
 
     def init(self, **params):
-        self.fmu.setupExperiment(startTime=0.0)
-        self.fmu.enterInitializationMode()
-        for k, v in params.items():
-            if k == "mode":
-                self.fmu.setInteger([self.vr[k]], [int(v)])
-            else:
-                self.fmu.setReal([self.vr[k]], [float(v)])
-        self.fmu.exitInitializationMode()
+        s = self.enter()
+        s = max(s, self.set(**params))
+        return max(s, self.exit())
+
+    def step(self, t, h):
+        return status(self.fmu.doStep, t, h)
 
     def get(self, *names):
-        return self.fmu.getReal([self.vr[n] for n in names])
+        f = self.fmu.getFloat64 if self.v3 else self.fmu.getReal
+        return f([self.vr[n] for n in names])
+
+    def get_int(self, *names):
+        f = self.fmu.getInt64 if self.v3 else self.fmu.getInteger
+        return f([self.vr[n] for n in names])
+
+    def text(self):
+        return " | ".join(m for _, m in self.messages)
 
     def close(self):
-        try:
-            self.fmu.terminate()
-        except FMICallException:
-            pass
+        status(self.fmu.terminate)
         self.fmu.freeInstance()
-        import shutil
-
         shutil.rmtree(self.dir, ignore_errors=True)
 
 
-# ---------------------------------------------------------------------------------------------- build
-def test_model_description_units_ranges_and_spec(built):
-    path = built["fmu"]["spur_28t_asym"]
+def _xml(path):
     with zipfile.ZipFile(path) as z:
-        root = ET.fromstring(z.read("modelDescription.xml"))
-        names = set(z.namelist())
-        info = json.loads(z.read("resources/hacgear_fmu.json"))
-    assert {"resources/model.toml", "resources/tables.h5", "resources/hacgear_spur_28t_asym.py",
-            "binaries/linux64/spur_28t_asym.so"} <= names
-    assert info["requirements"]["hacgear"].startswith("==") and "numba" in info["requirements"]
-    units = {u.get("name") for u in root.find("UnitDefinitions")}
-    spec = {v.name: v for v in hf.variables_for(built["models"] / "spur_28t_asym")}
-    xml_vars = root.find("ModelVariables").findall("ScalarVariable")
-    assert {sv.get("name") for sv in xml_vars} == set(spec)
-    for sv in xml_vars:
-        v = spec[sv.get("name")]
-        assert sv.get("description") == v.description and v.description
-        if v.type == "Real":
-            real = sv.find("Real")
-            assert real.get("unit") == v.unit and v.unit in units
-        if sv.get("causality") == "output":
-            assert sv.get("initial") == "exact" and sv.find(v.type).get("start") is not None
+        return ET.fromstring(z.read("modelDescription.xml")), json.loads(z.read("resources/hacgear_fmu.json")), \
+            set(z.namelist())
+
+
+# ---------------------------------------------------------------------------------------------- build
+def test_model_description_fmi2(built):
+    """Structured names, Enumeration types for discrete values, display units and nominal values, outputs
+    calculated (no start) and listed in Outputs (no direct feedthrough) and InitialUnknowns, a DefaultExperiment,
+    FMU state capabilities."""
+    root, info, names = _xml(built["fmu"]["spur_28t_asym"])
+    assert root.get("variableNamingConvention") == "structured" and root.get("guid") == info["guid"]
+    cs = root.find("CoSimulation")
+    assert cs.get("canGetAndSetFMUstate") == "true" and cs.get("canSerializeFMUstate") == "true"
+    de = root.find("DefaultExperiment")
+    assert float(de.get("stopTime")) > 0 and 0 < float(de.get("stepSize")) < float(de.get("stopTime"))
+    svs = root.find("ModelVariables").findall("ScalarVariable")
+    by = {sv.get("name"): sv for sv in svs}
+    assert [sv.get("name") for sv in svs] == info["variables"]
+    spec = {v.name: v for v in hf.make_adapter(ROOT / "models" / "spur_28t_asym").variables}
+    assert set(by) == set(spec)
+    displays = {u.get("name"): {d.get("name"): float(d.get("factor")) for d in u.findall("DisplayUnit")}
+                for u in root.find("UnitDefinitions")}
+    for name, sv in by.items():
+        v = spec[name]
+        t = sv.find(v.type)
+        assert t is not None and sv.get("description") == v.description
+        if v.causality == "output":
+            assert sv.get("initial") == "calculated" and t.get("start") is None
         else:
-            t = sv.find(v.type)
-            assert float(t.get("min")) == v.min and float(t.get("max")) == v.max
-            assert v.min <= float(t.get("start")) <= v.max
-    # only the enumerated switch is an Integer (FMI 2.0 has no unit attribute on Integer)
-    assert [n for n, v in spec.items() if v.type != "Real"] == ["mode"]
-    outs = {n for n, v in spec.items() if v.causality == "output"}
-    assert {"m12.force", "m12.deflection", "m12.dte", "m12.position", "m12.contact", "m12.peak_pressure",
-            "pinion.bearing_force_x", "wheel.bearing_force_y", "pinion.angle", "wheel.angle", "pinion.speed",
-            "wheel.speed", "wheel.SG.root_strain", "pinion.SG.root_strain"} <= outs
-    assert {"pinion.torque_in", "wheel.torque_in", "pinion.speed_in"} <= set(spec)
-    assert info["ports"]["wheel"]["speed_ratio"] == pytest.approx(-1.0) and info["input_gear"] == "pinion"
-    # the output start values are the initial static equilibrium at the nominal torque
-    start_f = float(next(sv for sv in xml_vars if sv.get("name") == "m12.force").find("Real").get("start"))
-    sim, table = _library(built, "spur_28t_asym", None)
-    assert start_f == pytest.approx(sim.system.torque_Nm / table.base_radius_m[0], rel=1e-6)
+            assert t.get("start") is not None
+            if v.type == "Real":
+                assert float(t.get("min")) <= float(t.get("start")) <= float(t.get("max"))
+        if v.type == "Real" and t.get("displayUnit"):
+            assert t.get("displayUnit") in displays[t.get("unit")]
+    assert by["mode"].find("Integer").get("min") == "0" and by["mode"].find("Integer").get("max") == "1"
+    assert by["m12.contact"].find("Enumeration").get("declaredType") == "ContactState"
+    assert by["m12.contact"].get("variability") == "discrete"
+    assert by["pinion.speed"].find("Real").get("displayUnit") == "rpm"
+    assert displays["rad/s"]["rpm"] == pytest.approx(60 / (2 * math.pi), rel=1e-15)
+    assert by["m12.deflection"].find("Real").get("displayUnit") == "µm"
+    assert by["m12.force"].find("Real").get("displayUnit") == "kN"
+    assert by["m12.peak_pressure"].find("Real").get("displayUnit") == "MPa"
+    assert by["wheel.SG25.root_strain"].find("Real").get("displayUnit") == "µε"
+    assert float(by["m12.force"].find("Real").get("nominal")) == pytest.approx(info["meshes"]["m12"]["nominal_force_N"])
+    # ModelStructure: every output, by its 1-based index, in Outputs (no dependencies) and InitialUnknowns
+    outputs = {str(i + 1) for i, sv in enumerate(svs) if sv.get("causality") == "output"}
+    ms = root.find("ModelStructure")
+    assert {u.get("index") for u in ms.find("Outputs")} == outputs
+    assert all(u.get("dependencies") == "" for u in ms.find("Outputs"))
+    assert {u.get("index") for u in ms.find("InitialUnknowns")} == outputs
+    tdefs = {st.get("name"): [(i.get("name"), int(i.get("value"))) for i in st.find("Enumeration")]
+             for st in root.find("TypeDefinitions")}
+    assert tdefs["ContactState"] == [("separated", 0), ("drive_flank", 1), ("coast_flank", 2)]
+
+
+def test_model_description_fmi3_and_bundle(built):
+    """FMI 3.0: an independent time variable, Float64/Enumeration variables, Output and InitialUnknown elements.
+    Every FMU carries the loader and the hacgear code under a content-unique name, and needs only numpy, scipy,
+    h5py and numba."""
+    root, info, names = _xml(built["fmu3"]["spur_28t_asym"])
+    assert root.get("fmiVersion") == "3.0" and root.get("instantiationToken") == info["guid"]
+    mv = list(root.find("ModelVariables"))
+    assert mv[0].tag == "Float64" and mv[0].get("causality") == "independent" and mv[0].get("valueReference") == "0"
+    tags = {v.get("name"): v.tag for v in mv}
+    assert tags["mode"] == "Int32" and tags["m12.contact"] == "Enumeration" and tags["m12.force"] == "Float64"
+    outs = {v.get("valueReference") for v in mv if v.get("causality") == "output"}
+    assert {o.get("valueReference") for o in root.find("ModelStructure").findall("Output")} == outs
+    assert {o.get("valueReference") for o in root.find("ModelStructure").findall("InitialUnknown")} == outs
+    pkg = info["bundle"]["package"]
+    assert re.fullmatch(r"hacgear_fmu_\w+_[0-9a-f]{12}", pkg)
+    assert {"resources/hacgear_fmu_boot.py", f"resources/{pkg}/fmu/slave.py", "resources/tables.h5",
+            "binaries/x86_64-linux/spur_28t_asym.so"} <= names
+    assert set(info["requirements"]) == {"numpy", "scipy", "h5py", "numba"}
+    with zipfile.ZipFile(built["fmu3"]["spur_28t_asym"]) as z:
+        code = [z.read(n).decode() for n in names if n.startswith(f"resources/{pkg}/") and n.endswith(".py")]
+    assert code and not any(re.search(r"\bhacgear_core\b", c) for c in code)
+    _, info2, names2 = _xml(built["fmu"]["spur_28t_asym"])
+    assert info2["bundle"] == info["bundle"] and "binaries/linux64/spur_28t_asym.so" in names2
 
 
 @pytest.mark.parametrize("system", SYSTEMS)
-def test_fmpy_validate_and_fmutool_check(built, system):
-    assert built["build_fmu"].validate_fmu(built["fmu"][system]) == []
-
-
-def test_postprocess_refuses_spec_mismatch(built):
-    with zipfile.ZipFile(built["fmu"]["spur_28t_asym"]) as z:
-        xml = z.read("modelDescription.xml")
-    spec = hf.variables_for(built["models"] / "spur_28t_asym")
-    with pytest.raises(HacgearError, match="not in the spec"):
-        hf.postprocess_model_description(xml, spec[1:])
-    extra = spec + (hf.FmuVariable("ghost", "Real", "output", "continuous", "m", "a variable the slave lacks"),)
-    with pytest.raises(HacgearError, match="missing in modelDescription"):
-        hf.postprocess_model_description(xml, extra)
+@pytest.mark.parametrize("version", ("fmu", "fmu3"))
+def test_fmpy_validate_and_fmutool_check(built, system, version):
+    assert built["build_fmu"].validate_fmu(built[version][system]) == []
 
 
 def test_build_script_skips_and_errors(built, tmp_path, capsys):
     bf = built["build_fmu"]
-    # a model folder without tables is skipped when building all, an error when named
     (tmp_path / "m" / "spur_50t_icr18").mkdir(parents=True)
     (tmp_path / "m" / "spur_50t_icr18" / "model.toml").write_bytes(
         (ROOT / "models" / "spur_50t_icr18" / "model.toml").read_bytes())
     assert bf.main(["--models", str(tmp_path / "m"), "--out", str(tmp_path / "d")]) == 0
     assert "skipped, no tables.h5" in capsys.readouterr().out
     assert bf.main(["--models", str(tmp_path / "m"), "--out", str(tmp_path / "d"), "--system", "spur_50t_icr18"]) == 1
-    # tables of another model are refused with the table module's message
     (tmp_path / "m" / "spur_50t_icr18" / "tables.h5").write_bytes(
-        (built["models"] / "spur_28t_asym" / "tables.h5").read_bytes())
+        (ROOT / "models" / "spur_28t_asym" / "tables.h5").read_bytes())
     assert bf.main(["--models", str(tmp_path / "m"), "--out", str(tmp_path / "d"), "--system", "spur_50t_icr18"]) == 1
-    err = capsys.readouterr().err
-    assert "does not belong to" in err
-    # the message names the user's files, never the temporary build folder
-    assert str(tmp_path / "m" / "spur_50t_icr18" / "tables.h5") in err and "hacgear_fmu_" not in err, err
+    assert "does not belong to" in capsys.readouterr().err
+    with pytest.raises(HacgearError, match="FMI version"):
+        hf.build_fmu(ROOT / "models" / "spur_28t_asym", tmp_path, fmi_version=1)
 
 
-def test_field_checks_name_unit_and_range():
+def test_field_checks_name_value_unit_and_range():
     v = hf.FmuVariable("torque", "Real", "parameter", "fixed", "N.m", "a torque", 1.0, 0.0, 10.0)
     assert v.check(5.0) == ""
     msg = v.check(float("nan"))
-    assert "torque" in msg and "N.m" in msg and "[0, 10]" in msg
-    assert "outside" in v.check(11.0)
+    assert "torque" in msg and "N.m" in msg and "[0, 10]" in msg and "nan" in msg
+    assert "= 11.0" in v.check(11.0) and "outside" in v.check(11.0)
+    e = hf.FmuVariable("contact", "Enumeration", "output", "discrete", "", "state", declared_type="ContactState")
+    assert e.check(2) == "" and "drive_flank" in e.check(7)
     with pytest.raises(ValueError):
         hf.FmuVariable("x", "Real", "output", "continuous", "furlong", "bad unit")
     with pytest.raises(ValueError):
         hf.FmuVariable("x", "Real", "parameter", "fixed", "m", "no start")
+    with pytest.raises(ValueError):
+        hf.FmuVariable("x", "Enumeration", "output", "continuous", "", "discrete values are not continuous",
+                       declared_type="ContactState")
+    with pytest.raises(ValueError):
+        hf.FmuVariable("x", "Real", "output", "continuous", "m", "display unit of another unit", display_unit="rpm")
 
 
-def test_requirements_check_messages():
-    assert hf.check_requirements(hf.requirements()) == []
-    probs = hf.check_requirements({"hacgear": "==99.0", "numpy": ">=999", "no-such-package-xyz": ">=1"})
-    assert len(probs) == 3
-    assert "hacgear" in probs[0] and "==99.0" in probs[0]
-    assert "not installed" in probs[2]
+# ---------------------------------------------------------------------------------------------- self-contained
+def _isolated_site(dest: Path, distributions) -> Path:
+    """A folder with links to the given distributions (and what they require), their metadata included: the
+    site-packages of a fresh environment holding only those."""
+    dest.mkdir(parents=True, exist_ok=True)
+    todo, seen = list(distributions), set()
+    while todo:
+        name = re.split(r"[\s<>=!;\[(~]", todo.pop())[0].lower().replace("-", "_")
+        if not name or name in seen:
+            continue
+        seen.add(name)
+        try:
+            dist = md_.distribution(name)
+        except md_.PackageNotFoundError:
+            continue
+        for req in dist.requires or []:
+            if "extra ==" not in req:
+                todo.append(req)
+        base = Path(dist.locate_file(""))
+        tops = {Path(str(f)).parts[0] for f in dist.files or [] if not str(f).startswith("..")}
+        for top in tops:
+            src, link = base / top, dest / top
+            if src.exists() and not link.exists():
+                link.symlink_to(src)
+    return dest
+
+
+_ISOLATED_RUN = r"""
+import sys, sysconfig
+paths = sysconfig.get_paths()
+sys.path[:] = [p for p in (paths['stdlib'], paths['platstdlib'], paths['stdlib'] + '/lib-dynload') if p] + [{site!r}]
+for mod in ('hacgear_core', 'hacgear', 'pythonfmu', 'tqdm', 'matplotlib'):
+    try:
+        __import__(mod)
+    except ImportError:
+        pass
+    else:
+        raise SystemExit(f'{{mod}} is importable: not an isolated environment')
+from fmpy import read_model_description, extract
+from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2CallbackAllocateMemoryTYPE, \
+    fmi2CallbackFreeMemoryTYPE, calloc, free
+path = {fmu!r}
+md = read_model_description(path)
+log = []
+cb = fmi2CallbackFunctions()
+cb.logger = fmi2CallbackLoggerTYPE(lambda c, i, s, cat, m: log.append((s, m.decode())))
+cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+f = FMU2Slave(guid=md.guid, unzipDirectory=extract(path), modelIdentifier=md.coSimulation.modelIdentifier,
+              instanceName='isolated')
+try:
+    f.instantiate(loggingOn=False, callbacks=cb)
+except Exception as exc:
+    print('INSTANTIATE FAILED', log)
+    raise SystemExit(0)
+vr = {{v.name: v.valueReference for v in md.modelVariables}}
+f.setupExperiment(startTime=0.0); f.enterInitializationMode(); f.setReal([vr[{speed_in!r}]], [300.0])
+f.exitInitializationMode()
+for k in range(20):
+    f.doStep(k * 1e-4, 1e-4)
+print('FORCE', f.getReal([vr['m12.force']])[0], sorted(m for m in sys.modules if '.' not in m and not m.startswith('_')))
+f.terminate(); f.freeInstance()
+"""
+
+
+def test_fmu_runs_in_an_environment_without_hacgear(built, tmp_path):
+    """A Python with only numpy, scipy, h5py, numba and fmpy (and what they require): the FMUs instantiate and
+    run; without numba the instantiation fails and the log (debug logging off) and stderr say what is missing."""
+    full = _isolated_site(tmp_path / "site", ["numpy", "scipy", "h5py", "numba", "fmpy"])
+    for system, speed_in in (("spur_28t_asym", "pinion.speed_in"), ("idler_28_33_39", "gear1.speed_in")):
+        code = _ISOLATED_RUN.format(site=str(full), fmu=str(built["fmu"][system]), speed_in=speed_in)
+        p = subprocess.run([sys.executable, "-S", "-c", code], capture_output=True, text=True, timeout=600)
+        assert p.returncode == 0, p.stdout[-2000:] + p.stderr[-3000:]
+        assert "FORCE" in p.stdout, p.stdout[-2000:] + p.stderr[-3000:]
+        force = float(p.stdout.split("FORCE")[1].split()[0])
+        assert 1e3 < force < 1e5, system
+        loaded = set(eval(p.stdout.split("FORCE")[1].split(None, 1)[1]))
+        assert {"numpy", "scipy", "h5py", "numba"} <= loaded and not {"hacgear_core", "tqdm", "pythonfmu"} & loaded
+    lean = _isolated_site(tmp_path / "lean", ["numpy", "scipy", "h5py", "fmpy"])
+    assert not (lean / "numba").exists()
+    code = _ISOLATED_RUN.format(site=str(lean), fmu=str(built["fmu"]["spur_28t_asym"]), speed_in="pinion.speed_in")
+    p = subprocess.run([sys.executable, "-S", "-c", code], capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0 and "INSTANTIATE FAILED" in p.stdout, p.stdout[-2000:] + p.stderr[-3000:]
+    assert "numba>=" in p.stdout and "is not installed" in p.stdout and "pip install" in p.stdout
+    assert "(3," in p.stdout.split("INSTANTIATE FAILED")[1]  # logged with status Error (3)
+    assert "numba>=" in p.stderr
+
+
+def test_bootstrap_cache_and_requirements(tmp_path, monkeypatch):
+    """The loader's pieces: unmet requirements are named; the bundled code is copied once to the per-user cache,
+    a damaged copy is replaced, an unwritable cache falls back with a note."""
+    probs = bootstrap.check_requirements({"numpy": "999.0", "no-such-package-xyz": "1.0"}, "99.0")
+    assert any("Python" in p and "older than 99.0" in p for p in probs)
+    assert any("numpy" in p and "older than 999.0" in p for p in probs)
+    assert any("no-such-package-xyz>=1.0 is not installed" in p for p in probs)
+    assert bootstrap.check_requirements({"numpy": "1.0"}) == []
+    src = tmp_path / "res" / "pkg_x"
+    (src / "sub").mkdir(parents=True)
+    (src / "__init__.py").write_text("A = 1\n")
+    (src / "sub" / "__init__.py").write_text("B = 2\n")
+    digest = bootstrap.tree_digest(src)
+    monkeypatch.setenv("HACGEAR_FMU_CACHE", str(tmp_path / "cache"))
+    root, notes = bootstrap.stable_copy(src, "pkg_x", digest)
+    assert root == tmp_path / "cache" and notes == [] and bootstrap.tree_digest(root / "pkg_x") == digest
+    (root / "pkg_x" / "__init__.py").write_text("A = 666\n")  # damaged: replaced on the next instantiation
+    root, notes = bootstrap.stable_copy(src, "pkg_x", digest)
+    assert (root / "pkg_x" / "__init__.py").read_text() == "A = 1\n"
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    monkeypatch.setenv("HACGEAR_FMU_CACHE", str(blocker / "cache"))
+    root, notes = bootstrap.stable_copy(src, "pkg_x", digest)
+    assert root == src.parent and "could not be cached" in notes[0] and "HACGEAR_FMU_CACHE" in notes[0]
+    assert bootstrap.resources_folder("file:///tmp/a%20b/resources") == Path("/tmp/a b/resources")
 
 
 # ---------------------------------------------------------------------------------------------- runs
 def test_fmu_reproduces_library_time_series(built):
-    """Same speed, torque, internal step: the FMU under fmpy equals the library to <= 1e-9 (relative)."""
-    speed, torque, h_int, dt, n = 520.0, 250.0, 2e-6, 1e-4, 300
-    res = fmpy.simulate_fmu(str(built["fmu"]["spur_28t_asym"]), start_time=0.0, stop_time=n * dt, step_size=dt,
-                            output_interval=dt,
-                            start_values={"pinion.speed_in": speed, "torque": torque, "internal_step": h_int},
-                            output=["m12.force", "m12.deflection", "m12.dte", "m12.position", "pinion.angle",
-                                    "wheel.speed"])
-    sim, _ = _library(built, "spur_28t_asym", h_int, torque)
+    """Same speed, torque, internal step: the FMU (its bundled code) under fmpy equals the library (<= 1e-12)."""
+    speed, torque, h_int, dt, n = 520.0, 250.0, 2e-6, 1e-4, 200
+    out = ["m12.force", "m12.deflection", "m12.dte", "m12.position", "pinion.angle", "wheel.speed"]
+    res = fmpy.simulate_fmu(str(built["fmu"]["spur_28t_asym"]), start_time=0.0, stop_time=n * dt,
+                            output_interval=dt, output=out,
+                            start_values={"pinion.speed_in": speed, "torque": torque, "internal_step": h_int})
+    sim = _library("spur_28t_asym", h_int, torque)
     sim.reset(speed_rad_s=speed)
     sim.set_speed_input(speed_rad_s=speed)
     get = {"m12.force": lambda: sim.mesh_force_N[0], "m12.deflection": lambda: sim.mesh_deflection_m[0],
@@ -237,230 +407,270 @@ def test_fmu_reproduces_library_time_series(built):
         for k, g in get.items():
             lib[k].append(g())
     assert len(res) == n + 1
-    for k, v in lib.items():
+    for k, v in lib.items():  # fmpy's step sizes are differences of its time grid: last-bit differences
         v = np.asarray(v)
-        f = res[k][1:]
-        scale = np.max(np.abs(v))
-        assert scale > 0
-        assert np.max(np.abs(f - v)) <= 1e-9 * scale, k
-    # a dynamic run, not a constant: the mesh force varies over the mesh cycle
+        assert np.max(np.abs(res[k][1:] - v)) <= 1e-12 * np.max(np.abs(v)), k
     assert np.ptp(res["m12.force"]) > 0.05 * np.mean(res["m12.force"])
 
 
-def _adapter_and_library(built, system, mode, h_int, **inputs):
-    """The FMU's adapter (as the slave drives it) and a library simulator with the same parameters and inputs."""
-    ad = hf.make_adapter(built["models"] / system)
+def _adapter_and_library(system, mode, h_int, **inputs):
+    ad = hf.make_adapter(ROOT / "models" / system)
     values = {v.name: v.start for v in ad.variables if v.causality != "output"}
-    values.update(mode=mode, internal_step=h_int, **{var(system, k): v for k, v in inputs.items()})
+    values.update(mode=mode, internal_step=h_int, **inputs)
     ad.configure(values)
-    sim, _ = _library(built, system, h_int, shafts=mode == hf.MODE_SPEED)
-    g1, g2 = GEARS[system]
+    sim = _library(system, h_int, shafts=mode == hf.MODE_SPEED)
+    ref = ad.ref
     if mode == hf.MODE_SPEED:
-        sim.reset(speed_rad_s=values[f"{g1}.speed_in"])
-        sim.set_speed_input(speed_rad_s=values[f"{g1}.speed_in"])
+        sim.reset(speed_rad_s=values[f"{ref}.speed_in"])
+        sim.set_speed_input(speed_rad_s=values[f"{ref}.speed_in"])
     else:
-        sim.reset(speed_rad_s=values[f"{g1}.speed_start"])
-        sim.set_torque_inputs({g1: values[f"{g1}.torque_in"], g2: values[f"{g2}.torque_in"]})
+        sim.reset(speed_rad_s=values[f"{ref}.speed_start"])
+        sim.set_torque_inputs({g: values[f"{g}.torque_in"] for g in ad.ports})
     return ad, values, sim
 
 
-def _lib_outputs(sim, system):
-    g1, g2 = GEARS[system]
-    return {"m12.force": sim.mesh_force_N[0], "m12.deflection": sim.mesh_deflection_m[0],
-            "m12.dte": sim.dynamic_transmission_error_m[0], "m12.position": sim.mesh_position[0],
-            f"{g1}.angle": sim.angle_rad[0], f"{g2}.angle": sim.angle_rad[1], f"{g1}.speed": sim.speed_rad_s[0],
-            f"{g2}.speed": sim.speed_rad_s[1]}
-
-
-@pytest.mark.parametrize("system, mode", [("spur_28t_asym", 0), ("spur_50t_icr137", 0), ("spur_50t_icr137", 1)])
-def test_fmu_step_path_equals_library_advance(built, system, mode):
-    """The adapter's step is the library's Simulator.advance: every output identical (bit for bit), in both modes,
-    over steps of different lengths and a changing input."""
-    inputs = {"speed1_in": 410.0} if mode == 0 else {"speed1_start": 150.0, "torque1_in": 250.0, "torque2_in": -200.0}
-    ad, values, sim = _adapter_and_library(built, system, mode, 1.5e-6, **inputs)
+@pytest.mark.parametrize("system, mode", [("spur_28t_asym", 0), ("idler_28_33_39", 1)])
+def test_fmu_step_path_equals_library_advance(system, mode):
+    """The adapter's step is the library's Simulator.advance: every output identical (bit for bit), over steps of
+    different lengths and a changing input."""
+    ad0 = hf.make_adapter(ROOT / "models" / system)
+    g1, g2 = ad0.ports
+    inputs = ({f"{g1}.speed_in": 410.0} if mode == 0
+              else {f"{g1}.speed_start": 150.0, f"{g1}.torque_in": 250.0, f"{g2}.torque_in": -200.0})
+    ad, values, sim = _adapter_and_library(system, mode, 1.5e-6, **inputs)
     get = ad.getters()
-    steps = [1e-4] * 40 + [3.3e-5, 2e-4, 1e-6] * 5
-    for k, dt in enumerate(steps):
-        if k == 20:  # an input changes between steps (applied by the slave before the step)
-            key, val = (var(system, "speed1_in"), 430.0) if mode == 0 else (var(system, "torque1_in"), 400.0)
-            values[key] = val
+    for k, dt in enumerate([1e-4] * 30 + [3.3e-5, 2e-4, 1e-6] * 4):
+        if k == 15:
+            key = f"{g1}.speed_in" if mode == 0 else f"{g1}.torque_in"
+            values[key] = 430.0 if mode == 0 else 400.0
             ad.apply_inputs(values)
-            g1, g2 = GEARS[system]
             if mode == 0:
-                sim.set_speed_input(speed_rad_s=val)
+                sim.set_speed_input(speed_rad_s=430.0)
             else:
-                sim.set_torque_inputs({g1: val, g2: values[f"{g2}.torque_in"]})
-        assert ad.advance(dt) == ""
-        assert sim.advance(dt).success
-        for name, ref in _lib_outputs(sim, system).items():
-            assert get[name]() == ref, (k, name)
-        assert get["m12.contact"]() == (1.0 if sim.in_contact[0] else 0.0)
-        if k % 7 == 0:  # bearing forces and the table post-processing
-            for i, g in enumerate(GEARS[system]):
-                assert get[f"{g}.bearing_force_x"]() == sim.bearing_force_N(g)[0]
-                assert get[f"{g}.bearing_force_y"]() == sim.bearing_force_N(g)[1]
-            assert get["m12.peak_pressure"]() == pytest.approx(sim.peak_pressure_Pa(0), rel=1e-12)
-    assert ad.sim.time_s == pytest.approx(sim.time_s, rel=1e-15)
-    assert all(type(g()) is float for g in get.values())  # pythonfmu's C wrapper reads Python floats
+                sim.set_torque_inputs({g1: 400.0, g2: values[f"{g2}.torque_in"]})
+        assert ad.advance(dt) == "" and sim.advance(dt).success
+        for j, mn in enumerate(ad.mesh_names):
+            assert get[f"{mn}.force"]() == sim.mesh_force_N[j] and get[f"{mn}.dte"]() == \
+                sim.dynamic_transmission_error_m[j]
+            assert get[f"{mn}.contact"]() == (1 if sim.mesh_force_N[j] > 0 else 0)
+        for i, g in enumerate(ad.gear_names):
+            assert get[f"{g}.angle"]() == sim.angle_rad[i] and get[f"{g}.speed"]() == sim.speed_rad_s[i]
+    assert all(type(g()) in (float, int, bool) for g in get.values())
 
 
-def test_fmu_step_divergence_keeps_the_state(built):
-    """A step whose integration is not finite is refused with a message and leaves state and outputs as they were."""
-    ad, _, _ = _adapter_and_library(built, "spur_28t_asym", 0, 2e-6, speed1_in=300.0)
-    assert ad.advance(1e-4) == ""
-    get = ad.getters()
-    outputs = lambda: {k: g() for k, g in get.items()}  # noqa: E731
-    s, kin, out, t = ad.sim.s.copy(), ad.sim.kin.copy(), outputs(), ad.sim.time_s
-    good = ad.sim.fext
-    ad.sim.fext = np.full_like(good, np.nan)
-    msg = ad.advance(1e-4)
-    assert "diverged" in msg and "restored" in msg
-    assert np.array_equal(ad.sim.s, s) and np.array_equal(ad.sim.kin, kin) and outputs() == out
-    assert ad.sim.time_s == t
-    ad.sim.fext = good
-    assert ad.advance(1e-4) == "" and outputs() != out
-
-
-def test_get_set_real_of_unknown_references_are_logged(built):
-    """getReal of a reference that is not a Real variable gives NaN and a message, setReal of an output or an
-    unknown reference is ignored with a message: no exception reaches pythonfmu's wrapper (fmi2Fatal)."""
+def test_fmu_step_divergence_is_discarded_with_the_state_kept(built):
+    """Python side of the binary: a step whose integration is not finite is Discard, state and outputs as they
+    were; then only getters, terminate, state restore and reset are allowed."""
     low = _Low(built["fmu"]["spur_28t_asym"])
     try:
-        low.init(**{"pinion.speed_in": 300.0})
-        low.fmu.doStep(0.0, 1e-4)
-        f = low.get("m12.force")[0]
-        vals = low.fmu.getReal([low.vr["m12.force"], 99999, low.vr["mode"]])
-        assert vals[0] == f and math.isnan(vals[1]) and math.isnan(vals[2])
-        assert any("99999" in m and "not a Real variable" in m for _, m in low.messages)
-        low.fmu.setReal([low.vr["m12.force"], 99999], [1.0, 2.0])
-        assert any("not a settable Real variable" in m for _, m in low.messages)
-        assert low.get("m12.force")[0] == f
-        low.fmu.doStep(1e-4, 1e-4)  # goes on normally
-        assert low.get("m12.position")[0] > 0
+        inst = FmuInstance(Path(low.dir) / "resources", "direct", low.md.guid)
+        assert inst.enter_initialization_mode(0.0) == OK and inst.exit_initialization_mode() == OK
+        assert inst.do_step(0.0, 1e-4) == OK
+        saved = inst.get_state()
+        vrs = list(inst._real_get)
+        before = inst.get_real(vrs)
+        good = inst.adapter.sim.fext
+        inst.adapter.sim.fext = np.full_like(good, np.nan)
+        assert inst.do_step(1e-4, 1e-4) == DISCARD and inst.get_real(vrs) == before
+        assert any("diverged" in m for _, _, m in inst.messages)
+        assert inst.do_step(1e-4, 1e-4) == ERROR  # no doStep after Discard
+        inst.adapter.sim.fext = good
+        assert inst.set_state(saved) == OK and inst.do_step(1e-4, 1e-4) == OK
+        assert inst.terminate() == OK and inst.do_step(2e-4, 1e-4) == ERROR
     finally:
         low.close()
+
+
+@pytest.mark.parametrize("version", ("fmu", "fmu3"))
+def test_bad_parameters_fail_initialization_with_a_message(built, version):
+    """Invalid parameters: ExitInitializationMode returns Error, logged without debug logging with variable,
+    value, unit and range; the instance then refuses steps."""
+    low = _Low(built[version]["spur_28t_asym"])
+    try:
+        assert low.enter() == OK
+        assert low.set(modal_damping_ratio=2.0, internal_step=-1.0, **{"pinion.bearing_stiffness": float("nan")}) == OK
+        assert low.exit() == ERROR
+        text = low.text()
+        assert "modal_damping_ratio' [1] = 2.0" in text and "[0, 0.99]" in text
+        assert "internal_step' [s] = -1.0" in text and "pinion.bearing_stiffness' [N/m] = nan" in text
+        assert low.step(0.0, 1e-4) == ERROR and "not allowed" in low.messages[-1][1]
+    finally:
+        low.close()
+    low = _Low(built[version]["spur_28t_asym"])
+    try:
+        assert low.enter() == OK and low.set(mode=5) == OK and low.exit() == ERROR
+        assert "mode' = 5.0 is outside the allowed range [0, 1]" in low.text()
+    finally:
+        low.close()
+
+
+@pytest.mark.parametrize("version", ("fmu", "fmu3"))
+def test_setting_outputs_fixed_parameters_and_bad_inputs_is_an_error(built, version):
+    low = _Low(built[version]["spur_28t_asym"])
+    try:
+        assert low.init() == OK and low.step(0.0, 1e-4) == OK
+        f = low.get("m12.force")[0]
+        assert low.set(**{"m12.force": 1.0}) == ERROR and "is output" in low.messages[-1][1]
+    finally:
+        low.close()
+    low = _Low(built[version]["spur_28t_asym"])
+    try:
+        assert low.init() == OK and low.step(0.0, 1e-4) == OK
+        assert low.set(torque=10.0) == ERROR and "fixed parameter" in low.messages[-1][1]
+        assert low.get("m12.force")[0] == f  # getters stay allowed after an error
+        assert low.step(1e-4, 1e-4) == ERROR
+    finally:
+        low.close()
+    low = _Low(built[version]["spur_28t_asym"])
+    try:
+        assert low.init(**{"pinion.speed_in": 300.0}) == OK and low.step(0.0, 1e-4) == OK
+        state = low.fmu.getFMUState() if low.v3 else low.fmu.getFMUstate()
+        before = low.get("m12.force", "m12.dte", "m12.position")
+        assert low.set(**{"pinion.speed_in": float("nan")}) == OK  # inputs are checked when they are used
+        assert low.step(1e-4, 1e-4) == ERROR and "pinion.speed_in' [rad/s] = nan" in low.messages[-1][1]
+        assert low.get("m12.force", "m12.dte", "m12.position") == before
+        # an FMU state stored before the error lets the master go on
+        assert status(low.fmu.setFMUState if low.v3 else low.fmu.setFMUstate, state) == OK
+        assert low.set(**{"pinion.speed_in": 300.0}) == OK and low.step(1e-4, 1e-4) == OK
+        assert low.get("m12.position")[0] > before[2]
+        for bad in (0.0, -1e-4, float("inf"), float("nan")):
+            assert low.step(2e-4, bad) == ERROR
+            assert status(low.fmu.setFMUState if low.v3 else low.fmu.setFMUstate, state) == OK
+        assert low.step(0.5, 1e-4) == ERROR and "not the end of the previous step" in low.messages[-1][1]
+    finally:
+        low.close()
+
+
+@pytest.mark.parametrize("version", ("fmu", "fmu3"))
+def test_fmu_state_repeats_a_step_bit_for_bit(built, version):
+    """get/set FMU state and its serialization: a restored state repeats the following steps bit for bit, for
+    every Real and Enumeration output."""
+    low = _Low(built[version]["idler_28_33_39"])
+    reals = [v.name for v in low.md.modelVariables if v.causality == "output" and v.type in ("Real", "Float64")]
+    enums = [v.name for v in low.md.modelVariables if v.causality == "output" and v.type == "Enumeration"]
+    get_state = low.fmu.getFMUState if low.v3 else low.fmu.getFMUstate
+    set_state = low.fmu.setFMUState if low.v3 else low.fmu.setFMUstate
+    ser = low.fmu.serializeFMUState if low.v3 else low.fmu.serializeFMUstate
+    deser = low.fmu.deserializeFMUState if low.v3 else low.fmu.deSerializeFMUstate
+    try:
+        assert low.init(mode=1, **{"gear1.speed_start": 300.0}) == OK
+        t = 0.0
+        for _ in range(10):
+            assert low.step(t, 1e-4) == OK
+            t += 1e-4
+        state = get_state()
+        blob = ser(state)
+        at_state = (low.get(*reals), low.get_int(*enums))
+        runs = []
+        for restore in (None, state, "blob"):
+            if restore is not None:
+                assert status(set_state, state if restore is state else deser(blob)) == OK
+                assert (low.get(*reals), low.get_int(*enums)) == at_state
+            tt = t
+            trace = []
+            for k in range(15):
+                low.set(**{"gear1.torque_in": 200.0 + 10 * k})
+                assert low.step(tt, 1e-4) == OK
+                tt += 1e-4
+                trace.append((low.get(*reals), low.get_int(*enums)))
+            runs.append(trace)
+        assert runs[0] == runs[1] == runs[2]
+        assert isinstance(blob, bytes) and len(blob) > 100
+        assert status(set_state, 12345) == ERROR  # a pointer the FMU did not issue is refused, not dereferenced
+    finally:
+        low.close()
+
+
+def test_default_experiment_shows_the_resonance(built):
+    """A plain fmpy run (no arguments) is the constant-speed experiment at the mesh resonance: the dynamic mesh
+    force exceeds the static one."""
+    for system in SYSTEMS:
+        path = built["fmu"][system]
+        info = json.loads(zipfile.ZipFile(path).read("resources/hacgear_fmu.json"))
+        res = fmpy.simulate_fmu(str(path), output=["m12.force", "m12.contact"])
+        de = info["default_experiment"]
+        assert res["time"][-1] == pytest.approx(de["stopTime"]) and len(res) == round(de["stopTime"] / de["stepSize"]) + 1
+        f_static = info["meshes"]["m12"]["nominal_force_N"]
+        late = res["time"] > 0.5 * de["stopTime"]
+        assert np.max(res["m12.force"][late]) > 1.3 * f_static, system
+        assert np.mean(res["m12.force"][late]) == pytest.approx(f_static, rel=0.1)
+
+
+def test_fmi3_equals_fmi2(built):
+    """The FMI 3.0 FMU gives the FMI 2.0 twin's time series (<= 1e-12 relative; measured: identical)."""
+    for system in SYSTEMS:
+        kw = dict(stop_time=0.01, output_interval=1e-4, start_values={"mode": 1})
+        r2 = fmpy.simulate_fmu(str(built["fmu"][system]), **kw)
+        r3 = fmpy.simulate_fmu(str(built["fmu3"][system]), **kw)
+        assert r2.dtype.names == r3.dtype.names and len(r2) == len(r3) == 101
+        for name in r2.dtype.names:
+            a, b = np.asarray(r2[name], float), np.asarray(r3[name], float)
+            assert np.max(np.abs(a - b)) <= 1e-12 * max(np.max(np.abs(a)), 1e-300), (system, name)
 
 
 def test_any_communication_step_is_substepped(built):
     """One 2 ms step equals twenty 0.1 ms steps at a fixed internal step (same sub-steps)."""
     kw = dict(start_values={"pinion.speed_in": 400.0, "internal_step": 1e-6}, output=["m12.force", "m12.dte"])
-    fine = fmpy.simulate_fmu(str(built["fmu"]["spur_28t_asym"]), stop_time=2e-3, step_size=1e-4,
-                             output_interval=1e-4, **kw)
-    coarse = fmpy.simulate_fmu(str(built["fmu"]["spur_28t_asym"]), stop_time=2e-3, step_size=2e-3,
-                               output_interval=2e-3, **kw)
+    fine = fmpy.simulate_fmu(str(built["fmu"]["spur_28t_asym"]), stop_time=2e-3, output_interval=1e-4, **kw)
+    coarse = fmpy.simulate_fmu(str(built["fmu"]["spur_28t_asym"]), stop_time=2e-3, output_interval=2e-3, **kw)
     assert coarse["m12.dte"][-1] == pytest.approx(fine["m12.dte"][-1], rel=1e-9, abs=1e-18)
     assert coarse["m12.force"][-1] == pytest.approx(fine["m12.force"][-1], rel=1e-9)
 
 
 def test_drivetrain_mode_transmits_balanced_torques(built):
-    """Mode 1: shaft torques in, speeds out.  Balanced torques (T2 = -T1 r_b2/r_b1) keep the mean speed and the
-    mean mesh force is T1/r_b1; an unbalanced driving torque accelerates the pair as one inertia."""
-    t1 = 300.0
-    sim, table = _library(built, "spur_50t_icr137", None)
-    rb1, rb2 = table.base_radius_m
-    j1, j2 = np.diag(sim.system.M)
-    w0 = 200.0
-    v = lambda k: var("spur_50t_icr137", k)  # noqa: E731
-    res = fmpy.simulate_fmu(str(built["fmu"]["spur_50t_icr137"]), stop_time=0.05, step_size=1e-4,
-                            start_values={"mode": 1, v("speed1_start"): w0, v("torque1_in"): t1,
-                                          v("torque2_in"): -t1 * rb2 / rb1},
-                            output=[v("speed1"), v("speed2"), "m12.force", v("angle1")])
-    assert np.mean(res[v("speed1")]) == pytest.approx(w0, rel=1e-3)
-    assert np.mean(res[v("speed2")]) == pytest.approx(w0 * rb1 / rb2, rel=1e-3)
+    """Drivetrain mode: balanced torques keep the mean speed and transmit T1/r_b1; an unbalanced driving torque
+    accelerates the pair as one inertia."""
+    t1, w0 = 300.0, 200.0
+    sim = _library("spur_28t_asym")
+    rb1, rb2 = (sim.system.gears[g].radius_m for g in ("pinion", "wheel"))
+    j1, j2 = (sim.system.M[sim.system.gears[g].rotation, sim.system.gears[g].rotation] for g in ("pinion", "wheel"))
+    path = str(built["fmu"]["spur_28t_asym"])
+    res = fmpy.simulate_fmu(path, stop_time=0.05, output_interval=1e-4,
+                            start_values={"mode": 1, "pinion.speed_start": w0, "pinion.torque_in": t1,
+                                          "wheel.torque_in": -t1 * rb2 / rb1},
+                            output=["pinion.speed", "wheel.speed", "m12.force", "pinion.angle"])
+    assert np.mean(res["pinion.speed"]) == pytest.approx(w0, rel=1e-3)
+    assert np.mean(res["wheel.speed"]) == pytest.approx(w0 * rb1 / rb2, rel=1e-3)
     assert np.mean(res["m12.force"][len(res) // 2:]) == pytest.approx(t1 / rb1, rel=0.02)
-    assert res[v("angle1")][-1] == pytest.approx(w0 * 0.05, rel=2e-3)
-    # net torque: d(omega1)/dt = (T1 + T2 r_b1/r_b2) / (J1 + J2 (r_b1/r_b2)^2)
+    assert res["pinion.angle"][-1] == pytest.approx(w0 * 0.05, rel=2e-3)
     t2 = -0.5 * t1 * rb2 / rb1
-    res = fmpy.simulate_fmu(str(built["fmu"]["spur_50t_icr137"]), stop_time=0.05, step_size=1e-4,
-                            start_values={"mode": 1, v("speed1_start"): w0, v("torque1_in"): t1, v("torque2_in"): t2},
-                            output=[v("speed1")])
+    res = fmpy.simulate_fmu(path, stop_time=0.05, output_interval=1e-4,
+                            start_values={"mode": 1, "pinion.speed_start": w0, "pinion.torque_in": t1,
+                                          "wheel.torque_in": t2}, output=["pinion.speed"])
     alpha = (t1 + t2 * rb1 / rb2) / (j1 + j2 * (rb1 / rb2) ** 2)
-    slope = np.polyfit(res["time"], res[v("speed1")], 1)[0]
-    assert slope == pytest.approx(alpha, rel=0.02)
+    assert np.polyfit(res["time"], res["pinion.speed"], 1)[0] == pytest.approx(alpha, rel=0.02)
 
 
 def test_root_strain_follows_one_tooth(built):
     """The gauge tooth is loaded once per revolution of its gear (every z mesh cycles) and unloaded between."""
-    z = 28
-    speed = 300.0  # rad/s -> one pinion revolution in 20.9 ms
-    res = fmpy.simulate_fmu(str(built["fmu"]["spur_28t_asym"]), stop_time=0.05, step_size=2e-5,
-                            output_interval=2e-5, start_values={"pinion.speed_in": speed},
-                            output=["pinion.SG.root_strain", "m12.position", "m12.peak_pressure"])
-    s = res["pinion.SG.root_strain"]
+    z, speed = 28, 300.0
+    res = fmpy.simulate_fmu(str(built["fmu"]["spur_28t_asym"]), stop_time=0.05, output_interval=2e-5,
+                            start_values={"pinion.speed_in": speed},
+                            output=["pinion.SG25.root_strain", "m12.position", "m12.peak_pressure"])
+    s = res["pinion.SG25.root_strain"]
     loaded = np.abs(s) > 0.1 * np.max(np.abs(s))
     pos = res["m12.position"][loaded]
-    # loaded only within a few mesh cycles around multiples of z
     phase = (pos + z / 2) % z - z / 2
     assert np.all(np.abs(phase) < 3.0)
     assert {int(round(p / z)) for p in pos} == {0, 1, 2}
     assert np.all(res["m12.peak_pressure"] >= 0) and np.max(res["m12.peak_pressure"]) > 1e8
 
 
-def test_bad_parameters_are_logged_and_steps_refused(built):
-    low = _Low(built["fmu"]["spur_28t_asym"])
-    try:
-        low.init(modal_damping_ratio=2.0, internal_step=-1.0)
-        text = " ".join(m for _, m in low.messages)
-        assert "modal_damping_ratio" in text and "[0, 0.99]" in text and "internal_step" in text
-        with pytest.raises(FMICallException, match="discard"):
-            low.fmu.doStep(0.0, 1e-4)
-        assert "doStep refused" in low.messages[-1][1]
-    finally:
-        low.close()
-    # fmpy's high-level call logs it and ends the run at the refused (discarded) first step
-    msgs = []
-    res = fmpy.simulate_fmu(str(built["fmu"]["spur_28t_asym"]), stop_time=1e-3, step_size=1e-4,
-                            start_values={"pinion.bearing_stiffness": -5.0}, debug_logging=True,
-                            logger=lambda *a: msgs.append(a[-1].decode(errors="replace")))
-    assert len(res) < 3 and any("pinion.bearing_stiffness" in m and "[N/m]" in m for m in msgs)
-
-
-def test_nan_input_and_bad_steps_are_discarded_with_state_kept(built):
-    low = _Low(built["fmu"]["spur_28t_asym"])
-    try:
-        low.init(**{"pinion.speed_in": 300.0})
-        low.fmu.doStep(0.0, 1e-4)
-        before = low.get("m12.force", "m12.dte", "m12.position")
-        low.fmu.setReal([low.vr["pinion.speed_in"]], [float("nan")])
-        with pytest.raises(FMICallException, match="discard"):
-            low.fmu.doStep(1e-4, 1e-4)
-        assert low.get("m12.force", "m12.dte", "m12.position") == before
-        assert any("pinion.speed_in" in m and "NaN" in m for _, m in low.messages)
-        low.fmu.setReal([low.vr["pinion.speed_in"]], [1e9])
-        with pytest.raises(FMICallException, match="discard"):
-            low.fmu.doStep(1e-4, 1e-4)
-        low.fmu.setReal([low.vr["pinion.speed_in"]], [300.0])
-        for bad in (0.0, -1e-4, float("inf"), float("nan")):
-            with pytest.raises(FMICallException, match="discard"):
-                low.fmu.doStep(1e-4, bad)
-        assert any("step size" in m for _, m in low.messages)
-        low.fmu.doStep(1e-4, 1e-4)  # goes on normally
-        assert low.get("m12.position")[0] > before[2]
-    finally:
-        low.close()
-
-
 def test_two_fmus_and_repeated_runs_in_one_process(built):
     a, b = (str(built["fmu"][s]) for s in SYSTEMS)
-    kw = dict(stop_time=5e-3, step_size=1e-4, output_interval=1e-4, output=["m12.position", "m12.force"])
-    sa, sb = ({var(s, "speed1_in"): 300.0} for s in SYSTEMS)
+    kw = dict(stop_time=5e-3, output_interval=1e-4, output=["m12.position", "m12.force"])
+    sa, sb = {"pinion.speed_in": 300.0}, {"gear1.speed_in": 300.0}
     ra1 = fmpy.simulate_fmu(a, start_values=sa, **kw)
     rb = fmpy.simulate_fmu(b, start_values=sb, **kw)
     ra2 = fmpy.simulate_fmu(a, start_values=sa, **kw)
     rb2 = fmpy.simulate_fmu(b, start_values=sb, **kw)
-    assert np.array_equal(ra1["m12.force"], ra2["m12.force"])
-    assert np.array_equal(rb["m12.force"], rb2["m12.force"])
-    # mesh position advances z1 * speed / (2 pi) cycles per second: 28 vs 50 teeth
+    assert np.array_equal(ra1["m12.force"], ra2["m12.force"]) and np.array_equal(rb["m12.force"], rb2["m12.force"])
     assert ra1["m12.position"][-1] == pytest.approx(28 * 300.0 * 5e-3 / (2 * math.pi), rel=1e-3)
-    assert rb["m12.position"][-1] == pytest.approx(50 * 300.0 * 5e-3 / (2 * math.pi), rel=1e-3)
-    # two instances of different FMUs side by side (low-level)
-    la, lb = _Low(built["fmu"][SYSTEMS[0]], "a"), _Low(built["fmu"][SYSTEMS[1]], "b")
+    la, lb = _Low(built["fmu"][SYSTEMS[0]], "a"), _Low(built["fmu3"][SYSTEMS[1]], "b")
     try:
-        la.init(**sa)
-        lb.init(**sb)
+        assert la.init(**sa) == OK and lb.init(**sb) == OK
         for k in range(50):
-            la.fmu.doStep(k * 1e-4, 1e-4)
-            lb.fmu.doStep(k * 1e-4, 1e-4)
+            assert la.step(k * 1e-4, 1e-4) == OK and lb.step(k * 1e-4, 1e-4) == OK
         assert la.get("m12.force")[0] == pytest.approx(ra1["m12.force"][50], rel=1e-12)
         assert lb.get("m12.force")[0] == pytest.approx(rb["m12.force"][50], rel=1e-12)
     finally:
@@ -468,43 +678,61 @@ def test_two_fmus_and_repeated_runs_in_one_process(built):
         lb.close()
 
 
-def test_unmet_requirement_refuses_instantiation(built, tmp_path):
+def test_wrong_guid_and_unmet_requirement_fail_instantiation(built, tmp_path):
+    md = read_model_description(str(built["fmu"]["spur_28t_asym"]))
+    d = extract(str(built["fmu"]["spur_28t_asym"]))
+    try:
+        f = FMU2Slave(guid="{not-this-one}", unzipDirectory=d, modelIdentifier=md.coSimulation.modelIdentifier,
+                      instanceName="x")
+        with pytest.raises(Exception, match="Failed to instantiate"):
+            f.instantiate()
+    finally:
+        shutil.rmtree(d, ignore_errors=True)
     bad = tmp_path / "spur_28t_asym.fmu"
     bad.write_bytes(built["fmu"]["spur_28t_asym"].read_bytes())
     with zipfile.ZipFile(bad) as z:
         info = json.loads(z.read("resources/hacgear_fmu.json"))
-    info["requirements"]["hacgear"] = "==99.0"
+    info["requirements"]["numpy"] = "99.0"
     hf.build._rewrite_zip_member(bad, "resources/hacgear_fmu.json", json.dumps(info).encode())
-    low = _Low(bad)
-    try:
-        low.init(**{"pinion.speed_in": 300.0})
-        with pytest.raises(FMICallException, match="discard"):
-            low.fmu.doStep(0.0, 1e-4)
-        text = " ".join(m for _, m in low.messages)
-        assert "hacgear==99.0" in text and "cannot run" in text
-    finally:
-        low.close()
+    with pytest.raises(Exception, match="Failed to instantiate"):
+        _Low(bad)
 
 
-def test_fresh_process_hits_numba_cache(built):
-    """Kernels come from the installed package: in a fresh process (after a first one filled the cache)
-    the FMU loads the compiled integrator from numba's cache instead of compiling it."""
-    code = (
-        "import fmpy, sys, json\n"
-        f"r = fmpy.simulate_fmu({str(built['fmu']['spur_28t_asym'])!r}, stop_time=1e-3, step_size=1e-4,"
-        " start_values={'pinion.speed_in': 300.0})\n"
-        "from hacgear_core.dynamics import kernels\n"
-        "ds = [d for d in vars(kernels).values() if hasattr(d, 'stats')]\n"
-        "print(json.dumps({'file': kernels.__file__, 'hits': sum(sum(d.stats.cache_hits.values()) for d in ds),"
-        " 'misses': sum(sum(d.stats.cache_misses.values()) for d in ds)}))\n"
-    )
-    out = None
+_FRESH = (
+    "import fmpy, sys, json, time\n"
+    "r = fmpy.simulate_fmu({fmu!r}, stop_time=1e-3, output_interval=1e-4)\n"
+    "mods = [m for n, m in sys.modules.items() if n.endswith('.dynamics.kernels') and n.startswith('hacgear_fmu_')]\n"
+    "ds = [d for d in vars(mods[0]).values() if hasattr(d, 'stats')]\n"
+    "print(json.dumps({{'file': mods[0].__file__,"
+    " 'hits': sum(sum(d.stats.cache_hits.values()) for d in ds),"
+    " 'misses': sum(sum(d.stats.cache_misses.values()) for d in ds),"
+    " 'imported_geometry_solver': 'scipy.optimize' in sys.modules}}))\n"
+)
+
+
+def test_fresh_process_loads_cached_kernels_and_system(built):
+    """The bundled code runs from the per-user cache: a fresh process after a first one loads the compiled
+    kernels (numba cache hits, no misses) and the assembled system (no geometry solve) instead of building them
+    (timings: benchmarks/bench_fmu.py)."""
+    out = []
     for _ in range(2):
+        p = subprocess.run([sys.executable, "-c", _FRESH.format(fmu=str(built["fmu"]["spur_28t_asym"]))],
+                           capture_output=True, text=True, timeout=600)
+        assert p.returncode == 0, p.stderr[-3000:]
+        out.append(json.loads(p.stdout.strip().splitlines()[-1]))
+    assert Path(out[1]["file"]).is_relative_to(bootstrap.cache_root())
+    assert out[1]["hits"] >= 1 and out[1]["misses"] == 0
+    assert not out[1]["imported_geometry_solver"]
+    assert list((bootstrap.cache_root() / "systems").glob("*.pickle"))
+
+
+def test_importer_exits_cleanly(built):
+    """Fresh importer processes that load scipy, numba and h5py only through the FMU exit with status 0."""
+    code = (f"import fmpy\nr = fmpy.simulate_fmu({str(built['fmu']['spur_28t_asym'])!r}, stop_time=2e-3, "
+            "output_interval=1e-4)\n")
+    for _ in range(3):
         p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
-        assert p.returncode == 0, p.stderr[-2000:]
-        out = json.loads(p.stdout.strip().splitlines()[-1])
-    assert Path(out["file"]).resolve().is_relative_to(ROOT / "hacgear_core")
-    assert out["hits"] >= 1 and out["misses"] == 0
+        assert p.returncode == 0, (p.returncode, p.stderr[-2000:])
 
 
 def test_drivetrain_bench_follows_the_motor_and_carries_the_load(built):
@@ -519,23 +747,7 @@ def test_drivetrain_bench_follows_the_motor_and_carries_the_load(built):
     w_ref = 3300.0 * 2 * math.pi / 60
     assert np.mean(res["motor_speed_rad_s"][end]) == pytest.approx(w_ref, rel=0.01)
     assert np.mean(res["input_speed_rad_s"][end]) == pytest.approx(w_ref, rel=0.01)
-    # the wheel turns at r_b1/r_b2 of the pinion speed and the load shaft carries -T_load on average
     assert np.mean(res["output_speed_rad_s"][end]) == pytest.approx(w_ref * res["speed_ratio"], rel=0.01)
     assert np.mean(res["shaft2_torque_Nm"][end]) == pytest.approx(-200.0, rel=0.05)
     assert np.mean(res["m12.force"][end]) == pytest.approx(res["static_mesh_force_N"]["m12"], rel=0.05)
-
-
-def test_importer_exits_cleanly(built):
-    """pythonfmu 0.7.0's binary frees its interpreter state twice at process exit unless the slave releases it
-    first (hacgear_core.fmu.slave._guard_pythonfmu_exit): fresh importer processes that load scipy, numba and h5py only
-    through the FMU must exit with status 0, not abort."""
-    code = (
-        "import fmpy\n"
-        f"r = fmpy.simulate_fmu({str(built['fmu']['spur_28t_asym'])!r}, stop_time=2e-3, step_size=1e-4,"
-        " start_values={'pinion.speed_in': 300.0})\n"
-        "import hacgear_core.fmu.slave as hs\n"
-        "assert any(k.endswith('spur_28t_asym.so') for k in hs._PYTHONFMU_BINARIES), hs._PYTHONFMU_BINARIES\n"
-    )
-    for _ in range(4):
-        p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
-        assert p.returncode == 0, (p.returncode, p.stderr[-2000:])
+    assert set(np.unique(res["m12.contact"])) <= {0, 1}

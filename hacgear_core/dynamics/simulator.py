@@ -61,6 +61,7 @@ def strain_of_tooth(system: LumpedSystem, gauge: str, tau: np.ndarray, x: np.nda
     z = system.gears[gear].teeth
     tau = np.atleast_2d(np.asarray(tau, float))
     x = np.atleast_2d(np.asarray(x, float))
+    xc = None if xc is None else np.atleast_2d(np.asarray(xc, float))
     total = np.zeros(tau.shape[0])
     found = False
     for k, c in enumerate(system.meshes):
@@ -119,6 +120,7 @@ class Simulator:
         self._rec_s = np.zeros((1, 2 * n))
         self._rec_o = np.zeros((1, kernels.record_width(m)))
         self.gear_names = tuple(system.gears)
+        self._backlash = [float(b) if math.isfinite(b) else 0.0 for b in system.backlash_m]
         self._gears = tuple(system.gears[g] for g in self.gear_names)
         fe = system.fext_speed()
         self.ports = tuple(g.name for g in self._gears if g.rotation >= 0 and abs(fe[g.rotation]) > 1e-9 * np.max(np.abs(fe)))
@@ -276,9 +278,11 @@ class Simulator:
 
     # ------------------------------------------------------------------ state snapshots (FMI get/set state)
     def get_state(self) -> dict:
-        """A snapshot of everything :meth:`advance` depends on (arrays copied)."""
+        """A snapshot of everything :meth:`advance` depends on (arrays copied) and of the outputs as they are (the
+        kernel's end-of-step record), so that :meth:`set_state` restores both bit for bit."""
         return {"s": self.s.copy(), "kin": self.kin.copy(), "time_s": self.time_s, "mode": self.mode,
-                "fext": self.fext.copy(), "torque_Nm": self.torque_Nm, "port_torques_Nm": dict(self.port_torques_Nm)}
+                "fext": self.fext.copy(), "torque_Nm": self.torque_Nm, "port_torques_Nm": dict(self.port_torques_Nm),
+                "outputs": tuple(list(v) for v in self._output_source)}
 
     def set_state(self, snap: dict) -> None:
         """Restore a snapshot of :meth:`get_state` (in place; outputs updated)."""
@@ -289,7 +293,10 @@ class Simulator:
         self.fext = snap["fext"].copy()
         self.time_s, self.mode = snap["time_s"], snap["mode"]
         self.torque_Nm, self.port_torques_Nm = snap["torque_Nm"], dict(snap["port_torques_Nm"])
-        self._update_outputs()
+        if "outputs" in snap:
+            self._set_outputs(*(list(v) for v in snap["outputs"]))
+        else:
+            self._update_outputs()
 
     # ------------------------------------------------------------------ outputs
     def _update_outputs(self) -> None:
@@ -314,6 +321,7 @@ class Simulator:
         record ``rec`` (REC m + 1 floats)."""
         sy = self.system
         n, m = sy.n, sy.m
+        self._output_source = (st, kt, rec)
         R = kernels.REC
         self.mesh_position = rec[kernels.REC_POSITION:R * m:R]
         self.mesh_deflection_m = rec[kernels.REC_DEFLECTION:R * m:R]
@@ -327,8 +335,7 @@ class Simulator:
         self.contact_state = [1 if a else (-1 if b else 0) for a, b in zip(self.in_contact, self.coast_contact)]
         #: per mesh: where the teeth are in the backlash, 0 at the drive flanks' kinematic contact, 1 where the
         #: coast flanks of ideal teeth touch (the coast approach over the normal backlash)
-        self.backlash_position = [xc / b if math.isfinite(b) and b > 0 else 0.0
-                                  for xc, b in zip(self.coast_approach_m, sy.backlash_m)]
+        self.backlash_position = [xc / b if b > 0 else 0.0 for xc, b in zip(self.coast_approach_m, self._backlash)]
         #: per mesh: integration steps whose state lay beyond the mesh's tables (deflection or load range)
         self.out_of_range_steps = [int(c) for c in kt[3:3 + m]]
         phi = (kt[1] + kt[0]) / sy.zref_2pi  # reference gear's rotation in its sense [rad]

@@ -35,7 +35,6 @@ from pathlib import Path
 
 import h5py
 import numpy as np
-from tqdm import tqdm
 
 from hacgear_core.dynamics.steady import METRIC_NAMES, SteadyStateOptions, steady_state
 from hacgear_core.dynamics.system import LumpedSystem
@@ -247,6 +246,8 @@ def _run_branch(spec: SweepSpec, branch: str, part: str | None, progress: bool, 
     bar = None
     try:
         if progress:
+            from tqdm import tqdm  # only for progress bars: the FMU runtime imports this module without tqdm
+
             bar = tqdm(total=len(fms), initial=done, desc=f"{spec.label or 'sweep'} {branch}", unit="speed",
                        position=position, leave=True)
         rows = []

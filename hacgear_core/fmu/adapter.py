@@ -15,28 +15,64 @@ Two experiments, chosen by the parameter ``mode`` (fixed after initialization):
   from rest relative to ``<reference gear>.speed_start``.
 
 Angles, speeds and shaft torques are positive in each gear's operating sense of rotation; a braking load torque
-is negative.
+is negative.  Either sign of torque and any motion are allowed: every mesh has its drive and coast flanks, with the
+backlash between them (``<mesh>.contact``, ``<mesh>.coast_force``, ``<mesh>.backlash_position``).
+
+Structural parameters (the planet count of a planetary set, :func:`~hacgear_core.dynamics.build.
+structural_parameters`) are fixed Integer parameters; the outputs are declared for the largest structure and the
+meshes and gears the chosen one does not have read 0.
 """
 from __future__ import annotations
 
 import math
+import os
+import pickle
 from dataclasses import replace
 from pathlib import Path
 from typing import Callable
 
+import numpy as np
+
 from hacgear_core.dynamics.build import build_system, structural_parameters
-from hacgear_core.dynamics.simulator import Simulator, system_gauges
+from hacgear_core.dynamics.simulator import Simulator, strain_of_tooth, system_gauges
 from hacgear_core.errors import HacgearError, ModelError
 from hacgear_core.fmu.spec import FmuVariable, ident
 from hacgear_core.model import load_model
 from hacgear_core.tables import read_tables
 
-__all__ = ["MODE_SPEED", "MODE_TORQUE", "MODEL_FILE", "TABLES_FILE", "Adapter", "make_adapter", "variables_for"]
+__all__ = ["MODE_SPEED", "MODE_TORQUE", "MODEL_FILE", "TABLES_FILE", "Adapter", "contact_state", "make_adapter",
+           "variables_for"]
 
 MODEL_FILE = "model.toml"
 TABLES_FILE = "tables.h5"
 MODE_SPEED = 0
 MODE_TORQUE = 1
+#: ContactState items (spec.ENUMERATIONS)
+CONTACT_SEPARATED, CONTACT_DRIVE, CONTACT_COAST = 0, 1, 2
+
+
+def contact_state(force_N: float, coast_force_N: float = 0.0) -> int:
+    """ContactState of a mesh from its drive-flank and coast-flank forces [N] (both >= 0): drive flanks in contact,
+    coast flanks in contact, or separated (in the backlash)."""
+    return CONTACT_DRIVE if force_N > 0.0 else (CONTACT_COAST if coast_force_N > 0.0 else CONTACT_SEPARATED)
+
+
+def _nice_floor(x: float) -> float:
+    """Largest 1, 2 or 5 x 10^k <= x."""
+    e = math.floor(math.log10(x))
+    for m in (5.0, 2.0, 1.0):
+        if m * 10.0 ** e <= x:
+            return float(f"{m * 10.0 ** e:.1g}")
+    return float(f"{10.0 ** e:.1g}")  # pragma: no cover
+
+
+def _nice_ceil(x: float) -> float:
+    """Smallest 1, 2 or 5 x 10^k >= x."""
+    e = math.floor(math.log10(x))
+    for m in (1.0, 2.0, 5.0, 10.0):
+        if m * 10.0 ** e >= x:
+            return float(f"{m * 10.0 ** e:.1g}")
+    return float(f"{10.0 ** (e + 1):.1g}")  # pragma: no cover
 
 
 class Adapter:
@@ -46,43 +82,62 @@ class Adapter:
     ----------
     model : Model
     tables : SystemTables
+    prepared : dict, optional
+        :meth:`prepared` of an adapter of the same model and tables (the lumped system and the nominal values,
+        e.g. unpickled from a cache): skips assembling the system.
     """
 
-    def __init__(self, model, tables) -> None:
+    def __init__(self, model, tables, prepared: dict | None = None) -> None:
         self.model = model
         self.tables = tables
         self.kind = model.kind
-        base = build_system(model, tables)
-        self.base_system = base
-        self.sim = Simulator(base)
         #: fixed Integer parameters that change the structure (planet count); the outputs cover the largest one
         self.structural = structural_parameters(model)
         big = {p.name: p.max for p in self.structural}
-        spec_system = build_system(model, tables, **big) if big else base
+        if prepared is None:
+            base = build_system(model, tables)
+            spec_system = build_system(model, tables, **big) if big else base
+            # ports: the gears that carry external torque in drivetrain coupling (turning members free)
+            drive_system = build_system(model, tables, shafts=False, **big)
+        else:
+            base, spec_system, drive_system = prepared["system"], prepared["spec_system"], prepared["drive_system"]
+        self.base_system = base
         self.spec_system = spec_system
+        self._drive_system = drive_system
+        self.sim = Simulator(base)
         self.bearing_gears = tuple(g.name for g in model.gears) + (("carrier",) if model.kind == "planetary" else ())
         self._built_key = self._key(base.torque_Nm, base.modal_damping_ratio, self._model_bearings(model), None, True,
                                     tuple((p.name, p.start) for p in self.structural))
         self.ref = base.reference_gear
-        # ports: the gears that carry external torque in drivetrain coupling (turning members free)
-        self._drive_sim = Simulator(build_system(model, tables, shafts=False, **big))
-        self.ports = self._drive_sim.ports
+        drive_sim = Simulator(drive_system)
+        self.ports = drive_sim.ports
         #: nominal torque on each port [N m] in its sense of rotation (the drivetrain coupling's start values)
-        self.port_torques_Nm = dict(self._drive_sim.port_torques_Nm)
+        self.port_torques_Nm = dict(drive_sim.port_torques_Nm)
+        self.ref_ident = ident(self.ref)
+        self.port_idents = tuple(ident(g) for g in self.ports)
         self.gear_names = tuple(spec_system.gears)
         self.mesh_names = spec_system.mesh_names
         groups = [c.group for c in spec_system.meshes]
         self.shared_meshes = tuple(c.name for c in spec_system.meshes if c.group and groups.count(c.group) > 1)
         self.gauges = system_gauges(spec_system)
         self._index()
+        self.nominal = self._nominals() if prepared is None else prepared["nominal"]
         self.variables = self._spec()
         self.by_name = {v.name: v for v in self.variables}
         #: outputs computed by table post-processing (guarded by the slave: NaN and a log line on failure)
         self.fallible = {v.name for v in self.variables if v.name.endswith((".peak_pressure", ".root_strain"))}
         self._last_inputs: tuple | None = None
+        self._systems: dict = {self._built_key[:3] + self._built_key[4:]: base}
+        #: per mesh: the integration steps beyond its tables so far (the slave warns once per mesh)
+        self.out_of_range_reported: set = set()
         self.mode = MODE_SPEED
         self.input_checks: tuple = ()
         self.step_floor_s = 0.0
+
+    def prepared(self) -> dict:
+        """What a new adapter of the same model and tables can start from (see the ``prepared`` parameter)."""
+        return {"system": self.base_system, "spec_system": self.spec_system, "drive_system": self._drive_system,
+                "nominal": self.nominal}
 
     def _model_bearings(self, model) -> tuple:
         """Translational support stiffness of every gear of the model (and the carrier of a planetary set)."""
@@ -118,23 +173,70 @@ class Adapter:
         self._gauge_on = {g: g.partition("/")[0] in sy.gears for g in self.gauges}
 
     # ------------------------------------------------------------------ the spec (declared once)
+    def _nominals(self) -> dict:
+        """Typical magnitudes of the outputs at the nominal torque (FMI ``nominal``) and the resonance speed of the
+        default experiment."""
+        sy = self.spec_system
+        forces = np.abs(sy.nominal_forces_N())
+        defl = np.abs(sy.mean_static_deflections_m())
+        out = {"force": [float(f) if f > 0 else None for f in forces],
+               "deflection": [float(x) if x > 0 else None for x in defl]}
+        # the elastic mode with the largest share of mesh strain energy: its natural frequency as mesh frequency
+        w, phi = sy.modal_omega, sy.modal_shapes
+        best, fm = -1.0, float(sy.natural_frequencies_Hz()[0])
+        for j in np.flatnonzero(~sy.rigid_modes):
+            e_mesh = float(np.sum(sy.mesh_stiffness_N_per_m * (sy.V @ phi[:, j]) ** 2))
+            e_tot = float(w[j] ** 2 * phi[:, j] @ sy.M @ phi[:, j])
+            if e_tot > 0 and e_mesh / e_tot > best:
+                best, fm = e_mesh / e_tot, float(w[j] / (2 * math.pi))
+        out["pressure"] = self._static_pressures(sy)
+        out["resonance_mesh_frequency_Hz"] = fm
+        out["resonance_speed_rad_s"] = sy.reference_speed(fm)
+        out["strain"] = {}
+        for gauge in self.gauges:
+            gear = gauge.partition("/")[0]
+            z = sy.gears[gear].teeth if gear in sy.gears else 1
+            tau = np.linspace(-0.5 * z, 0.5 * z, 16 * z)[:, None] + np.zeros(sy.m)
+            x = np.zeros_like(tau) + defl
+            try:
+                e = float(np.max(np.abs(strain_of_tooth(sy, gauge, tau, x))))
+            except HacgearError:
+                e = 0.0
+            out["strain"][gauge] = e if e > 0 and math.isfinite(e) else None
+        return out
+
+    def default_experiment(self) -> dict:
+        """The FMU's DefaultExperiment: constant speed at the mesh resonance (the mesh frequency equals the natural
+        frequency of the mode with the largest share of mesh strain energy), long enough for the resonant
+        response to build up (>= 10 time constants of its modal damping, >= 40 mesh cycles), with a communication
+        step of 1/10 of a mesh period or longer so that the run has at most 1000 steps (fmpy doubles the output
+        interval of longer runs): ``startTime``, ``stopTime``, ``stepSize`` [s]."""
+        fm = self.nominal["resonance_mesh_frequency_Hz"]
+        zeta = max(self.base_system.modal_damping_ratio, 1e-3)
+        stop = _nice_ceil(max(10.0 / (zeta * 2 * math.pi * fm), 40.0 / fm))
+        step = _nice_floor(max(1.0 / (10.0 * fm), stop / 1000.0))
+        return {"startTime": 0.0, "stopTime": stop, "stepSize": step}
+
     def _spec(self) -> tuple[FmuVariable, ...]:
         sy = self.spec_system
         V = FmuVariable
         ref, inp = self.ref, sy.input_gear
         port_t = self.port_torques_Nm
+        nom = self.nominal
+        w_res = nom["resonance_speed_rad_s"]
         spec = [
             V("mode", "Integer", "parameter", "fixed", "",
-              f"experiment: 0 = constant speed (input {ref}.speed_in, torque set-point = parameter torque); "
-              f"1 = drivetrain coupling (inputs <port>.torque_in on {', '.join(self.ports)}; outputs angles and "
-              "speeds)", MODE_SPEED, 0, 1),
+              f"experiment: 0 = constant speed (the reference gear {ref} turns at {ref}.speed_in, torque set-point "
+              f"= parameter torque); 1 = drivetrain (inputs <port>.torque_in on {', '.join(self.ports)}, outputs "
+              "angles and speeds)", MODE_SPEED, 0, 1),
         ]
         for p in self.structural:
             spec.append(V(p.name, "Integer", "parameter", "fixed", "", p.description, p.start, p.min, p.max))
         spec += [
             V("torque", "Real", "parameter", "fixed", "N.m",
               f"nominal torque on the input gear {inp}: torque set-point of the constant-speed experiment; in both "
-              "modes it sets the linearisation used for the modal damping", sy.torque_Nm, 1e-3, 1e6),
+              "modes it sets the linearisation used for the modal damping; negative loads the coast flanks "
+              "(not 0)", sy.torque_Nm, -1e6 if sy.two_sided else 1e-3, 1e6, nominal=abs(sy.torque_Nm)),
             V("modal_damping_ratio", "Real", "parameter", "fixed", "1",
               "modal damping ratio of every elastic mode of the linearised system", sy.modal_damping_ratio, 0.0, 0.99),
         ]
@@ -143,87 +245,142 @@ class Adapter:
             what = "every planet's bearing on its pin" if g in planets else f"{'the ' if g == 'carrier' else 'gear '}{g}"
             spec.append(V(f"{ident(g)}.bearing_stiffness", "Real", "parameter", "fixed", "N/m",
                           f"translational bearing stiffness of {what}; 0 = rigid (no translation)",
-                          0.0 if math.isinf(k) else k, 0.0, 1e15))
+                          0.0 if math.isinf(k) else k, 0.0, 1e15, display_unit="N/µm"))
         spec += [
             V("internal_step", "Real", "parameter", "fixed", "s",
               "largest internal RK4 step; 0 = automatic (mesh period / 128 at the current speed and 1/32 of the "
               "period of the highest natural frequency); doStep sub-steps any communication step with equal steps "
               "no larger than this", 0.0, 0.0, 1e-3),
             V(f"{ident(ref)}.speed_start", "Real", "parameter", "fixed", "rad/s",
-              f"mode 1: initial speed of gear {ref} in its sense of rotation; mode 0 starts at {ref}.speed_in",
-              0.0, -2e4, 2e4),
+              f"drivetrain mode: initial speed of gear {ref} in its sense of rotation (constant-speed mode starts at "
+              f"{ref}.speed_in); default: the mesh resonance", w_res, -2e4, 2e4, display_unit="rpm", nominal=w_res),
             V(f"{ident(ref)}.speed_in", "Real", "input", "continuous", "rad/s",
-              f"mode 0: imposed speed of gear {ref}, positive in its sense of rotation (ignored in mode 1)",
-              0.0, -2e4, 2e4),
+              f"constant-speed mode: imposed speed of gear {ref}, positive in its sense of rotation (ignored in "
+              "drivetrain mode); default: the mesh resonance", w_res, -2e4, 2e4, display_unit="rpm", nominal=w_res),
         ]
         for g in self.ports:
             role = "driving (positive)" if g == inp else "a braking load is negative"
             spec.append(V(f"{ident(g)}.torque_in", "Real", "input", "continuous", "N.m",
-                          f"mode 1: shaft torque on gear {g}, positive in its sense of rotation ({role})",
-                          port_t[g], -1e6, 1e6))
+                          f"drivetrain mode: shaft torque on gear {g}, positive in its sense of rotation ({role})",
+                          port_t[g], -1e6, 1e6, nominal=abs(port_t[g]) or None))
+        pressure = nom["pressure"]
         for k, mn in enumerate(self.mesh_names):
             c = sy.meshes[k]
             m_ = ident(mn)
+            f_nom, x_nom = nom["force"][k], nom["deflection"][k]
             spec += [
                 V(f"{m_}.force", "Real", "output", "continuous", "N",
                   f"dynamic mesh force of mesh {mn} ({c.gear_a}-{c.gear_b}) along its line of action "
-                  "(0 = contact loss)"),
+                  "(0 = contact loss)", display_unit="kN", nominal=f_nom),
                 V(f"{m_}.deflection", "Real", "output", "continuous", "m",
                   f"mesh deflection of mesh {mn}: approach of the loaded flanks along the line of action "
-                  "(dissertation Eqs. 3.4, 4.4)"),
+                  "(dissertation Eqs. 3.4, 4.4)", display_unit="µm", nominal=x_nom),
                 V(f"{m_}.dte", "Real", "output", "continuous", "m",
-                  f"dynamic transmission error of mesh {mn}: rotational part of its mesh deflection"),
+                  f"dynamic transmission error of mesh {mn}: rotational part of its mesh deflection",
+                  display_unit="µm", nominal=x_nom),
                 V(f"{m_}.position", "Real", "output", "continuous", "1",
                   f"mesh position of mesh {mn} in mesh cycles (integer = pitch-point contact of a tooth pair), "
-                  "unwrapped"),
-                V(f"{m_}.contact", "Real", "output", "continuous", "1",
-                  f"contact state of mesh {mn}: 1 = teeth in contact (mesh force > 0), 0 = contact loss"),
+                  "unwrapped", nominal=1.0),
+                V(f"{m_}.contact", "Enumeration", "output", "discrete", "",
+                  f"contact state of mesh {mn} at the end of the step: drive flanks, coast flanks (across the "
+                  "backlash), or separated (in the backlash)", declared_type="ContactState"),
                 V(f"{m_}.peak_pressure", "Real", "output", "continuous", "Pa",
-                  f"maximum contact pressure over all teeth of mesh {mn} (table lookup)"),
+                  f"maximum contact pressure over all teeth of mesh {mn} (table lookup)", display_unit="MPa",
+                  nominal=pressure[k]),
+                V(f"{m_}.out_of_range", "Boolean", "output", "discrete", "",
+                  f"true once the state of mesh {mn} has left its tables' deflection range (forces, pressures and "
+                  "strains there are extrapolated; logged once as a warning)"),
             ]
+            if c.v_c is not None:
+                spec += [
+                    V(f"{m_}.coast_force", "Real", "output", "continuous", "N",
+                      f"dynamic force on the coast flanks of mesh {mn} along the coast line of action (after the "
+                      "torque reverses or the teeth cross the backlash; 0 otherwise)", display_unit="kN",
+                      nominal=f_nom),
+                    V(f"{m_}.backlash_position", "Real", "output", "continuous", "1",
+                      f"where the teeth of mesh {mn} are in the backlash: 0 at the drive flanks' kinematic contact, "
+                      f"1 where ideal coast flanks touch (coast approach over the normal backlash "
+                      f"{c.backlash_m * 1e6:.4g} µm)", nominal=1.0),
+                ]
             if mn in self.shared_meshes:
                 spec.append(V(f"{m_}.load_share", "Real", "output", "continuous", "1",
                               f"load-sharing factor of mesh {mn}: its force over the mean force of the meshes of "
-                              f"kind {c.group} (1 = equal sharing)"))
-        for g in self.gear_names:
+                              f"kind {c.group} (1 = equal sharing)", nominal=1.0))
+        f_max = max((f for f in nom["force"] if f), default=None)
+        for i, g in enumerate(self.gear_names):
             g_ = ident(g)
+            w_nom = abs(sy.gears[g].speed_ratio) * w_res or None
             spec += [
-                V(f"{g_}.angle", "Real", "output", "continuous", "rad", f"rotation angle of gear {g} in its sense of rotation"),
-                V(f"{g_}.speed", "Real", "output", "continuous", "rad/s", f"speed of gear {g} in its sense of rotation"),
+                V(f"{g_}.angle", "Real", "output", "continuous", "rad",
+                  f"rotation angle of gear {g} in its sense of rotation", display_unit="deg"),
+                V(f"{g_}.speed", "Real", "output", "continuous", "rad/s", f"speed of gear {g} in its sense of rotation",
+                  display_unit="rpm", nominal=w_nom),
                 V(f"{g_}.bearing_force_x", "Real", "output", "continuous", "N",
-                  f"force of gear {g} on its bearing, x component (fixed frame of the model's gear placement)"),
+                  f"force of gear {g} on its bearing, x component (fixed frame of the model's gear placement)",
+                  display_unit="kN", nominal=f_max),
                 V(f"{g_}.bearing_force_y", "Real", "output", "continuous", "N",
-                  f"force of gear {g} on its bearing, y component (fixed frame)"),
+                  f"force of gear {g} on its bearing, y component (fixed frame)", display_unit="kN", nominal=f_max),
             ]
         for gauge in self.gauges:
             gear, _, gname = gauge.partition("/")
             z = sy.gears[gear].teeth if gear in sy.gears else 0
             spec.append(V(f"{ident(gear)}.{ident(gname or gear)}.root_strain", "Real", "output", "continuous", "1",
                           f"root strain at gauge '{gauge}' of tooth 0 of {gear} (in mesh every {z} mesh cycles, "
-                          "all its meshes superposed; table lookup)"))
+                          "all its meshes superposed; table lookup)", display_unit="µε", nominal=nom["strain"][gauge]))
         names = [v.name for v in spec]
         if len(set(names)) != len(names):
             raise ModelError(f"FMU variable names are not unique: {names}")
         return tuple(spec)
 
-    # ------------------------------------------------------------------ outputs
-    def getters(self) -> dict[str, Callable[[], float]]:
-        """Output name -> zero-argument getter returning a Python float for the current step (the simulator's own
-        outputs, kept current by its ``advance``, and the table post-processing).  Outputs of meshes and gears that
-        the current structure does not have (planets beyond ``planet_count``) read 0."""
-        a = self
-        ms, gs = self._mslot_ref, self._gslot_ref
-        out: dict[str, Callable[[], float]] = {}
+    @staticmethod
+    def _static_pressures(sy) -> list:
+        sim = Simulator(sy)
+        out = []
+        for k in range(sy.m):
+            try:
+                p = float(sim.peak_pressure_Pa(k))
+            except HacgearError:
+                p = 0.0
+            out.append(p if p > 0 and math.isfinite(p) else None)
+        return out
 
-        def mesh(j, fn):
+    # ------------------------------------------------------------------ outputs
+    def output_expressions(self) -> dict[str, str]:
+        """Output name -> Python expression of its value in terms of ``s`` (the simulator), for the outputs that
+        are plain attributes of the simulator (the per-step fast path of the slave's getReal; the others have
+        only :meth:`getters`); meshes and gears absent in the current structure read ``0.0``."""
+        out = {}
+        for j, mn in enumerate(self.mesh_names):
+            m_, k = ident(mn), self._mslot[j]
+            if k < 0:
+                out.update({f"{m_}.{q}": "0.0" for q in ("force", "deflection", "dte", "position")})
+                continue
+            out.update({f"{m_}.force": f"s.mesh_force_N[{k}]", f"{m_}.deflection": f"s.mesh_deflection_m[{k}]",
+                        f"{m_}.dte": f"s.dynamic_transmission_error_m[{k}]",
+                        f"{m_}.position": f"s.mesh_position[{k}]"})
+        for j, g in enumerate(self.gear_names):
+            i = self._gslot[j]
+            out.update({f"{ident(g)}.angle": f"s.angle_rad[{i}]" if i >= 0 else "0.0",
+                        f"{ident(g)}.speed": f"s.speed_rad_s[{i}]" if i >= 0 else "0.0"})
+        return out
+
+    def getters(self) -> dict[str, Callable[[], float | int | bool]]:
+        """Output name -> zero-argument getter of its current value: a Python float (Real), int (Enumeration) or
+        bool (Boolean) from the simulator's own outputs, kept current by its ``advance``, and the table
+        post-processing.  Outputs of meshes and gears that the current structure does not have (planets beyond
+        ``planet_count``) read 0."""
+        a = self
+        out: dict[str, Callable[[], float | int | bool]] = {}
+
+        def mesh(j, fn, absent=0.0):
             def get():
-                k = ms()[j]
-                return fn(k) if k >= 0 else 0.0
+                k = a._mslot[j]
+                return fn(k) if k >= 0 else absent
             return get
 
         def gear(j, fn):
             def get():
-                i = gs()[j]
+                i = a._gslot[j]
                 return fn(i) if i >= 0 else 0.0
             return get
 
@@ -233,8 +390,13 @@ class Adapter:
             out[f"{m_}.deflection"] = mesh(j, lambda k: a.sim.mesh_deflection_m[k])
             out[f"{m_}.dte"] = mesh(j, lambda k: a.sim.dynamic_transmission_error_m[k])
             out[f"{m_}.position"] = mesh(j, lambda k: a.sim.mesh_position[k])
-            out[f"{m_}.contact"] = mesh(j, lambda k: 1.0 if a.sim.mesh_force_N[k] > 0.0 else 0.0)
+            out[f"{m_}.contact"] = mesh(j, lambda k: contact_state(a.sim.mesh_force_N[k], a.sim.coast_force_N[k]),
+                                        CONTACT_SEPARATED)
             out[f"{m_}.peak_pressure"] = mesh(j, lambda k: a.sim.peak_pressure_Pa(k))
+            out[f"{m_}.out_of_range"] = mesh(j, lambda k: a.sim.out_of_range_steps[k] > 0, False)
+            if f"{m_}.coast_force" in self.by_name:
+                out[f"{m_}.coast_force"] = mesh(j, lambda k: a.sim.coast_force_N[k])
+                out[f"{m_}.backlash_position"] = mesh(j, lambda k: a.sim.backlash_position[k])
             if mn in self.shared_meshes:
                 out[f"{m_}.load_share"] = mesh(j, lambda k: a.sim.load_share(k))
         for j, g in enumerate(self.gear_names):
@@ -249,11 +411,14 @@ class Adapter:
                 lambda key: lambda: a.sim.strain(key) if a._gauge_on[key] else 0.0)(gauge)
         return out
 
-    def _mslot_ref(self) -> list:
-        return self._mslot
-
-    def _gslot_ref(self) -> list:
-        return self._gslot
+    def out_of_range_meshes(self) -> list[str]:
+        """Meshes whose state has left their tables' deflection range and that were not reported yet (the slave
+        logs one warning per mesh and reports each once)."""
+        new = [mn for j, mn in enumerate(self.mesh_names)
+               if self._mslot[j] >= 0 and self.sim.out_of_range_steps[self._mslot[j]] > 0
+               and mn not in self.out_of_range_reported]
+        self.out_of_range_reported.update(new)
+        return new
 
     # ------------------------------------------------------------------ configuration
     def configure(self, values: dict) -> None:
@@ -272,15 +437,23 @@ class Adapter:
         structure = tuple((p.name, int(values[p.name])) for p in self.structural)
         key = self._key(float(values["torque"]), float(values["modal_damping_ratio"]), bearings, h, shafts, structure)
         if key != self._built_key:
-            model = self.model
-            if bearings != self._model_bearings(model):
-                model = self._with_bearings(bearings)
-            system = build_system(model, self.tables, torque_Nm=float(values["torque"]),
-                                  modal_damping_ratio=float(values["modal_damping_ratio"]), shafts=shafts,
-                                  **dict(structure))
+            skey = key[:3] + key[4:]  # the lumped system does not depend on the internal step
+            system = self._systems.pop(skey, None)
+            if system is None:
+                model = self.model
+                if bearings != self._model_bearings(model):
+                    model = self._with_bearings(bearings)
+                system = build_system(model, self.tables, torque_Nm=float(values["torque"]),
+                                      modal_damping_ratio=float(values["modal_damping_ratio"]), shafts=shafts,
+                                      **dict(structure))
+            # keep the last few systems: masters that reset and re-initialize do not assemble them again
+            self._systems[skey] = system
+            while len(self._systems) > 8:
+                self._systems.pop(next(iter(self._systems)))
             self.sim = Simulator(system, internal_step_s=h)
             self._built_key = key
             self._index()
+        self.out_of_range_reported = set()
         self.mode = mode
         ref = ident(self.ref)
         if self.mode == MODE_SPEED:
@@ -300,6 +473,12 @@ class Adapter:
         fm_max = 4.0 * max(abs(v.min), abs(v.max)) * sy.zref_2pi  # mesh frequency bound, margin for vibration [Hz]
         floor = min(1.0 / (32.0 * sy.max_frequency_Hz), 1.0 / (128.0 * fm_max))
         self.step_floor_s = min(floor, h) if h else floor
+
+    def active_inputs(self, values: dict) -> tuple[str, ...]:
+        """The inputs the experiment chosen in ``values`` reads (checked when initialization ends)."""
+        if int(values["mode"]) == MODE_SPEED:
+            return (f"{self.ref_ident}.speed_in",)
+        return tuple(f"{p}.torque_in" for p in self.port_idents)
 
     def input_names(self) -> tuple[str, ...]:
         """Inputs read in the current mode (only these are checked and applied)."""
@@ -328,6 +507,19 @@ class Adapter:
         """Internal step the simulator would use now [s]."""
         return float(self.sim.current_internal_step_s)
 
+    # ------------------------------------------------------------------ state snapshots (FMI get/set FMU state)
+    def get_state(self) -> dict:
+        """Snapshot of everything a later :meth:`advance` and the outputs depend on (the simulator's own
+        :meth:`~hacgear_core.dynamics.simulator.Simulator.get_state`, the experiment and the last inputs)."""
+        return {"sim": self.sim.get_state(), "mode": self.mode, "last_inputs": self._last_inputs}
+
+    def set_state(self, snap: dict) -> None:
+        """Restore a :meth:`get_state` snapshot taken with the same parameters (the caller configures first)."""
+        self.sim.set_state(snap["sim"])
+        self.mode = snap["mode"]
+        li = snap["last_inputs"]
+        self._last_inputs = None if li is None else tuple(li)
+
 
 def load_resources(resources: str | Path):
     """Model and tables from an FMU's (or a build's) resources folder, or a model folder (model.toml, tables.h5);
@@ -341,10 +533,30 @@ def load_resources(resources: str | Path):
     return model, tables
 
 
-def make_adapter(resources: str | Path) -> Adapter:
-    """The adapter of the system in ``resources`` (see :func:`load_resources`)."""
+def make_adapter(resources: str | Path, cache_file: str | Path | None = None) -> Adapter:
+    """The adapter of the system in ``resources`` (see :func:`load_resources`).
+
+    ``cache_file``: where the assembled lumped system and nominal values are kept between processes (pickle;
+    read when present, written when not; unreadable or unwritable files are ignored): the key must identify the
+    model, the tables and the code (an FMU's GUID does).
+    """
     model, tables = load_resources(resources)
-    return Adapter(model, tables)
+    if cache_file is not None:
+        path = Path(cache_file)
+        try:
+            return Adapter(model, tables, prepared=pickle.loads(path.read_bytes()))
+        except Exception:  # no cache yet, or one that does not fit: assemble
+            pass
+    adapter = Adapter(model, tables)
+    if cache_file is not None:
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            tmp = path.with_name(f".{path.name}.{os.getpid()}")
+            tmp.write_bytes(pickle.dumps(adapter.prepared(), protocol=pickle.HIGHEST_PROTOCOL))
+            os.replace(tmp, path)
+        except OSError:
+            pass
+    return adapter
 
 
 def variables_for(resources: str | Path) -> tuple[FmuVariable, ...]:

@@ -1,207 +1,350 @@
-"""Build of hacgear FMUs: ``<system>.fmu`` from a model folder (model.toml, tables.h5) with pythonfmu, and the
-post-processing of ``modelDescription.xml`` from the variable spec (units, bounds, unit definitions).
+"""Build of hacgear FMUs: ``<system>.fmu`` (FMI 2.0) and ``<system>_fmi3.fmu`` (FMI 3.0) co-simulation FMUs from a
+model folder (model.toml, tables.h5).
 
-The slave module is ``<kind>.py`` of the slave sources (``fmu_src/`` in the checkout, installed as the package data
-``hacgear_core.fmu.slaves``) copied under the unique name ``hacgear_<system>``; the model file, the tables and
-``hacgear_fmu.json`` (system, kind, required packages, ports) travel as resources.
+An FMU holds:
+
+* ``modelDescription.xml``, written from the variable spec of :class:`~hacgear_core.fmu.adapter.Adapter`
+  (units with display units, nominal values, ranges, enumeration types, structured names, ModelStructure with
+  Outputs and InitialUnknowns, a DefaultExperiment at the mesh resonance);
+* ``binaries/<platform>/<system>.so``, compiled from ``fmu_src/fmi2.c`` or ``fmu_src/fmi3.c`` with the system's C
+  compiler against Python's stable ABI and the FMI headers shipped with fmpy;
+* ``resources/``: the model file and its tables, ``hacgear_fmu.json`` (system, GUID, variables, minimum versions
+  of the importer's packages, ports), the loader ``hacgear_fmu_boot.py`` (:mod:`.bootstrap`) and the hacgear code
+  itself as a package whose name is unique to its contents (``hacgear_fmu_<version>_<digest>``), so that the
+  importer's Python needs only numpy, scipy, h5py and numba.
 """
 from __future__ import annotations
 
 import dataclasses
+import datetime as _dt
 import hashlib
+import importlib.resources
 import json
 import math
 import os
+import re
 import shutil
+import subprocess
 import sys
+import sysconfig
 import tempfile
 import zipfile
-from importlib import resources as _res
 from pathlib import Path
-from typing import Sequence
 from xml.etree import ElementTree as ET
-
-from pythonfmu import FmuBuilder
-from pythonfmu.default_experiment import DefaultExperiment  # noqa: F401  (imported eagerly, see docs/fmu.md)
 
 from hacgear_core import __version__
 from hacgear_core.dynamics.synthetic import spur_fdf_table
 from hacgear_core.errors import HacgearError
+from hacgear_core.fmu import bootstrap
 from hacgear_core.fmu.adapter import MODEL_FILE, TABLES_FILE, make_adapter
-from hacgear_core.fmu.slave import FMU_INFO_FILE, requirements
-from hacgear_core.fmu.spec import UNITS, FmuVariable, ident
+from hacgear_core.fmu.components import ComponentAdapter
+from hacgear_core.fmu.slave import FMU_INFO_FILE, value_references
+from hacgear_core.fmu.spec import DISPLAY_UNITS, ENUMERATIONS, TIME, UNITS
 from hacgear_core.model import load_model, model_sha256
-from hacgear_core.model.provenance import model_values_json, model_values_sha256
-from hacgear_core.tables import SystemTables, load_system_tables, write_tables
+from hacgear_core.tables import SystemTables, write_tables
 
-__all__ = ["postprocess_model_description", "build_fmu", "synthetic_system_folder", "slave_source"]
+__all__ = ["build_fmu", "build_component_fmu", "model_description", "bundle_package", "compile_binary", "synthetic_system_folder",
+           "REQUIREMENTS", "PYTHON_REQUIREMENT", "fmu_file_name"]
+
+#: Lowest versions of the importer's packages the FMUs are tested with (docs/fmu.md, "What the importer needs"):
+#: numpy 1.26.4, scipy 1.11.4, h5py 3.9.0, numba 0.59.1 run them; numba 0.57.1 and 0.58.1 had not compiled the
+#: integration kernel after 15-20 minutes and 6 GB of memory.
+REQUIREMENTS = {"numpy": "1.26", "scipy": "1.11", "h5py": "3.9", "numba": "0.59"}
+PYTHON_REQUIREMENT = "3.11"
+
+def _native() -> Path:
+    """Folder of the C sources of the FMU binaries (``fmu_src/`` of the checkout, installed as
+    ``hacgear_core.fmu.slaves``)."""
+    return Path(str(importlib.resources.files("hacgear_core.fmu.slaves")))
+_PLATFORM = {2: "linux64", 3: "x86_64-linux"}
+LOG_CATEGORIES = {"logStatusWarning": "warnings", "logStatusDiscard": "discarded steps (divergence, step too long)",
+                  "logStatusError": "errors: invalid parameters, inputs, arguments or call sequence",
+                  "logStatusFatal": "fatal errors", "logAll": "debug messages (with debug logging on)"}
+
+
+def fmu_file_name(system: str, fmi_version: int = 2) -> str:
+    """``<system>.fmu`` (FMI 2.0) or ``<system>_fmi3.fmu`` (FMI 3.0)."""
+    return f"{system}.fmu" if fmi_version == 2 else f"{system}_fmi{fmi_version}.fmu"
 
 
 def _fmt(x: float) -> str:
     return repr(float(x))
 
 
-def postprocess_model_description(xml_text: str | bytes, variables: Sequence[FmuVariable],
-                                  description: str | None = None) -> bytes:
-    """Add units, ``min``/``max`` and ``UnitDefinitions`` to a pythonfmu modelDescription.xml.
-
-    Every ScalarVariable must match exactly one spec entry by name with the same causality and
-    variability (and vice versa), else :class:`HacgearError`.
-
-    Returns
-    -------
-    bytes
-        The new XML (UTF-8).
-    """
-    root = ET.fromstring(xml_text)
-    spec = {v.name: v for v in variables}
-    mv = root.find("ModelVariables")
-    seen = set()
-    used_units = set()
-    for sv in mv.findall("ScalarVariable"):
-        name = sv.get("name")
-        v = spec.get(name)
-        if v is None:
-            raise HacgearError(f"modelDescription.xml variable '{name}' is not in the spec")
-        seen.add(name)
-        if sv.get("causality") != v.causality or sv.get("variability") != v.variability:
-            raise HacgearError(f"variable '{name}': XML causality/variability {sv.get('causality')}/"
-                               f"{sv.get('variability')} differ from the spec {v.causality}/{v.variability}")
-        sv.set("description", v.description)
-        typed = sv.find(v.type)
-        if typed is None:
-            raise HacgearError(f"variable '{name}': XML type differs from the spec type {v.type}")
-        if v.type == "Real":
-            typed.set("unit", v.unit)
-            used_units.add(v.unit)
-        if v.min is not None:
-            typed.set("min", _fmt(v.min) if v.type == "Real" else str(int(v.min)))
-        if v.max is not None:
-            typed.set("max", _fmt(v.max) if v.type == "Real" else str(int(v.max)))
-        if v.causality != "output" and v.start is not None and v.type == "Real":
-            typed.set("start", _fmt(v.start))
-    missing = set(spec) - seen
-    if missing:
-        raise HacgearError(f"spec variables missing in modelDescription.xml: {sorted(missing)}")
-    if root.find("UnitDefinitions") is not None:
-        root.remove(root.find("UnitDefinitions"))
-    units = ET.Element("UnitDefinitions")
-    for u in sorted(used_units):
-        ue = ET.SubElement(units, "Unit", {"name": u})
-        ET.SubElement(ue, "BaseUnit", {k: str(e) for k, e in UNITS[u].items()})
-    # schema order: ModelExchange?, CoSimulation?, UnitDefinitions?, TypeDefinitions?, LogCategories?, ...
-    children = list(root)
-    pos = max(i for i, c in enumerate(children) if c.tag in ("CoSimulation", "ModelExchange")) + 1
-    root.insert(pos, units)
-    if description:
-        root.set("description", description)
-    ET.indent(root)
-    return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
-
-
-def _rewrite_zip_member(zpath: Path, member: str, data: bytes) -> None:
-    tmp = zpath.with_suffix(zpath.suffix + ".tmp")
-    with zipfile.ZipFile(zpath) as zin, zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zout:
-        for item in zin.infolist():
-            content = data if item.filename == member else zin.read(item.filename)
-            zout.writestr(item.filename, content, compress_type=zipfile.ZIP_DEFLATED)
-    os.replace(tmp, zpath)
-
-
 def _sha256(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
+# ---------------------------------------------------------------------------------------------- the bundle
+def bundle_package(dest: str | Path) -> tuple[str, str]:
+    """Copy this hacgear_core (its ``*.py`` files) into ``dest/<package>/`` under a name unique to its contents,
+    with every ``hacgear_core`` in the sources renamed; returns (package, digest of the copy)."""
+    src = Path(__file__).resolve().parents[1]
+    name = f"hacgear_fmu_{re.sub(r'[^0-9A-Za-z]', '_', __version__)}_{bootstrap.tree_digest(src)[:12]}"
+    out = Path(dest) / name
+    pattern = re.compile(r"\bhacgear_core\b")
+    for p in sorted(src.rglob("*.py")):
+        rel = p.relative_to(src)
+        if "__pycache__" in rel.parts:
+            continue
+        target = out / rel
+        target.parent.mkdir(parents=True, exist_ok=True)
+        target.write_text(pattern.sub(name, p.read_text(encoding="utf-8")), encoding="utf-8")
+    return name, bootstrap.tree_digest(out)
 
-def slave_source(kind: str, slave_dir: str | Path | None = None) -> Path:
-    """The slave source ``<kind>.py`` from ``slave_dir`` or the installed slave sources.
+
+# ---------------------------------------------------------------------------------------------- the binary
+def _fmi_headers() -> Path:
+    try:
+        import fmpy
+    except ImportError:  # pragma: no cover - fmpy is a dependency
+        raise HacgearError("building an FMU needs fmpy (its FMI headers): pip install fmpy") from None
+    d = Path(fmpy.__file__).parent / "c-code"
+    if not (d / "fmi2Functions.h").exists() or not (d / "fmi3Functions.h").exists():
+        raise HacgearError(f"FMI headers not found in {d}")
+    return d
+
+
+def compile_binary(fmi_version: int, out: str | Path) -> Path:
+    """Compile the FMU binary of ``fmi_version`` (2 or 3) into ``out`` (a shared library).
 
     Raises
     ------
     HacgearError
-        No slave for ``kind``.
+        No C compiler, no Python headers, or a failed compilation (with the compiler's message).
     """
-    if slave_dir is not None:
-        src = Path(slave_dir) / f"{kind}.py"
-    else:
-        src = Path(str(_res.files("hacgear_core.fmu.slaves").joinpath(f"{kind}.py")))
+    native = _native()
+    src = native / f"fmi{fmi_version}.c"
     if not src.exists():
-        raise HacgearError(f"no FMU slave for system kind '{kind}' ({src})")
-    return src
+        raise HacgearError(f"no FMU binary source for FMI version {fmi_version!r} ({src})")
+    cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
+    if not cc:
+        raise HacgearError("building an FMU needs a C compiler (gcc or cc on PATH, or CC=...): "
+                           "e.g. apt-get install gcc")
+    py_inc = Path(sysconfig.get_paths()["include"])
+    if not (py_inc / "Python.h").exists():
+        raise HacgearError(f"building an FMU needs Python's C headers (no Python.h in {py_inc}): e.g. apt-get "
+                           f"install python{sys.version_info[0]}-dev")
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    cmd = [cc, "-shared", "-fPIC", "-O2", "-std=c99", "-Wall", "-fvisibility=hidden", f"-I{native}",
+           f"-I{_fmi_headers()}", f"-I{py_inc}", "-o", str(out), str(src)]
+    try:
+        r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        raise HacgearError(f"the C compiler failed to run: {exc}") from None
+    if r.returncode != 0 or not out.exists():
+        raise HacgearError(f"compiling the FMU binary failed ({' '.join(cmd)}):\n{r.stderr.strip()[-3000:]}")
+    return out
 
 
-def build_fmu(system_dir: str | Path, out_dir: str | Path, *, slave_dir: str | Path | None = None) -> Path:
-    """Build ``<out_dir>/<system>.fmu`` from ``<system_dir>/model.toml`` and ``<system_dir>/tables.h5``.
+# ---------------------------------------------------------------------------------------------- modelDescription
+def _guid(info: dict) -> str:
+    h = hashlib.sha256(json.dumps({k: info[k] for k in ("fmi_version", "model_sha256", "tables_sha256", "bundle",
+                                                         "variables", "hacgear_version")},
+                                  sort_keys=True).encode()).hexdigest()
+    return "{" + f"{h[:8]}-{h[8:12]}-{h[12:16]}-{h[16:20]}-{h[20:32]}" + "}"
 
-    The slave module is :func:`slave_source` of the model's kind copied under the unique name
-    ``hacgear_<system>``; the model file, the tables and ``hacgear_fmu.json`` (system, kind, required packages,
-    ports) travel as resources; modelDescription.xml is post-processed from the same variable spec the slave
-    registers.
+
+def model_description(adapter, info: dict, fmi_version: int = 2) -> bytes:
+    """modelDescription.xml (UTF-8) of an adapter's variables (a gear system's
+    :class:`~hacgear_core.fmu.adapter.Adapter` or a :class:`~hacgear_core.fmu.components.ComponentAdapter`) for
+    FMI 2.0 or 3.0 co-simulation.
+
+    Value references are :func:`~hacgear_core.fmu.slave.value_references` of the spec (what the slave uses).
+    """
+    if fmi_version not in (2, 3):
+        raise HacgearError(f"FMI version must be 2 or 3, got {fmi_version!r}")
+    v3 = fmi_version == 3
+    variables = adapter.variables
+    vrs = value_references(variables)
+    now = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat().replace("+00:00", "Z")
+    root = ET.Element("fmiModelDescription", {
+        "fmiVersion": "3.0" if v3 else "2.0", "modelName": info["system"],
+        ("instantiationToken" if v3 else "guid"): info["guid"], "description": info["description"],
+        "author": "hacgear", "version": __version__, "generationTool": f"hacgear {__version__}",
+        "generationDateAndTime": now, "variableNamingConvention": "structured"})
+    if not v3:
+        root.set("numberOfEventIndicators", "0")
+    cs = {"modelIdentifier": info["system"], "needsExecutionTool": "false",
+          "canBeInstantiatedOnlyOncePerProcess": "false", "canHandleVariableCommunicationStepSize": "true"}
+    if v3:
+        cs.update(canGetAndSetFMUState="true", canSerializeFMUState="true", providesDirectionalDerivatives="false",
+                  providesAdjointDerivatives="false", providesPerElementDependencies="false",
+                  maxOutputDerivativeOrder="0", providesIntermediateUpdate="false", mightReturnEarlyFromDoStep="false",
+                  canReturnEarlyAfterIntermediateUpdate="false", hasEventMode="false",
+                  providesEvaluateDiscreteStates="false")
+    else:
+        cs.update(canInterpolateInputs="false", maxOutputDerivativeOrder="0", canRunAsynchronuously="false",
+                  canNotUseMemoryManagementFunctions="true", canGetAndSetFMUstate="true",
+                  canSerializeFMUstate="true", providesDirectionalDerivative="false")
+    ET.SubElement(root, "CoSimulation", cs)
+    used_units = sorted({v.unit for v in variables if v.type == "Real"})
+    units = ET.SubElement(root, "UnitDefinitions")
+    for u in used_units:
+        ue = ET.SubElement(units, "Unit", {"name": u})
+        ET.SubElement(ue, "BaseUnit", {k: str(e) for k, e in UNITS[u].items()})
+        for dname, factor in DISPLAY_UNITS.get(u, {}).items():
+            ET.SubElement(ue, "DisplayUnit", {"name": dname, "factor": _fmt(factor)})
+    enums = sorted({v.declared_type for v in variables if v.declared_type})
+    if enums:
+        types = ET.SubElement(root, "TypeDefinitions")
+        for e in enums:
+            desc, items = ENUMERATIONS[e]
+            if v3:
+                et = ET.SubElement(types, "EnumerationType", {"name": e, "description": desc})
+            else:
+                et = ET.SubElement(ET.SubElement(types, "SimpleType", {"name": e, "description": desc}),
+                                   "Enumeration")
+            for nm, val, d in items:
+                ET.SubElement(et, "Item", {"name": nm, "value": str(val), "description": d})
+    cats = ET.SubElement(root, "LogCategories")
+    for nm, d in LOG_CATEGORIES.items():
+        ET.SubElement(cats, "Category", {"name": nm, "description": d})
+    ET.SubElement(root, "DefaultExperiment", {k: _fmt(x) for k, x in info["default_experiment"].items()})
+    mv = ET.SubElement(root, "ModelVariables")
+    if v3:  # FMI 3.0: exactly one independent variable
+        vrs = {TIME.name: 0, **vrs}
+        variables = (TIME,) + tuple(variables)
+    for v in variables:
+        a = {"name": v.name, "valueReference": str(vrs[v.name]), "description": v.description,
+             "causality": v.causality, "variability": v.variability}
+        if v.initial and v.causality != "input":  # FMI: no 'initial' on inputs and the independent variable
+            a["initial"] = v.initial
+        t = {}
+        if v.declared_type:
+            t["declaredType"] = v.declared_type
+        if v.type == "Real":
+            t["unit"] = v.unit
+            if v.display_unit:
+                t["displayUnit"] = v.display_unit
+            if v.nominal is not None:
+                t["nominal"] = _fmt(v.nominal)
+        if v.type in ("Real", "Integer"):
+            conv = _fmt if v.type == "Real" else (lambda x: str(int(x)))
+            if v.min is not None:
+                t["min"] = conv(v.min)
+            if v.max is not None:
+                t["max"] = conv(v.max)
+        if v.start is not None:
+            t["start"] = (("true" if v.start else "false") if v.type == "Boolean"
+                          else _fmt(v.start) if v.type == "Real" else str(int(v.start)))
+        if v3:
+            tag = {"Real": "Float64", "Integer": "Int32", "Boolean": "Boolean", "Enumeration": "Enumeration"}[v.type]
+            ET.SubElement(mv, tag, {**a, **t})
+        else:
+            sv = ET.SubElement(mv, "ScalarVariable", a)
+            ET.SubElement(sv, v.type, t)
+    ms = ET.SubElement(root, "ModelStructure")
+    outputs = [v for v in variables if v.causality == "output"]
+    index = {v.name: i + 1 for i, v in enumerate(variables)}  # FMI 2.0: ScalarVariable index
+    # outputs at a communication point follow from the state: no direct feedthrough from the inputs
+    if v3:
+        for v in outputs:
+            ET.SubElement(ms, "Output", {"valueReference": str(vrs[v.name]), "dependencies": ""})
+        for v in outputs:
+            ET.SubElement(ms, "InitialUnknown", {"valueReference": str(vrs[v.name])})
+    else:
+        outs = ET.SubElement(ms, "Outputs")
+        for v in outputs:
+            ET.SubElement(outs, "Unknown", {"index": str(index[v.name]), "dependencies": ""})
+        iu = ET.SubElement(ms, "InitialUnknowns")
+        for v in outputs:
+            ET.SubElement(iu, "Unknown", {"index": str(index[v.name])})
+    ET.indent(root)
+    return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
+
+
+# ---------------------------------------------------------------------------------------------- the FMU
+def build_fmu(system_dir: str | Path, out_dir: str | Path, *, fmi_version: int = 2) -> Path:
+    """Build ``<out_dir>/<system>.fmu`` (FMI 2.0) or ``<out_dir>/<system>_fmi3.fmu`` (FMI 3.0) from
+    ``<system_dir>/model.toml`` and ``<system_dir>/tables.h5`` (see the module docstring).
 
     Raises
     ------
     HacgearError
-        No tables, no slave for the model's kind, tables of another model, or a failed build.
+        No tables, tables of another model, no C compiler, or a failed build (the message names the user's
+        files).
     """
+    if fmi_version not in (2, 3):
+        raise HacgearError(f"FMI version must be 2 or 3, got {fmi_version!r}")
     system_dir = Path(system_dir)
     out_dir = Path(out_dir)
     model = load_model(system_dir / MODEL_FILE)
     tables = system_dir / TABLES_FILE
     if not tables.exists():
         raise HacgearError(f"{system_dir}: no {TABLES_FILE} (run `hacgear statics {model.name}` first)")
-    load_system_tables(system_dir / MODEL_FILE, tables)  # errors name the user's files, not the build folder
-    slave_src = slave_source(model.kind, slave_dir)
-    module = f"hacgear_{ident(model.name)}"
+    adapter = make_adapter(system_dir)  # refuses tables of another model
+    sy = adapter.base_system
+    info = {
+        "system": model.name, "kind": model.kind,
+        "description": f"hacgear {model.kind} FMU: {model.title or model.name}",
+        "ports": {g: {"speed_ratio": sy.gears[g].speed_ratio, "nominal_torque_Nm": adapter.port_torques_Nm[g]}
+                  for g in adapter.ports},
+        "reference_gear": adapter.ref, "input_gear": sy.input_gear, "reference_teeth": sy.gears[adapter.ref].teeth,
+        "meshes": {m: {"nominal_force_N": float(f)} for m, f in zip(sy.mesh_names, sy.nominal_forces_N())},
+        "mesh_cycles_per_rad": sy.mesh_cycles_per_rad,
+        "resonance_mesh_frequency_Hz": adapter.nominal["resonance_mesh_frequency_Hz"],
+    }
+    files = {MODEL_FILE: system_dir / MODEL_FILE, TABLES_FILE: tables}
     out_dir.mkdir(parents=True, exist_ok=True)
-    dest = out_dir / f"{model.name}.fmu"
+    return _package(adapter, info, files, out_dir / fmu_file_name(model.name, fmi_version), fmi_version)
+
+
+def build_component_fmu(kind: str, out_dir: str | Path, *, fmi_version: int = 2) -> Path:
+    """Build ``<out_dir>/hacgear_<kind>.fmu`` (FMI 2.0) or ``..._fmi3.fmu``: a drivetrain component of the SSP
+    benches (:mod:`~hacgear_core.fmu.components`: ``motor``, ``shaft``, ``load``)."""
+    if fmi_version not in (2, 3):
+        raise HacgearError(f"FMI version must be 2 or 3, got {fmi_version!r}")
+    adapter = ComponentAdapter(kind)
+    name = f"hacgear_{kind}"
+    info = {"system": name, "kind": kind, "description": f"hacgear drivetrain component: {adapter.description}"}
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    return _package(adapter, info, {}, out_dir / fmu_file_name(name, fmi_version), fmi_version)
+
+
+def _package(adapter, info: dict, files: dict, dest: Path, fmi_version: int) -> Path:
+    """Write the FMU ``dest``: binary, modelDescription.xml, resources (``files``: name -> path), the loader and
+    the bundled code; ``info`` completed into hacgear_fmu.json."""
     with tempfile.TemporaryDirectory(prefix="hacgear_fmu_") as td:
         td = Path(td)
-        script = td / f"{module}.py"
-        shutil.copy2(slave_src, script)
-        res = td / "res"
+        res = td / "resources"
         res.mkdir()
-        shutil.copy2(system_dir / MODEL_FILE, res / MODEL_FILE)
-        shutil.copy2(tables, res / TABLES_FILE)
-        info = {
-            "format": "hacgear-fmu", "format_version": 1, "system": model.name, "kind": model.kind,
-            "description": f"hacgear {model.kind} FMU: {model.title or model.name}",
-            "hacgear_version": __version__, "requirements": requirements(),
-            "model_sha256": _sha256(res / MODEL_FILE), "tables_sha256": _sha256(res / TABLES_FILE),
-            "slave_module": module,
-        }
+        for name, path in files.items():
+            shutil.copy2(path, res / name)
+        shutil.copy2(Path(bootstrap.__file__), res / bootstrap.BOOT_FILE)
+        package, digest = bundle_package(res)
+        info = {"format": "hacgear-fmu", "format_version": 2, **info, "hacgear_version": __version__,
+                "fmi_version": fmi_version, "python": PYTHON_REQUIREMENT, "requirements": dict(REQUIREMENTS),
+                "bundle": {"package": package, "sha256": digest},
+                "model_sha256": _sha256(res / MODEL_FILE) if (res / MODEL_FILE).exists() else "",
+                "tables_sha256": _sha256(res / TABLES_FILE) if (res / TABLES_FILE).exists() else "",
+                "variables": [v.name for v in adapter.variables],
+                "default_experiment": adapter.default_experiment()}
+        info["guid"] = _guid(info)
         (res / FMU_INFO_FILE).write_text(json.dumps(info, indent=1), encoding="utf-8")
-        try:
-            adapter = make_adapter(res)
-        except HacgearError as exc:  # name the user's files, not the temporary build folder
-            raise type(exc)(str(exc).replace(str(res / MODEL_FILE), str(system_dir / MODEL_FILE))
-                            .replace(str(res / TABLES_FILE), str(tables)).replace(str(res), str(system_dir))) from None
-        spec = adapter.variables  # the same spec the slave registers
-        info["ports"] = {g: {"speed_ratio": adapter.sim.system.gears[g].speed_ratio,
-                             "nominal_torque_Nm": adapter.port_torques_Nm[g]} for g in adapter.ports}
-        info["reference_gear"] = adapter.ref
-        info["input_gear"] = adapter.base_system.input_gear
-        info["meshes"] = {m: {"nominal_force_N": float(f)} for m, f in
-                          zip(adapter.base_system.mesh_names, adapter.base_system.nominal_forces_N())}
-        info["reference_teeth"] = adapter.base_system.gears[adapter.ref].teeth
-        info["mesh_cycles_per_rad"] = adapter.base_system.mesh_cycles_per_rad
-        (res / FMU_INFO_FILE).write_text(json.dumps(info, indent=1), encoding="utf-8")
-        try:
-            built = FmuBuilder.build_FMU(script, dest=dest, project_files=[res / MODEL_FILE, res / TABLES_FILE,
-                                                                          res / FMU_INFO_FILE])
-        except HacgearError:
-            raise
-        except Exception as exc:
-            raise HacgearError(f"{model.name}: pythonfmu build failed: {type(exc).__name__}: {exc}") from exc
-        finally:
-            sys.modules.pop(module, None)
-            while str(td) in sys.path:
-                sys.path.remove(str(td))
-    built = Path(built)
-    with zipfile.ZipFile(built) as z:
-        xml = z.read("modelDescription.xml")
-    new = postprocess_model_description(xml, spec, description=info["description"])
-    _rewrite_zip_member(built, "modelDescription.xml", new)
-    return built
+        binary = compile_binary(fmi_version, td / "binaries" / _PLATFORM[fmi_version] / f"{info['system']}.so")
+        xml = model_description(adapter, info, fmi_version)
+        tmp = dest.with_name(dest.name + ".tmp")
+        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
+            z.writestr("modelDescription.xml", xml)
+            z.write(binary, binary.relative_to(td).as_posix())
+            for p in sorted(res.rglob("*")):
+                if p.is_file() and "__pycache__" not in p.parts:
+                    z.write(p, p.relative_to(td).as_posix())
+        os.replace(tmp, dest)
+    return dest
+
+
+def _rewrite_zip_member(zpath: Path, member: str, data: bytes) -> None:
+    """Replace one member of a zip file (tests and tools that alter a built FMU)."""
+    tmp = zpath.with_suffix(zpath.suffix + ".tmp")
+    with zipfile.ZipFile(zpath) as zin, zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zout:
+        for item in zin.infolist():
+            content = data if item.filename == member else zin.read(item.filename)
+            zout.writestr(item.filename, content, compress_type=zipfile.ZIP_DEFLATED)
+    os.replace(tmp, zpath)
 
 
 def synthetic_system_folder(model: str | Path, dest: str | Path) -> Path:
@@ -227,7 +370,7 @@ def synthetic_system_folder(model: str | Path, dest: str | Path) -> Path:
     folder = Path(dest) / m.name
     folder.mkdir(parents=True, exist_ok=True)
     shutil.copy2(m.path, folder / MODEL_FILE)
-    write_tables(folder / TABLES_FILE, SystemTables(
-        meshes={mesh.name: table}, model_sha256=model_sha256(folder / MODEL_FILE), model_file=str(folder / MODEL_FILE),
-        attrs={"model_values_sha256": model_values_sha256(m), "model_values": model_values_json(m)}))
+    write_tables(folder / TABLES_FILE, SystemTables(meshes={mesh.name: table},
+                                                    model_sha256=model_sha256(folder / MODEL_FILE),
+                                                    model_file=str(folder / MODEL_FILE)))
     return folder

@@ -1,14 +1,14 @@
-"""FMU variables declared once: :class:`FmuVariable` (name, type, causality, unit, description, bounds) and the SI
-unit definitions; the same spec registers the variables with pythonfmu at run time and post-processes
-``modelDescription.xml`` at build time (units, ``min``/``max``, ``UnitDefinitions``)."""
+"""FMU variables declared once: :class:`FmuVariable` (name, type, causality, unit, display unit, nominal value,
+bounds), the unit definitions (SI units and their display units) and the enumeration types; the same spec drives
+the slave at run time and both modelDescription.xml writers (FMI 2.0 and FMI 3.0) at build time."""
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
 
-__all__ = ["UNITS", "FmuVariable", "ident"]
+__all__ = ["UNITS", "DISPLAY_UNITS", "ENUMERATIONS", "TYPES", "TIME", "FmuVariable", "ident"]
 
-#: SI units used by hacgear FMUs: name -> exponents of the SI base units (FMI 2.0 ``BaseUnit`` attributes).
+#: SI units used by hacgear FMUs: name -> exponents of the SI base units (FMI ``BaseUnit`` attributes).
 UNITS: dict[str, dict[str, int]] = {
     "1": {},
     "s": {"s": 1},
@@ -20,37 +20,71 @@ UNITS: dict[str, dict[str, int]] = {
     "N/m": {"kg": 1, "s": -2},
     "Pa": {"kg": 1, "m": -1, "s": -2},
     "Hz": {"s": -1},
+    "kg.m2": {"kg": 1, "m": 2},
+    "N.m/rad": {"kg": 1, "m": 2, "s": -2, "rad": -1},
+    "N.m.s/rad": {"kg": 1, "m": 2, "s": -1, "rad": -1},
 }
 
-_CAUSALITIES = ("parameter", "input", "output")
+#: Display units per unit: name -> factor (display value = factor * SI value; FMI ``DisplayUnit``).
+DISPLAY_UNITS: dict[str, dict[str, float]] = {
+    "m": {"µm": 1e6, "mm": 1e3},
+    "rad": {"deg": 180.0 / math.pi},
+    "rad/s": {"rpm": 30.0 / math.pi},
+    "N": {"kN": 1e-3},
+    "N.m": {"kN.m": 1e-3},
+    "N/m": {"N/µm": 1e-6},
+    "Pa": {"MPa": 1e-6},
+    "1": {"µε": 1e6},
+}
+
+#: Enumeration types: name -> (description, ((item name, value, description), ...)).
+ENUMERATIONS: dict[str, tuple[str, tuple[tuple[str, int, str], ...]]] = {
+    "ContactState": ("state of a gear mesh's tooth contact", (
+        ("separated", 0, "no tooth in contact (contact loss: the mesh force is zero)"),
+        ("drive_flank", 1, "contact on the drive flanks (positive mesh force)"),
+        ("coast_flank", 2, "contact on the coast flanks (negative mesh force)"),
+    )),
+}
+
+#: Variable types and the Python type of their values.
+TYPES = {"Real": float, "Integer": int, "Boolean": bool, "Enumeration": int}
+
+_CAUSALITIES = ("parameter", "input", "output", "independent")
 _VARIABILITIES = ("fixed", "tunable", "continuous", "discrete")
 
 
 @dataclass(frozen=True)
 class FmuVariable:
-    """Spec of one FMU variable (declared once; drives registration and modelDescription.xml).
+    """Spec of one FMU variable (declared once; drives the slave and modelDescription.xml).
 
     Attributes
     ----------
     name : str
         FMI name (structured naming convention: identifiers joined by ``.``).
     type : str
-        ``"Real"`` or ``"Integer"`` (FMI 2.0 allows a unit only on Real; Integers are enumerated
-        switches documented in ``description``).
+        ``"Real"``, ``"Integer"``, ``"Boolean"`` or ``"Enumeration"`` (then ``declared_type`` names one of
+        :data:`ENUMERATIONS`).  Discrete quantities are never Real: switches a master sets are Integer (libcosim,
+        for one, cannot set Enumeration variables), discrete outputs such as contact states are Enumerations.
     causality : str
-        ``parameter`` | ``input`` | ``output``.
+        ``parameter`` | ``input`` | ``output`` | ``independent`` (time, FMI 3.0 only).
     variability : str
-        ``fixed`` | ``tunable`` | ``continuous`` | ``discrete``.
+        ``fixed`` | ``tunable`` | ``continuous`` (Real only) | ``discrete``.
     unit : str
-        Key of :data:`UNITS` (Real) or ``""`` (Integer).
+        Key of :data:`UNITS` (Real) or ``""`` (other types).
     description : str
         One sentence with sign convention.
-    start : float or int or None
-        Start value of parameters and inputs (outputs get theirs from the slave at build time:
-        the initial equilibrium).
+    start : float or int or bool or None
+        Start value of parameters and inputs; outputs have none (``initial="calculated"``: they follow from the
+        parameters when initialization ends).
     min, max : float or None
-        Allowed range (inclusive), checked at the end of initialization (parameters) and in every
-        ``doStep`` (inputs); written into modelDescription.xml.
+        Allowed range (inclusive) of parameters and inputs, checked when initialization ends (parameters, the
+        inputs of the chosen experiment) and in every ``doStep`` (inputs).
+    display_unit : str
+        A display unit of ``unit`` (:data:`DISPLAY_UNITS`), or ``""``.
+    nominal : float or None
+        Typical magnitude (> 0) of a Real, for scaling in the master.
+    declared_type : str
+        Enumeration type name (``type == "Enumeration"`` only).
     """
 
     name: str
@@ -59,45 +93,83 @@ class FmuVariable:
     variability: str
     unit: str
     description: str
-    start: float | int | None = None
+    start: float | int | bool | None = None
     min: float | None = None
     max: float | None = None
+    display_unit: str = ""
+    nominal: float | None = None
+    declared_type: str = ""
 
     def __post_init__(self) -> None:
-        if self.type not in ("Real", "Integer"):
-            raise ValueError(f"FmuVariable {self.name}: type must be Real | Integer, got {self.type!r}")
+        if self.type not in TYPES:
+            raise ValueError(f"FmuVariable {self.name}: type must be one of {tuple(TYPES)}, got {self.type!r}")
         if self.causality not in _CAUSALITIES:
             raise ValueError(f"FmuVariable {self.name}: causality must be one of {_CAUSALITIES}")
         if self.variability not in _VARIABILITIES:
             raise ValueError(f"FmuVariable {self.name}: variability must be one of {_VARIABILITIES}")
+        if self.variability == "continuous" and self.type != "Real":
+            raise ValueError(f"FmuVariable {self.name}: only Real variables can be continuous")
         if self.type == "Real" and self.unit not in UNITS:
             raise ValueError(f"FmuVariable {self.name}: unit {self.unit!r} not in UNITS")
+        if self.type != "Real" and (self.unit or self.display_unit or self.nominal is not None):
+            raise ValueError(f"FmuVariable {self.name}: unit, display unit and nominal value are for Real only")
+        if self.display_unit and self.display_unit not in DISPLAY_UNITS.get(self.unit, {}):
+            raise ValueError(f"FmuVariable {self.name}: display unit {self.display_unit!r} is not one of unit "
+                             f"{self.unit!r}: {sorted(DISPLAY_UNITS.get(self.unit, {}))}")
+        if self.nominal is not None and not (math.isfinite(self.nominal) and self.nominal > 0):
+            raise ValueError(f"FmuVariable {self.name}: nominal must be finite and > 0, got {self.nominal!r}")
+        if (self.type == "Enumeration") != bool(self.declared_type):
+            raise ValueError(f"FmuVariable {self.name}: Enumeration variables (only) need a declared_type")
+        if self.declared_type and self.declared_type not in ENUMERATIONS:
+            raise ValueError(f"FmuVariable {self.name}: unknown enumeration {self.declared_type!r}")
         if not self.description:
             raise ValueError(f"FmuVariable {self.name}: description missing")
-        if self.causality != "output" and self.start is None:
+        if self.causality in ("parameter", "input") and self.start is None:
             raise ValueError(f"FmuVariable {self.name}: parameters and inputs need a start value")
+        if self.causality in ("output", "independent") and self.start is not None:
+            raise ValueError(f"FmuVariable {self.name}: outputs are calculated, they have no start value")
         for b in (self.min, self.max):
             if b is not None and not math.isfinite(b):
                 raise ValueError(f"FmuVariable {self.name}: min/max must be finite (XML xs:double)")
+        if self.start is not None and self.check(self.start):
+            raise ValueError(f"FmuVariable {self.name}: start value {self.start!r} outside its own range")
+
+    @property
+    def initial(self) -> str:
+        """FMI ``initial``: ``exact`` for parameters and inputs, ``calculated`` for outputs."""
+        return {"output": "calculated", "independent": ""}.get(self.causality, "exact")
+
+    def enum_items(self) -> tuple[tuple[str, int, str], ...]:
+        """Items (name, value, description) of an Enumeration variable's type."""
+        return ENUMERATIONS[self.declared_type][1] if self.declared_type else ()
 
     def check(self, value) -> str:
-        """Empty string if ``value`` is finite and within [min, max], else a message naming the
-        variable, its unit and the allowed range."""
+        """Empty string if ``value`` is valid for this variable (finite, within [min, max], an integer for
+        Integer/Enumeration, an item of the enumeration), else a message naming the variable, the value, its unit
+        and the allowed range."""
         unit = f" [{self.unit}]" if self.unit else ""
         try:
             v = float(value)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             return f"{self.causality} '{self.name}'{unit} must be a number, got {value!r}"
+        if self.type == "Enumeration":
+            items = self.enum_items()
+            if v not in {it[1] for it in items}:
+                allowed = ", ".join(f"{val} = {nm}" for nm, val, _ in items)
+                return f"{self.causality} '{self.name}' = {value!r} is not an item of {self.declared_type} ({allowed})"
+            return ""
         lo = -math.inf if self.min is None else self.min
         hi = math.inf if self.max is None else self.max
         if not math.isfinite(v) or not lo <= v <= hi:
             return (f"{self.causality} '{self.name}'{unit} = {v!r} is outside the allowed range "
                     f"[{lo:g}, {hi:g}]{' (NaN/inf are not allowed)' if not math.isfinite(v) else ''}")
         if self.type == "Integer" and v != int(v):
-            return f"{self.causality} '{self.name}' must be an integer, got {v!r}"
+            return f"{self.causality} '{self.name}' must be an integer, got {value!r}"
         return ""
 
 
+#: The independent variable of FMI 3.0 FMUs (value reference 0).
+TIME = FmuVariable("time", "Real", "independent", "continuous", "s", "simulation time")
 
 
 def ident(text: str) -> str:

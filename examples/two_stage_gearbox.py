@@ -1,0 +1,74 @@
+#!/usr/bin/env python
+"""Two-stage gearbox bench: motor -> shaft -> stage 1 -> shaft -> stage 2 -> shaft -> load, ramped through the mesh
+resonances of both stages (:mod:`hacgear_core.fmu.bench`), in Python and, with ``--ssp``, as an SSP file under
+fmpy and libcosim.
+
+    python examples/two_stage_gearbox.py [--quick] [--out docs/figures/two_stage_gearbox.png] [--ssp bench.ssp]
+
+The stages are FMUs built from the committed tables.  The issue asks for a planetary first stage; until its FMU
+exists the first stage is the idler chain — swap it by changing the first entry of ``STAGES`` (any FMU with one
+input and one output port works, the layout follows from its hacgear_fmu.json).
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import tempfile
+import time
+
+import numpy as np
+
+from hacgear_core.fmu import build_fmu
+from hacgear_core.fmu.bench import BenchConfig, plot_stages, run_drivetrain_bench
+from hacgear_core.fmu.ssp import run_ssp_fmpy, run_ssp_libcosim, write_bench_ssp
+from hacgear_core.model import resolve_model_path
+
+STAGES = ["idler_28_33_39", "spur_28t_asym"]  # first stage driven by the motor; e.g. "planetary_65_55_175" first
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description="Two gear stages in a drivetrain, through both stages' resonances")
+    ap.add_argument("--stages", nargs="+", default=STAGES, help="systems of the stages, motor side first")
+    ap.add_argument("--out", default="two_stage_gearbox.png", help="figure (PNG)")
+    ap.add_argument("--quick", action="store_true", help="a 0.2 s ramp instead of 1.5 s")
+    ap.add_argument("--ssp", help="also write the bench as this SSP file and run it under fmpy and libcosim")
+    args = ap.parse_args(argv)
+    # the shaft between the stages couples two small gear inertias: a communication step of 2e-5 s resolves it
+    # (omega h ~ 0.1), 1e-4 s does not
+    cfg = BenchConfig(speed_start_rpm=6000.0, speed_end_rpm=9500.0, ramp_s=0.2 if args.quick else 1.5,
+                      hold_s=0.02 if args.quick else 0.05, load_torque_Nm=300.0, step_s=2e-5,
+                      coupling_shaft_stiffness_Nm_per_rad=1.0e4)
+    with tempfile.TemporaryDirectory(prefix="hacgear_2stage_") as td:
+        fmus = [build_fmu(resolve_model_path(s).parent, td) for s in args.stages]
+        t0 = time.perf_counter()
+        res = run_drivetrain_bench(fmus, cfg)
+        print(f"two-stage bench: {' -> '.join(args.stages)}: {cfg.steps} steps of {cfg.step_s:g} s in "
+              f"{time.perf_counter() - t0:.1f} s wall; overall ratio {res['speed_ratio']:.4f}")
+        lay = res["layout"]
+        for k, (name, info) in enumerate(lay.infos.items()):
+            r_in = abs(info["ports"][info["input"]]["speed_ratio"])
+            fm = res[f"{name}.{info['input']}.speed"] / r_in * info["reference_teeth"] / (2 * math.pi)
+            scale = lay.static["input_torque_Nm"][k] / info["ports"][info["input"]]["nominal_torque_Nm"]
+            for m in info["meshes"]:
+                f = res[f"{name}.{m}.force"]
+                i = int(np.argmax(f))
+                fs = info["meshes"][m]["nominal_force_N"] * scale
+                print(f"  {name} ({info['system']}) {m}: peak {f[i]:.0f} N = {f[i] / fs:.2f} x static at mesh "
+                      f"frequency {fm[i]:.0f} Hz (resonance {info['resonance_mesh_frequency_Hz']:.0f} Hz); contact "
+                      f"lost in {np.count_nonzero(res[f'{name}.{m}.contact'] < 0.5)} of {len(f)} samples")
+        print(f"  figure {plot_stages(res, args.out, 'two gear stages in a drivetrain: ' + ' -> '.join(args.stages))}")
+        if args.ssp:
+            ssp = write_bench_ssp(fmus, args.ssp, cfg)
+            reals = [r for r in lay.record if not r[1].endswith(".contact")]
+            for label, run in (("fmpy", run_ssp_fmpy), ("libcosim", run_ssp_libcosim)):
+                t0 = time.perf_counter()
+                out = run(ssp, cfg.steps, cfg.step_s, reals)
+                dev = max(float(np.nanmax(np.abs(out[f"{c}.{v}"] - res[f"{c}.{v}"])) /
+                                np.max(np.abs(res[f"{c}.{v}"]))) for c, v in reals)
+                print(f"  SSP {ssp} under {label}: {time.perf_counter() - t0:.1f} s wall, largest relative "
+                      f"difference to the Python bench {dev:.2e}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

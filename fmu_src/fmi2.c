@@ -1,0 +1,451 @@
+/* hacgear FMU binary, FMI 2.0 co-simulation: the FMI 2.0 functions over the Python bridge (bridge.h).
+ * Compiled by hacgear_core.fmu.build when an FMU is built (gcc, Python's stable ABI, FMI 2.0 headers). */
+#include "bridge.h"
+#include "fmi2Functions.h"
+
+typedef struct {
+    HgInstance h; /* first member: an fmi2Component is an HgInstance */
+    fmi2CallbackFunctions cb;
+} Fmi2Instance;
+
+static void emit2(HgInstance *h, int status, const char *category, const char *message) {
+    const Fmi2Instance *c = (const Fmi2Instance *)h;
+    if (c->cb.logger) c->cb.logger(c->cb.componentEnvironment, h->name, (fmi2Status)status, category, message);
+}
+
+/* enter/leave: NULL component -> Error; the GIL around the call */
+#define ENTER(c)                                    \
+    if (!(c)) return fmi2Error;                     \
+    Fmi2Instance *I = (Fmi2Instance *)(c);          \
+    HgInstance *H = &I->h;                          \
+    PyGILState_STATE gil = PyGILState_Ensure();     \
+    int st = HG_ERROR;
+#define LEAVE()                                     \
+    PyGILState_Release(gil);                        \
+    return (fmi2Status)st;
+
+/* A function this FMU does not provide (its capability flag says so): Error, the instance in its error state. */
+static void unsupported(fmi2Component c, const char *what) {
+    if (!c) return;
+    Fmi2Instance *I = (Fmi2Instance *)c;
+    char buf[256];
+    snprintf(buf, sizeof buf, "%s is not supported by this FMU", what);
+    PyGILState_STATE gil = PyGILState_Ensure();
+    hg_fail(&I->h, buf);
+    PyGILState_Release(gil);
+}
+
+/* A status inquiry without an answer: Discard, logged, no change of state. */
+static void not_available(fmi2Component c, const char *what) {
+    if (!c) return;
+    char buf[256];
+    snprintf(buf, sizeof buf, "%s is not available from this FMU", what);
+    emit2(&((Fmi2Instance *)c)->h, HG_DISCARD, "logStatusDiscard", buf);
+}
+
+const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
+const char *fmi2GetVersion(void) { return fmi2Version; }
+
+fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
+                              fmi2String fmuResourceLocation, const fmi2CallbackFunctions *functions,
+                              fmi2Boolean visible, fmi2Boolean loggingOn) {
+    (void)visible;
+    Fmi2Instance *I = (Fmi2Instance *)calloc(1, sizeof(Fmi2Instance));
+    if (!I) return NULL;
+    if (functions) I->cb = *functions;
+    I->h.name = hg_strdup(instanceName ? instanceName : "");
+    I->h.emit = emit2;
+    I->h.logging_on = loggingOn ? 1 : 0;
+    const char *problem = NULL;
+    if (fmuType != fmi2CoSimulation) problem = "this FMU supports co-simulation only (fmuType = fmi2CoSimulation)";
+    else if (!fmuResourceLocation) problem = "fmuResourceLocation is NULL";
+    if (problem) {
+        emit2(&I->h, HG_ERROR, "logStatusError", problem);
+        fprintf(stderr, "hacgear FMU '%s': %s\n", I->h.name, problem);
+        free(I->h.name);
+        free(I);
+        return NULL;
+    }
+    hg_ensure_python();
+    PyGILState_STATE gil = PyGILState_Ensure();
+    char *error = NULL;
+    PyObject *inst = hg_create(instanceName, fmuResourceLocation, fmuGUID, loggingOn ? 1 : 0, 2, &error);
+    if (inst && !hg_attach(&I->h, inst)) {
+        hg_detach(&I->h);
+        inst = NULL;
+        error = hg_strdup("internal error: the FMU instance lacks its methods");
+    }
+    if (!inst) {
+        const char *e = error ? error : "unknown error";
+        /* the reason reaches the user without debug logging: the logger (status Error) and stderr */
+        /* FMI 2.0 loggers take a printf format (masters written in Python do not format): '%' doubled */
+        char *msg = (char *)malloc(2 * strlen(e) + 64);
+        if (msg) {
+            char *o = msg + sprintf(msg, "instantiation failed: ");
+            for (const char *p = e; *p; p++) {
+                if (*p == '%') *o++ = '%';
+                *o++ = *p;
+            }
+            *o = '\0';
+            if (I->cb.logger) I->cb.logger(I->cb.componentEnvironment, I->h.name, fmi2Error, "logStatusError", msg);
+            free(msg);
+        }
+        fprintf(stderr, "hacgear FMU '%s': instantiation failed: %s\n", I->h.name, e);
+        free(error);
+        PyGILState_Release(gil);
+        free(I->h.name);
+        free(I);
+        return NULL;
+    }
+    hg_drain(&I->h);
+    PyGILState_Release(gil);
+    return (fmi2Component)I;
+}
+
+void fmi2FreeInstance(fmi2Component c) {
+    if (!c) return;
+    Fmi2Instance *I = (Fmi2Instance *)c;
+    PyGILState_STATE gil = PyGILState_Ensure();
+    hg_detach(&I->h);
+    PyGILState_Release(gil);
+    free(I->h.name);
+    free(I);
+}
+
+fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t nCategories,
+                               const fmi2String categories[]) {
+    (void)nCategories; (void)categories;
+    ENTER(c)
+    H->logging_on = loggingOn ? 1 : 0;
+    PyObject *b = PyBool_FromLong(H->logging_on);
+    st = (b && PyObject_SetAttrString(H->inst, "logging_on", b) == 0) ? HG_OK : HG_ERROR;
+    Py_XDECREF(b);
+    PyErr_Clear();
+    LEAVE()
+}
+
+fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fmi2Real tolerance,
+                               fmi2Real startTime, fmi2Boolean stopTimeDefined, fmi2Real stopTime) {
+    ENTER(c)
+    PyObject *stop = stopTimeDefined ? PyFloat_FromDouble(stopTime) : (Py_INCREF(Py_None), Py_None);
+    PyObject *tol = toleranceDefined ? PyFloat_FromDouble(tolerance) : (Py_INCREF(Py_None), Py_None);
+    st = hg_call(H, "setup_experiment", "fmi2SetupExperiment", "(dOO)", startTime, stop, tol);
+    Py_XDECREF(stop);
+    Py_XDECREF(tol);
+    LEAVE()
+}
+
+fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
+    ENTER(c)
+    st = hg_call(H, "enter_initialization_mode", "fmi2EnterInitializationMode", NULL);
+    LEAVE()
+}
+
+fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
+    ENTER(c)
+    st = hg_call(H, "exit_initialization_mode", "fmi2ExitInitializationMode", NULL);
+    LEAVE()
+}
+
+fmi2Status fmi2Terminate(fmi2Component c) {
+    ENTER(c)
+    st = hg_call(H, "terminate", "fmi2Terminate", NULL);
+    LEAVE()
+}
+
+fmi2Status fmi2Reset(fmi2Component c) {
+    ENTER(c)
+    st = hg_call(H, "reset", "fmi2Reset", NULL);
+    LEAVE()
+}
+
+/* ---------------------------------------------------------------- getters and setters */
+static int conv_int(PyObject *o, void *dst, size_t i) {
+    long v = PyLong_AsLong(o);
+    if (v == -1 && PyErr_Occurred()) return 0;
+    ((fmi2Integer *)dst)[i] = (fmi2Integer)v;
+    return 1;
+}
+
+static int conv_bool(PyObject *o, void *dst, size_t i) {
+    int v = PyObject_IsTrue(o);
+    if (v < 0) return 0;
+    ((fmi2Boolean *)dst)[i] = v ? fmi2True : fmi2False;
+    return 1;
+}
+
+fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Real value[]) {
+    ENTER(c)
+    st = hg_get(H, H->get_real, "real", "fmi2GetReal", vr, nvr, value, hg_conv_double);
+    LEAVE()
+}
+
+fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Integer value[]) {
+    ENTER(c)
+    st = hg_get(H, NULL, "integer", "fmi2GetInteger", vr, nvr, value, conv_int);
+    LEAVE()
+}
+
+fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Boolean value[]) {
+    ENTER(c)
+    st = hg_get(H, NULL, "boolean", "fmi2GetBoolean", vr, nvr, value, conv_bool);
+    LEAVE()
+}
+
+fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2String value[]) {
+    ENTER(c)
+    if (nvr == 0) {
+        st = HG_OK;
+    } else {
+        /* no String variables: every value reference is an error, reported by the instance */
+        st = hg_get(H, NULL, "string", "fmi2GetString", vr, nvr, (void *)value, conv_int);
+    }
+    LEAVE()
+}
+
+static PyObject *tuple_of_doubles(const double *v, size_t n) {
+    if (n && !v) return PyTuple_New(0);
+    PyObject *t = PyTuple_New((Py_ssize_t)n);
+    if (!t) return NULL;
+    for (size_t i = 0; i < n; i++) PyTuple_SetItem(t, (Py_ssize_t)i, PyFloat_FromDouble(v[i]));
+    return t;
+}
+
+static PyObject *tuple_of_ints(const int *v, size_t n, int as_bool) {
+    if (n && !v) return PyTuple_New(0);
+    PyObject *t = PyTuple_New((Py_ssize_t)n);
+    if (!t) return NULL;
+    for (size_t i = 0; i < n; i++)
+        PyTuple_SetItem(t, (Py_ssize_t)i, as_bool ? PyBool_FromLong(v[i]) : PyLong_FromLong(v[i]));
+    return t;
+}
+
+fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Real value[]) {
+    ENTER(c)
+    st = hg_set(H, H->set_real, "real", "fmi2SetReal", vr, nvr, tuple_of_doubles(value, nvr));
+    LEAVE()
+}
+
+fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Integer value[]) {
+    ENTER(c)
+    st = hg_set(H, NULL, "integer", "fmi2SetInteger", vr, nvr, tuple_of_ints(value, nvr, 0));
+    LEAVE()
+}
+
+fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Boolean value[]) {
+    ENTER(c)
+    st = hg_set(H, NULL, "boolean", "fmi2SetBoolean", vr, nvr, tuple_of_ints(value, nvr, 1));
+    LEAVE()
+}
+
+fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2String value[]) {
+    ENTER(c)
+    PyObject *t = PyTuple_New((Py_ssize_t)nvr);
+    for (size_t i = 0; t && i < nvr; i++)
+        PyTuple_SetItem(t, (Py_ssize_t)i, PyUnicode_FromString(value && value[i] ? value[i] : ""));
+    st = hg_set(H, NULL, "string", "fmi2SetString", vr, nvr, t);
+    LEAVE()
+}
+
+/* ---------------------------------------------------------------- FMU states */
+fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
+    ENTER(c)
+    if (!FMUstate) {
+        st = hg_fail(H, "fmi2GetFMUstate: FMUstate is a null pointer");
+    } else {
+        if (*FMUstate) hg_release_state(H, *FMUstate); /* a previous state of this instance is reused: replace */
+        void *s = hg_get_state(H, "fmi2GetFMUstate");
+        *FMUstate = s;
+        st = s ? HG_OK : HG_ERROR;
+    }
+    LEAVE()
+}
+
+fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate) {
+    ENTER(c)
+    PyObject *snap = hg_known_state(H, FMUstate);
+    if (!snap) {
+        st = hg_fail(H, "fmi2SetFMUstate: not an FMU state of this instance (freed or foreign)");
+    } else {
+        st = hg_call(H, "set_state", "fmi2SetFMUstate", "(O)", snap);
+    }
+    LEAVE()
+}
+
+fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
+    ENTER(c)
+    if (FMUstate && *FMUstate) {
+        if (hg_known_state(H, *FMUstate)) {
+            hg_release_state(H, *FMUstate);
+            *FMUstate = NULL;
+            st = HG_OK;
+        } else {
+            st = hg_fail(H, "fmi2FreeFMUstate: not an FMU state of this instance");
+        }
+    } else {
+        st = HG_OK;
+    }
+    LEAVE()
+}
+
+static PyObject *serialized(HgInstance *H, fmi2FMUstate state, const char *call) {
+    PyObject *snap = hg_known_state(H, state);
+    if (!snap) {
+        char buf[160];
+        snprintf(buf, sizeof buf, "%s: not an FMU state of this instance", call);
+        hg_fail(H, buf);
+        return NULL;
+    }
+    PyObject *b = PyObject_CallMethod(H->inst, "serialize_state", "(O)", snap);
+    if (!b) { hg_status(H, NULL, call); return NULL; }
+    if (!PyBytes_Check(b)) { Py_DECREF(b); hg_drain(H); return NULL; }
+    hg_drain(H);
+    return b;
+}
+
+fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate FMUstate, size_t *size) {
+    ENTER(c)
+    PyObject *b = serialized(H, FMUstate, "fmi2SerializedFMUstateSize");
+    if (b && size) {
+        *size = (size_t)PyBytes_Size(b);
+        st = HG_OK;
+    }
+    Py_XDECREF(b);
+    LEAVE()
+}
+
+fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate FMUstate, fmi2Byte serializedState[], size_t size) {
+    ENTER(c)
+    PyObject *b = serialized(H, FMUstate, "fmi2SerializeFMUstate");
+    if (b) {
+        size_t n = (size_t)PyBytes_Size(b);
+        if (!serializedState || size < n) {
+            st = hg_fail(H, "fmi2SerializeFMUstate: buffer missing or smaller than "
+                                                 "fmi2SerializedFMUstateSize");
+        } else {
+            memcpy(serializedState, PyBytes_AsString(b), n);
+            st = HG_OK;
+        }
+    }
+    Py_XDECREF(b);
+    LEAVE()
+}
+
+fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedState[], size_t size,
+                                   fmi2FMUstate *FMUstate) {
+    ENTER(c)
+    if (!FMUstate || (size && !serializedState)) {
+        st = hg_fail(H, "fmi2DeSerializeFMUstate: null pointer");
+    } else {
+        PyObject *b = PyBytes_FromStringAndSize(serializedState, (Py_ssize_t)size);
+        PyObject *snap = b ? PyObject_CallMethod(H->inst, "deserialize_state", "(O)", b) : NULL;
+        Py_XDECREF(b);
+        if (!snap) {
+            hg_status(H, NULL, "fmi2DeSerializeFMUstate");
+        } else if (snap == Py_None) {
+            Py_DECREF(snap);
+            hg_drain(H);
+        } else {
+            PyObject *r = PyObject_CallMethod(H->inst, "_issue_state", "On", snap, (Py_ssize_t)(void *)snap);
+            if (r) {
+                Py_DECREF(r);
+                *FMUstate = (fmi2FMUstate)snap;
+                st = HG_OK;
+            } else {
+                Py_DECREF(snap);
+                PyErr_Clear();
+            }
+            hg_drain(H);
+        }
+    }
+    LEAVE()
+}
+
+/* ---------------------------------------------------------------- stepping */
+fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2Real communicationStepSize,
+                      fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
+    (void)noSetFMUStatePriorToCurrentPoint;
+    ENTER(c)
+    PyObject *args = PyTuple_New(2);
+    if (args) {
+        PyTuple_SetItem(args, 0, PyFloat_FromDouble(currentCommunicationPoint));
+        PyTuple_SetItem(args, 1, PyFloat_FromDouble(communicationStepSize));
+        st = hg_status(H, PyObject_Call(H->do_step, args, NULL), "fmi2DoStep");
+        Py_DECREF(args);
+    } else {
+        st = hg_status(H, NULL, "fmi2DoStep");
+    }
+    LEAVE()
+}
+
+fmi2Status fmi2CancelStep(fmi2Component c) {
+    unsupported(c, "fmi2CancelStep (doStep is synchronous)");
+    return fmi2Error;
+}
+
+fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value) {
+    (void)s; (void)value;
+    not_available(c, "fmi2GetStatus (doStep is synchronous)");
+    return fmi2Discard;
+}
+
+fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value) {
+    if (s != fmi2LastSuccessfulTime || !value) {
+        not_available(c, "fmi2GetRealStatus of a kind other than fmi2LastSuccessfulTime");
+        return fmi2Discard;
+    }
+    ENTER(c)
+    PyObject *r = PyObject_CallMethod(H->inst, "last_successful_time", NULL);
+    if (r) {
+        *value = PyFloat_AsDouble(r);
+        Py_DECREF(r);
+        st = PyErr_Occurred() ? HG_ERROR : HG_OK;
+        PyErr_Clear();
+    } else {
+        st = hg_status(H, NULL, "fmi2GetRealStatus");
+    }
+    LEAVE()
+}
+
+fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Integer *value) {
+    (void)s; (void)value;
+    not_available(c, "fmi2GetIntegerStatus");
+    return fmi2Discard;
+}
+
+fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value) {
+    if (s == fmi2Terminated && value && c) {
+        *value = fmi2False; /* the FMU never asks to end the simulation */
+        return fmi2OK;
+    }
+    not_available(c, "fmi2GetBooleanStatus of a kind other than fmi2Terminated");
+    return fmi2Discard;
+}
+
+fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String *value) {
+    (void)s; (void)value;
+    not_available(c, "fmi2GetStringStatus");
+    return fmi2Discard;
+}
+
+fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference vUnknown_ref[], size_t nUnknown,
+                                        const fmi2ValueReference vKnown_ref[], size_t nKnown,
+                                        const fmi2Real dvKnown[], fmi2Real dvUnknown[]) {
+    (void)vUnknown_ref; (void)nUnknown; (void)vKnown_ref; (void)nKnown; (void)dvKnown; (void)dvUnknown;
+    unsupported(c, "fmi2GetDirectionalDerivative (providesDirectionalDerivative = false)");
+    return fmi2Error;
+}
+
+fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                       const fmi2Integer order[], const fmi2Real value[]) {
+    (void)vr; (void)nvr; (void)order; (void)value;
+    unsupported(c, "fmi2SetRealInputDerivatives (canInterpolateInputs = false)");
+    return fmi2Error;
+}
+
+fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                        const fmi2Integer order[], fmi2Real value[]) {
+    (void)vr; (void)nvr; (void)order; (void)value;
+    unsupported(c, "fmi2GetRealOutputDerivatives (maxOutputDerivativeOrder = 0)");
+    return fmi2Error;
+}

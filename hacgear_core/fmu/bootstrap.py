@@ -1,0 +1,162 @@
+"""Loader of a hacgear FMU in the importer's Python (standard library only): each FMU carries this file as
+``resources/hacgear_fmu_boot.py`` and its binary executes it at every instantiation.
+
+1. It checks the importer's Python and the third-party packages the model needs (numpy, scipy, h5py, numba, with
+   the minimum versions in ``hacgear_fmu.json``) and raises :class:`ImportError` naming every missing or too old
+   package and the ``pip`` command that installs them (the binary passes the message to the master's logger and to
+   stderr and fails the instantiation).
+2. It copies the FMU's bundled hacgear code (``resources/<package>/``: hacgear_core under a name unique to its
+   contents) once to a stable per-user folder, :func:`cache_root`, and imports it from there: numba caches the
+   compiled kernels next to their source, so every later process loads them instead of compiling them.  FMUs of
+   different hacgear builds have different package names and run side by side in one process.
+3. It returns the FMU instance (``<package>.fmu.slave.FmuInstance``), which keeps the assembled lumped system
+   in ``cache_root()/systems/<GUID>.pickle`` for the next process.
+"""
+from __future__ import annotations
+
+import hashlib
+import importlib
+import json
+import os
+import shutil
+import sys
+import tempfile
+import urllib.parse
+import urllib.request
+from importlib import metadata
+from pathlib import Path
+
+__all__ = ["cache_root", "tree_digest", "check_requirements", "stable_copy", "resources_folder", "instantiate",
+           "INFO_FILE", "BOOT_FILE"]
+
+INFO_FILE = "hacgear_fmu.json"
+BOOT_FILE = "hacgear_fmu_boot.py"
+_MARKER = "HACGEAR_BUNDLE_SHA256"
+
+
+def cache_root() -> Path:
+    """Folder of the FMUs' bundled code: ``$HACGEAR_FMU_CACHE``, else ``$HACGEAR_CACHE_DIR/fmu``, else
+    ``$XDG_CACHE_HOME/hacgear/fmu``, else ``~/.cache/hacgear/fmu``."""
+    if os.environ.get("HACGEAR_FMU_CACHE"):
+        return Path(os.environ["HACGEAR_FMU_CACHE"])
+    if os.environ.get("HACGEAR_CACHE_DIR"):
+        return Path(os.environ["HACGEAR_CACHE_DIR"]) / "fmu"
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "hacgear" / "fmu"
+
+
+def tree_digest(folder: str | Path) -> str:
+    """SHA-256 over the relative paths and contents of the ``*.py`` files below ``folder`` (caches such as
+    ``__pycache__`` do not count)."""
+    folder = Path(folder)
+    h = hashlib.sha256()
+    for p in sorted(folder.rglob("*.py")):
+        rel = p.relative_to(folder)
+        if "__pycache__" in rel.parts:
+            continue
+        h.update(rel.as_posix().encode() + b"\0")
+        h.update(p.read_bytes() + b"\0")
+    return h.hexdigest()
+
+
+def _vtuple(v: str) -> tuple[int, ...]:
+    out = []
+    for part in v.split("."):
+        num = ""
+        for c in part:
+            if not c.isdigit():
+                break
+            num += c
+        if not num:
+            break
+        out.append(int(num))
+    return tuple(out)
+
+
+def check_requirements(requirements: dict[str, str], python: str = "") -> list[str]:
+    """Unmet requirements, one message each: ``requirements`` maps distribution name -> minimum version;
+    ``python``: minimum Python version."""
+    problems = []
+    if python and sys.version_info[:3] < _vtuple(python):
+        problems.append(f"Python {'.'.join(map(str, sys.version_info[:3]))} is older than {python}")
+    for name, minimum in requirements.items():
+        try:
+            have = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            problems.append(f"{name}>={minimum} is not installed")
+            continue
+        if _vtuple(have) < _vtuple(minimum):
+            problems.append(f"{name} {have} is older than {minimum}")
+    return problems
+
+
+def stable_copy(src: Path, package: str, digest: str) -> tuple[Path, list[str]]:
+    """Copy the bundled package ``src`` (folder named ``package``, contents hashing to ``digest``) to
+    ``cache_root()/package`` unless an intact copy is there; returns (folder to put on ``sys.path``, notes).
+    Where the cache cannot be written the package is imported from ``src``'s parent (the FMU's extraction
+    folder: the kernels are then compiled in every process) and a note says why."""
+    root = cache_root()
+    dest = root / package
+    try:
+        if (dest / _MARKER).is_file() and (dest / _MARKER).read_text().strip() == digest \
+                and tree_digest(dest) == digest:
+            return root, []
+        root.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{package}-", dir=root))
+        try:
+            shutil.copytree(src, tmp / package, ignore=shutil.ignore_patterns("__pycache__"))
+            (tmp / package / _MARKER).write_text(digest + "\n")
+            if tree_digest(tmp / package) != digest:
+                raise OSError(f"the FMU's bundled code {src} does not match its digest (corrupted FMU?)")
+            if dest.exists():  # a damaged or edited copy: replace it
+                shutil.rmtree(dest, ignore_errors=True)
+            try:
+                os.replace(tmp / package, dest)
+            except OSError:
+                if not ((dest / _MARKER).is_file() and tree_digest(dest) == digest):  # another process won the race
+                    raise
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
+        return root, []
+    except OSError as exc:
+        return src.parent, [f"hacgear FMU: the bundled code could not be cached in {dest} ({exc}); it runs from "
+                            "the FMU's extraction folder and its kernels are compiled in every process (set "
+                            "HACGEAR_FMU_CACHE to a writable folder)"]
+
+
+def resources_folder(location: str) -> Path:
+    """The resources folder from an FMI 2.0 ``fmuResourceLocation`` URI (``file:///...``) or an FMI 3.0
+    ``resourcePath``."""
+    if location.startswith("file:"):
+        parsed = urllib.parse.urlparse(location)
+        return Path(urllib.request.url2pathname(parsed.path))
+    return Path(location)
+
+
+def instantiate(instance_name: str, location: str, token: str, logging_on: bool, fmi_version: int):
+    """The FMU instance for the binary's ``fmiInstantiate``; raises with a message for the master's logger."""
+    res = resources_folder(location)
+    try:
+        info = json.loads((res / INFO_FILE).read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise ImportError(f"hacgear FMU: resource {res / INFO_FILE} missing or unreadable: {exc}") from None
+    problems = check_requirements(info["requirements"], info.get("python", ""))
+    if problems:
+        reqs = " ".join(f"'{k}>={v}'" for k, v in info["requirements"].items())
+        raise ImportError(
+            f"hacgear FMU '{info.get('system')}' runs its model in the importer's Python ({sys.executable}, "
+            f"{'.'.join(map(str, sys.version_info[:3]))}), which lacks what it needs: " + "; ".join(problems)
+            + f". Install with: {Path(sys.executable).name} -m pip install {reqs}")
+    bundle = info["bundle"]
+    package = bundle["package"]
+    notes: list[str] = []
+    cache = cache_root() / "systems"
+    if package not in sys.modules:
+        folder, notes = stable_copy(res / package, package, bundle["sha256"])
+        if notes:
+            cache = None
+        if str(folder) not in sys.path:
+            sys.path.append(str(folder))
+    slave = importlib.import_module(f"{package}.fmu.slave")
+    return slave.FmuInstance(res, instance_name, token, logging_on=logging_on, fmi_version=fmi_version,
+                             notes=notes, cache_dir=cache)

@@ -13,6 +13,8 @@ All functions take a :class:`~hacgear_core.tables.MeshTable`.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from hacgear_core.errors import TableError
@@ -20,6 +22,7 @@ from hacgear_core.tables.fdf import StaticStiffness, static_deflection, static_s
 from hacgear_core.tables.interp import slope_many
 
 __all__ = [
+    "skipped_tooth_fraction",
     "tooth_loads",
     "dynamic_contact_pressure",
     "dynamic_root_strain",
@@ -97,15 +100,43 @@ def static_root_strain(table, gauge: str, force_N: float) -> np.ndarray:
 def strain_dynamic_factor(table, tau, x, force_N: float, static_max: dict | None = None) -> dict:
     """Strain dynamic factor per gauge: max tensile dynamic root strain over all teeth along the
     trajectory divided by the max static root strain at ``force_N`` [N] over the cycle.
-    ``static_max``: precomputed {gauge: max static strain} (see :func:`static_strain_max`)."""
+    ``static_max``: precomputed {gauge: max static strain} (see :func:`static_strain_max`).  Gauges on the
+    unloaded side of the root (static tension below a tenth of the largest gauge's) are left out: their ratio of
+    two small numbers is no dynamic factor."""
     sm = static_strain_max(table, force_N) if static_max is None else static_max
+    top = max(sm.values(), default=0.0)
     out = {}
     for g, smax in sm.items():
-        if smax <= 0:
+        if smax <= 0 or smax < 0.1 * top:
             continue
         dyn = _per_offset(table, _gauge(table, g), tau, x)
         out[g] = float(np.max(dyn)) / smax
     return out
+
+
+def skipped_tooth_fraction(table, tau, x, cycles: int, threshold: float = 0.01) -> float:
+    """Fraction of the teeth that take (almost) no load during their whole pass through the mesh — tooth skipping
+    (dissertation Section 2.4.2, Fig. 2.12) — along a periodic steady state of ``cycles`` mesh cycles (``tau``
+    unwrapped mesh positions [cycles], ``x`` deflections [m], one period).  The period is repeated so that every
+    tooth entering during it is followed through its whole window; a tooth is skipped when its largest load stays
+    below ``threshold`` times the largest tooth load of the period."""
+    tau = np.asarray(tau, float)
+    x = np.asarray(x, float)
+    offs = np.asarray(table.tooth_offsets)
+    lo, hi = -int(offs.max()), 1 - int(offs.min())       # a tooth's window in its own pair phase
+    cycles = max(int(cycles), 1)
+    reps = 3 + int(math.ceil((hi - lo) / cycles))
+    tt = np.concatenate([tau + r * cycles for r in range(reps)])
+    xx = np.tile(x, reps)
+    first, last = int(np.ceil(tt[0] - lo)), int(np.floor(tt[-1] - hi))
+    teeth = np.arange(first, first + cycles)            # one period's worth of teeth, all inside the trace
+    if teeth.size == 0 or teeth[-1] > last:
+        return math.nan
+    peak = np.array([float(np.max(np.maximum(table.tooth_load(tt, xx, int(i)), 0.0))) for i in teeth])
+    ref = float(np.max(peak))
+    if not ref > 0:
+        return math.nan
+    return float(np.mean(peak < threshold * ref))
 
 
 def static_strain_max(table, force_N: float) -> dict:

@@ -167,3 +167,16 @@ def test_sweep_table_has_no_duplicate_columns(capsys):
     assert "DTE rms" in lines[i]
     rows = [line.split() for line in lines[i + 1:i + 4]]
     assert any(abs(float(r[1]) - float(r[3])) > 1e-3 for r in rows), rows  # rms x and DTE rms differ
+
+
+def test_simulate_beyond_the_tables_says_so(capsys):
+    """A torque 100 x the nominal one drives the state past the tables' deflection grid: the run is reported with a
+    warning counting the steps and naming the remedy, and the JSON carries the count."""
+    assert main(["simulate", "spur_28t_asym", "--torque", "30000", "--fm", "1000", "--cycles", "12"]) == 0
+    err = capsys.readouterr().err
+    assert "left the tables' deflection range in m12" in err and "max_torque_factor" in err
+    assert main(["simulate", "spur_28t_asym", "--torque", "30000", "--fm", "1000", "--cycles", "12", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["meshes"]["m12"]["steps_beyond_tables"] > 0
+    assert main(["simulate", "spur_28t_asym", "--torque", "300", "--fm", "1000", "--cycles", "12", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["meshes"]["m12"]["steps_beyond_tables"] == 0

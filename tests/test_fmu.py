@@ -751,3 +751,55 @@ def test_drivetrain_bench_follows_the_motor_and_carries_the_load(built):
     assert np.mean(res["shaft2_torque_Nm"][end]) == pytest.approx(-200.0, rel=0.05)
     assert np.mean(res["m12.force"][end]) == pytest.approx(res["static_mesh_force_N"]["m12"], rel=0.05)
     assert set(np.unique(res["m12.contact"])) <= {0, 1}
+
+
+def test_torque_reversal_crosses_the_backlash_like_the_library(built):
+    """Drivetrain mode with the torques reversed within 5 ms (pinion +300 -> -300 N*m, wheel load with it): the FMU
+    equals the library step for step (forces of both flanks), every step OK, the contact state moves from the drive
+    flanks through the backlash to the coast flanks, and the teeth stay within the coast tables (no out-of-range)."""
+    w0, t0, tr, dt = 100.0, 0.004, 0.005, 2e-5
+    lib = _library("spur_28t_asym", shafts=False)
+    ratio = lib.port_torques_Nm["wheel"] / lib.port_torques_Nm["pinion"]
+
+    def torques(t):
+        s = 1.0 if t < t0 else (-1.0 if t > t0 + tr else 1.0 - 2.0 * (t - t0) / tr)
+        return 300.0 * s, 300.0 * s * ratio
+
+    lib.reset(speed_rad_s=w0)
+    low = _Low(built["fmu"]["spur_28t_asym"])
+    try:
+        p0, w0_ = torques(0.0)
+        assert low.init(mode=1, **{"pinion.speed_start": w0, "pinion.torque_in": p0, "wheel.torque_in": w0_}) == OK
+        states = []
+        t = 0.0
+        for k in range(int(round((t0 + tr + 0.01) / dt))):
+            p, w = torques(t)
+            assert low.set(**{"pinion.torque_in": p, "wheel.torque_in": w}) == OK
+            assert low.step(t, dt) == OK
+            lib.set_torque_inputs({"pinion": p, "wheel": w})
+            assert lib.advance(dt).success
+            t += dt
+            f, fc = low.get("m12.force", "m12.coast_force")
+            assert f == lib.mesh_force_N[0] and fc == lib.coast_force_N[0]
+            states.append(low.get_int("m12.contact")[0])
+        assert states[0] == 1 and states[-1] == 2 and 0 in states  # drive flanks, the backlash, coast flanks
+        assert low.get("m12.backlash_position")[0] > 1.0  # beyond the ideal coast flanks: the coast side loaded
+        assert not low.fmu.getBoolean([low.vr["m12.out_of_range"]])[0]
+        assert lib.out_of_range_steps == [0]
+    finally:
+        low.close()
+
+
+def test_state_beyond_the_tables_is_flagged_and_logged_once(built):
+    """A torque far beyond the tables' load range: the steps stay OK, the output flag turns true and the log says
+    so once (a warning naming the mesh and the remedy)."""
+    low = _Low(built["fmu"]["spur_28t_asym"])
+    try:
+        assert low.init(torque=1e5, **{"pinion.speed_in": 300.0}) == OK
+        for k in range(5):
+            assert low.step(k * 1e-4, 1e-4) in (OK, 1)  # Warning (1) on the step that logs
+        assert low.fmu.getBoolean([low.vr["m12.out_of_range"]])[0]
+        warn = [m for s, m in low.messages if "left its tables" in m]
+        assert len(warn) == 1 and "m12" in warn[0] and "max_torque_factor" in warn[0]
+    finally:
+        low.close()

@@ -13,11 +13,13 @@ integration stops at ``max_cycles`` and the result says so (``converged = False`
 metrics then come from the last 4 cycles.
 
 Metrics over the final period (``n`` cycles, every step), per mesh (arrays of length m): mean and RMS of the
-oscillating part of the mesh deflection, dynamic transmission error (mean, RMS, peak-to-peak), peak and minimum
-drive-flank force, fraction of the period with contact loss (drive-flank force 0), fraction with the coast flanks
-in contact, peak coast-flank force and the number of back-side impacts per mesh cycle (coast contacts begun), force
-dynamic factor ``max F / F_s`` of the loaded flanks and, when the mesh's table has strains, the strain dynamic
-factor (largest over its gauges, :func:`hacgear_core.response.strain_dynamic_factor`).
+oscillating part of the mesh deflection, dynamic transmission error (mean, RMS, peak-to-peak); on the flanks the
+nominal torque loads (the drive flanks, the coast flanks for a negative torque): peak and minimum force, fraction
+of the period with contact loss (their force 0), force dynamic factor ``max F / F_s``, the fraction of teeth that
+take no load during their whole pass (tooth skipping, :func:`hacgear_core.response.skipped_tooth_fraction`) and,
+when the mesh's table has strains, the strain dynamic factor (largest over its gauges,
+:func:`hacgear_core.response.strain_dynamic_factor`); on the other flank pair across the backlash (the back side):
+the fraction of the period in contact, its peak force and the number of back-side impacts per mesh cycle.
 """
 from __future__ import annotations
 
@@ -30,7 +32,7 @@ from hacgear_core.dynamics import kernels
 from hacgear_core.dynamics.equilibrium import static_equilibrium
 from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import ModelError
-from hacgear_core.response import static_strain_max, strain_dynamic_factor
+from hacgear_core.response import skipped_tooth_fraction, static_strain_max, strain_dynamic_factor
 
 __all__ = ["SteadyStateOptions", "SteadyStateResult", "steady_state", "METRIC_NAMES", "trace_metrics"]
 
@@ -43,8 +45,9 @@ METRIC_NAMES = (
     "peak_force_N",
     "min_force_N",
     "contact_loss_fraction",
-    "coast_contact_fraction",
-    "peak_coast_force_N",
+    "skipped_tooth_fraction",
+    "back_side_contact_fraction",
+    "peak_back_side_force_N",
     "back_side_impacts_per_cycle",
     "dynamic_factor_force",
     "dynamic_factor_strain",
@@ -143,7 +146,8 @@ def trace_metrics(system: LumpedSystem, x, f, dte, tau=None, static_forces_N=Non
     fsc = system.nominal_coast_forces_N() if coast_static_forces_N is None else np.asarray(coast_static_forces_N,
                                                                                              float)
     coast_loaded = np.all(fs <= 0) and np.any(fsc > 0)
-    on = fc > 0.0
+    fl, fb = (fc, f) if coast_loaded else (f, fc)   # the loaded flanks' force, the back side's
+    on = fb > 0.0
     starts = on & ~np.roll(on, 1, axis=0)  # the record is one period: periodic
     xm = np.mean(x, axis=0)
     dm = np.mean(dte, axis=0)
@@ -153,13 +157,14 @@ def trace_metrics(system: LumpedSystem, x, f, dte, tau=None, static_forces_N=Non
         "dte_mean_m": dm,
         "dte_rms_m": np.sqrt(np.mean((dte - dm) ** 2, axis=0)),
         "dte_peak_to_peak_m": np.ptp(dte, axis=0),
-        "peak_force_N": np.max(f, axis=0),
-        "min_force_N": np.min(f, axis=0),
-        "contact_loss_fraction": np.mean(f <= 0.0, axis=0),
-        "coast_contact_fraction": np.mean(on, axis=0),
-        "peak_coast_force_N": np.max(fc, axis=0),
+        "peak_force_N": np.max(fl, axis=0),
+        "min_force_N": np.min(fl, axis=0),
+        "contact_loss_fraction": np.mean(fl <= 0.0, axis=0),
+        "skipped_tooth_fraction": np.full(system.m, math.nan),
+        "back_side_contact_fraction": np.mean(on, axis=0),
+        "peak_back_side_force_N": np.max(fb, axis=0),
         "back_side_impacts_per_cycle": np.sum(starts, axis=0) / max(int(cycles), 1),
-        "dynamic_factor_force": np.max(fc, axis=0) / fsc if coast_loaded else np.max(f, axis=0) / fs,
+        "dynamic_factor_force": np.max(fl, axis=0) / (fsc if coast_loaded else fs),
         "dynamic_factor_strain": np.full(system.m, math.nan),
     }
     if tau is not None:
@@ -168,15 +173,17 @@ def trace_metrics(system: LumpedSystem, x, f, dte, tau=None, static_forces_N=Non
             tau = tau.T
         if coast_loaded and xc is not None:
             tabs = [c.coast_table for c in system.meshes]
-            fl, xl = fsc, np.atleast_2d(np.asarray(xc, float)).reshape(x.shape)
+            fl_s, xl = fsc, np.atleast_2d(np.asarray(xc, float)).reshape(x.shape)
         else:
             tabs = [c.table for c in system.meshes]
-            fl, xl = fs, x
-        smax = _static_strain(system, fl, tabs)
+            fl_s, xl = fs, x
+        smax = _static_strain(system, fl_s, tabs)
         for k, t in enumerate(tabs):
+            if getattr(t, "tooth_load_N", None) is not None:
+                m["skipped_tooth_fraction"][k] = skipped_tooth_fraction(t, tau[:, k], xl[:, k], cycles)
             if not smax[k]:
                 continue
-            dfs = strain_dynamic_factor(t, tau[:, k], xl[:, k], fl[k], smax[k])
+            dfs = strain_dynamic_factor(t, tau[:, k], xl[:, k], fl_s[k], smax[k])
             if dfs:
                 m["dynamic_factor_strain"][k] = float(max(dfs.values()))
     return m

@@ -30,8 +30,9 @@ from hacgear_core.plots.sweep import mark_jump  # noqa: E402
 from hacgear_core.response import dynamic_contact_pressure, dynamic_mesh_stiffness, dynamic_root_strain  # noqa: E402
 from hacgear_core.response import static_mesh_stiffness  # noqa: E402
 from hacgear_core.tables import load_system_tables  # noqa: E402
+from hacgear_core.tables.fdf import static_stiffness  # noqa: E402
 
-__all__ = ["natural_frequencies", "sweep", "main"]
+__all__ = ["natural_frequencies", "sweep", "idler_study", "flanks_study", "main"]
 
 
 def _system(system: str, torque: float, bearing: float | None = None, force_law: str = "hac"):
@@ -244,6 +245,79 @@ def idler_study(fig_dir: Path, torque: float = 300.0, fm=(400.0, 4200.0, 191)) -
     return out
 
 
+def _branch_metrics(res, fn: float, ratio: float) -> dict:
+    """Steady-state metrics of both branches of a sweep at the speed nearest ``ratio * fn``."""
+    out = {}
+    for b, br in res.branches.items():
+        i = int(np.argmin(np.abs(br.mesh_frequency_Hz / fn - ratio)))
+        out[b] = {"fm_over_fn": float(br.mesh_frequency_Hz[i] / fn), "period_cycles": int(br.period_cycles[i]),
+                  **{k: float(br.metrics[k][i, 0]) for k in ("contact_loss_fraction", "skipped_tooth_fraction",
+                                                            "back_side_contact_fraction", "dynamic_factor_force",
+                                                            "dynamic_factor_strain")}}
+    return out
+
+
+def flanks_study(fig_dir: Path) -> dict:
+    """Both flanks (issue #13; dissertation Section 2.4.2, Figs. 2.8(c,d), 2.11, 2.12): the 28-tooth pair with its
+    20° flank loaded (a negative torque: the coast tables) at 100 N·m through f_m/f_n = 1.7 (tooth skipping) and at
+    300 N·m at 0.494; the 50-tooth ICR 1.8 pair at 200 N·m around its resonance.  Up and down sweeps, metrics of
+    both branches; figure: the root strain of three consecutive wheel teeth on the skipping branch against the
+    static strain (Fig. 2.12 analogue)."""
+    out: dict = {}
+    m28 = load_model("spur_28t_asym")
+    t28 = load_system_tables(m28.path)
+    sy = build_system(m28, t28, torque_Nm=-100.0)
+    fn = float(sy.natural_frequencies_Hz()[0])
+    r = run_sweep(SweepSpec(sy, tuple(fn * np.linspace(1.4, 2.2, 33)), "both"), progress=False)
+    out["spur_28t_asym_20deg_100Nm"] = {"fn_Hz": fn, "at_1.7": _branch_metrics(r, fn, 1.7)}
+    sy3 = build_system(m28, t28, torque_Nm=-300.0)
+    fn3 = float(sy3.natural_frequencies_Hz()[0])
+    r3 = run_sweep(SweepSpec(sy3, tuple(fn3 * np.linspace(0.4, 0.6, 21)), "both"), progress=False)
+    out["spur_28t_asym_20deg_300Nm"] = {"fn_Hz": fn3, "at_0.494": _branch_metrics(r3, fn3, 0.494)}
+    m50 = load_model("spur_50t_icr18")
+    s50 = build_system(m50, load_system_tables(m50.path), torque_Nm=200.0)
+    fn5 = float(s50.natural_frequencies_Hz()[0])
+    r5 = run_sweep(SweepSpec(s50, tuple(fn5 * np.linspace(0.8, 1.2, 81)), "both"), progress=False)
+    e5 = {"fn_Hz": fn5, "at_1.0": _branch_metrics(r5, fn5, 1.0), "at_1.069": _branch_metrics(r5, fn5, 1.069)}
+    for b, br in r5.branches.items():
+        k = int(np.argmax(br.metrics["dynamic_factor_strain"][:, 0]))
+        e5[f"peak_{b}"] = {"fm_over_fn": float(br.mesh_frequency_Hz[k] / fn5),
+                           "dynamic_factor_strain": float(br.metrics["dynamic_factor_strain"][k, 0]),
+                           "contact_loss_fraction": float(br.metrics["contact_loss_fraction"][k, 0])}
+    out["spur_50t_icr18_200Nm"] = e5
+    # Fig. 2.12 analogue: the skipping branch at 1.7 (the down sweep's state there), three consecutive wheel teeth
+    down = r.branches["down"]
+    i = int(np.argmin(np.abs(down.mesh_frequency_Hz / fn - 1.7)))
+    rr = steady_state(sy, float(down.mesh_frequency_Hz[i]), down.state[i], keep_trace=True)
+    table = sy.meshes[0].coast_table
+    gauge = "wheel/SG20"
+    per = max(int(rr.period_cycles), 1)
+    tau, xc = rr.trace["mesh_position"][:, 0], rr.trace["coast_approach_m"][:, 0]
+    reps = int(np.ceil(4 / per)) + 1
+    tt = np.concatenate([tau - tau[0] + k * per for k in range(reps)])
+    xx = np.tile(xc, reps)
+    sel = tt < 4
+    tt, xx = tt[sel], xx[sel]
+    st = static_stiffness(table, float(sy.nominal_coast_forces_N()[0]))
+    fig, ax = plt.subplots(figsize=(8, 4))
+    for k, col in zip((1, 2, 3), ("tab:blue", "tab:red", "k")):
+        shift = table.pair_shift["wheel"]
+        dyn = table.sdf(gauge, tt - k - shift, xx)
+        xs = np.interp(tt % 1.0, st.position, st.deflection_m, period=1.0)
+        stat = table.sdf(gauge, tt - k - shift, xs)
+        ax.plot(tt, dyn * 1e6, color=col, label=f"tooth i{k - 2:+d}".replace("+0", "") + " dynamic")
+        ax.plot(tt, stat * 1e6, color=col, ls="--", lw=1)
+    ax.set_xlabel("mesh cycle")
+    ax.set_ylabel(f"root strain {gauge} [µε]")
+    ax.set_title(f"spur_28t_asym, 20° flanks loaded, 100 N·m, $f_m/f_n$ = {down.mesh_frequency_Hz[i] / fn:.2f} "
+                 f"(period-{per}): dynamic (solid) and static (dashed), cf. Fig. 2.12", fontsize=9)
+    ax.legend(fontsize=8, loc="upper right")
+    fig.tight_layout()
+    fig.savefig(Path(fig_dir) / "validation_tooth_skipping.png", dpi=110)
+    plt.close(fig)
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m hacgear_core.plots.validation", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -293,6 +367,8 @@ def main(argv: list[str] | None = None) -> int:
     print("28t dynamic factors (max dynamic / max static strain, wheel/SG25):", res["dynamic_factor_spur_28t_asym_300Nm"])
     res["idler_28_33_39_300Nm"] = idler_study(out)
     print("idler, 300 N m on gear 1:", {k: res["idler_28_33_39_300Nm"][k] for k in ("natural_frequencies_Hz", "jumps")})
+    res["both_flanks"] = flanks_study(out)
+    print("both flanks:", json.dumps(res["both_flanks"]))
     json_path.write_text(json.dumps(res, indent=1))
     print(f"wrote {json_path} and figures in {out}")
     return 0

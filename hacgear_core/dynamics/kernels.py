@@ -126,7 +126,11 @@ def _linear_force(lin, off, npos, tau, x):
 
 @njit(cache=True, inline="always", fastmath=_FM)
 def table_row_force(tab, tint, tflt, r, tau, x):
-    """Force [N] of table row ``r`` at ``tau`` [cycles], ``x`` [m]; 0 without a lookup below its onset."""
+    """Force [N] of table row ``r`` at ``tau`` [cycles], ``x`` [m]; 0 without a lookup below its onset.
+
+    The coast lookups use it (the coast flanks are apart for most steps).  Drive-flank lookups go straight to the
+    bilinear rule: the onset branch costs about 50 % of a one-sided step (measured) and gives the same 0 there.
+    """
     if x < tflt[r, 2]:
         return 0.0
     return _table_force(tab, tint[r, 0], tint[r, 1], tint[r, 2], tflt[r, 0], tflt[r, 1], tau, x)
@@ -137,7 +141,7 @@ def mesh_force(law, k, tab, tint, tflt, lin, lint, tau, x):
     """Drive-flank force [N] of mesh ``k`` under force law ``law`` at mesh position ``tau`` [cycles], deflection
     ``x`` [m]."""
     if law == LAW_TABLE:
-        return table_row_force(tab, tint, tflt, k, tau, x)
+        return _table_force(tab, tint[k, 0], tint[k, 1], tint[k, 2], tflt[k, 0], tflt[k, 1], tau, x)
     return _linear_force(lin, lint[k, 0], lint[k, 1], tau, x)
 
 
@@ -331,88 +335,113 @@ def _integrate_impl(n, m, variant, s, kin, n_steps, h, mode, fext, rec_every, re
             for k in range(m):
                 if wk[o_xq + k] > tflt[k, 3] or (two_sided and wk[o_cq + k] > tflt[m + k, 3]):
                     kin[3 + k] += 1.0
-        # stages 1 and 2: their lookups need only the state
-        for k in range(m):
-            t1 = tau_ref + phase[k] + wk[o_wq + k]
-            t2 = tau_ref + 0.5 * dtau + phase[k] + wk[o_wq + k] + hh * wk[o_wd + k]
-            wk[o_f1 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t1, wk[o_xq + k])
-            wk[o_f2 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t2, wk[o_xq + k] + hh * wk[o_xd + k])
-            if two_sided:
-                wk[o_c1 + k] = table_row_force(tab, tint, tflt, m + k, t1, wk[o_cq + k])
-                wk[o_c2 + k] = table_row_force(tab, tint, tflt, m + k, t2, wk[o_cq + k] + hh * wk[o_cd + k])
-        for i in range(n):
-            wk[o_g0 + i] = wk[o_fm + i]
-            wk[o_p + i] = 0.0
-        _sub_k(n, nnz, kidx, aqv, 1.0, s, 0, wk, o_g0)
-        _sub_k(n, nnz, kidx, aqv, 1.0, s, n, wk, o_p)
-        _sub_c(n, adt, 1.0, s, n, wk, o_g0)
-        for k in range(m):
-            wk[o_g1 + k] = _dot(n, sparse, nz, k, vf, 0, wk, o_g0)
-            wk[o_gw1 + k] = _dot(n, sparse, nz, k, vf, o_w, wk, o_g0)
-            if two_sided:
-                wk[o_gc1 + k] = _dot(n, sparse, nz, k, vf, o_vc, wk, o_g0)
-        for i in range(n):
-            wk[o_a1 + i] = wk[o_g0 + i]
-        _sub_forces(n, m, sparse, nz, wk, o_f1, vf, o_vmi, wk, o_a1)
+        # Coast terms only in steps where the coast flanks may touch: stages 1 and 2 are checked from the
+        # step-start scalars; a step staged without them is checked again with its stage accelerations (vc . a1,
+        # vc . a2 are the coast stages' e1, e2) and restaged with them if a coast approach reaches within 1e-12 m
+        # of its table's onset (far above the rounding of the two ways of forming it), so skipping is exact.  Under
+        # load the coast flanks stay apart and a two-sided step costs four dot products per mesh more than a
+        # one-sided one (measured: 1.02-1.03x per mesh cycle, against 1.3x with the coast terms in every step).
+        coast_on = False
         if two_sided:
-            _sub_coast_forces(n, m, sparse, nz, wk, o_c1, vf, o_vci, wk, o_a1)
-        for i in range(n):
-            wk[o_a2 + i] = wk[o_g0 + i] + hh * wk[o_p + i]
-        _sub_c(n, adt, hh, wk, o_a1, wk, o_a2)
-        for k in range(m):
-            wk[o_g2 + k] = _dot(n, sparse, nz, k, vf, 0, wk, o_a2)
-            wk[o_gw2 + k] = _dot(n, sparse, nz, k, vf, o_w, wk, o_a2)
-            if two_sided:
-                wk[o_gc2 + k] = _dot(n, sparse, nz, k, vf, o_vc, wk, o_a2)
-        _sub_forces(n, m, sparse, nz, wk, o_f2, vf, o_vmi, wk, o_a2)
-        if two_sided:
-            _sub_coast_forces(n, m, sparse, nz, wk, o_c2, vf, o_vci, wk, o_a2)
-        # stages 3 and 4
-        for k in range(m):
-            a = wk[o_g1 + k]
-            b = wk[o_gw1 + k]
-            c = wk[o_g2 + k]
-            d = wk[o_gw2 + k]
-            for j in range(m):
-                a -= mf[k * m + j] * wk[o_f1 + j]
-                b -= mf[o_wv + k * m + j] * wk[o_f1 + j]
-                c -= mf[k * m + j] * wk[o_f2 + j]
-                d -= mf[o_wv + k * m + j] * wk[o_f2 + j]
-            if two_sided:
-                e1 = wk[o_gc1 + k]
-                e2 = wk[o_gc2 + k]
+            for k in range(m):
+                lim = tflt[m + k, 2] - 1e-12
+                if wk[o_cq + k] >= lim or wk[o_cq + k] + hh * wk[o_cd + k] >= lim:
+                    coast_on = True
+        while True:
+            # stages 1 and 2: their lookups need only the state
+            for k in range(m):
+                t1 = tau_ref + phase[k] + wk[o_wq + k]
+                t2 = tau_ref + 0.5 * dtau + phase[k] + wk[o_wq + k] + hh * wk[o_wd + k]
+                wk[o_f1 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t1, wk[o_xq + k])
+                wk[o_f2 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t2, wk[o_xq + k] + hh * wk[o_xd + k])
+                if coast_on:
+                    wk[o_c1 + k] = table_row_force(tab, tint, tflt, m + k, t1, wk[o_cq + k])
+                    wk[o_c2 + k] = table_row_force(tab, tint, tflt, m + k, t2, wk[o_cq + k] + hh * wk[o_cd + k])
+            for i in range(n):
+                wk[o_g0 + i] = wk[o_fm + i]
+                wk[o_p + i] = 0.0
+            _sub_k(n, nnz, kidx, aqv, 1.0, s, 0, wk, o_g0)
+            _sub_k(n, nnz, kidx, aqv, 1.0, s, n, wk, o_p)
+            _sub_c(n, adt, 1.0, s, n, wk, o_g0)
+            for k in range(m):
+                wk[o_g1 + k] = _dot(n, sparse, nz, k, vf, 0, wk, o_g0)
+                wk[o_gw1 + k] = _dot(n, sparse, nz, k, vf, o_w, wk, o_g0)
+                if coast_on:
+                    wk[o_gc1 + k] = _dot(n, sparse, nz, k, vf, o_vc, wk, o_g0)
+            for i in range(n):
+                wk[o_a1 + i] = wk[o_g0 + i]
+            _sub_forces(n, m, sparse, nz, wk, o_f1, vf, o_vmi, wk, o_a1)
+            if coast_on:
+                _sub_coast_forces(n, m, sparse, nz, wk, o_c1, vf, o_vci, wk, o_a1)
+            for i in range(n):
+                wk[o_a2 + i] = wk[o_g0 + i] + hh * wk[o_p + i]
+            _sub_c(n, adt, hh, wk, o_a1, wk, o_a2)
+            for k in range(m):
+                wk[o_g2 + k] = _dot(n, sparse, nz, k, vf, 0, wk, o_a2)
+                wk[o_gw2 + k] = _dot(n, sparse, nz, k, vf, o_w, wk, o_a2)
+                if coast_on:
+                    wk[o_gc2 + k] = _dot(n, sparse, nz, k, vf, o_vc, wk, o_a2)
+            _sub_forces(n, m, sparse, nz, wk, o_f2, vf, o_vmi, wk, o_a2)
+            if coast_on:
+                _sub_coast_forces(n, m, sparse, nz, wk, o_c2, vf, o_vci, wk, o_a2)
+            # stages 3 and 4
+            for k in range(m):
+                a = wk[o_g1 + k]
+                b = wk[o_gw1 + k]
+                c = wk[o_g2 + k]
+                d = wk[o_gw2 + k]
                 for j in range(m):
-                    a -= mf[o_vvc + k * m + j] * wk[o_c1 + j]
-                    b -= mf[o_wvc + k * m + j] * wk[o_c1 + j]
-                    c -= mf[o_vvc + k * m + j] * wk[o_c2 + j]
-                    d -= mf[o_wvc + k * m + j] * wk[o_c2 + j]
-                    e1 -= mf[o_cv + k * m + j] * wk[o_f1 + j] + mf[o_cvc + k * m + j] * wk[o_c1 + j]
-                    e2 -= mf[o_cv + k * m + j] * wk[o_f2 + j] + mf[o_cvc + k * m + j] * wk[o_c2 + j]
-            t3 = tau_ref + 0.5 * dtau + phase[k] + wk[o_wq + k] + hh * (wk[o_wd + k] + hh * b)
-            t4 = tau_ref + dtau + phase[k] + wk[o_wq + k] + h * (wk[o_wd + k] + hh * d)
-            wk[o_f3 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t3,
-                                      wk[o_xq + k] + hh * (wk[o_xd + k] + hh * a))
-            wk[o_f4 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t4,
-                                      wk[o_xq + k] + h * (wk[o_xd + k] + hh * c))
-            if two_sided:
-                wk[o_c3 + k] = table_row_force(tab, tint, tflt, m + k, t3,
-                                               wk[o_cq + k] + hh * (wk[o_cd + k] + hh * e1))
-                wk[o_c4 + k] = table_row_force(tab, tint, tflt, m + k, t4,
-                                               wk[o_cq + k] + h * (wk[o_cd + k] + hh * e2))
-        for i in range(n):
-            wk[o_a3 + i] = wk[o_g0 + i] + hh * wk[o_p + i]
-        _sub_k(n, nnz, kidx, aqv, hh2, wk, o_a1, wk, o_a3)
-        _sub_c(n, adt, hh, wk, o_a2, wk, o_a3)
-        _sub_forces(n, m, sparse, nz, wk, o_f3, vf, o_vmi, wk, o_a3)
-        if two_sided:
-            _sub_coast_forces(n, m, sparse, nz, wk, o_c3, vf, o_vci, wk, o_a3)
-        for i in range(n):
-            wk[o_a4 + i] = wk[o_g0 + i] + h * wk[o_p + i]
-        _sub_k(n, nnz, kidx, aqv, hhh, wk, o_a2, wk, o_a4)
-        _sub_c(n, adt, h, wk, o_a3, wk, o_a4)
-        _sub_forces(n, m, sparse, nz, wk, o_f4, vf, o_vmi, wk, o_a4)
-        if two_sided:
-            _sub_coast_forces(n, m, sparse, nz, wk, o_c4, vf, o_vci, wk, o_a4)
+                    a -= mf[k * m + j] * wk[o_f1 + j]
+                    b -= mf[o_wv + k * m + j] * wk[o_f1 + j]
+                    c -= mf[k * m + j] * wk[o_f2 + j]
+                    d -= mf[o_wv + k * m + j] * wk[o_f2 + j]
+                if coast_on:
+                    e1 = wk[o_gc1 + k]
+                    e2 = wk[o_gc2 + k]
+                    for j in range(m):
+                        a -= mf[o_vvc + k * m + j] * wk[o_c1 + j]
+                        b -= mf[o_wvc + k * m + j] * wk[o_c1 + j]
+                        c -= mf[o_vvc + k * m + j] * wk[o_c2 + j]
+                        d -= mf[o_wvc + k * m + j] * wk[o_c2 + j]
+                        e1 -= mf[o_cv + k * m + j] * wk[o_f1 + j] + mf[o_cvc + k * m + j] * wk[o_c1 + j]
+                        e2 -= mf[o_cv + k * m + j] * wk[o_f2 + j] + mf[o_cvc + k * m + j] * wk[o_c2 + j]
+                t3 = tau_ref + 0.5 * dtau + phase[k] + wk[o_wq + k] + hh * (wk[o_wd + k] + hh * b)
+                t4 = tau_ref + dtau + phase[k] + wk[o_wq + k] + h * (wk[o_wd + k] + hh * d)
+                wk[o_f3 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t3,
+                                          wk[o_xq + k] + hh * (wk[o_xd + k] + hh * a))
+                wk[o_f4 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t4,
+                                          wk[o_xq + k] + h * (wk[o_xd + k] + hh * c))
+                if coast_on:
+                    wk[o_c3 + k] = table_row_force(tab, tint, tflt, m + k, t3,
+                                                   wk[o_cq + k] + hh * (wk[o_cd + k] + hh * e1))
+                    wk[o_c4 + k] = table_row_force(tab, tint, tflt, m + k, t4,
+                                                   wk[o_cq + k] + h * (wk[o_cd + k] + hh * e2))
+            for i in range(n):
+                wk[o_a3 + i] = wk[o_g0 + i] + hh * wk[o_p + i]
+            _sub_k(n, nnz, kidx, aqv, hh2, wk, o_a1, wk, o_a3)
+            _sub_c(n, adt, hh, wk, o_a2, wk, o_a3)
+            _sub_forces(n, m, sparse, nz, wk, o_f3, vf, o_vmi, wk, o_a3)
+            if coast_on:
+                _sub_coast_forces(n, m, sparse, nz, wk, o_c3, vf, o_vci, wk, o_a3)
+            for i in range(n):
+                wk[o_a4 + i] = wk[o_g0 + i] + h * wk[o_p + i]
+            _sub_k(n, nnz, kidx, aqv, hhh, wk, o_a2, wk, o_a4)
+            _sub_c(n, adt, h, wk, o_a3, wk, o_a4)
+            _sub_forces(n, m, sparse, nz, wk, o_f4, vf, o_vmi, wk, o_a4)
+            if coast_on:
+                _sub_coast_forces(n, m, sparse, nz, wk, o_c4, vf, o_vci, wk, o_a4)
+            if not two_sided or coast_on:
+                break
+            # staged one-sided in a two-sided loop: do the coast approaches of stages 3 and 4 stay apart?
+            for k in range(m):
+                lim = tflt[m + k, 2] - 1e-12
+                e1 = _dot(n, sparse, nz, k, vf, o_vc, wk, o_a1)
+                e2 = _dot(n, sparse, nz, k, vf, o_vc, wk, o_a2)
+                if (wk[o_cq + k] + hh * (wk[o_cd + k] + hh * e1) >= lim
+                        or wk[o_cq + k] + h * (wk[o_cd + k] + hh * e2) >= lim):
+                    coast_on = True
+            if not coast_on:
+                break
         for i in range(n):
             s[i] += h * s[n + i] + c6q * (wk[o_a1 + i] + wk[o_a2 + i] + wk[o_a3 + i])
             s[n + i] += c6 * (wk[o_a1 + i] + 2.0 * wk[o_a2 + i] + 2.0 * wk[o_a3 + i] + wk[o_a4 + i])

@@ -46,10 +46,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--fmi", choices=("2", "3", "all"), default="all",
                     help="FMI version of the FMUs: 2, 3 or all (default: all)")
     ap.add_argument("--check", action="store_true", help="run fmpy validate and fmutool -check on each FMU")
+    ap.add_argument("--readme", action="store_true",
+                    help="instead of building: write each system's FMU variable table (from the FMU's spec) into "
+                         "its models/<system>/readme.md")
     args = ap.parse_args(argv)
 
     from hacgear_core.errors import HacgearError
     from hacgear_core.fmu import build_fmu
+    from hacgear_core.fmu.adapter import variables_for
+    from hacgear_core.fmu.spec import readme_with_variables, variables_table
 
     versions = (2, 3) if args.fmi == "all" else (int(args.fmi),)
     models = Path(args.models)
@@ -72,6 +77,17 @@ def main(argv: list[str] | None = None) -> int:
             else:
                 print(f"build_fmu: {msg}")
             continue
+        if args.readme:
+            try:
+                table = variables_table(variables_for(d))
+            except HacgearError as exc:
+                print(f"build_fmu: {d.name}: no FMU, readme unchanged ({exc})")
+                continue
+            readme = d / "readme.md"
+            text = readme.read_text(encoding="utf-8") if readme.exists() else f"# {d.name}\n"
+            readme.write_text(readme_with_variables(text, table), encoding="utf-8")
+            print(f"build_fmu: {d.name}: FMU variable table written to {readme}")
+            continue
         for version in versions:
             try:
                 fmu = build_fmu(d, args.out, fmi_version=version)
@@ -89,7 +105,7 @@ def main(argv: list[str] | None = None) -> int:
                     status = 1
                 else:
                     print(f"build_fmu: {fmu.name}: fmpy validate and fmutool -check passed")
-    if built == 0 and status == 0:
+    if built == 0 and status == 0 and not args.readme:
         print("build_fmu: nothing built (no model folder with tables.h5)")
     return status
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hacgear_core.plots.validation import natural_frequencies, sweep
+from hacgear_core.plots.validation import flanks_study, natural_frequencies, sweep
 
 
 def test_28t_natural_frequency_rigid_supports_2800Hz():
@@ -78,3 +78,24 @@ def test_28t_blank_bore_trend_stiffness_mass_and_frequency():
     assert m35 > m40
     assert f35 < f40
     assert f40 == pytest.approx(2800.0, rel=0.05)
+
+
+def test_both_flanks_tooth_skipping_and_dynamic_factors(tmp_path):
+    """Dissertation Section 2.4.2 on the coast tables: the 28-tooth pair with its 20 deg flanks loaded (negative
+    torque).  100 N*m at f_m/f_n = 1.7: the large-amplitude (down-sweep) branch skips teeth (Fig. 2.12: every other
+    tooth takes no load) with a root-strain dynamic factor near 3, the up branch does neither; 300 N*m at 0.494: the
+    dynamic strain stays close to the static one (Fig. 2.8(c,d)).  50-tooth ICR 1.8 pair at 200 N*m: a softening
+    resonance whose peak dynamic factor is near 2 (the dissertation: ~2 at f_m/f_n = 1.0, ~1.5 at 1.069; ours peaks
+    below 1.0, listed as a miss in docs/validation.md)."""
+    r = flanks_study(tmp_path)
+    a = r["spur_28t_asym_20deg_100Nm"]["at_1.7"]
+    assert a["down"]["skipped_tooth_fraction"] >= 0.25 and a["down"]["contact_loss_fraction"] > 0.3
+    assert 2.4 <= a["down"]["dynamic_factor_strain"] <= 3.6
+    assert a["up"]["skipped_tooth_fraction"] == 0.0 and a["up"]["dynamic_factor_strain"] < 2.0
+    b = r["spur_28t_asym_20deg_300Nm"]["at_0.494"]
+    for br in b.values():
+        assert br["contact_loss_fraction"] == 0.0 and 1.0 <= br["dynamic_factor_strain"] <= 1.3
+    c = r["spur_50t_icr18_200Nm"]
+    peak = max(c["peak_up"], c["peak_down"], key=lambda p: p["dynamic_factor_strain"])
+    assert 1.6 <= peak["dynamic_factor_strain"] <= 2.4 and 0.85 <= peak["fm_over_fn"] < 1.0
+    assert (tmp_path / "validation_tooth_skipping.png").stat().st_size > 10_000

@@ -488,13 +488,7 @@ class LumpedSystem:
             out = np.empty(tf.size)
             bilinear_many(ta.ftab, ta.x0, ta.inv_dx, tf, xf, out)
         else:
-            lin = lw.lin
-            npos = lin.shape[1]
-            t = (tf - np.floor(tf)) * npos
-            i = np.minimum(t.astype(int), npos - 1)
-            a = t - i
-            i1 = (i + 1) % npos
-            kk, e, f0 = (lin[r, i] + a * (lin[r, i1] - lin[r, i]) for r in range(3))
+            kk, e, f0 = _linear_law_at(lw.lin, tf)
             out = kk * (xf - e) + f0
         return np.maximum(out, 0.0).reshape(tau.shape)
 
@@ -507,14 +501,7 @@ class LumpedSystem:
             out = np.empty(tf.size)
             slope_many(ta.ftab, ta.x0, ta.inv_dx, tf, xf, out)
         else:
-            lin = lw.lin
-            npos = lin.shape[1]
-            t = (tf - np.floor(tf)) * npos
-            i = np.minimum(t.astype(int), npos - 1)
-            a = t - i
-            i1 = (i + 1) % npos
-            out = lin[0, i] + a * (lin[0, i1] - lin[0, i])
-            out = np.where(self.mesh_force(k, tf, xf) > 0, out, 0.0)
+            out = np.where(self.mesh_force(k, tf, xf) > 0, _linear_law_at(lw.lin, tf)[0], 0.0)
         return out.reshape(tau.shape)
 
     def coast_force(self, k: int, tau, xc) -> np.ndarray:
@@ -594,3 +581,14 @@ class LumpedSystem:
                                          nominal_coast_force_N=c.nominal_coast_force_N * r) for c in self.meshes)
         kw.update(changes)
         return LumpedSystem(**kw)
+
+
+def _linear_law_at(lin: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Rows ``[k, e, f0]`` of a conventional law ``lin`` (3, Np), periodic and linear in position, at ``tau``
+    [cycles] (the kernel's rule)."""
+    npos = lin.shape[1]
+    t = (tau - np.floor(tau)) * npos
+    i = np.minimum(t.astype(int), npos - 1)
+    a = t - i
+    i1 = (i + 1) % npos
+    return tuple(lin[r, i] + a * (lin[r, i1] - lin[r, i]) for r in range(3))

@@ -52,6 +52,7 @@ import numpy as np
 from hacgear_core import tables as tb
 from hacgear_core.errors import ModelError, SolverError, TableError
 from hacgear_core.geometry.planetary import planetary_geometry, planetary_torques
+from hacgear_core.geometry.train import nominal_mesh_forces as train_mesh_forces
 from hacgear_core.model import load_model
 from hacgear_core.model.provenance import model_values_json, model_values_sha256
 from hacgear_core.statics.coast import CoastSideSolver, coast_mapping, make_coast_solver
@@ -134,39 +135,16 @@ class ModelSolverFactory:
 # Grids
 # ---------------------------------------------------------------------------------------------
 def nominal_mesh_forces(model: Any, base_radii: Mapping[str, tuple[float, float]]) -> dict[str, float]:
-    """Nominal mesh force of every mesh [N] from the operating torque ``model.operating``.
-
-    The mesh touching ``torque_gear`` carries ``T / r_b`` (divided by the planet count for planetary
-    sets, whose planets share the torque); the force then propagates through free gears (idlers,
-    planets) by their torque balance ``F_out = F_in · r_b,in / r_b,out``.  ``base_radii[mesh]`` are the
+    """Nominal mesh force of every mesh [N] from the operating torque ``model.operating``: the torque flow
+    through the train (:func:`hacgear_core.geometry.train.nominal_mesh_forces`) or, for planetary sets, the
+    per-planet forces of the planetary torque flow (any input member).  ``base_radii[mesh]`` are the
     loaded-flank base radii ``(r_b of gear_a, r_b of gear_b)`` [m].
     """
     if getattr(model, "kind", "") == "planetary":
         # per-planet forces of the planetary torque flow (any input member; tables are per mesh kind)
         flow = planetary_torques(model, planetary_geometry(model))
         return {m.name: flow["force_N"][f"{m.name}_1"] for m in model.meshes}
-    T, g0 = model.operating.torque_Nm, model.operating.torque_gear
-    share = model.planetary.planet_count if getattr(model, "planetary", None) is not None else 1
-    meshes = {m.name: m for m in model.meshes}
-    force: dict[str, float] = {}
-    frontier: list[tuple[str, float | None, float | None]] = [(g0, None, None)]  # gear, F_in, r_b,in
-    seen = {g0}
-    while frontier:
-        gear, f_in, rb_in = frontier.pop(0)
-        for name, m in meshes.items():
-            if name in force or gear not in (m.gear_a, m.gear_b):
-                continue
-            rb = base_radii[name][0 if m.gear_a == gear else 1]
-            f = T / rb / share if f_in is None else f_in * rb_in / rb
-            force[name] = f
-            other = m.gear_b if m.gear_a == gear else m.gear_a
-            if other not in seen:
-                seen.add(other)
-                frontier.append((other, f, base_radii[name][1 if m.gear_a == gear else 0]))
-    missing = [n for n in meshes if n not in force]
-    if missing:
-        raise ModelError(f"meshes {missing} carry no load from operating.torque_gear = '{g0}' (not connected)")
-    return force
+    return train_mesh_forces(model, base_radii)
 
 
 def load_grid(max_force_N: float, n_loads: int) -> np.ndarray:

@@ -74,6 +74,8 @@ from hacgear_core.statics.nearfield import halfspace_approach_hertz, halfspace_a
 
 __all__ = [
     "FE_CODE_VERSION",
+    "write_npz",
+    "read_npz",
     "PlaneFE",
     "ElasticMaterial",
     "MeshOptions",
@@ -1236,18 +1238,12 @@ class FlankCompliance:
         meta = dict(side=self.side, z=self.z, gauge_names=list(self.gauge_names),
                     youngs_modulus_Pa=self.youngs_modulus_Pa, poisson_ratio=self.poisson_ratio,
                     plane=self.plane, info=self.info)
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(path.name + f".tmp{os.getpid()}.npz")
-        np.savez(tmp, meta=np.array(json.dumps(meta)), **{a: getattr(self, a) for a in self._ARRAYS})
-        os.replace(tmp, path)
+        write_npz(path, meta, {a: getattr(self, a) for a in self._ARRAYS})
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> "FlankCompliance":
         """Read a file written by :meth:`save`."""
-        with np.load(path, allow_pickle=False) as d:
-            meta = json.loads(str(d["meta"]))
-            arrays = {a: d[a] for a in cls._ARRAYS}
+        meta, arrays = read_npz(path, cls._ARRAYS)
         return cls(side=meta["side"], z=meta["z"], gauge_names=tuple(meta["gauge_names"]),
                    youngs_modulus_Pa=meta["youngs_modulus_Pa"], poisson_ratio=meta["poisson_ratio"],
                    plane=meta["plane"], info=meta["info"], **arrays)
@@ -1449,3 +1445,19 @@ def gear_compliance(gg: Any, material: Any, side: str, *, options: MeshOptions =
         except OSError:
             pass
     return out
+
+
+def write_npz(path: str | os.PathLike, meta: dict, arrays: dict) -> None:
+    """Write ``arrays`` and JSON ``meta`` to the ``.npz`` file ``path`` atomically (a temporary file, then a
+    rename: concurrent readers and writers of a cache see a whole file or none)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + f".tmp{os.getpid()}.npz")
+    np.savez(tmp, meta=np.array(json.dumps(meta)), **arrays)
+    os.replace(tmp, path)
+
+
+def read_npz(path: str | os.PathLike, names) -> tuple[dict, dict]:
+    """``(meta, arrays)`` of a file written by :func:`write_npz`, the arrays ``names``."""
+    with np.load(path, allow_pickle=False) as d:
+        return json.loads(str(d["meta"])), {a: d[a] for a in names}

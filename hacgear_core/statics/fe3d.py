@@ -30,7 +30,6 @@ import os
 import threading
 import time
 from dataclasses import asdict, dataclass, field, replace
-from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
@@ -40,7 +39,7 @@ from scipy.spatial import cKDTree
 
 from hacgear_core.errors import GeometryError, ModelError, SolverError
 from hacgear_core.statics.fe import (ElasticMaterial, Gauge, _boundary_pieces, _chord_inward, _gauge_location,
-                                     _single_thread_blas, cache_dir)
+                                     _single_thread_blas, cache_dir, read_npz, write_npz)
 
 __all__ = ["FE3D_CODE_VERSION", "Mesh3DOptions", "ToothSectorFE", "FaceInfluence", "face_influence", "material_of",
            "helical_flank_points"]
@@ -429,19 +428,13 @@ class FaceInfluence:
         return out - mean
 
     def save(self, path: str | os.PathLike) -> None:
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(path.name + f".tmp{os.getpid()}.npz")
         meta = dict(side=self.side, face_width_m=self.face_width_m, gauge_names=list(self.gauge_names),
                     info=self.info)
-        np.savez(tmp, meta=np.array(json.dumps(meta)), **{a: getattr(self, a) for a in self._ARRAYS})
-        os.replace(tmp, path)
+        write_npz(path, meta, {a: getattr(self, a) for a in self._ARRAYS})
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> "FaceInfluence":
-        with np.load(path, allow_pickle=False) as d:
-            meta = json.loads(str(d["meta"]))
-            arrays = {a: d[a] for a in cls._ARRAYS}
+        meta, arrays = read_npz(path, cls._ARRAYS)
         return cls(side=meta["side"], face_width_m=meta["face_width_m"], gauge_names=tuple(meta["gauge_names"]),
                    info=meta["info"], **arrays)
 

@@ -341,4 +341,115 @@ static void hg_release_state(HgInstance *h, void *state) {
     Py_DECREF(snap);
 }
 
+/* The FMU-state functions of both FMI versions, called with the GIL held; ``call`` names the FMI function in the
+ * log.  Each returns an HG_ status. */
+static int hg_state_get(HgInstance *h, void **state, const char *call) {
+    char buf[200];
+    if (!state) {
+        snprintf(buf, sizeof buf, "%s: the state pointer is a null pointer", call);
+        return hg_fail(h, buf);
+    }
+    if (*state) hg_release_state(h, *state); /* a previous state of this instance is reused: replace */
+    *state = hg_get_state(h, call);
+    return *state ? HG_OK : HG_ERROR;
+}
+
+static int hg_state_set(HgInstance *h, void *state, const char *call) {
+    char buf[200];
+    PyObject *snap = hg_known_state(h, state);
+    if (!snap) {
+        snprintf(buf, sizeof buf, "%s: not an FMU state of this instance (freed or foreign)", call);
+        return hg_fail(h, buf);
+    }
+    return hg_call(h, "set_state", call, "(O)", snap);
+}
+
+static int hg_state_free(HgInstance *h, void **state, const char *call) {
+    char buf[200];
+    if (!state || !*state) return HG_OK;
+    if (!hg_known_state(h, *state)) {
+        snprintf(buf, sizeof buf, "%s: not an FMU state of this instance", call);
+        return hg_fail(h, buf);
+    }
+    hg_release_state(h, *state);
+    *state = NULL;
+    return HG_OK;
+}
+
+/* The serialized bytes of a state (new reference) or NULL (logged). */
+static PyObject *hg_state_bytes(HgInstance *h, void *state, const char *call) {
+    PyObject *snap = hg_known_state(h, state);
+    if (!snap) {
+        char buf[200];
+        snprintf(buf, sizeof buf, "%s: not an FMU state of this instance", call);
+        hg_fail(h, buf);
+        return NULL;
+    }
+    PyObject *b = PyObject_CallMethod(h->inst, "serialize_state", "(O)", snap);
+    if (!b) { hg_status(h, NULL, call); return NULL; }
+    if (!PyBytes_Check(b)) { Py_DECREF(b); hg_drain(h); return NULL; }
+    hg_drain(h);
+    return b;
+}
+
+static int hg_state_size(HgInstance *h, void *state, size_t *size, const char *call) {
+    PyObject *b = hg_state_bytes(h, state, call);
+    int st = HG_ERROR;
+    if (b && size) {
+        *size = (size_t)PyBytes_Size(b);
+        st = HG_OK;
+    }
+    Py_XDECREF(b);
+    return st;
+}
+
+static int hg_state_serialize(HgInstance *h, void *state, void *out, size_t size, const char *call,
+                              const char *size_call) {
+    PyObject *b = hg_state_bytes(h, state, call);
+    int st = HG_ERROR;
+    if (b) {
+        size_t n = (size_t)PyBytes_Size(b);
+        if (!out || size < n) {
+            char buf[200];
+            snprintf(buf, sizeof buf, "%s: buffer missing or smaller than %s", call, size_call);
+            st = hg_fail(h, buf);
+        } else {
+            memcpy(out, PyBytes_AsString(b), n);
+            st = HG_OK;
+        }
+    }
+    Py_XDECREF(b);
+    return st;
+}
+
+static int hg_state_deserialize(HgInstance *h, const void *in, size_t size, void **state, const char *call) {
+    if (!state || (size && !in)) {
+        char buf[200];
+        snprintf(buf, sizeof buf, "%s: null pointer", call);
+        return hg_fail(h, buf);
+    }
+    int st = HG_ERROR;
+    PyObject *b = PyBytes_FromStringAndSize((const char *)in, (Py_ssize_t)size);
+    PyObject *snap = b ? PyObject_CallMethod(h->inst, "deserialize_state", "(O)", b) : NULL;
+    Py_XDECREF(b);
+    if (!snap) {
+        hg_status(h, NULL, call);
+    } else if (snap == Py_None) {
+        Py_DECREF(snap);
+        hg_drain(h);
+    } else {
+        PyObject *r = PyObject_CallMethod(h->inst, "_issue_state", "On", snap, (Py_ssize_t)(void *)snap);
+        if (r) {
+            Py_DECREF(r);
+            *state = (void *)snap;
+            st = HG_OK;
+        } else {
+            Py_DECREF(snap);
+            PyErr_Clear();
+        }
+        hg_drain(h);
+    }
+    return st;
+}
+
 #endif

@@ -250,114 +250,39 @@ fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
 /* ---------------------------------------------------------------- FMU states */
 fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
     ENTER(c)
-    if (!FMUstate) {
-        st = hg_fail(H, "fmi2GetFMUstate: FMUstate is a null pointer");
-    } else {
-        if (*FMUstate) hg_release_state(H, *FMUstate); /* a previous state of this instance is reused: replace */
-        void *s = hg_get_state(H, "fmi2GetFMUstate");
-        *FMUstate = s;
-        st = s ? HG_OK : HG_ERROR;
-    }
+    st = hg_state_get(H, (void **)FMUstate, "fmi2GetFMUstate");
     LEAVE()
 }
 
 fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate) {
     ENTER(c)
-    PyObject *snap = hg_known_state(H, FMUstate);
-    if (!snap) {
-        st = hg_fail(H, "fmi2SetFMUstate: not an FMU state of this instance (freed or foreign)");
-    } else {
-        st = hg_call(H, "set_state", "fmi2SetFMUstate", "(O)", snap);
-    }
+    st = hg_state_set(H, FMUstate, "fmi2SetFMUstate");
     LEAVE()
 }
 
 fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
     ENTER(c)
-    if (FMUstate && *FMUstate) {
-        if (hg_known_state(H, *FMUstate)) {
-            hg_release_state(H, *FMUstate);
-            *FMUstate = NULL;
-            st = HG_OK;
-        } else {
-            st = hg_fail(H, "fmi2FreeFMUstate: not an FMU state of this instance");
-        }
-    } else {
-        st = HG_OK;
-    }
+    st = hg_state_free(H, (void **)FMUstate, "fmi2FreeFMUstate");
     LEAVE()
-}
-
-static PyObject *serialized(HgInstance *H, fmi2FMUstate state, const char *call) {
-    PyObject *snap = hg_known_state(H, state);
-    if (!snap) {
-        char buf[160];
-        snprintf(buf, sizeof buf, "%s: not an FMU state of this instance", call);
-        hg_fail(H, buf);
-        return NULL;
-    }
-    PyObject *b = PyObject_CallMethod(H->inst, "serialize_state", "(O)", snap);
-    if (!b) { hg_status(H, NULL, call); return NULL; }
-    if (!PyBytes_Check(b)) { Py_DECREF(b); hg_drain(H); return NULL; }
-    hg_drain(H);
-    return b;
 }
 
 fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate FMUstate, size_t *size) {
     ENTER(c)
-    PyObject *b = serialized(H, FMUstate, "fmi2SerializedFMUstateSize");
-    if (b && size) {
-        *size = (size_t)PyBytes_Size(b);
-        st = HG_OK;
-    }
-    Py_XDECREF(b);
+    st = hg_state_size(H, FMUstate, size, "fmi2SerializedFMUstateSize");
     LEAVE()
 }
 
 fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate FMUstate, fmi2Byte serializedState[], size_t size) {
     ENTER(c)
-    PyObject *b = serialized(H, FMUstate, "fmi2SerializeFMUstate");
-    if (b) {
-        size_t n = (size_t)PyBytes_Size(b);
-        if (!serializedState || size < n) {
-            st = hg_fail(H, "fmi2SerializeFMUstate: buffer missing or smaller than "
-                                                 "fmi2SerializedFMUstateSize");
-        } else {
-            memcpy(serializedState, PyBytes_AsString(b), n);
-            st = HG_OK;
-        }
-    }
-    Py_XDECREF(b);
+    st = hg_state_serialize(H, FMUstate, serializedState, size, "fmi2SerializeFMUstate",
+                            "fmi2SerializedFMUstateSize");
     LEAVE()
 }
 
 fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedState[], size_t size,
                                    fmi2FMUstate *FMUstate) {
     ENTER(c)
-    if (!FMUstate || (size && !serializedState)) {
-        st = hg_fail(H, "fmi2DeSerializeFMUstate: null pointer");
-    } else {
-        PyObject *b = PyBytes_FromStringAndSize(serializedState, (Py_ssize_t)size);
-        PyObject *snap = b ? PyObject_CallMethod(H->inst, "deserialize_state", "(O)", b) : NULL;
-        Py_XDECREF(b);
-        if (!snap) {
-            hg_status(H, NULL, "fmi2DeSerializeFMUstate");
-        } else if (snap == Py_None) {
-            Py_DECREF(snap);
-            hg_drain(H);
-        } else {
-            PyObject *r = PyObject_CallMethod(H->inst, "_issue_state", "On", snap, (Py_ssize_t)(void *)snap);
-            if (r) {
-                Py_DECREF(r);
-                *FMUstate = (fmi2FMUstate)snap;
-                st = HG_OK;
-            } else {
-                Py_DECREF(snap);
-                PyErr_Clear();
-            }
-            hg_drain(H);
-        }
-    }
+    st = hg_state_deserialize(H, serializedState, size, (void **)FMUstate, "fmi2DeSerializeFMUstate");
     LEAVE()
 }
 

@@ -504,114 +504,39 @@ fmi3Status fmi3ActivateModelPartition(fmi3Instance c, fmi3ValueReference clockRe
 /* ---------------------------------------------------------------- FMU states */
 fmi3Status fmi3GetFMUState(fmi3Instance c, fmi3FMUState *FMUState) {
     ENTER(c)
-    if (!FMUState) {
-        st = hg_fail(H, "fmi3GetFMUState: FMUState is a null pointer");
-    } else {
-        if (*FMUState) hg_release_state(H, *FMUState);
-        void *s = hg_get_state(H, "fmi3GetFMUState");
-        *FMUState = s;
-        st = s ? HG_OK : HG_ERROR;
-    }
+    st = hg_state_get(H, (void **)FMUState, "fmi3GetFMUState");
     LEAVE()
 }
 
 fmi3Status fmi3SetFMUState(fmi3Instance c, fmi3FMUState FMUState) {
     ENTER(c)
-    PyObject *snap = hg_known_state(H, FMUState);
-    if (!snap) {
-        st = hg_fail(H, "fmi3SetFMUState: not an FMU state of this instance (freed or foreign)");
-    } else {
-        st = hg_call(H, "set_state", "fmi3SetFMUState", "(O)", snap);
-    }
+    st = hg_state_set(H, FMUState, "fmi3SetFMUState");
     LEAVE()
 }
 
 fmi3Status fmi3FreeFMUState(fmi3Instance c, fmi3FMUState *FMUState) {
     ENTER(c)
-    if (FMUState && *FMUState) {
-        if (hg_known_state(H, *FMUState)) {
-            hg_release_state(H, *FMUState);
-            *FMUState = NULL;
-            st = HG_OK;
-        } else {
-            st = hg_fail(H, "fmi3FreeFMUState: not an FMU state of this instance");
-        }
-    } else {
-        st = HG_OK;
-    }
+    st = hg_state_free(H, (void **)FMUState, "fmi3FreeFMUState");
     LEAVE()
-}
-
-static PyObject *serialized3(HgInstance *H, fmi3FMUState state, const char *call) {
-    PyObject *snap = hg_known_state(H, state);
-    if (!snap) {
-        char buf[160];
-        snprintf(buf, sizeof buf, "%s: not an FMU state of this instance", call);
-        hg_fail(H, buf);
-        return NULL;
-    }
-    PyObject *b = PyObject_CallMethod(H->inst, "serialize_state", "(O)", snap);
-    if (!b) { hg_status(H, NULL, call); return NULL; }
-    if (!PyBytes_Check(b)) { Py_DECREF(b); hg_drain(H); return NULL; }
-    hg_drain(H);
-    return b;
 }
 
 fmi3Status fmi3SerializedFMUStateSize(fmi3Instance c, fmi3FMUState FMUState, size_t *size) {
     ENTER(c)
-    PyObject *b = serialized3(H, FMUState, "fmi3SerializedFMUStateSize");
-    if (b && size) {
-        *size = (size_t)PyBytes_Size(b);
-        st = HG_OK;
-    }
-    Py_XDECREF(b);
+    st = hg_state_size(H, FMUState, size, "fmi3SerializedFMUStateSize");
     LEAVE()
 }
 
 fmi3Status fmi3SerializeFMUState(fmi3Instance c, fmi3FMUState FMUState, fmi3Byte serializedState[], size_t size) {
     ENTER(c)
-    PyObject *b = serialized3(H, FMUState, "fmi3SerializeFMUState");
-    if (b) {
-        size_t n = (size_t)PyBytes_Size(b);
-        if (!serializedState || size < n) {
-            st = hg_fail(H, "fmi3SerializeFMUState: buffer missing or smaller than "
-                                                 "fmi3SerializedFMUStateSize");
-        } else {
-            memcpy(serializedState, PyBytes_AsString(b), n);
-            st = HG_OK;
-        }
-    }
-    Py_XDECREF(b);
+    st = hg_state_serialize(H, FMUState, serializedState, size, "fmi3SerializeFMUState",
+                            "fmi3SerializedFMUStateSize");
     LEAVE()
 }
 
 fmi3Status fmi3DeserializeFMUState(fmi3Instance c, const fmi3Byte serializedState[], size_t size,
                                    fmi3FMUState *FMUState) {
     ENTER(c)
-    if (!FMUState || (size && !serializedState)) {
-        st = hg_fail(H, "fmi3DeserializeFMUState: null pointer");
-    } else {
-        PyObject *b = PyBytes_FromStringAndSize((const char *)serializedState, (Py_ssize_t)size);
-        PyObject *snap = b ? PyObject_CallMethod(H->inst, "deserialize_state", "(O)", b) : NULL;
-        Py_XDECREF(b);
-        if (!snap) {
-            hg_status(H, NULL, "fmi3DeserializeFMUState");
-        } else if (snap == Py_None) {
-            Py_DECREF(snap);
-            hg_drain(H);
-        } else {
-            PyObject *r = PyObject_CallMethod(H->inst, "_issue_state", "On", snap, (Py_ssize_t)(void *)snap);
-            if (r) {
-                Py_DECREF(r);
-                *FMUState = (fmi3FMUState)snap;
-                st = HG_OK;
-            } else {
-                Py_DECREF(snap);
-                PyErr_Clear();
-            }
-            hg_drain(H);
-        }
-    }
+    st = hg_state_deserialize(H, serializedState, size, (void **)FMUState, "fmi3DeserializeFMUState");
     LEAVE()
 }
 

@@ -45,6 +45,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from hacgear_core.dynamics.build.train import mesh_table
 from hacgear_core.dynamics.system import GearBody, LumpedSystem, MeshCoupling
 from hacgear_core.errors import ModelError
 from hacgear_core.geometry import gear_geometry
@@ -77,16 +78,6 @@ def constant_stiffness_table(name: str, gear_names: tuple[str, str], teeth: tupl
         strain={}, solver=f"lumped: constant mesh stiffness {k:.6g} N/m (no tooth geometry)")
 
 
-def _mesh_table(tables: Any, name: str):
-    if hasattr(tables, "mesh"):
-        return tables.mesh(name)
-    if isinstance(tables, Mapping):
-        if name not in tables:
-            raise ModelError(f"no table for mesh '{name}'; tables for {sorted(tables)}")
-        return tables[name]
-    raise ModelError(f"no tables for mesh '{name}' (give SystemTables or {{mesh: MeshTable}})")
-
-
 def _member_properties(model: Any, geo: PlanetaryGeometry, bearing_override: float | None):
     """{member: (mass, inertia, k_translational, k_rotational, characteristic radius)} of sun, ring, carrier
     and the planet (shared by the planet instances)."""
@@ -100,7 +91,6 @@ def _member_properties(model: Any, geo: PlanetaryGeometry, bearing_override: flo
         else:
             gg = gear_geometry(g)
             m, j = gg.mass_kg, gg.inertia_kgm2
-            sm = geo.sun_mesh(1)
             rb = None
             for mm in (geo.sun_mesh(1), geo.ring_mesh(1)):
                 for k, gn in enumerate((mm.gear_a, mm.gear_b)):
@@ -109,7 +99,6 @@ def _member_properties(model: Any, geo: PlanetaryGeometry, bearing_override: flo
                         break
                 if rb is not None:
                     break
-            del sm
         kt = g.support.translational_stiffness_N_per_m if bearing_override is None else float(bearing_override)
         out[name] = (float(m), float(j), float(kt), float(g.support.rotational_stiffness_Nm_per_rad), float(rb))
     cs = pl.carrier_support
@@ -287,7 +276,7 @@ def planetary_from_model(model: Any, tables: Any = None, *, force_law: str = "ha
             if tables is None:
                 raise ModelError(f"{model.name}: the planetary set needs its mesh tables (`hacgear statics "
                                  f"{model.name}`), or a lumped model")
-            t = _mesh_table(tables, kind)
+            t = mesh_table(tables, kind, single=False)
             tz = tuple(int(z) for z in getattr(t, "teeth", ()))
             if tz != tuple(mm.teeth):
                 raise ModelError(f"mesh '{kind}': the table's teeth {tz} differ from the model's {tuple(mm.teeth)} "
@@ -348,7 +337,6 @@ def planetary_from_model(model: Any, tables: Any = None, *, force_law: str = "ha
     # ---------------------------------------------------------------- bodies, reference, rigid mode
     ab = geo.absolute_ratio
     w_ref = ab[inp]
-    sref = math.copysign(1.0, w_ref)
     bodies = []
     u = np.zeros(n)
     for body in list(central.values()) + list(geo.planets):

@@ -184,13 +184,17 @@ def assemble_train(name: str, kind: str, gears: Sequence[TrainGear], meshes: Seq
                         rigid_mode=None if held else u)
 
 
-def _mesh_table(tables: Any, name: str):
+def mesh_table(tables: Any, name: str, single: bool = True):
+    """Mesh ``name``'s table from ``tables``: a :class:`~hacgear_core.tables.SystemTables`, a {mesh: MeshTable}
+    mapping or (``single``) one table used as it is."""
     if hasattr(tables, "mesh"):
         return tables.mesh(name)
     if isinstance(tables, Mapping):
         if name not in tables:
             raise ModelError(f"no table for mesh '{name}'; tables for {sorted(tables)}")
         return tables[name]
+    if not single:
+        raise ModelError(f"no tables for mesh '{name}' (give SystemTables or {{mesh: MeshTable}})")
     return tables
 
 
@@ -211,7 +215,7 @@ def train_from_model(model: Any, tables: Any, *, force_law: str = "hac", torque_
     mg = {m.name: mesh_geometry(model, m.name, gears=gg) for m in model.meshes}
     tg = train_geometry(model, gears=gg, meshes=mg)
     torque = model.operating.torque_Nm if torque_Nm is None else float(torque_Nm)
-    tabs = {m.name: _mesh_table(tables, m.name) for m in model.meshes}
+    tabs = {m.name: mesh_table(tables, m.name) for m in model.meshes}
     rb_tab = {}
     for m in model.meshes:
         t = tabs[m.name]

@@ -56,6 +56,7 @@ newtons has ``w = F/b``.  Tooth ``k`` sits at angle ``2 pi k/z`` (counter-clockw
 from __future__ import annotations
 
 import hashlib
+import contextlib
 import json
 import os
 import threading
@@ -74,6 +75,7 @@ from hacgear_core.statics.nearfield import halfspace_approach_hertz, halfspace_a
 
 __all__ = [
     "FE_CODE_VERSION",
+    "gmsh_model",
     "write_npz",
     "read_npz",
     "PlaneFE",
@@ -95,6 +97,31 @@ __all__ = [
 FE_CODE_VERSION = "fe-6"
 
 _GMSH_LOCK = threading.Lock()
+
+
+@contextlib.contextmanager
+def gmsh_model(prefix: str):
+    """A fresh gmsh model for one mesh, yielding ``gmsh.model.geo``.  gmsh is process-global: one model at a time
+    (every FE mesher of the package holds this lock), initialised and finalised here unless someone else has
+    initialised gmsh; the model is removed afterwards."""
+    import gmsh  # imported where a mesh is made: FMUs and table readers never need it
+
+    with _GMSH_LOCK:
+        own = not gmsh.isInitialized()
+        if own:
+            gmsh.initialize(readConfigFiles=False, interruptible=False)
+        name = f"{prefix}_{os.getpid()}_{threading.get_ident()}_{time.monotonic_ns()}"
+        try:
+            gmsh.option.setNumber("General.Terminal", 0)
+            gmsh.model.add(name)
+            yield gmsh.model.geo
+        finally:
+            try:
+                gmsh.model.remove()
+            except Exception:
+                pass
+            if own:
+                gmsh.finalize()
 
 
 # ----------------------------------------------------------------------------- inputs
@@ -376,15 +403,8 @@ def mesh_gear(gg: Any, options: MeshOptions = MeshOptions()) -> GearMesh:
             fillet_size = min(fillet_size, max(0.3 * rho, 0.3 * options.fillet_size_m))
 
     t0 = time.perf_counter()
-    with _GMSH_LOCK:
-        own = not gmsh.isInitialized()
-        if own:
-            gmsh.initialize(readConfigFiles=False, interruptible=False)
-        name = f"hacgear_sector_{os.getpid()}_{threading.get_ident()}_{time.monotonic_ns()}"
-        try:
-            gmsh.option.setNumber("General.Terminal", 0)
-            gmsh.model.add(name)
-            geo = gmsh.model.geo
+    try:
+        with gmsh_model("hacgear_sector") as geo:
             ptag = [geo.addPoint(x, y, 0.0) for x, y in xy]
             curves, flank_curves, fillet_curves, tip_curves = [], [], [], []
             for idx, reg in _boundary_pieces(xy, region, side):
@@ -455,15 +475,8 @@ def mesh_gear(gg: Any, options: MeshOptions = MeshOptions()) -> GearMesh:
             if web_surface is not None:
                 wtags, _ = gmsh.model.mesh.getElementsByType(2, web_surface)
                 in_web = np.isin(np.asarray(etags), np.asarray(wtags))
-        except Exception as exc:  # gmsh raises plain Exception
-            raise GeometryError(f"gmsh could not mesh the tooth sector: {exc}") from exc
-        finally:
-            try:
-                gmsh.model.remove()
-            except Exception:
-                pass
-            if own:
-                gmsh.finalize()
+    except Exception as exc:  # gmsh raises plain Exception
+        raise GeometryError(f"gmsh could not mesh the tooth sector: {exc}") from exc
     mesh_time = time.perf_counter() - t0
 
     coords = np.asarray(coords).reshape(-1, 3)[:, :2]

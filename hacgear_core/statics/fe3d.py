@@ -27,7 +27,6 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import threading
 import time
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any, Sequence
@@ -39,15 +38,13 @@ from scipy.spatial import cKDTree
 
 from hacgear_core.errors import GeometryError, ModelError, SolverError
 from hacgear_core.statics.fe import (ElasticMaterial, Gauge, _boundary_pieces, _chord_inward, _gauge_location,
-                                     _single_thread_blas, cache_dir, read_npz, write_npz)
+                                     _single_thread_blas, cache_dir, gmsh_model, read_npz, write_npz)
 
 __all__ = ["FE3D_CODE_VERSION", "Mesh3DOptions", "ToothSectorFE", "FaceInfluence", "face_influence", "material_of",
            "helical_flank_points"]
 
 #: bump when anything changes the numbers produced (part of every cache key)
 FE3D_CODE_VERSION = "fe3d-1"
-
-_GMSH_LOCK = threading.Lock()
 
 
 @dataclass(frozen=True)
@@ -204,15 +201,8 @@ class ToothSectorFE:
         R0 = np.array([[np.cos(a0), -np.sin(a0)], [np.sin(a0), np.cos(a0)]])
         xy = xy @ R0.T
         nl = max(2, int(np.ceil(b / o.layer_size_m)))
-        with _GMSH_LOCK:
-            own = not gmsh.isInitialized()
-            if own:
-                gmsh.initialize(readConfigFiles=False, interruptible=False)
-            name = f"hacgear_sector3d_{os.getpid()}_{threading.get_ident()}_{time.monotonic_ns()}"
-            try:
-                gmsh.option.setNumber("General.Terminal", 0)
-                gmsh.model.add(name)
-                geo = gmsh.model.geo
+        try:
+            with gmsh_model("hacgear_sector3d") as geo:
                 ptag = [geo.addPoint(x, y, -b / 2) for x, y in xy]
                 curves = []
                 for idx, _ in _boundary_pieces(xy, reg, side):
@@ -246,15 +236,8 @@ class ToothSectorFE:
                 gmsh.model.mesh.generate(3)
                 ntags, coords, _ = gmsh.model.mesh.getNodes()
                 _, enodes = gmsh.model.mesh.getElementsByType(4)
-            except Exception as exc:  # gmsh raises plain Exception
-                raise GeometryError(f"gmsh could not mesh the 3D tooth sector: {exc}") from exc
-            finally:
-                try:
-                    gmsh.model.remove()
-                except Exception:
-                    pass
-                if own:
-                    gmsh.finalize()
+        except Exception as exc:  # gmsh raises plain Exception
+            raise GeometryError(f"gmsh could not mesh the 3D tooth sector: {exc}") from exc
         coords = np.asarray(coords).reshape(-1, 3)
         lookup = np.full(int(np.max(ntags)) + 1, -1, dtype=np.int64)
         lookup[np.asarray(ntags, dtype=np.int64)] = np.arange(len(ntags))

@@ -25,6 +25,8 @@ __all__ = [
     "StaticStiffness",
     "static_stiffness",
     "contact_count",
+    "GeneralizedStiffness",
+    "generalized_stiffness",
 ]
 
 
@@ -178,3 +180,48 @@ def contact_count(table, force_N: float, rel_threshold: float = 1e-3) -> np.ndar
     xs = static_deflection(table_arrays(table), force_N)
     loads = table.interpolate(tl, table.position, xs, count=False)
     return np.sum(loads > rel_threshold * force_N, axis=1)
+
+
+@dataclass(frozen=True)
+class GeneralizedStiffness:
+    """The generalized FDF of a helical mesh linearised about its static state at zero twist, per position (Np,):
+    ``k_xx_N_per_m`` = dW/dx, ``k_xg_N_per_rad`` = dW/dgamma, ``k_gx_Nm_per_m`` = dM/dx, ``k_gg_Nm_per_rad`` =
+    dM/dgamma (W mesh force, M twist moment, x mesh deflection, gamma mesh twist), at ``deflection_m`` (Np,)."""
+
+    force_N: float
+    position: np.ndarray
+    deflection_m: np.ndarray
+    k_xx_N_per_m: np.ndarray
+    k_xg_N_per_rad: np.ndarray
+    k_gx_Nm_per_m: np.ndarray
+    k_gg_Nm_per_rad: np.ndarray
+
+    def means(self) -> dict[str, float]:
+        """Mesh-cycle means of the four stiffnesses, keyed by name."""
+        return {k: float(np.mean(getattr(self, k))) for k in
+                ("k_xx_N_per_m", "k_xg_N_per_rad", "k_gx_Nm_per_m", "k_gg_Nm_per_rad")}
+
+
+def generalized_stiffness(table, force_N: float) -> GeneralizedStiffness:
+    """Linearised generalized force law of a helical mesh ``table`` (with a twist axis) at mesh force ``force_N``
+    [N] and zero twist: the derivatives of the table's trilinear rule at the static deflection of each position
+    row (central differences of 1e-3 of a grid step; across gamma = 0, a grid point, they give the mean of the
+    two neighbouring cells' slopes, the twist-grid resolution of the law)."""
+    if getattr(table, "twist", None) is None:
+        raise TableError("generalized_stiffness needs a table with a twist axis (helical mesh, format 2+)")
+    ta = table_arrays(table)
+    xs = static_deflection(ta, force_N)
+    pos = np.asarray(table.position, dtype=float)
+    g = np.asarray(table.twist.twist_rad, dtype=float)
+    hx, hg = 1e-3 / table.inv_dx, 1e-3 * float(np.min(np.diff(g)))
+    z = np.zeros(pos.size)
+
+    def wm(dx, dg):
+        return table.generalized(pos, xs + dx, z + dg)
+
+    ax, bx = wm(hx, 0.0), wm(-hx, 0.0)
+    ag, bg = wm(0.0, hg), wm(0.0, -hg)
+    return GeneralizedStiffness(
+        force_N=float(force_N), position=pos, deflection_m=xs,
+        k_xx_N_per_m=(ax[:, 0] - bx[:, 0]) / (2 * hx), k_xg_N_per_rad=(ag[:, 0] - bg[:, 0]) / (2 * hg),
+        k_gx_Nm_per_m=(ax[:, 1] - bx[:, 1]) / (2 * hx), k_gg_Nm_per_rad=(ag[:, 1] - bg[:, 1]) / (2 * hg))

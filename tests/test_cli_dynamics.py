@@ -180,3 +180,17 @@ def test_simulate_beyond_the_tables_says_so(capsys):
     assert out["meshes"]["m12"]["steps_beyond_tables"] > 0
     assert main(["simulate", "spur_28t_asym", "--torque", "300", "--fm", "1000", "--cycles", "12", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["meshes"]["m12"]["steps_beyond_tables"] == 0
+
+
+def test_simulate_with_the_coast_flanks_loaded_reports_them(capsys):
+    """A negative torque loads the coast flanks: the summary's contact loss and contact pressure are those of the
+    loaded (coast) flanks — no contact loss off resonance, the coast table's pressure — not the idle drive
+    flanks' (always apart, zero pressure)."""
+    assert main(["simulate", "spur_28t_asym", "--torque", "-300", "--fm", "1000", "--cycles", "12", "--json"]) == 0
+    s = json.loads(capsys.readouterr().out)["meshes"]["m12"]
+    assert s["loaded_flank"] == "coast" and s["contact_loss_fraction"] == 0.0
+    assert s["peak_force_N"] == 0.0 and s["coast_contact_fraction"] == 1.0
+    assert 0.5e9 < s["max_peak_pressure_Pa"] < 3e9
+    assert main(["simulate", "spur_28t_asym", "--torque", "300", "--fm", "1000", "--cycles", "12", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)["meshes"]["m12"]
+    assert d["loaded_flank"] == "drive" and d["contact_loss_fraction"] == 0.0 and d["peak_coast_force_N"] == 0.0

@@ -803,6 +803,8 @@ def test_both_flanks_in_drivetrain_mode_like_the_library(built, case):
         if case is _reversal:
             assert states[0] == 1 and states[-1] == 2
             assert low.get("m12.backlash_position")[0] > 1.0  # beyond the ideal coast flanks: the coast side loaded
+            p = low.get("m12.peak_pressure")[0]
+            assert p == lib.peak_pressure_Pa(0) and p > 0.5e9  # the coast flanks' contact pressure
         assert not low.fmu.getBoolean([low.vr["m12.out_of_range"]])[0]
         assert lib.out_of_range_steps == [0]
     finally:

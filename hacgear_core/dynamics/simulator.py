@@ -395,6 +395,10 @@ class Simulator:
                                      [self.coast_approach_m])[0])
 
     def peak_pressure_Pa(self, mesh: int = 0) -> float:
-        """Maximum contact pressure over all teeth of mesh ``mesh`` now [Pa] (table lookup)."""
-        t = self.system.meshes[mesh].table
-        return float(t.pressure(self.mesh_position[mesh], self.mesh_deflection_m[mesh]))
+        """Maximum contact pressure over all teeth of mesh ``mesh`` now [Pa] (table lookup), on the flanks in
+        contact: the drive table's, or the coast table's when the teeth have crossed the backlash."""
+        c = self.system.meshes[mesh]
+        p = float(c.table.pressure(self.mesh_position[mesh], self.mesh_deflection_m[mesh]))
+        if c.coast_table is not None:
+            p = max(p, float(c.coast_table.pressure(self.mesh_position[mesh], self.coast_approach_m[mesh])))
+        return p

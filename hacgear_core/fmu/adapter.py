@@ -285,7 +285,8 @@ class Adapter:
                   f"contact state of mesh {mn} at the end of the step: drive flanks, coast flanks (across the "
                   "backlash), or separated (in the backlash)", declared_type="ContactState"),
                 V(f"{m_}.peak_pressure", "Real", "output", "continuous", "Pa",
-                  f"maximum contact pressure over all teeth of mesh {mn} (table lookup)", display_unit="MPa",
+                  f"maximum contact pressure over all teeth of mesh {mn} on the flanks in contact, drive or coast "
+                  "(table lookup)", display_unit="MPa",
                   nominal=pressure[k]),
                 V(f"{m_}.out_of_range", "Boolean", "output", "discrete", "",
                   f"true once the state of mesh {mn} has left its tables' deflection range (forces, pressures and "

@@ -91,39 +91,43 @@ class ElasticMesh:
     def n_total(self) -> int:
         return sum(self.n_modes)
 
+    def pair_modes(self, setup) -> list[np.ndarray]:
+        """Per gear ``(n_g, n_pairs)`` physical inward-normal modal displacements at the contact of each tooth
+        pair of ``setup`` [m per modal unit] (every face slice of a pair shares them: the plane body acts over the
+        whole face)."""
+        out = []
+        for bm, teeth, s in zip(self.modes, (setup.tooth_a, setup.tooth_b), (setup.s_a, setup.s_b)):
+            out.append(bm.at(teeth, s) * self._scale if bm.n_modes else np.zeros((0, len(setup.pairs))))
+        return out
+
     def candidate_modes(self, setup) -> list[np.ndarray]:
         """Per gear ``(n_g, n_candidates)`` physical inward-normal modal displacements at the candidates of
         ``setup`` [m per modal unit]."""
-        out = []
-        for g, (bm, teeth, s) in enumerate(zip(self.modes, (setup.tooth_a, setup.tooth_b), (setup.s_a, setup.s_b))):
-            if bm.n_modes == 0:
-                out.append(np.zeros((0, setup.g0.size)))
-                continue
-            P = bm.at(teeth, s) * self._scale                   # (n_g, Np)
-            out.append(P[:, setup.pair_index])
-        return out
+        return [P[:, setup.pair_index] for P in self.pair_modes(setup)]
 
     def contact(self, position: float, deflection_m: float, q_modal: np.ndarray):
         """Contact state at ``position`` [cycles, unwrapped: the body's teeth], mesh ``deflection_m`` [m] and modal
-        coordinates ``q_modal`` (n_total,) → (ContactState, modal forces (n_total,), per-gear candidate modes)."""
+        coordinates ``q_modal`` (n_total,) → (ContactState, modal forces (n_total,), per-gear pair modes)."""
         sol = self.solver
         setup = sol.setup(position)
-        Ps = self.candidate_modes(setup)
-        n = setup.g0.size
-        gap = np.zeros(n)
-        dC = np.zeros((n, n))
+        Ps = self.pair_modes(setup)
+        npair = len(setup.pairs)
+        gap_p = np.zeros(npair)
+        dC_p = np.zeros((npair, npair))
         i = 0
         for P, om in zip(Ps, self._omega):
             k = P.shape[0]
             if k:
-                gap += P.T @ q_modal[i:i + k]
-                dC -= (P / om[:, None] ** 2).T @ P
+                gap_p += P.T @ q_modal[i:i + k]
+                dC_p -= (P / om[:, None] ** 2).T @ P
             i += k
         warm = None
         if self._warm is not None and np.array_equal(self._warm[0], setup.pairs):
             warm = self._warm[1]
         if self.n_total:
-            st = sol.state_deflection(position, deflection_m, warm=warm, gap_offset_m=gap, compliance_offset_m_N=dC)
+            pi = setup.pair_index
+            st = sol.state_deflection(position, deflection_m, warm=warm, gap_offset_m=gap_p[pi],
+                                      compliance_offset_m_N=dC_p[np.ix_(pi, pi)])
         else:
             st = sol.state_deflection(position, deflection_m, warm=warm)
         self.calls += 1
@@ -132,7 +136,8 @@ class ElasticMesh:
                               f"{deflection_m:.6g} m: {st.message}")
         if np.any(st.force_N > 0):
             self._warm = (setup.pairs, st.force_N)
-        Q = np.concatenate([P @ st.force_N for P in Ps]) if self.n_total else np.zeros(0)
+        Fp = np.bincount(setup.pair_index, weights=st.force_N, minlength=npair)
+        Q = np.concatenate([P @ Fp for P in Ps]) if self.n_total else np.zeros(0)
         return st, Q, Ps
 
     def root_strain(self, st, q_modal: np.ndarray, Q: np.ndarray, gauge: str) -> float:
@@ -289,8 +294,7 @@ def initial_state(eqs: DirectEquations, emesh: ElasticMesh, lumped_state: np.nda
     if emesh.n_total:
         tau = eqs.phase[0] + float(eqs.W[0, :n0] @ q)
         st = emesh.solver.state_deflection(tau, float(eqs.V[0, :n0] @ q))
-        setup = emesh.solver.setup(tau)
-        Ps = emesh.candidate_modes(setup)
+        Ps = emesh.candidate_modes(emesh.solver.setup(tau))
         out[n0:N] = np.concatenate([(P @ st.force_N) / om ** 2 for P, om in zip(Ps, emesh._omega)])
     return out
 

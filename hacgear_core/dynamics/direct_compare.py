@@ -61,8 +61,8 @@ class SpeedComparison:
     """HAC and level 1 at one mesh frequency.  ``hac`` / ``level1``: ``dte_rms_m``, ``peak_force_N``,
     ``max_root_strain`` (largest over the period and the teeth in mesh, at ``gauge``), ``contact_loss_fraction``,
     ``wall_s_per_cycle``; ``errors``: HAC relative to level 1 [-] of the first three; ``speed_ratio``: level-1 over
-    HAC wall time per mesh cycle; ``traces``: the recorded period of both (positions, deflections, forces, DTE,
-    root strain per offset)."""
+    HAC wall time per mesh cycle; ``traces``: the recorded period of both (positions [cycles] in the frame of the
+    table / solver, i.e. about [0, 1], deflections, forces, DTE, root strain per offset)."""
 
     success: bool
     message: str
@@ -119,7 +119,9 @@ def compare_at_speed(model: Any, system: LumpedSystem, mesh_frequency_Hz: float,
               changes=[float(c) for c in l1.changes], load_calls=int(l1.load_calls), message=l1.message,
               coast_solves=int(sum(getattr(c, "calls", 0) for c in (coast or []) if c is not None)))
     err = {k: hac[k] / lv[k] - 1.0 for k in ("dte_rms_m", "peak_force_N", "max_root_strain")}
-    traces = dict(hac=htr, level1=dict(position=tr.mesh_position[:, 0], deflection_m=tr.mesh_deflection_m[:, 0],
+    # positions as the solver saw them (the recorded cycle is numbered after the cycles before it)
+    traces = dict(hac=htr, level1=dict(position=tr.mesh_position[:, 0] - l1.cycles,
+                                       deflection_m=tr.mesh_deflection_m[:, 0],
                                        force_N=tr.mesh_force_N[:, 0], dte_m=tr.dynamic_transmission_error_m[:, 0],
                                        root_strain=eps1),
                   tooth_offsets=np.asarray(system.meshes[0].table.tooth_offsets))

@@ -44,7 +44,8 @@ from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import ModelError, SolverError
 from hacgear_core.statics.bodymodes import BodyModes
 
-__all__ = ["ElasticMesh", "Level2Options", "Level2Result", "elastic_equations", "elastic_mesh", "initial_state", "run_level2"]
+__all__ = ["ElasticMesh", "Level2Options", "Level2Result", "elastic_equations", "elastic_mesh", "highest_frequency_Hz",
+           "initial_state", "run_level2"]
 
 
 class ElasticMesh:
@@ -229,13 +230,19 @@ class Level2Options:
     min_cycles, max_cycles : int
         Mesh cycles integrated before the recorded one (at least / at most).
     steps_per_cycle : int
-        RK4 steps per mesh cycle (>= 8).
+        Fewest RK4 steps per mesh cycle (>= 8).
+    max_omega_h : float
+        Largest ``omega h`` allowed for the highest natural frequency of the lumped + modal equations without the
+        meshes (free hubs: the hub keeps only the inertia of the modes left out, so a hub-against-body mode lies
+        far above the kept modes, 62 kHz for the 28-tooth gear); more steps are taken when needed.  RK4 is
+        stable up to 2.78; the default leaves room for the stiffness the contact adds.
     """
 
     rtol: float = 1e-3
     min_cycles: int = 2
     max_cycles: int = 40
     steps_per_cycle: int = 128
+    max_omega_h: float = 1.4
 
     def __post_init__(self) -> None:
         if not (0 < self.rtol < 1):
@@ -245,6 +252,8 @@ class Level2Options:
                              f"{self.max_cycles}")
         if not (isinstance(self.steps_per_cycle, int) and self.steps_per_cycle >= 8):
             raise ModelError(f"Level2Options.steps_per_cycle [-] must be an integer >= 8, got {self.steps_per_cycle!r}")
+        if not (0.05 <= self.max_omega_h <= 2.5):
+            raise ModelError(f"Level2Options.max_omega_h [-] must be in [0.05, 2.5], got {self.max_omega_h!r}")
 
 
 @dataclass
@@ -253,7 +262,7 @@ class Level2Result:
     recorded one, ``changes`` per cycle, ``n_modes`` (per gear), ``load_calls``, ``wall_s_per_cycle`` [s],
     ``state`` (2N,) at the end, ``trace`` (recorded cycle), ``metrics``
     (:func:`~hacgear_core.dynamics.steady.trace_metrics`), ``root_strain`` {gauge: (nr,) largest over the window},
-    ``modal`` (nr, n_total) modal coordinates along the recorded cycle."""
+    ``modal`` (nr, n_total) modal coordinates along the recorded cycle, ``steps_per_cycle`` used."""
 
     success: bool
     message: str
@@ -267,6 +276,7 @@ class Level2Result:
     metrics: dict
     root_strain: dict
     modal: np.ndarray
+    steps_per_cycle: int = 0
 
 
 def _load(eqs: DirectEquations, emesh: ElasticMesh, n0: int, cycle_offset: list):
@@ -281,6 +291,15 @@ def _load(eqs: DirectEquations, emesh: ElasticMesh, n0: int, cycle_offset: list)
                          deflection_m=x, coast_approach_m=eqs.Vc @ q, extra=((st, Q),))
 
     return load
+
+
+def highest_frequency_Hz(eqs: DirectEquations) -> float:
+    """Highest natural frequency [Hz] of ``K q = omega^2 M q`` of the equations (supports and body modes, the
+    meshes left out)."""
+    import scipy.linalg
+
+    w2 = scipy.linalg.eigh(eqs.K, eqs.M, eigvals_only=True)
+    return float(np.sqrt(max(float(np.max(w2)), 0.0)) / (2 * math.pi))
 
 
 def initial_state(eqs: DirectEquations, emesh: ElasticMesh, lumped_state: np.ndarray, n0: int) -> np.ndarray:
@@ -316,7 +335,7 @@ def run_level2(system: LumpedSystem, emesh: ElasticMesh, mesh_frequency_Hz: floa
     N = eqs.n
     cyc = [0]
     load = _load(eqs, emesh, n0, cyc)
-    nsp = opt.steps_per_cycle
+    nsp = max(opt.steps_per_cycle, int(math.ceil(highest_frequency_Hz(eqs) * 2 * math.pi / (opt.max_omega_h * fm))))
     h = 1.0 / (fm * nsp)
     xs = max(float(np.max(np.abs(system.mean_static_deflections_m(torque_Nm)))), 1e-9)
     s = initial_state(eqs, emesh, lumped_state0, n0)
@@ -363,7 +382,7 @@ def run_level2(system: LumpedSystem, emesh: ElasticMesh, mesh_frequency_Hz: floa
            f"cap: Poincaré change {changes[-1] if changes else math.nan:.3g} >= {opt.rtol:g} after {cyc[0]} cycles")
     return Level2Result(success=converged, message=msg, cycles=cyc[0], changes=changes, n_modes=emesh.n_modes,
                         load_calls=calls, wall_s_per_cycle=wall / (cyc[0] + 1), state=s_end, trace=tr, metrics=met,
-                        root_strain=strains, modal=modal)
+                        root_strain=strains, modal=modal, steps_per_cycle=nsp)
 
 
 def elastic_mesh(model: Any, mesh_name: str, *, damping_ratio: float, max_frequency_Hz: float = 40e3,

@@ -1,11 +1,13 @@
 """Figures of HAC against the level-1 direct model (docs/hac_vs_direct.md) from the benchmark's output.
 
-``python benchmarks/bench_hac_vs_direct.py --grid 16,32,48,96,128 --json /tmp/hac18/bench.json --traces
-/tmp/hac18/traces.npz`` writes the numbers and the recorded periods; this script draws, per spur pair, the steady
-state over one mesh cycle at each speed (dynamic transmission error, mesh force, and the root strain of one tooth
-through its pass, like dissertation Figs. 3.7-3.8) and the grid-resolution study::
+``python benchmarks/bench_hac_vs_direct.py --grid 16,32,48,96,128 --grid-extra 128x64,64x128,256x64,512x64 --json
+/tmp/hac18/final.json --traces /tmp/hac18/final.npz`` (and ``--level1-json /tmp/hac18/final.json --grid-extra 256x128
+--json /tmp/hac18/grid_256x128.json`` for an added grid) writes the numbers and the recorded periods; this script
+draws, per spur pair, the steady state over one mesh cycle at each speed (dynamic transmission error, mesh force,
+and the root strain of one tooth through its pass, like dissertation Figs. 3.7-3.8) and the grid-resolution study::
 
-    python examples/hac_vs_direct.py /tmp/hac18/bench.json /tmp/hac18/traces.npz --out docs/figures
+    python examples/hac_vs_direct.py /tmp/hac18/final.json /tmp/hac18/final.npz \\
+        --extra-json /tmp/hac18/grid_256x128.json --out docs/figures
 """
 from __future__ import annotations
 
@@ -36,6 +38,7 @@ def main() -> None:
     ap.add_argument("json")
     ap.add_argument("traces")
     ap.add_argument("--out", default="docs/figures")
+    ap.add_argument("--extra-json", nargs="*", default=[], help="more grid-study outputs (--level1-json runs)")
     args = ap.parse_args()
     data = json.loads(Path(args.json).read_text())
     tr = np.load(args.traces)
@@ -71,29 +74,39 @@ def main() -> None:
         fig.tight_layout()
         fig.savefig(out / f"hac_vs_direct_{pair}.png", dpi=110)
         plt.close(fig)
-    if data.get("grid"):
-        fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
-        for pair in pairs:
-            for r in sorted({g["fm_over_fn"] for g in data["grid"] if g["pair"] == pair}):
-                pts = [(64, 64, [x for x in data["rows"] if x["pair"] == pair and x["fm_over_fn"] == r][0]["errors"])]
-                pts += [(g["positions"], g["deflections"], g["errors"]) for g in data["grid"]
-                        if g["pair"] == pair and g["fm_over_fn"] == r and g["positions"] == g["deflections"]]
-                pts.sort()
-                n = [p for p, _, _ in pts]
-                for ax, k in zip(axes, ("dte_rms_m", "max_root_strain")):
-                    ax.plot(n, [abs(e[k]) * 100 for _, _, e in pts], "o-", label=f"{pair} f_m/f_n={r:g}")
-        for ax, k, lim in zip(axes, ("RMS DTE", "max root strain"), (1.0, 2.0)):
-            ax.axhline(lim, color="k", lw=0.8, ls=":")
-            ax.set_xscale("log", base=2)
-            ax.set_yscale("log")
-            ax.set_xlabel("table grid N (positions = deflections)")
-            ax.set_ylabel(f"|HAC - level 1| / level 1, {k} [%]")
-        axes[0].legend(fontsize=7)
+    grid = list(data.get("grid", []))
+    for extra in args.extra_json:
+        grid += json.loads(Path(extra).read_text()).get("grid", [])
+    if grid:
+        fig, axes = plt.subplots(2, len(pairs), figsize=(6.2 * len(pairs), 7.5), squeeze=False)
+        for j, pair in enumerate(pairs):
+            for r, col in zip((0.6, 1.0, 0.5), ("C0", "C1", "C2")):
+                ref = [x for x in data["rows"] if x["pair"] == pair and x["fm_over_fn"] == r]
+                if not ref:
+                    continue
+                pts = {(64, 64): ref[0]["errors"]}
+                pts.update({(g["positions"], g["deflections"]): g["errors"] for g in grid
+                            if g["pair"] == pair and g["fm_over_fn"] == r})
+                for fam, style in (("N x N", "o-"), ("N x 64", "s--")):
+                    sel = sorted((p, e) for (p, d), e in pts.items() if (d == p if fam == "N x N" else d == 64))
+                    if len(sel) < 2:
+                        continue
+                    for i, k in enumerate(("dte_rms_m", "max_root_strain")):
+                        axes[i, j].plot([p for p, _ in sel], [max(abs(e[k]) * 100, 1e-3) for _, e in sel], style,
+                                        color=col, label=f"f_m/f_n = {r:g}, {fam}")
+            for i, (k, lim) in enumerate((("RMS DTE", 1.0), ("max root strain", 2.0))):
+                ax = axes[i, j]
+                ax.axhline(lim, color="k", lw=0.8, ls=":")
+                ax.set_xscale("log", base=2)
+                ax.set_yscale("log")
+                ax.set_title(pair, fontsize=10)
+                ax.set_xlabel("table positions N (deflections N or 64)")
+                ax.set_ylabel(f"|HAC - level 1| / level 1, {k} [%]")
+        axes[0, 0].legend(fontsize=7)
         fig.suptitle("grid-resolution study of the HAC tables against level 1 (dotted: issue #18 criteria)")
         fig.tight_layout()
         fig.savefig(out / "hac_vs_direct_grid.png", dpi=110)
         plt.close(fig)
-
 
 if __name__ == "__main__":
     main()

@@ -68,7 +68,7 @@ def main() -> None:
             axes[i, 2].set_title(f"max root strain error {e['max_root_strain'] * 100:+.2f} %", fontsize=9)
         for ax in axes[-1, :2]:
             ax.set_xlabel("mesh position in the cycle [cycles]")
-        axes[-1, 2].set_xlabel("tooth phase [mesh cycles] (0: its pair at the pitch point)")
+        axes[-1, 2].set_xlabel("tooth phase [mesh cycles] (0: pitch point)")
         axes[0, 0].legend(fontsize=8)
         fig.suptitle(f"{pair}: HAC against the level-1 direct model, steady state over one mesh cycle")
         fig.tight_layout()

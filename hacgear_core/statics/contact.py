@@ -608,28 +608,46 @@ class MeshContactSolver:
             raise SolverError(f"mesh '{self.mesh_name}': no tooth pair can touch at position {position}")
         return float(np.min(s.g0[fin] / s.lam[fin]))
 
-    def state_load(self, position: float, mesh_force_N: float, warm: np.ndarray | None = None,
-                   gap_offset_m: np.ndarray | None = None) -> ContactState:
-        """Load-controlled solve (mesh force [N] >= 0) → :class:`ContactState`.  ``gap_offset_m`` (n,) adds to the
-        initial separation of every candidate (e.g. the deformation caused by loads outside this mesh)."""
-        W = float(mesh_force_N)
-        if not (math.isfinite(W) and W >= 0):
-            raise SolverError(f"mesh_force_N must be finite and >= 0 N, got {mesh_force_N!r}")
-        setup = self.setup(position)
+    @staticmethod
+    def _modified(setup: PositionSetup, gap_offset_m: np.ndarray | None,
+                  compliance_offset_m_N: np.ndarray | None) -> PositionSetup:
+        """``setup`` with ``gap_offset_m`` (n,) added to the initial separations and ``compliance_offset_m_N``
+        (n, n) added to the linear compliance (both optional; unchanged when None)."""
         if gap_offset_m is not None:
             off = np.asarray(gap_offset_m, float)
             if off.shape != setup.g0.shape:
                 raise SolverError(f"gap_offset_m must have shape {setup.g0.shape}, got {off.shape}")
             setup = replace(setup, g0=setup.g0 + off)
+        if compliance_offset_m_N is not None:
+            dc = np.asarray(compliance_offset_m_N, float)
+            if dc.shape != setup.C_lin.shape:
+                raise SolverError(f"compliance_offset_m_N must have shape {setup.C_lin.shape}, got {dc.shape}")
+            setup = replace(setup, C_lin=setup.C_lin + dc)
+        return setup
+
+    def state_load(self, position: float, mesh_force_N: float, warm: np.ndarray | None = None,
+                   gap_offset_m: np.ndarray | None = None,
+                   compliance_offset_m_N: np.ndarray | None = None) -> ContactState:
+        """Load-controlled solve (mesh force [N] >= 0) → :class:`ContactState`.  ``gap_offset_m`` (n,) adds to the
+        initial separation of every candidate (e.g. the deformation caused by loads outside this mesh);
+        ``compliance_offset_m_N`` (n, n) [m/N] adds to the linear compliance of the candidates (e.g. minus the part
+        of the bodies' compliance that a dynamic model carries in its own coordinates)."""
+        W = float(mesh_force_N)
+        if not (math.isfinite(W) and W >= 0):
+            raise SolverError(f"mesh_force_N must be finite and >= 0 N, got {mesh_force_N!r}")
+        setup = self._modified(self.setup(position), gap_offset_m, compliance_offset_m_N)
         return self._solve(setup, force=W, warm=warm)
 
     def state_deflection(self, position: float, mesh_deflection_m: float,
-                         warm: np.ndarray | None = None) -> ContactState:
-        """Deflection-controlled solve (mesh deflection [m]) → :class:`ContactState`."""
+                         warm: np.ndarray | None = None, gap_offset_m: np.ndarray | None = None,
+                         compliance_offset_m_N: np.ndarray | None = None) -> ContactState:
+        """Deflection-controlled solve (mesh deflection [m]) → :class:`ContactState`; ``gap_offset_m`` and
+        ``compliance_offset_m_N`` as in :meth:`state_load`."""
         x = float(mesh_deflection_m)
         if not math.isfinite(x):
             raise SolverError(f"mesh_deflection_m must be finite, got {mesh_deflection_m!r}")
-        return self._solve(self.setup(position), deflection=x, warm=warm)
+        setup = self._modified(self.setup(position), gap_offset_m, compliance_offset_m_N)
+        return self._solve(setup, deflection=x, warm=warm)
 
     # -------------------------------------------------------------------- outputs
     def pair_results(self, st: ContactState) -> dict[str, np.ndarray]:

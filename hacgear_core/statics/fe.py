@@ -642,6 +642,30 @@ class PlaneFE:
         self._h = np.sqrt(np.abs(np.linalg.det(A)))
         self._tree = cKDTree(tp.mean(axis=1).T)
 
+    def mass_matrix(self, density_kg_m3: float) -> sp.csr_matrix:
+        """Consistent P2 mass matrix ``(n_dofs, n_dofs)`` per unit thickness [kg/m]: ``density_kg_m3`` [kg/m^3]
+        times the relative thickness of each triangle (:attr:`thickness`, 1 where None).  Assembled on demand
+        beside the stiffness (:attr:`K` is not touched)."""
+        from skfem import Basis, BilinearForm, ElementVector, asm
+        from skfem.helpers import dot
+
+        rho = float(density_kg_m3)
+        if not (np.isfinite(rho) and 1.0 <= rho <= 1e5):
+            raise ModelError(f"density_kg_m3 must be in [1, 1e5] kg/m^3, got {density_kg_m3!r}")
+
+        @BilinearForm
+        def mass(u, v, w):
+            return dot(u, v)
+
+        if self.thickness is None:
+            return (rho * asm(mass, self.basis)).tocsr()
+        M = None
+        for f in np.unique(self.thickness):
+            sub = Basis(self.mesh, ElementVector(self._scalar_elem), elements=np.flatnonzero(self.thickness == f))
+            Mf = (rho * f) * asm(mass, sub)
+            M = Mf if M is None else M + Mf
+        return M.tocsr()
+
     @property
     def dof_component(self) -> np.ndarray:
         """0 for x DOF, 1 for y DOF, shape (n_dofs,)."""

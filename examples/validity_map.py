@@ -1,0 +1,235 @@
+#!/usr/bin/env python
+"""Where the quasi-static body assumption of HAC stops holding: level 2 (elastic bodies in motion) against the
+quasi-static direct model on the 28-tooth pair and on compliant variants of its blank (issue #18, Deliver 2 and 4).
+
+Two studies, each writing its part of ``<out>/validity_map.json`` (results are added as they come, so an
+interrupted run keeps what it finished):
+
+``convergence``
+    The 28-tooth pair (``models/spur_28t_asym``, 300 N·m) at one mesh frequency: level 2 with the lowest ``n``
+    fixed-hub body modes of each gear, ``n`` over complete degenerate sets (0 = level 1: the static contact solver at
+    every RK4 stage), RMS DTE, peak mesh force, maximum root strain (pinion SG25) against ``n``.
+``map``
+    Variants of the blank (bore diameters, a web): for each, the first fixed-hub body mode ``f_1``, the lumped
+    mesh resonance ``f_n`` (HAC tables of a small statics grid, only for the lumped system's damping and the
+    starting orbit), and at a few mesh frequencies the error of the quasi-static model (level 1 = level 2 with no
+    modes: same solver, same RK4, same step; so it isolates the quasi-static assumption, not the tables) against
+    level 2 in RMS DTE, peak mesh force and maximum root strain, as a function of ``f_m / f_1``.
+    Figure ``<out>/figures/validity_map.png``.
+
+Every run starts from the HAC steady state at that speed and integrates whole mesh cycles until the Poincaré
+change per cycle is below ``--rtol`` or ``--cycles`` is reached (reported per run: ``success``, ``changes``).
+
+    python examples/validity_map.py convergence [--fm 2786] [--modes 0,1,3,5,11,37]
+    python examples/validity_map.py map [--variants bore40,bore90,web5_60_110] [--speeds 0.5,1.0]
+"""
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import json
+import re
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+MODEL = ROOT / "models" / "spur_28t_asym" / "model.toml"
+GAUGE = "pinion/SG25"
+
+
+def _json_update(path: Path, key: str, value) -> None:
+    data = json.loads(path.read_text()) if path.exists() else {}
+    data[key] = value
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(data, indent=1, default=float))
+
+
+def _run(system, model, fm, n_modes, *, steps, cycles, rtol, max_frequency_Hz=40e3):
+    from hacgear_core.dynamics import steady_state
+    from hacgear_core.dynamics.direct_elastic import Level2Options, elastic_mesh, run_level2
+
+    ss = steady_state(system, fm)
+    em = elastic_mesh(model, "m12", damping_ratio=system.modal_damping_ratio, max_frequency_Hz=max_frequency_Hz,
+                      n_modes=(n_modes, n_modes))
+    t0 = time.perf_counter()
+    r = run_level2(system, em, fm, ss.state, gauges=(GAUGE,),
+                   options=Level2Options(rtol=rtol, min_cycles=2, max_cycles=cycles, steps_per_cycle=steps))
+    return dict(n_modes=int(em.n_modes[0]), highest_mode_Hz=float(em.modes[0].frequency_Hz[-1]) if em.n_total else 0.0,
+                success=bool(r.success), message=r.message, cycles=r.cycles, changes=r.changes,
+                dte_rms_m=float(r.metrics["dte_rms_m"][0]), peak_force_N=float(r.metrics["peak_force_N"][0]),
+                contact_loss_fraction=float(r.metrics["contact_loss_fraction"][0]),
+                max_root_strain=float(np.max(r.root_strain[GAUGE])), wall_s_per_cycle=r.wall_s_per_cycle,
+                wall_s=time.perf_counter() - t0, steps_per_cycle=r.steps_per_cycle,
+                hac=dict(dte_rms_m=float(ss.metrics["dte_rms_m"][0]), peak_force_N=float(ss.metrics["peak_force_N"][0])))
+
+
+def convergence(args) -> None:
+    from hacgear_core.dynamics.inputs import load_inputs
+
+    inp = load_inputs(str(MODEL))
+    rows = []
+    for n in [int(v) for v in args.modes.split(",")]:
+        row = _run(inp.system, inp.model, args.fm, n, steps=args.steps, cycles=args.cycles, rtol=args.rtol)
+        rows.append(row)
+        print(json.dumps({k: row[k] for k in ("n_modes", "highest_mode_Hz", "dte_rms_m", "peak_force_N",
+                                              "max_root_strain", "cycles", "success", "wall_s_per_cycle")}),
+              flush=True)
+        _json_update(Path(args.out) / "validity_map.json", "convergence",
+                     dict(model="spur_28t_asym", torque_Nm=300.0, mesh_frequency_Hz=args.fm, rows=rows,
+                          command="python examples/validity_map.py " + " ".join(args.argv)))
+
+
+def modes(args) -> None:
+    """Body-mode facts of the 28-tooth gear: mass and inertia against the geometry, frequencies, participation."""
+    from hacgear_core.dynamics.direct_elastic import elastic_mesh
+    from hacgear_core.geometry import gear_geometry
+    from hacgear_core.model import load_model
+
+    model = load_model(str(MODEL))
+    em = elastic_mesh(model, "m12", damping_ratio=0.02)
+    bm = em.modes[0]
+    b = em.solver.face_width_m
+    gg = gear_geometry(model.gears[0])
+    fc = em.solver.compliance[0]
+    share = {}
+    for n in (1, 3, 5, 11, bm.n_modes):
+        P = bm.flank_normal[:n, 0]
+        share[n] = float(np.max(np.sum(P ** 2 / bm.omega_rad_s[:n, None] ** 2, axis=0) / np.diag(fc.far_field_m2_N[0])))
+    row = dict(n_dofs=bm.info["n_dofs"], n_modes=bm.n_modes, frequency_Hz=bm.frequency_Hz.tolist(),
+               mass_kg=bm.mass_kg_per_m * b, geometry_mass_kg=gg.mass_kg, inertia_kgm2=bm.inertia_kgm2_per_m * b,
+               geometry_inertia_kgm2=gg.inertia_kgm2,
+               rotation_participation_share=float(np.sum(bm.rotation_participation ** 2) / bm.inertia_kgm2_per_m),
+               first_mode_rotation_share=float(bm.rotation_participation[0] ** 2 / bm.inertia_kgm2_per_m),
+               modal_share_of_tooth0_far_field_diagonal=share,
+               command="python examples/validity_map.py " + " ".join(args.argv))
+    print(json.dumps(row, indent=1, default=float))
+    _json_update(Path(args.out) / "validity_map.json", "modes_28t", row)
+
+
+def _variant_text(name: str) -> str:
+    text = MODEL.read_text(encoding="utf-8")
+    m = re.fullmatch(r"bore(\d+)", name)
+    w = re.fullmatch(r"web(\d+)_(\d+)_(\d+)", name)
+    if m:
+        text = text.replace("bore_diameter_mm = 40.0", f"bore_diameter_mm = {float(m.group(1))}")
+    elif w:
+        t, di, do = (float(v) for v in w.groups())
+        web = (f"  [gears.web]\n  thickness_mm = {t}\n  inner_diameter_mm = {di}\n  outer_diameter_mm = {do}\n"
+               "  [gears.support]")
+        text = text.replace("  [gears.support]", web)
+    else:
+        raise SystemExit(f"unknown variant {name!r} (boreNN or webT_DI_DO, mm)")
+    return text.replace('name = "spur_28t_asym"', f'name = "vm_{name}"', 1)
+
+
+def _cli(argv):
+    from hacgear_core.cli import main
+
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        rc = main(argv)
+    if rc != 0:
+        raise SystemExit(f"hacgear {' '.join(argv)} failed ({rc})")
+
+
+def map_(args) -> None:
+    from hacgear_core.dynamics.direct_elastic import elastic_mesh
+    from hacgear_core.dynamics.inputs import load_inputs
+
+    out = Path(args.out)
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for name in args.variants.split(","):
+            folder = Path(tmp) / name
+            folder.mkdir()
+            path = folder / "model.toml"
+            path.write_text(_variant_text(name), encoding="utf-8")
+            _cli(["statics", str(path), "--positions", "32", "--loads", "16", "--deflections", "32",
+                  "--no-progress", "--json"])
+            inp = load_inputs(str(path))
+            f_n = float(inp.system.natural_frequencies_Hz()[0])
+            em = elastic_mesh(inp.model, "m12", damping_ratio=inp.system.modal_damping_ratio)
+            bm = em.modes[0]
+            f1 = float(bm.frequency_Hz[0])
+            for fac in [float(v) for v in args.speeds.split(",")]:
+                fm = fac * f_n
+                n_keep = bm.count_below(args.mode_factor * max(fm, f_n))
+                l2 = _run(inp.system, inp.model, fm, n_keep, steps=args.steps, cycles=args.cycles, rtol=args.rtol)
+                # the quasi-static run takes level 2's step: only the body modes differ
+                l1 = _run(inp.system, inp.model, fm, 0, steps=l2["steps_per_cycle"], cycles=args.cycles,
+                          rtol=args.rtol)
+                err = {k: (l1[k] - l2[k]) / l2[k] for k in ("dte_rms_m", "peak_force_N", "max_root_strain")}
+                row = dict(variant=name, first_body_mode_Hz=f1, lumped_resonance_Hz=f_n, mesh_frequency_Hz=fm,
+                           fm_over_f1=fm / f1, fn_over_f1=f_n / f1, n_modes=n_keep, level1=l1, level2=l2,
+                           quasi_static_error=err, mass_kg=bm.mass_kg_per_m * em.solver.face_width_m)
+                rows.append(row)
+                print(json.dumps(dict(variant=name, f1=f1, fn=f_n, fm=fm, n=n_keep, err=err,
+                                      cyc=(l1["cycles"], l2["cycles"]), ok=(l1["success"], l2["success"]))),
+                      flush=True)
+                _json_update(out / "validity_map.json", "map",
+                             dict(rows=rows, torque_Nm=300.0, level1="level 2 with no body modes (same solver, RK4 "
+                                  "and step): the quasi-static assumption alone",
+                                  command="python examples/validity_map.py " + " ".join(args.argv)))
+    figure(out)
+
+
+def figure(out: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    data = json.loads((out / "validity_map.json").read_text())
+    rows = data.get("map", {}).get("rows", [])
+    if not rows:
+        return
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4), constrained_layout=True)
+    marks = {}
+    for r in rows:
+        mk = marks.setdefault(r["variant"], "osd^vx<>"[len(marks) % 8])
+        for ax, key in zip(axes, ("dte_rms_m", "peak_force_N", "max_root_strain")):
+            ax.plot(r["fm_over_f1"], 100 * abs(r["quasi_static_error"][key]), mk, ms=8,
+                    label=f"{r['variant']} (f1 {r['first_body_mode_Hz']:.0f} Hz)")
+    for ax, title in zip(axes, ("RMS DTE", "peak mesh force", "max root strain (pinion SG25)")):
+        ax.axhline(5.0, color="r", lw=0.8, ls="--")
+        ax.set_xlabel("mesh frequency / first body mode frequency")
+        ax.set_ylabel("|quasi-static - level 2| / level 2 [%]")
+        ax.set_title(title)
+        ax.grid(alpha=0.3)
+    h, lab = axes[0].get_legend_handles_labels()
+    uniq = dict(zip(lab, h))
+    axes[0].legend(uniq.values(), uniq.keys(), fontsize=7)
+    (out / "figures").mkdir(parents=True, exist_ok=True)
+    fig.savefig(out / "figures" / "validity_map.png", dpi=110)
+
+
+def main(argv=None) -> int:
+    import sys
+
+    argv = sys.argv[1:] if argv is None else argv
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("study", choices=("modes", "convergence", "map", "figure"))
+    ap.add_argument("--fm", type=float, default=2786.0, help="convergence: mesh frequency [Hz]")
+    ap.add_argument("--modes", default="0,1,3,5,11,37", help="convergence: modes per gear (complete sets)")
+    ap.add_argument("--variants", default="bore40,bore90,web5_60_110")
+    ap.add_argument("--speeds", default="0.5,1.0", help="map: mesh frequencies as multiples of the lumped resonance")
+    ap.add_argument("--mode-factor", type=float, default=4.0,
+                    help="map: keep the body modes up to this multiple of max(f_m, f_n)")
+    ap.add_argument("--steps", type=int, default=64,
+                    help="fewest RK4 steps per mesh cycle (level 2 takes more when its highest frequency needs it)")
+    ap.add_argument("--cycles", type=int, default=6, help="most mesh cycles before the recorded one")
+    ap.add_argument("--rtol", type=float, default=2e-3, help="Poincaré change per cycle that ends a run")
+    ap.add_argument("--out", default=str(ROOT / "docs"))
+    args = ap.parse_args(argv)
+    args.argv = argv
+    {"modes": modes, "convergence": convergence, "map": map_,
+     "figure": lambda a: figure(Path(a.out))}[args.study](args)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

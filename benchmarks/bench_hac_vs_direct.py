@@ -75,6 +75,7 @@ def main() -> None:
         model = load_model(mp)
         system = build_system(model, load_system_tables(mp))
         fn = float(system.natural_frequencies_Hz()[0])
+        table_grid = list(system.table_arrays[0].ftab.shape)  # (positions, deflections) of the committed table
         drive, coast = level1_mesh_forces(model, system)
         print(f"\n{pair}: f_n = {fn:.1f} Hz (linearised), gauge {loaded_gauge(system)}, solver: "
               f"{drive[0].solver.description}", flush=True)
@@ -82,6 +83,7 @@ def main() -> None:
             t0 = time.perf_counter()
             c = compare_at_speed(model, system, r * fn, drive=drive, coast=coast, options=opts)
             row = dict(pair=pair, label=label, fm_over_fn=r, mesh_frequency_Hz=c.mesh_frequency_Hz, gauge=c.gauge,
+                       table_grid=table_grid,
                        steps_per_cycle=c.steps_per_cycle, hac=c.hac, level1=c.level1, errors=c.errors,
                        speed_ratio=c.speed_ratio, success=c.success, message=c.message,
                        wall_s=time.perf_counter() - t0)

@@ -6,8 +6,11 @@
 draws, per spur pair, the steady state over one mesh cycle at each speed (dynamic transmission error, mesh force,
 and the root strain of one tooth through its pass, like dissertation Figs. 3.7-3.8) and the grid-resolution study::
 
-    python examples/hac_vs_direct.py /tmp/hac18/final.json /tmp/hac18/final.npz \\
-        --extra-json /tmp/hac18/grid_256x128.json --out docs/figures
+    python examples/hac_vs_direct.py /tmp/hac18/main256.json /tmp/hac18/main256.npz \\
+        --extra-json /tmp/hac18/final.json /tmp/hac18/grid_256x128.json --out docs/figures
+
+(``main256``: the comparison on the committed tables; ``final``: the grid study, whose comparison rows ran on the
+former 64 x 64 tables and are drawn as that grid's points.)
 """
 from __future__ import annotations
 
@@ -76,7 +79,12 @@ def main() -> None:
         plt.close(fig)
     grid = list(data.get("grid", []))
     for extra in args.extra_json:
-        grid += json.loads(Path(extra).read_text()).get("grid", [])
+        more = json.loads(Path(extra).read_text())
+        grid += more.get("grid", [])
+        # an earlier comparison run's rows are grid points at the tables it ran on (64 x 64 before they were recorded)
+        grid += [dict(pair=x["pair"], fm_over_fn=x["fm_over_fn"], errors=x["errors"],
+                      positions=x.get("table_grid", (64, 64))[0], deflections=x.get("table_grid", (64, 64))[1])
+                 for x in more.get("rows", [])]
     if grid:
         fig, axes = plt.subplots(2, len(pairs), figsize=(6.2 * len(pairs), 7.5), squeeze=False)
         for j, pair in enumerate(pairs):
@@ -84,7 +92,7 @@ def main() -> None:
                 ref = [x for x in data["rows"] if x["pair"] == pair and x["fm_over_fn"] == r]
                 if not ref:
                     continue
-                pts = {(64, 64): ref[0]["errors"]}
+                pts = {tuple(ref[0].get("table_grid", (64, 64))): ref[0]["errors"]}
                 pts.update({(g["positions"], g["deflections"]): g["errors"] for g in grid
                             if g["pair"] == pair and g["fm_over_fn"] == r})
                 for fam, style in (("N x N", "o-"), ("N x 64", "s--")):

@@ -182,28 +182,29 @@ def superharmonic50():
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="issue #18 miss, docs/hac_vs_direct.md: the committed 64 x 64 tables give "
-                   "RMS DTE -3.20 % against level 1 at the 1/2 super-harmonic resonance (position interpolation of the "
-                   "second mesh harmonic); 256 positions meet 1 %")
-def test_committed_tables_meet_1_percent_at_the_superharmonic(superharmonic50):
+def test_committed_tables_meet_the_criteria_at_the_superharmonic(superharmonic50):
+    """The committed tables (256 positions x 64 deflections, the grid study's choice) are within 1 % of level 1 in
+    RMS DTE and 2 % in peak root strain at the 1/2 super-harmonic resonance, the speed that decides the grid."""
     _, _, _, c = superharmonic50
     assert c.success, c.message
     assert abs(c.errors["dte_rms_m"]) < 0.01
+    assert abs(c.errors["max_root_strain"]) < 0.02
 
 
 @pytest.mark.slow
-def test_256_positions_meet_the_criteria_at_the_superharmonic(superharmonic50, tmp_path):
-    """The grid study's choice: HAC on 256 positions x 64 deflections (drive side, generated here with the statics
-    grid) is within 1 % of level 1 in RMS DTE and 2 % in peak root strain at the 1/2 super-harmonic resonance."""
+def test_64_positions_miss_1_percent_at_the_superharmonic(superharmonic50, tmp_path):
+    """Why the committed grid has 256 positions: on 64 positions x 64 deflections (drive side, generated here with
+    the statics grid) the position interpolation misses the second mesh harmonic that drives the 1/2 super-harmonic
+    resonance, and RMS DTE is off by more than 1 % (grid study: -3.2 %)."""
     from hacgear_core.dynamics.direct_compare import hac_at_speed
     from hacgear_core.statics.grid import compute_statics
     from hacgear_core.tables import read_tables
     model, _, fm, c = superharmonic50
     mp = MODELS / "spur_50t_icr137" / "model.toml"
-    out = tmp_path / "t256.h5"
-    rep = compute_statics(mp, out, positions=256, deflections=64, sides=("drive",), workers=1, progress=False)
+    out = tmp_path / "t64.h5"
+    rep = compute_statics(mp, out, positions=64, deflections=64, sides=("drive",), workers=1, progress=False)
     assert rep.success, rep.message
     system = build_system(model, read_tables(out, mp))
     _, h, _ = hac_at_speed(system, fm, c.gauge)
-    assert abs(h["dte_rms_m"] / c.level1["dte_rms_m"] - 1) < 0.01
-    assert abs(h["max_root_strain"] / c.level1["max_root_strain"] - 1) < 0.02
+    assert abs(h["dte_rms_m"] / c.level1["dte_rms_m"] - 1) > 0.01
+    assert abs(c.errors["dte_rms_m"]) < 0.5 * abs(h["dte_rms_m"] / c.level1["dte_rms_m"] - 1)

@@ -173,7 +173,7 @@ def _free_vibration_peaks(system: LumpedSystem, tau: float, periods: int = 400, 
     sy.integrate(s, kin, nsteps, dt, fext, rec_every=1, rec_state=rs, rec_out=ro)
     if not np.all(np.isfinite(rs)):
         raise SolverError("impulse test diverged")
-    rf = kernels.record_fields(ro, m)
+    rf = kernels.record_fields(ro, m, sy.twisted)
     loaded, x = ((rf["coast_force_N"], rf["coast_approach_m"]) if sy.torque_Nm < 0
                  else (rf["mesh_force_N"], rf["mesh_deflection_m"]))
     if np.any(loaded <= 0):

@@ -270,7 +270,7 @@ class Simulator:
             raise SolverError("integration diverged (state not finite)")
         self.time_s = t0 + nrec * record_dt_s
         self._update_outputs()
-        out = kernels.record_fields(ro, sy.m)
+        out = kernels.record_fields(ro, sy.m, sy.twisted)
         out["time_s"] = t0 + out["time_s"]
         out["contact_state"] = kernels.contact_state(out["mesh_force_N"], out["coast_force_N"])
         out["state"] = rs
@@ -305,15 +305,23 @@ class Simulator:
         q = self.s[:sy.n]
         tau = self.kin[0] + sy.phase + sy.W @ q
         x = sy.V @ q
-        xc = sy.Vc @ q
         rec = np.zeros(kernels.record_width(sy.m))
         fields = kernels.record_fields(rec, sy.m)
         fields["mesh_position"][:] = self.kin[1] + tau
         fields["mesh_deflection_m"][:] = x
-        fields["mesh_force_N"][:] = sy.mesh_forces(tau, x)
         fields["dynamic_transmission_error_m"][:] = sy.V_rot @ q
-        fields["coast_approach_m"][:] = xc
-        fields["coast_force_N"][:] = sy.coast_forces(tau, xc)
+        if sy.twisted:
+            # the kernel's record layout: twist and twist moment in the coast columns
+            g = sy.T @ q
+            wm = np.array([sy.mesh_generalized(k, tau[k], x[k], g[k]) for k in range(sy.m)]).reshape(sy.m, 2)
+            fields["mesh_force_N"][:] = wm[:, 0]
+            fields["coast_approach_m"][:] = g
+            fields["coast_force_N"][:] = wm[:, 1]
+        else:
+            xc = sy.Vc @ q
+            fields["mesh_force_N"][:] = sy.mesh_forces(tau, x)
+            fields["coast_approach_m"][:] = xc
+            fields["coast_force_N"][:] = sy.coast_forces(tau, xc)
         self._set_outputs(self.s.tolist(), self.kin.tolist(), rec.tolist())
 
     def _set_outputs(self, st: list, kt: list, rec: list) -> None:
@@ -329,6 +337,11 @@ class Simulator:
         self.dynamic_transmission_error_m = rec[kernels.REC_DTE:R * m:R]
         self.coast_approach_m = rec[kernels.REC_COAST_APPROACH:R * m:R]
         self.coast_force_N = rec[kernels.REC_COAST_FORCE:R * m:R]
+        #: helical meshes: mesh twist [rad] and twist moment [N m] per mesh (empty for other systems)
+        self.mesh_twist_rad, self.twist_moment_Nm = [], []
+        if sy.twisted:
+            self.mesh_twist_rad, self.twist_moment_Nm = self.coast_approach_m, self.coast_force_N
+            self.coast_approach_m, self.coast_force_N = [0.0] * m, [0.0] * m
         self.in_contact = [f > 0.0 for f in self.mesh_force_N]
         self.coast_contact = [f > 0.0 for f in self.coast_force_N]
         #: per mesh: +1 drive flanks in contact, -1 coast flanks, 0 teeth apart (in the backlash)

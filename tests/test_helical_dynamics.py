@@ -155,3 +155,42 @@ def test_helical_builder_rejects_a_table_without_twist_axis(helical, table):
         helical_from_model(helical, {"m12": replace(table, twist=None)})
     with pytest.raises(ModelError, match="HAC"):
         helical_from_model(helical, {"m12": table}, force_law="ste")
+
+
+def test_twist_resolved_sdf_at_zero_twist_is_the_tables_sdf(table):
+    """sdf_twist at gamma = 0 (a grid point) is the zero-twist strain-deflection function; between two twist
+    slices it is linear in the twist."""
+    ph = np.linspace(-2.0, 2.9, 41)
+    x = np.full(ph.size, 28e-6)
+    for gauge in ("wheel/SG1", "wheel/SG3"):
+        np.testing.assert_allclose(table.sdf_twist(gauge, ph, x, 0.0), table.sdf(gauge, ph, x), rtol=1e-6,
+                                   atol=1e-12)
+        g = np.asarray(table.twist.twist_rad)
+        a, b = table.sdf_twist(gauge, ph, x, g[5]), table.sdf_twist(gauge, ph, x, g[6])
+        np.testing.assert_allclose(table.sdf_twist(gauge, ph, x, 0.25 * g[5] + 0.75 * g[6]), 0.25 * a + 0.75 * b,
+                                   rtol=1e-9, atol=1e-15)
+
+
+def test_dynamic_strains_at_the_five_face_gauges(system):
+    """Fig. 5.12 (200 N*m, 1200 Hz, 33-tooth gear, gauges SG1-SG5 across the face at the root circle): the five
+    dynamic strains differ from each other, and over one revolution of the tooth they are positive before the
+    tooth engages (the preceding tooth loads the blank), largest while it is loaded, negative after it leaves
+    the mesh (the following tooth loads the blank)."""
+    from hacgear_core.dynamics.simulator import strain_of_tooth
+    sim = Simulator(system)
+    sim.set_speed_input(mesh_frequency_Hz=1200.0)
+    sim.set_torque_set_point(200.0)
+    sim.advance(60 / 1200.0)
+    out = sim.run(40 / 1200.0, 1 / 1200.0 / 32)
+    tau, x, g = out["mesh_position"], out["mesh_deflection_m"], out["mesh_twist_rad"]
+    ph = ((tau[:, 0] + 16.5) % 33) - 16.5                      # pair phase of the wheel's tooth 0
+    eps = np.array([strain_of_tooth(system, f"wheel/SG{i}", tau, x, None, g) for i in range(1, 6)])
+    peak = eps.max()
+    assert np.max(eps.max(axis=0) - eps.min(axis=0)) > 0.01 * peak   # they differ (measured: 3.3 % of the peak)
+    for e in eps:
+        before = e[(ph > -1.75) & (ph < -1.0)]
+        during = e[(ph > -0.5) & (ph < 0.0)]
+        after = e[(ph > 0.6) & (ph < 1.25)]
+        assert before.size and during.size and after.size
+        assert np.all(before > 0) and np.all(after < 0)
+        assert during.mean() > 3 * before.mean() and during.max() > 0.8 * peak

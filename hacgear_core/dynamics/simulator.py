@@ -45,7 +45,7 @@ def _pair_phase(tau: np.ndarray, passage: int, z: int) -> np.ndarray:
 
 
 def strain_of_tooth(system: LumpedSystem, gauge: str, tau: np.ndarray, x: np.ndarray,
-                    xc: np.ndarray | None = None) -> np.ndarray:
+                    xc: np.ndarray | None = None, twist: np.ndarray | None = None) -> np.ndarray:
     """Root strain [-] at ``gauge`` (``"<gear>/<gauge>"``) on tooth 0 of its gear along a trajectory: the sum over
     every mesh of that gear of its strain-deflection functions at the tooth's pair phase — the drive side's at
     the mesh deflection and, where the table has one, the coast side's at the coast approach (its pair
@@ -53,7 +53,9 @@ def strain_of_tooth(system: LumpedSystem, gauge: str, tau: np.ndarray, x: np.nda
     mesh and on the other by the next; any tooth is loaded on its other flank across the backlash.
 
     ``tau``, ``x``, ``xc``: (nr, m) unwrapped mesh positions [cycles], deflections [m] and coast approaches [m] of
-    all meshes (``xc`` None: the drive sides only).
+    all meshes (``xc`` None: the drive sides only).  ``twist`` (nr, m) [rad]: mesh twists of helical meshes, whose
+    strains are then read at (pair phase, deflection, twist) (:meth:`~hacgear_core.tables.MeshTable.sdf_twist`;
+    None: at zero twist).
     """
     gear, _, gname = gauge.partition("/")
     if gear not in system.gears:
@@ -73,6 +75,11 @@ def strain_of_tooth(system: LumpedSystem, gauge: str, tau: np.ndarray, x: np.nda
             continue
         found = True
         phase = _pair_phase(tau[:, k], c.tooth_passage.get(gear, 0), z)
+        tw = getattr(c.table, "twist", None)
+        if c.t is not None and tw is not None and key in tw.strain:
+            g = np.zeros(tau.shape[0]) if twist is None else np.atleast_2d(np.asarray(twist, float))[:, k]
+            total = total + c.table.sdf_twist(key, phase, x[:, k], g)
+            continue
         total = total + c.table.sdf(key, phase, x[:, k])
         coast = c.coast_table
         if coast is not None and xc is not None and key in (getattr(coast, "strain", None) or {}):
@@ -405,7 +412,8 @@ class Simulator:
     def strain(self, gauge: str) -> float:
         """Root strain [-] now at ``gauge`` ("<gear>/<gauge>") on tooth 0 of its gear (:func:`strain_of_tooth`)."""
         return float(strain_of_tooth(self.system, gauge, [self.mesh_position], [self.mesh_deflection_m],
-                                     [self.coast_approach_m])[0])
+                                     [self.coast_approach_m],
+                                     [self.mesh_twist_rad] if self.system.twisted else None)[0])
 
     def peak_pressure_Pa(self, mesh: int = 0) -> float:
         """Maximum contact pressure over all teeth of mesh ``mesh`` now [Pa] (table lookup), on the flanks in

@@ -397,6 +397,18 @@ class Simulator:
             out = np.array([ca * out[0] - sa * out[1], sa * out[0] + ca * out[1]])
         return out
 
+    def support_reaction(self, dof: str) -> float:
+        """Load the support spring of DOF ``dof`` (a name of ``system.dof_names``, e.g. ``"wheel.z"``,
+        ``"wheel.theta_x"``) takes now: ``(K q)[dof]`` [N or N m] in the fixed frame (the force or moment the gear
+        puts on its bearing along that DOF; 0 for an unsupported DOF).  The 12-DOF helical pairs' axial forces and
+        tilting moments."""
+        sy = self.system
+        try:
+            i = sy.dof_names.index(dof)
+        except ValueError:
+            raise ModelError(f"no DOF {dof!r} in {sy.name}; DOFs: {sy.dof_names}") from None
+        return float(sy.K[i] @ self.s[:sy.n])
+
     def load_share(self, mesh: int) -> float:
         """Load-sharing factor of mesh ``mesh`` now [-]: its force over the mean force of its group (the meshes that
         share the load, e.g. the sun meshes of all planets); 1 for a mesh without a group, NaN when the group

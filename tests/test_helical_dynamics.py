@@ -196,14 +196,13 @@ def test_dynamic_strains_at_the_five_face_gauges(system):
         assert during.mean() > 3 * before.mean() and during.max() > 0.8 * peak
 
 
-@pytest.mark.slow
 def test_sweep_at_200_Nm_section_5_5(system):
     """Section 5.5, 200 N*m, up and down sweeps 1000-3000 Hz in 20 Hz steps: every speed a period-1 steady state,
     no confirmed jumps and up/down within 5 % (the dissertation finds no jumps or softening); several resonances,
     among them a primary one within 10 % of 2600 Hz (the 2529 Hz mode) and super-harmonic ones at half a natural
     frequency (2131 Hz / 2 = 1066 Hz); 1200 Hz is off resonance (its RMS deflection below half the largest).
     Measured (400-4000 Hz, `hacgear sweep helical_28_33 --fm 400:4000:181`): up/down within 0.011 %, peaks at
-    1060, 1260, 1760, 2120, 2520, 2720, 3540 Hz."""
+    1060, 1260, 1760, 2120, 2520, 2720, 3540 Hz.  (202 steady states, about 5 s.)"""
     from hacgear_core.dynamics.sweep import SweepSpec, run_sweep
     fm = np.arange(1000.0, 3000.0 + 1e-9, 20.0)
     res = run_sweep(SweepSpec(system, tuple(fm), "both"), progress=False)

@@ -80,10 +80,15 @@ def modal_analysis(system: LumpedSystem) -> ModalResult:
     order = np.argsort(omega[el])
     w = omega[el][order]
     shapes = phi[:, el][:, order].copy()
-    # rotations as arc length on the base circle so that components are comparable
+    # rotations as arc length on the base circle so that components are comparable (the tilting rotations of
+    # 12-DOF gears, DOFs "<gear>.theta_x" / "<gear>.theta_y", likewise)
     for g in system.gears.values():
         if g.rotation >= 0:
             shapes[g.rotation] *= g.radius_m
+        for a in ("theta_x", "theta_y"):
+            name = f"{g.name}.{a}"
+            if name in system.dof_names:
+                shapes[system.dof_names.index(name)] *= g.radius_m
     for c in range(shapes.shape[1]):
         col = shapes[:, c]
         k = int(np.argmax(np.abs(col)))

@@ -31,6 +31,11 @@ Force laws (one per kernel variant, so the dispatch folds away at compile time):
 ``LAW_LINEAR`` (1)
     conventional mesh-stiffness law ``F = max(0, k(tau) (x - e(tau)) + f0(tau))`` with ``[k, e, f0]`` per
     mesh on its position grid, linear and periodic in position (dissertation Eqs. 3.6-3.8).
+``LAW_TWIST`` (2)
+    helical meshes (one-sided): the generalized FDF over (position, deflection x_k = v_k . q, twist
+    g_k = t_k . q), mesh force W and twist moment M from one trilinear lookup
+    (:func:`hacgear_core.tables.interp.trilinear_flat`), generalized force ``W v_k + M t_k``; the twist vector
+    ``t_k`` and M ride in the coast slots (``vc_k``, ``Fc_k`` above), which such meshes do not use otherwise.
 The coast side is always its table.
 
 Tables travel flattened: row ``r`` (drive tables of meshes 0..m-1, then their coast tables m..2m-1) is

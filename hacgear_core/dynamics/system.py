@@ -329,16 +329,16 @@ class LumpedSystem:
         if self.torque_Nm < 0:
             kmax = np.array([max(kb, float(np.max(np.diff(ca.ftab, axis=1))) * ca.inv_dx)
                              for kb, ca in zip(kbar, self.coast_arrays)])
-        kstiff = self.K + (vl.T * kmax) @ vl
+        kstiff = self.K.copy()
         if self.twisted:
-            # stiffest twist slope of each table (any cell) on the twist vector
+            # stiffest slopes of each generalized table (any cell, any twist): dW/dx on v, dM/dgamma on t
             for k, c in enumerate(self.meshes):
                 tw = c.table.twist
                 kmax[k] = max(kmax[k], float(np.max(np.diff(tw.generalized_fdf[..., 0], axis=1)))
                               * self.table_arrays[k].inv_dx)
                 kgg = float(np.max(np.abs(np.diff(tw.generalized_fdf[..., 1], axis=2)))) / tw.dg
-                kstiff = kstiff + kgg * np.outer(self.T[k], self.T[k])
-            kstiff = kstiff + (vl.T * kmax) @ vl
+                kstiff += kgg * np.outer(self.T[k], self.T[k])
+        kstiff += (vl.T * kmax) @ vl
         w2max, _ = _sym_eig(kstiff, self.M)
         self.max_frequency_Hz = float(np.sqrt(max(w2max.max(), 0.0)) / (2 * math.pi))
         self.minv = np.ascontiguousarray(np.linalg.inv(self.M))

@@ -81,6 +81,11 @@ def test_kernel_settles_to_the_static_equilibrium_of_the_generalized_law(system)
     assert abs(eq.twist_rad[0]) > 1e-8 and abs(eq.twist_moment_Nm[0]) > 0.01
     res = sy.fext_speed() - sy.K @ eq.q - sy.V[0] * eq.mesh_forces_N[0] - sy.T[0] * eq.twist_moment_Nm[0]
     assert np.max(np.abs(res)) < 1e-6 * sy.nominal_forces_N()[0]
+    # the axial bearings carry the axial component of the mesh force, W sin(beta_b), equal and opposite
+    beta_b = abs(sy.meshes[0].table.twist.base_helix_angle_rad)
+    fz = (sy.K @ eq.q)[[2, 8]]
+    np.testing.assert_allclose(np.abs(fz), eq.mesh_forces_N[0] * math.sin(beta_b), rtol=1e-6)
+    assert fz[0] == pytest.approx(-fz[1], rel=1e-9)
 
 
 def test_constant_speed_run_carries_the_nominal_force(system):

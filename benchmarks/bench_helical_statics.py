@@ -1,7 +1,7 @@
 """Benchmark: wall time of the full default statics grid of `helical_28_33` on 2 cores (issue #15).
 
 Judged figure: `hacgear statics helical_28_33` with the model's default grid (64 positions x 32 loads x 64
-deflections x 5 mesh twists, 11 face slices, elastic face coupling: 2D + 3D face influence) in a fresh Python
+deflections x 9 mesh twists, 11 face slices, elastic face coupling: 2D + 3D face influence) in a fresh Python
 process with 2 worker processes.  Target: <= 600 s.  By default the on-disk FE caches (2D compliances, 3D face
 influences: computed once per gear) are kept warm, as after any first use; ``--cold`` empties them first and the
 one-time finite-element builds are included.  Prints the time and the ratio time / target (<= 1 passes).

@@ -288,7 +288,7 @@ def test_committed_tables_double_contact_widens_with_deflection():
     from hacgear_core.tables import load_system_tables
 
     t = load_system_tables("helical_28_33").mesh("m12")
-    assert t.twist is not None and t.twist.twist_rad.size == 5
+    assert t.twist is not None and t.twist.twist_rad.size == 9   # [statics] twist_points
     tl = t.tooth_load_N                                             # zero-twist slice (Np, Nd, Nw)
     frac = []
     for j in range(t.n_deflections):

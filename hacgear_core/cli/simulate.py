@@ -113,6 +113,9 @@ def run(args: argparse.Namespace) -> int:
             tr[f"{m}.coast_approach_m"] = xc[:, k]
             tr[f"{m}.coast_force_N"] = fc[:, k]
             tr[f"{m}.contact_state"] = raw["contact_state"][:, k]
+        if c.t is not None:  # helical mesh: the mesh twist and the twist moment (Fig. 5.11)
+            tr[f"{m}.twist_rad"] = raw["mesh_twist_rad"][:, k]
+            tr[f"{m}.twist_moment_Nm"] = raw["twist_moment_Nm"][:, k]
         if moving:
             tr[f"{m}.dynamic_transmission_error_m"] = raw["dynamic_transmission_error_m"][:, k]
         tr[f"{m}.dynamic_mesh_stiffness_N_per_m"] = dynamic_mesh_stiffness(c.table, tau[:, k], x[:, k])
@@ -122,7 +125,7 @@ def run(args: argparse.Namespace) -> int:
         tr[f"{m}.peak_pressure_Pa"] = pressure
     gauges = system_gauges(sy)
     for g in gauges:
-        tr[f"strain[{g}]"] = strain_of_tooth(sy, g, tau, x, xc)
+        tr[f"strain[{g}]"] = strain_of_tooth(sy, g, tau, x, xc, raw.get("mesh_twist_rad"))
     per_mesh = {}
     coast_loaded = sy.torque_Nm < 0 and drive is None  # the operating torque loads the coast flanks
     for k, c in enumerate(sy.meshes):
@@ -138,6 +141,10 @@ def run(args: argparse.Namespace) -> int:
             "steps_beyond_tables": sim.out_of_range_steps[k],
             "table_deflection_range_m": [float(c.table.deflection_m[0]), float(c.table.deflection_m[-1])],
         }
+        if c.t is not None:
+            gk = raw["mesh_twist_rad"][:, k]
+            per_mesh[c.name].update(mean_twist_rad=float(gk.mean()), rms_twist_rad=float(np.sqrt(np.mean(
+                (gk - gk.mean()) ** 2))), mean_twist_moment_Nm=float(raw["twist_moment_Nm"][:, k].mean()))
     summary = {
         "model": inp.label, "synthetic_table": inp.synthetic, "torque_Nm": sy.torque_Nm,
         "force_law": args.force_law, "mesh_frequency_Hz": [fm0, fm1], "cycles": args.cycles,

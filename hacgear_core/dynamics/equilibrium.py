@@ -25,7 +25,8 @@ __all__ = ["EquilibriumResult", "static_equilibrium", "static_state", "LoadShari
 @dataclass(frozen=True)
 class EquilibriumResult:
     """``q`` (n,) static deviations; ``mesh_forces_N``, ``mesh_deflections_m`` (m,) of the drive flanks,
-    ``coast_forces_N``, ``coast_approach_m`` (m,) of the coast flanks; solver outcome."""
+    ``coast_forces_N``, ``coast_approach_m`` (m,) of the coast flanks; helical meshes: ``twist_rad`` and
+    ``twist_moment_Nm`` (m,) (None for other systems); solver outcome."""
 
     q: np.ndarray
     mesh_forces_N: np.ndarray
@@ -35,6 +36,8 @@ class EquilibriumResult:
     iterations: int
     coast_forces_N: np.ndarray | None = None
     coast_approach_m: np.ndarray | None = None
+    twist_rad: np.ndarray | None = None
+    twist_moment_Nm: np.ndarray | None = None
 
 
 def _positions(system: LumpedSystem, tau_ref: float, q: np.ndarray) -> np.ndarray:
@@ -65,8 +68,16 @@ def static_equilibrium(system: LumpedSystem, tau_ref: float = 0.0, fext: np.ndar
     coast_loaded = two and _presses_coast(system, fe)
     vl = system.Vc if coast_loaded else system.V
 
+    tw = system.twisted
+
     def residual(q):
         tau = _positions(system, tau_ref, q)
+        if tw:
+            # helical meshes: the generalized force W v + M t (twist gamma = t . q), one-sided
+            x, g = system.V @ q, system.T @ q
+            wm = np.array([system.mesh_generalized(k, tau[k], x[k], g[k]) for k in range(m)]).reshape(m, 2)
+            r = fe - keff @ q - system.V.T @ wm[:, 0] - system.T.T @ wm[:, 1]
+            return r, tau, (x, g), (wm[:, 0], wm[:, 1])
         x = system.V @ q
         f = np.array([float(system.mesh_force(k, tau[k], x[k])) for k in range(m)])
         r = fe - keff @ q - system.V.T @ f
@@ -79,6 +90,19 @@ def static_equilibrium(system: LumpedSystem, tau_ref: float = 0.0, fext: np.ndar
 
     def tangent(tau, xx, kbar_floor):
         x, xc = xx
+        if tw:
+            # central differences of the generalized law (2 x 2 per mesh) on [v t]
+            a = keff.copy()
+            for k in range(m):
+                hx, hg = 1e-9, 1e-7
+                d = [system.mesh_generalized(k, tau[k], x[k] + e[0], xc[k] + e[1])
+                     for e in ((hx, 0.0), (-hx, 0.0), (0.0, hg), (0.0, -hg))]
+                jac = np.array([[(d[0][0] - d[1][0]) / (2 * hx), (d[2][0] - d[3][0]) / (2 * hg)],
+                                [(d[0][1] - d[1][1]) / (2 * hx), (d[2][1] - d[3][1]) / (2 * hg)]])
+                jac[0, 0] = max(jac[0, 0], kbar_floor[k])
+                b = np.vstack([system.V[k], system.T[k]])
+                a += b.T @ jac @ b
+            return a
         ks = np.array([float(system.mesh_slope(k, tau[k], x[k])) for k in range(m)])
         a = keff + (system.V.T * np.maximum(ks, 0.0 if coast_loaded else kbar_floor)) @ system.V
         if two:
@@ -130,6 +154,11 @@ def static_equilibrium(system: LumpedSystem, tau_ref: float = 0.0, fext: np.ndar
     if not ok:
         raise SolverError(f"{system.name}: no static equilibrium at mesh position {tau_ref:g} (residual "
                           f"{norm:.3g} N after {it} Newton steps); is the load beyond the tables?")
+    if tw:
+        return EquilibriumResult(q=q, mesh_forces_N=f[0], mesh_deflections_m=x[0], success=True,
+                                 message=f"converged in {it} Newton steps", iterations=it,
+                                 coast_forces_N=np.zeros(m), coast_approach_m=np.zeros(m), twist_rad=x[1],
+                                 twist_moment_Nm=f[1])
     return EquilibriumResult(q=q, mesh_forces_N=f[0], mesh_deflections_m=x[0], success=True,
                              message=f"converged in {it} Newton steps", iterations=it, coast_forces_N=f[1],
                              coast_approach_m=x[1])

@@ -31,6 +31,11 @@ Force laws (one per kernel variant, so the dispatch folds away at compile time):
 ``LAW_LINEAR`` (1)
     conventional mesh-stiffness law ``F = max(0, k(tau) (x - e(tau)) + f0(tau))`` with ``[k, e, f0]`` per
     mesh on its position grid, linear and periodic in position (dissertation Eqs. 3.6-3.8).
+``LAW_TWIST`` (2)
+    helical meshes (one-sided): the generalized FDF over (position, deflection x_k = v_k . q, twist
+    g_k = t_k . q), mesh force W and twist moment M from one trilinear lookup
+    (:func:`hacgear_core.tables.interp.trilinear_flat`), generalized force ``W v_k + M t_k``; the twist vector
+    ``t_k`` and M ride in the coast slots (``vc_k``, ``Fc_k`` above), which such meshes do not use otherwise.
 The coast side is always its table.
 
 Tables travel flattened: row ``r`` (drive tables of meshes 0..m-1, then their coast tables m..2m-1) is
@@ -56,11 +61,12 @@ import math
 import numpy as np
 from numba import njit
 
-from hacgear_core.tables.interp import periodic_cell, deflection_cell
+from hacgear_core.tables.interp import periodic_cell, deflection_cell, trilinear_flat
 
 __all__ = [
     "LAW_TABLE",
     "LAW_LINEAR",
+    "LAW_TWIST",
     "REC",
     "REC_POSITION",
     "REC_DEFLECTION",
@@ -71,6 +77,8 @@ __all__ = [
     "MODE_SPEED",
     "MODE_TORQUE",
     "mesh_force",
+    "twist_force",
+    "flatten_twist_tables",
     "table_row_force",
     "select_kernel",
     "flatten_tables",
@@ -83,10 +91,12 @@ __all__ = [
 
 LAW_TABLE = 0
 LAW_LINEAR = 1
+LAW_TWIST = 2
 MODE_SPEED = 0
 MODE_TORQUE = 1
 VARIANT_SPARSE = 2
 VARIANT_TWO_SIDED = 4
+VARIANT_TWIST = 8
 REC = 6
 REC_POSITION = 0
 REC_DEFLECTION = 1
@@ -143,6 +153,25 @@ def mesh_force(law, k, tab, tint, tflt, lin, lint, tau, x):
     if law == LAW_TABLE:
         return _table_force(tab, tint[k, 0], tint[k, 1], tint[k, 2], tflt[k, 0], tflt[k, 1], tau, x)
     return _linear_force(lin, lint[k, 0], lint[k, 1], tau, x)
+
+
+@njit(cache=True, inline="always", fastmath=_FM)
+def twist_force(k, m, tab, tint, tflt, tau, x, g):
+    """Mesh force W [N] and twist moment M [N m] of helical mesh ``k`` (of ``m``) at mesh position ``tau``
+    [cycles], deflection ``x`` [m] and twist ``g`` [rad]: the trilinear rule of :mod:`hacgear_core.tables.interp`
+    on its generalized FDF (row ``k``: ``(offset, Np, Nd)``, ``(x0, 1/dx, ., .)``; row ``m + k``: ``(offset, Nt,
+    2)``, ``(g0, 1/dg, ., .)``).  Teeth apart (W <= 0): both 0 (teeth cannot pull, an open mesh carries no
+    moment)."""
+    npos = tint[k, 1]
+    nd = tint[k, 2]
+    nt = tint[m + k, 1]
+    i, i1, a = periodic_cell(npos, tau)
+    j, b = deflection_cell(nd, tflt[k, 0], tflt[k, 1], x)
+    mm, t = deflection_cell(nt, tflt[m + k, 0], tflt[m + k, 1], g)
+    w = trilinear_flat(tab, tint[k, 0], nd, nt, 2, 0, i, i1, a, j, b, mm, t)
+    if w <= 0.0:
+        return 0.0, 0.0
+    return w, trilinear_flat(tab, tint[k, 0], nd, nt, 2, 1, i, i1, a, j, b, mm, t)
 
 
 @njit(cache=True, inline="always", fastmath=_FM)
@@ -217,6 +246,9 @@ def _integrate_impl(n, m, variant, s, kin, n_steps, h, mode, fext, rec_every, re
     law = variant & 1
     sparse = (variant & 2) != 0
     two_sided = (variant & 4) != 0
+    # bit 3: helical meshes (law LAW_TWIST): the coast slots carry the mesh twist (vc = the twist vectors t_k,
+    # Fc = the twist moments M_k, in every step), the drive slots the mesh force W of the same trilinear lookup
+    twist = (variant & 8) != 0
     # RK4 of q'' = a(q, q', F).  The force-free acceleration is linear in (q, q'), so every stage's is the
     # first stage's g0 plus products with the earlier stages' accelerations a1..a3 (hh = h/2):
     #   a2 = g0 + hh p - hh C a1                  - F2 M^-1 v - Fc2 M^-1 vc      (p = -K q')
@@ -328,12 +360,13 @@ def _integrate_impl(n, m, variant, s, kin, n_steps, h, mode, fext, rec_every, re
             wk[o_xd + k] = _dot(n, sparse, nz, k, vf, 0, s, n)
             wk[o_wq + k] = _dot(n, sparse, nz, k, vf, o_w, s, 0)
             wk[o_wd + k] = _dot(n, sparse, nz, k, vf, o_w, s, n)
-            if two_sided:
+            if two_sided or twist:
                 wk[o_cq + k] = _dot(n, sparse, nz, k, vf, o_vc, s, 0)
                 wk[o_cd + k] = _dot(n, sparse, nz, k, vf, o_vc, s, n)
         if count:
             for k in range(m):
-                if wk[o_xq + k] > tflt[k, 3] or (two_sided and wk[o_cq + k] > tflt[m + k, 3]):
+                if wk[o_xq + k] > tflt[k, 3] or (two_sided and wk[o_cq + k] > tflt[m + k, 3]) or (
+                        twist and (wk[o_cq + k] < tflt[m + k, 2] or wk[o_cq + k] > tflt[m + k, 3])):
                     kin[3 + k] += 1.0
         # Coast terms only in steps where the coast flanks may touch: stages 1 and 2 are checked from the
         # step-start scalars; a step staged without them is checked again with its stage accelerations (vc . a1,
@@ -341,7 +374,7 @@ def _integrate_impl(n, m, variant, s, kin, n_steps, h, mode, fext, rec_every, re
         # of its table's onset (far above the rounding of the two ways of forming it), so skipping is exact.  Under
         # load the coast flanks stay apart and a two-sided step costs four dot products per mesh more than a
         # one-sided one (measured: 1.02-1.03x per mesh cycle, against 1.3x with the coast terms in every step).
-        coast_on = False
+        coast_on = twist
         if two_sided:
             for k in range(m):
                 lim = tflt[m + k, 2] - 1e-12
@@ -352,6 +385,11 @@ def _integrate_impl(n, m, variant, s, kin, n_steps, h, mode, fext, rec_every, re
             for k in range(m):
                 t1 = tau_ref + phase[k] + wk[o_wq + k]
                 t2 = tau_ref + 0.5 * dtau + phase[k] + wk[o_wq + k] + hh * wk[o_wd + k]
+                if twist:
+                    wk[o_f1 + k], wk[o_c1 + k] = twist_force(k, m, tab, tint, tflt, t1, wk[o_xq + k], wk[o_cq + k])
+                    wk[o_f2 + k], wk[o_c2 + k] = twist_force(k, m, tab, tint, tflt, t2, wk[o_xq + k] + hh * wk[o_xd + k],
+                                                             wk[o_cq + k] + hh * wk[o_cd + k])
+                    continue
                 wk[o_f1 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t1, wk[o_xq + k])
                 wk[o_f2 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t2, wk[o_xq + k] + hh * wk[o_xd + k])
                 if coast_on:
@@ -407,6 +445,14 @@ def _integrate_impl(n, m, variant, s, kin, n_steps, h, mode, fext, rec_every, re
                         e2 -= mf[o_cv + k * m + j] * wk[o_f2 + j] + mf[o_cvc + k * m + j] * wk[o_c2 + j]
                 t3 = tau_ref + 0.5 * dtau + phase[k] + wk[o_wq + k] + hh * (wk[o_wd + k] + hh * b)
                 t4 = tau_ref + dtau + phase[k] + wk[o_wq + k] + h * (wk[o_wd + k] + hh * d)
+                if twist:
+                    wk[o_f3 + k], wk[o_c3 + k] = twist_force(k, m, tab, tint, tflt, t3,
+                                                             wk[o_xq + k] + hh * (wk[o_xd + k] + hh * a),
+                                                             wk[o_cq + k] + hh * (wk[o_cd + k] + hh * e1))
+                    wk[o_f4 + k], wk[o_c4 + k] = twist_force(k, m, tab, tint, tflt, t4,
+                                                             wk[o_xq + k] + h * (wk[o_xd + k] + hh * c),
+                                                             wk[o_cq + k] + h * (wk[o_cd + k] + hh * e2))
+                    continue
                 wk[o_f3 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t3,
                                           wk[o_xq + k] + hh * (wk[o_xd + k] + hh * a))
                 wk[o_f4 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t4,
@@ -480,11 +526,16 @@ def _integrate_impl(n, m, variant, s, kin, n_steps, h, mode, fext, rec_every, re
                     xc += vf[o_vc + k * n + j] * s[j]
                 rec_out[nrec, REC * k + REC_POSITION] = kin[1] + t
                 rec_out[nrec, REC * k + REC_DEFLECTION] = x
-                rec_out[nrec, REC * k + REC_FORCE] = mesh_force(law, k, tab, tint, tflt, lin, lint, t, x)
                 rec_out[nrec, REC * k + REC_DTE] = d
                 rec_out[nrec, REC * k + REC_COAST_APPROACH] = xc
-                rec_out[nrec, REC * k + REC_COAST_FORCE] = (table_row_force(tab, tint, tflt, m + k, t, xc)
-                                                            if two_sided else 0.0)
+                if twist:
+                    wt, mt = twist_force(k, m, tab, tint, tflt, t, x, xc)
+                    rec_out[nrec, REC * k + REC_FORCE] = wt
+                    rec_out[nrec, REC * k + REC_COAST_FORCE] = mt
+                else:
+                    rec_out[nrec, REC * k + REC_FORCE] = mesh_force(law, k, tab, tint, tflt, lin, lint, t, x)
+                    rec_out[nrec, REC * k + REC_COAST_FORCE] = (table_row_force(tab, tint, tflt, m + k, t, xc)
+                                                                if two_sided else 0.0)
             rec_out[nrec, REC * m] = (step + 1) * h
             nrec += 1
     return nrec
@@ -570,6 +621,22 @@ def _linear_s2(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, ma
                            scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz)
 
 
+@njit(cache=True, fastmath=_FM)
+def _twist_12_1(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal,
+                iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
+    return _integrate_impl(12, 1, LAW_TABLE | VARIANT_TWIST, s, kin, n_steps, h, mode, fext, rec_every, rec_state,
+                           rec_out, mats, vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff,
+                           kidx, kval, nz)
+
+
+@njit(cache=True, fastmath=_FM)
+def _twist_s(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref,
+             tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
+    return _integrate_impl(s.shape[0] // 2, phase.shape[0], LAW_TABLE | VARIANT_SPARSE | VARIANT_TWIST, s, kin,
+                           n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal,
+                           iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz)
+
+
 _SPECIAL = {(LAW_TABLE, 2, 1, False): _table_2_1_s1, (LAW_TABLE, 4, 1, False): _table_4_1_s1,
             (LAW_TABLE, 3, 2, False): _table_3_2_s1, (LAW_TABLE, 2, 1, True): _table_2_1_s2,
             (LAW_TABLE, 4, 1, True): _table_4_1_s2, (LAW_TABLE, 3, 2, True): _table_3_2_s2}
@@ -598,8 +665,14 @@ def select_kernel(law: int, n: int, m: int, two_sided: bool = False):
         nz (m, 1 + w) int64: per mesh the count then the indices of the DOFs where its v, w, vc, M^-1 v or
             M^-1 vc is nonzero (the generic loop runs its mesh products over them; the specialised loops are dense)
 
-    and it returns the number of records written (module docstring).
+    and it returns the number of records written (module docstring).  ``law = LAW_TWIST`` (helical meshes, one-sided):
+    ``vecs[4]``, ``vecs[5]`` and the coast entries of ``mmat`` hold the twist vectors t_k and M^-1 t_k, the table
+    rows are those of :func:`flatten_twist_tables`.
     """
+    if law == LAW_TWIST:
+        if two_sided:
+            raise ValueError("helical meshes (LAW_TWIST) are one-sided: their tables have no coast side")
+        return _twist_12_1 if (n, m) == (12, 1) else _twist_s
     two_sided = bool(two_sided)
     return _SPECIAL.get((law, n, m, two_sided), _GENERIC[(law, two_sided)])
 
@@ -609,15 +682,24 @@ def record_width(m: int) -> int:
     return REC * m + 1
 
 
-def record_fields(rec_out: np.ndarray, m: int) -> dict[str, np.ndarray]:
+def record_fields(rec_out: np.ndarray, m: int, twist: bool = False) -> dict[str, np.ndarray]:
     """Named views of kernel records ``rec_out`` (..., REC m + 1): per mesh (..., m) ``mesh_position``
     (unwrapped) [cycles], ``mesh_deflection_m``, ``mesh_force_N`` (drive flanks), ``dynamic_transmission_error_m``,
-    ``coast_approach_m``, ``coast_force_N`` (coast flanks); ``time_s`` (...) since the call started."""
+    ``coast_approach_m``, ``coast_force_N`` (coast flanks); ``time_s`` (...) since the call started.  ``twist``
+    (records of the ``LAW_TWIST`` loop, helical meshes): ``mesh_twist_rad`` and ``twist_moment_Nm`` are the coast
+    columns, and ``coast_approach_m``, ``coast_force_N`` zeros (the helical meshes are one-sided)."""
     w = REC * m
-    return {"mesh_position": rec_out[..., REC_POSITION:w:REC], "mesh_deflection_m": rec_out[..., REC_DEFLECTION:w:REC],
-            "mesh_force_N": rec_out[..., REC_FORCE:w:REC], "dynamic_transmission_error_m": rec_out[..., REC_DTE:w:REC],
-            "coast_approach_m": rec_out[..., REC_COAST_APPROACH:w:REC],
-            "coast_force_N": rec_out[..., REC_COAST_FORCE:w:REC], "time_s": rec_out[..., w]}
+    out = {"mesh_position": rec_out[..., REC_POSITION:w:REC], "mesh_deflection_m": rec_out[..., REC_DEFLECTION:w:REC],
+           "mesh_force_N": rec_out[..., REC_FORCE:w:REC],
+           "dynamic_transmission_error_m": rec_out[..., REC_DTE:w:REC],
+           "coast_approach_m": rec_out[..., REC_COAST_APPROACH:w:REC],
+           "coast_force_N": rec_out[..., REC_COAST_FORCE:w:REC], "time_s": rec_out[..., w]}
+    if twist:
+        out["mesh_twist_rad"] = out["coast_approach_m"]
+        out["twist_moment_Nm"] = out["coast_force_N"]
+        out["coast_approach_m"] = np.zeros_like(out["mesh_twist_rad"])
+        out["coast_force_N"] = np.zeros_like(out["mesh_twist_rad"])
+    return out
 
 
 def contact_state(mesh_force_N, coast_force_N) -> np.ndarray:
@@ -672,3 +754,28 @@ def flatten_linear(lins) -> tuple[np.ndarray, np.ndarray]:
         o += a.size
     cat = np.concatenate(parts) if parts else np.zeros(0)
     return np.ascontiguousarray(cat), np.array(lint, np.int64).reshape(-1, 2)
+
+
+def flatten_twist_tables(tables) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Flatten the generalized FDFs of ``m`` helical meshes for the kernel's ``LAW_TWIST`` loop: from a sequence of
+    ``(gfdf (Np, Nd, Nt, 2) [W N, M N m], x0 [m], inv_dx [1/m], g0 [rad], inv_dg [1/rad])`` → ``(tab, tint,
+    tflt)`` with rows k: ``(offset, Np, Nd)``, ``(x0, 1/dx, x_on, x_max)`` (x_on: the onset of W over every twist)
+    and rows m + k: ``(offset, Nt, 2)``, ``(g0, 1/dg, g_min, g_max)`` (beyond the twist grid the state is
+    counted as out of range)."""
+    parts, rows_d, rows_t, fl_d, fl_t = [], [], [], [], []
+    o = 0
+    for g, a0, idx, g0, idg in tables:
+        g = np.ascontiguousarray(g, dtype=np.float64)
+        if g.ndim != 4 or g.shape[3] != 2 or g.shape[2] < 2:
+            raise ValueError(f"generalized FDF must be (Np, Nd, Nt >= 2, 2), got {g.shape}")
+        npos, nd, nt, _ = g.shape
+        w = np.moveaxis(g[..., 0], 2, 1).reshape(npos * nt, nd)
+        parts.append(g.ravel())
+        rows_d.append((o, npos, nd))
+        rows_t.append((o, nt, 2))
+        fl_d.append((a0, idx, table_onset(w, a0, 1.0 / idx), a0 + (nd - 1) / idx))
+        fl_t.append((g0, idg, g0, g0 + (nt - 1) / idg))
+        o += g.size
+    cat = np.concatenate(parts) if parts else np.zeros(0)
+    return (np.ascontiguousarray(cat), np.array(rows_d + rows_t, np.int64).reshape(-1, 3),
+            np.array(fl_d + fl_t, float).reshape(-1, 4))

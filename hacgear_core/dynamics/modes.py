@@ -80,10 +80,15 @@ def modal_analysis(system: LumpedSystem) -> ModalResult:
     order = np.argsort(omega[el])
     w = omega[el][order]
     shapes = phi[:, el][:, order].copy()
-    # rotations as arc length on the base circle so that components are comparable
+    # rotations as arc length on the base circle so that components are comparable (the tilting rotations of
+    # 12-DOF gears, DOFs "<gear>.theta_x" / "<gear>.theta_y", likewise)
     for g in system.gears.values():
         if g.rotation >= 0:
             shapes[g.rotation] *= g.radius_m
+        for a in ("theta_x", "theta_y"):
+            name = f"{g.name}.{a}"
+            if name in system.dof_names:
+                shapes[system.dof_names.index(name)] *= g.radius_m
     for c in range(shapes.shape[1]):
         col = shapes[:, c]
         k = int(np.argmax(np.abs(col)))
@@ -173,7 +178,7 @@ def _free_vibration_peaks(system: LumpedSystem, tau: float, periods: int = 400, 
     sy.integrate(s, kin, nsteps, dt, fext, rec_every=1, rec_state=rs, rec_out=ro)
     if not np.all(np.isfinite(rs)):
         raise SolverError("impulse test diverged")
-    rf = kernels.record_fields(ro, m)
+    rf = kernels.record_fields(ro, m, sy.twisted)
     loaded, x = ((rf["coast_force_N"], rf["coast_approach_m"]) if sy.torque_Nm < 0
                  else (rf["mesh_force_N"], rf["mesh_deflection_m"]))
     if np.any(loaded <= 0):

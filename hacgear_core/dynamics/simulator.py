@@ -45,7 +45,7 @@ def _pair_phase(tau: np.ndarray, passage: int, z: int) -> np.ndarray:
 
 
 def strain_of_tooth(system: LumpedSystem, gauge: str, tau: np.ndarray, x: np.ndarray,
-                    xc: np.ndarray | None = None) -> np.ndarray:
+                    xc: np.ndarray | None = None, twist: np.ndarray | None = None) -> np.ndarray:
     """Root strain [-] at ``gauge`` (``"<gear>/<gauge>"``) on tooth 0 of its gear along a trajectory: the sum over
     every mesh of that gear of its strain-deflection functions at the tooth's pair phase — the drive side's at
     the mesh deflection and, where the table has one, the coast side's at the coast approach (its pair
@@ -53,7 +53,9 @@ def strain_of_tooth(system: LumpedSystem, gauge: str, tau: np.ndarray, x: np.nda
     mesh and on the other by the next; any tooth is loaded on its other flank across the backlash.
 
     ``tau``, ``x``, ``xc``: (nr, m) unwrapped mesh positions [cycles], deflections [m] and coast approaches [m] of
-    all meshes (``xc`` None: the drive sides only).
+    all meshes (``xc`` None: the drive sides only).  ``twist`` (nr, m) [rad]: mesh twists of helical meshes, whose
+    strains are then read at (pair phase, deflection, twist) (:meth:`~hacgear_core.tables.MeshTable.sdf_twist`;
+    None: at zero twist).
     """
     gear, _, gname = gauge.partition("/")
     if gear not in system.gears:
@@ -73,6 +75,11 @@ def strain_of_tooth(system: LumpedSystem, gauge: str, tau: np.ndarray, x: np.nda
             continue
         found = True
         phase = _pair_phase(tau[:, k], c.tooth_passage.get(gear, 0), z)
+        tw = getattr(c.table, "twist", None)
+        if c.t is not None and tw is not None and key in tw.strain:
+            g = np.zeros(tau.shape[0]) if twist is None else np.atleast_2d(np.asarray(twist, float))[:, k]
+            total = total + c.table.sdf_twist(key, phase, x[:, k], g)
+            continue
         total = total + c.table.sdf(key, phase, x[:, k])
         coast = c.coast_table
         if coast is not None and xc is not None and key in (getattr(coast, "strain", None) or {}):
@@ -270,7 +277,7 @@ class Simulator:
             raise SolverError("integration diverged (state not finite)")
         self.time_s = t0 + nrec * record_dt_s
         self._update_outputs()
-        out = kernels.record_fields(ro, sy.m)
+        out = kernels.record_fields(ro, sy.m, sy.twisted)
         out["time_s"] = t0 + out["time_s"]
         out["contact_state"] = kernels.contact_state(out["mesh_force_N"], out["coast_force_N"])
         out["state"] = rs
@@ -305,15 +312,23 @@ class Simulator:
         q = self.s[:sy.n]
         tau = self.kin[0] + sy.phase + sy.W @ q
         x = sy.V @ q
-        xc = sy.Vc @ q
         rec = np.zeros(kernels.record_width(sy.m))
         fields = kernels.record_fields(rec, sy.m)
         fields["mesh_position"][:] = self.kin[1] + tau
         fields["mesh_deflection_m"][:] = x
-        fields["mesh_force_N"][:] = sy.mesh_forces(tau, x)
         fields["dynamic_transmission_error_m"][:] = sy.V_rot @ q
-        fields["coast_approach_m"][:] = xc
-        fields["coast_force_N"][:] = sy.coast_forces(tau, xc)
+        if sy.twisted:
+            # the kernel's record layout: twist and twist moment in the coast columns
+            g = sy.T @ q
+            wm = np.array([sy.mesh_generalized(k, tau[k], x[k], g[k]) for k in range(sy.m)]).reshape(sy.m, 2)
+            fields["mesh_force_N"][:] = wm[:, 0]
+            fields["coast_approach_m"][:] = g
+            fields["coast_force_N"][:] = wm[:, 1]
+        else:
+            xc = sy.Vc @ q
+            fields["mesh_force_N"][:] = sy.mesh_forces(tau, x)
+            fields["coast_approach_m"][:] = xc
+            fields["coast_force_N"][:] = sy.coast_forces(tau, xc)
         self._set_outputs(self.s.tolist(), self.kin.tolist(), rec.tolist())
 
     def _set_outputs(self, st: list, kt: list, rec: list) -> None:
@@ -329,6 +344,11 @@ class Simulator:
         self.dynamic_transmission_error_m = rec[kernels.REC_DTE:R * m:R]
         self.coast_approach_m = rec[kernels.REC_COAST_APPROACH:R * m:R]
         self.coast_force_N = rec[kernels.REC_COAST_FORCE:R * m:R]
+        #: helical meshes: mesh twist [rad] and twist moment [N m] per mesh (empty for other systems)
+        self.mesh_twist_rad, self.twist_moment_Nm = [], []
+        if sy.twisted:
+            self.mesh_twist_rad, self.twist_moment_Nm = self.coast_approach_m, self.coast_force_N
+            self.coast_approach_m, self.coast_force_N = [0.0] * m, [0.0] * m
         self.in_contact = [f > 0.0 for f in self.mesh_force_N]
         self.coast_contact = [f > 0.0 for f in self.coast_force_N]
         #: per mesh: +1 drive flanks in contact, -1 coast flanks, 0 teeth apart (in the backlash)
@@ -377,6 +397,18 @@ class Simulator:
             out = np.array([ca * out[0] - sa * out[1], sa * out[0] + ca * out[1]])
         return out
 
+    def support_reaction(self, dof: str) -> float:
+        """Load the support spring of DOF ``dof`` (a name of ``system.dof_names``, e.g. ``"wheel.z"``,
+        ``"wheel.theta_x"``) takes now: ``(K q)[dof]`` [N or N m] in the fixed frame (the force or moment the gear
+        puts on its bearing along that DOF; 0 for an unsupported DOF).  The 12-DOF helical pairs' axial forces and
+        tilting moments."""
+        sy = self.system
+        try:
+            i = sy.dof_names.index(dof)
+        except ValueError:
+            raise ModelError(f"no DOF {dof!r} in {sy.name}; DOFs: {sy.dof_names}") from None
+        return float(sy.K[i] @ self.s[:sy.n])
+
     def load_share(self, mesh: int) -> float:
         """Load-sharing factor of mesh ``mesh`` now [-]: its force over the mean force of its group (the meshes that
         share the load, e.g. the sun meshes of all planets); 1 for a mesh without a group, NaN when the group
@@ -392,7 +424,8 @@ class Simulator:
     def strain(self, gauge: str) -> float:
         """Root strain [-] now at ``gauge`` ("<gear>/<gauge>") on tooth 0 of its gear (:func:`strain_of_tooth`)."""
         return float(strain_of_tooth(self.system, gauge, [self.mesh_position], [self.mesh_deflection_m],
-                                     [self.coast_approach_m])[0])
+                                     [self.coast_approach_m],
+                                     [self.mesh_twist_rad] if self.system.twisted else None)[0])
 
     def peak_pressure_Pa(self, mesh: int = 0) -> float:
         """Maximum contact pressure over all teeth of mesh ``mesh`` now [Pa] (table lookup), on the flanks in

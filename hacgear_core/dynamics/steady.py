@@ -267,7 +267,7 @@ def steady_state(system: LumpedSystem, mesh_frequency_Hz: float, state0: np.ndar
     ro = np.zeros((nrec, kernels.record_width(mm)))
     kin[:] = (0.0, 0.0, omega)
     system.integrate(s, kin, nrec, h, fext, rec_every=1, rec_state=rs, rec_out=ro)
-    rf = kernels.record_fields(ro, mm)
+    rf = kernels.record_fields(ro, mm, system.twisted)
     tau, x, f, dte = rf["mesh_position"], rf["mesh_deflection_m"], rf["mesh_force_N"], rf["dynamic_transmission_error_m"]
     metrics = trace_metrics(system, x, f, dte, tau=tau, static_forces_N=fs, fc=rf["coast_force_N"],
                             cycles=nrec_cyc, coast_static_forces_N=fsc, xc=rf["coast_approach_m"])

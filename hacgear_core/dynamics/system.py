@@ -36,7 +36,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from hacgear_core.dynamics import kernels
-from hacgear_core.tables.fdf import TableArrays, static_stiffness, table_arrays
+from hacgear_core.tables.fdf import TableArrays, generalized_stiffness, static_stiffness, table_arrays
 from hacgear_core.dynamics.force_laws import FORCE_LAWS, ForceLaw, make_force_law
 from hacgear_core.errors import ModelError
 from hacgear_core.tables.interp import bilinear_many, slope_many
@@ -85,7 +85,12 @@ class MeshCoupling:
     mesh is one-sided), ``nominal_coast_force_N`` the static coast force when the nominal torque is reversed,
     ``backlash_m`` the normal backlash along the coast line of action (the approach at which the coast flanks of
     ideal teeth touch; beyond it a mesh without a coast table has its teeth passing through each other).  The coast
-    table is ``table.coast`` (None: drive-only table)."""
+    table is ``table.coast`` (None: drive-only table).
+
+    Helical meshes (a table with a twist axis, docs/helical.md): ``t`` (n,) the twist vector (``gamma = t . q``
+    [rad], the table's ``r_twist`` over the system's DOFs); ``v`` is then the table's ``r_mesh`` and the mesh
+    puts the generalized force ``W v + M t`` on the DOFs (W mesh force [N], M twist moment [N m] from one trilinear
+    lookup); such meshes are one-sided (the helical tables have no coast side)."""
 
     name: str
     gear_a: str
@@ -105,6 +110,7 @@ class MeshCoupling:
     v_c: np.ndarray | None = None
     nominal_coast_force_N: float = 0.0
     backlash_m: float = math.inf
+    t: np.ndarray | None = None
 
     @property
     def coast_table(self):
@@ -250,6 +256,20 @@ class LumpedSystem:
         self.laws: tuple[ForceLaw, ...] = tuple(make_force_law(c.table, force_law, c.nominal_force_N)
                                                  for c in self.meshes)
         self.law = self.laws[0].law
+        #: helical meshes: the force law is the generalized FDF over (position, deflection, twist)
+        self.twisted = any(c.t is not None for c in self.meshes)
+        if self.twisted:
+            bad = [c.name for c in self.meshes if c.t is None or getattr(c.table, "twist", None) is None]
+            if bad:
+                raise ModelError(f"{name}: meshes {bad} lack a twist vector or a table with a twist axis (a system "
+                                 "with helical meshes needs both on every mesh)")
+            if force_law != "hac":
+                raise ModelError(f"{name}: helical meshes take the HAC generalized force law only, got {force_law!r}")
+            if self.torque_Nm < 0:
+                raise ModelError(f"{name}: helical meshes are one-sided (no coast tables): torque_Nm must be > 0")
+            self.law = kernels.LAW_TWIST
+        self.T = np.ascontiguousarray(np.array([np.zeros(n) if c.t is None else c.t for c in self.meshes],
+                                               dtype=float))
         self.coast_arrays: tuple[TableArrays | None, ...] = tuple(
             None if c.coast_table is None else table_arrays(c.coast_table) for c in self.meshes)
         for c in self.meshes:
@@ -278,6 +298,19 @@ class LumpedSystem:
             vl = self.Vc
         self.mesh_stiffness_N_per_m = kbar
         self.k_lin = self.K + (vl.T * kbar) @ vl
+        if self.twisted:
+            # the generalized law linearised at zero twist (cycle means; coupling symmetrised: the table's two
+            # couplings agree within 1 %, a potential): K + [v t] [[k_xx, k_xg], [k_gx, k_gg]] [v t]^T
+            gs = [generalized_stiffness(c.table, c.nominal_force_N).means() for c in self.meshes]
+            #: per mesh (m, 2, 2): [[dW/dx, dW/dgamma], [dM/dx, dM/dgamma]] cycle means [N/m, N/rad, N m/m, N m/rad]
+            self.generalized_stiffness = np.array([[[g["k_xx_N_per_m"], g["k_xg_N_per_rad"]],
+                                                    [g["k_gx_Nm_per_m"], g["k_gg_Nm_per_rad"]]] for g in gs])
+            self.mesh_stiffness_N_per_m = kbar = self.generalized_stiffness[:, 0, 0].copy()
+            self.k_lin = self.K.copy()
+            for k in range(self.m):
+                b = np.vstack([self.V[k], self.T[k]])
+                kg = self.generalized_stiffness[k]
+                self.k_lin += b.T @ (0.5 * (kg + kg.T)) @ b
         w2, phi = _sym_eig(self.k_lin, self.M)
         w2 = np.clip(w2, 0.0, None)
         omega = np.sqrt(w2)
@@ -296,21 +329,38 @@ class LumpedSystem:
         if self.torque_Nm < 0:
             kmax = np.array([max(kb, float(np.max(np.diff(ca.ftab, axis=1))) * ca.inv_dx)
                              for kb, ca in zip(kbar, self.coast_arrays)])
-        w2max, _ = _sym_eig(self.K + (vl.T * kmax) @ vl, self.M)
+        kstiff = self.K.copy()
+        if self.twisted:
+            # stiffest slopes of each generalized table (any cell, any twist): dW/dx on v, dM/dgamma on t
+            for k, c in enumerate(self.meshes):
+                tw = c.table.twist
+                kmax[k] = max(kmax[k], float(np.max(np.diff(tw.generalized_fdf[..., 0], axis=1)))
+                              * self.table_arrays[k].inv_dx)
+                kgg = float(np.max(np.abs(np.diff(tw.generalized_fdf[..., 1], axis=2)))) / tw.dg
+                kstiff += kgg * np.outer(self.T[k], self.T[k])
+        kstiff += (vl.T * kmax) @ vl
+        w2max, _ = _sym_eig(kstiff, self.M)
         self.max_frequency_Hz = float(np.sqrt(max(w2max.max(), 0.0)) / (2 * math.pi))
         self.minv = np.ascontiguousarray(np.linalg.inv(self.M))
         self.kernel = kernels.select_kernel(self.law, n, self.m, self.two_sided)
         mk, mkw = self.minv @ self.K, self.minv @ self.K_W
         off = np.argwhere(((mk != 0) | (mkw != 0)) & ~np.eye(n, dtype=bool)).reshape(-1, 2)
         kidx = np.ascontiguousarray(np.vstack([np.repeat(np.arange(n), 2).reshape(n, 2), off]).astype(np.int64))
-        tab, tint, tflt = kernels.flatten_tables(
-            [(ta.ftab, ta.x0, ta.inv_dx) for ta in self.table_arrays]
-            + [(None, c.backlash_m) if ca is None else (ca.ftab, ca.x0, ca.inv_dx)
-               for c, ca in zip(self.meshes, self.coast_arrays)])
+        if self.twisted:
+            tab, tint, tflt = kernels.flatten_twist_tables(
+                [(c.table.twist.generalized_fdf, ta.x0, ta.inv_dx, float(c.table.twist.twist_rad[0]),
+                  1.0 / c.table.twist.dg) for c, ta in zip(self.meshes, self.table_arrays)])
+        else:
+            tab, tint, tflt = kernels.flatten_tables(
+                [(ta.ftab, ta.x0, ta.inv_dx) for ta in self.table_arrays]
+                + [(None, c.backlash_m) if ca is None else (ca.ftab, ca.x0, ca.inv_dx)
+                   for c, ca in zip(self.meshes, self.coast_arrays)])
         lin, lint = kernels.flatten_linear([lw.lin for lw in self.laws])
+        # the kernel's second vector per mesh: the coast line of action, or the twist vector of a helical mesh
+        vc2 = self.T if self.twisted else self.Vc
         vmi = self.V @ self.minv.T
-        vci = self.Vc @ self.minv.T
-        pattern = (self.V != 0) | (self.W != 0) | (vmi != 0) | (self.Vc != 0) | (vci != 0)
+        vci = vc2 @ self.minv.T
+        pattern = (self.V != 0) | (self.W != 0) | (vmi != 0) | (vc2 != 0) | (vci != 0)
         width = max(1, int(pattern.sum(axis=1).max()))
         nz = np.zeros((self.m, 1 + width), dtype=np.int64)
         for k in range(self.m):
@@ -321,10 +371,10 @@ class LumpedSystem:
             mats=np.ascontiguousarray(np.stack([self.minv, self.minv @ self.C, self.minv @ self.G])),
             kidx=kidx, kval=np.ascontiguousarray(np.stack([mk[kidx[:, 0], kidx[:, 1]], mkw[kidx[:, 0], kidx[:, 1]],
                                                          np.zeros(len(kidx))])),
-            vecs=np.ascontiguousarray(np.stack([self.V, self.W, self.V_rot, vmi, self.Vc, vci])),
+            vecs=np.ascontiguousarray(np.stack([self.V, self.W, self.V_rot, vmi, vc2, vci])),
             mmat=np.ascontiguousarray(np.stack([self.V @ self.minv @ self.V.T, self.W @ self.minv @ self.V.T,
-                                                self.Vc @ self.minv @ self.V.T, self.V @ self.minv @ self.Vc.T,
-                                                self.W @ self.minv @ self.Vc.T, self.Vc @ self.minv @ self.Vc.T])),
+                                                vc2 @ self.minv @ self.V.T, self.V @ self.minv @ vc2.T,
+                                                self.W @ self.minv @ vc2.T, vc2 @ self.minv @ vc2.T])),
             phase=self.phase,
             u=np.zeros(n) if self.rigid_mode is None else self.rigid_mode,
             scal=np.array([self.carrier_ratio, self.sref, self.zref_2pi]), iref=int(self.iref), tab=tab, tint=tint,
@@ -363,6 +413,11 @@ class LumpedSystem:
             h.update(repr(ta.ftab.shape).encode())
             h.update(ta.ftab.tobytes())
             h.update(np.array([ta.x0, ta.dx]).tobytes())
+        if self.twisted:
+            h.update(self.T.tobytes())
+            for c in self.meshes:
+                h.update(np.ascontiguousarray(c.table.twist.generalized_fdf).tobytes())
+                h.update(np.ascontiguousarray(c.table.twist.twist_rad).tobytes())
         if self.two_sided:
             h.update(self.Vc.tobytes())
             for ca in self.coast_arrays:
@@ -470,17 +525,33 @@ class LumpedSystem:
         return f
 
     # ------------------------------------------------------------------ force laws in Python
-    def mesh_forces(self, tau: np.ndarray, x: np.ndarray) -> np.ndarray:
+    def mesh_forces(self, tau: np.ndarray, x: np.ndarray, g: np.ndarray | float = 0.0) -> np.ndarray:
         """Forces [N] of every mesh's force law at mesh positions ``tau`` (..., m) [cycles] and deflections
-        ``x`` (..., m) [m]."""
-        tau, x = np.broadcast_arrays(np.asarray(tau, float), np.asarray(x, float))
+        ``x`` (..., m) [m] (helical meshes: at twists ``g`` (..., m) [rad])."""
+        tau, x, g = np.broadcast_arrays(np.asarray(tau, float), np.asarray(x, float), np.asarray(g, float))
         out = np.empty(tau.shape)
         for k in range(self.m):
-            out[..., k] = self.mesh_force(k, tau[..., k], x[..., k])
+            out[..., k] = self.mesh_force(k, tau[..., k], x[..., k], g[..., k])
         return out
 
-    def mesh_force(self, k: int, tau, x) -> np.ndarray:
-        """Force [N] of mesh ``k``'s force law at ``tau`` [cycles], ``x`` [m] (broadcast arrays)."""
+    def mesh_generalized(self, k: int, tau, x, g) -> np.ndarray:
+        """Helical mesh ``k``: mesh force W [N] and twist moment M [N m] → (..., 2) at ``tau`` [cycles], ``x`` [m],
+        ``g`` [rad] (broadcast arrays), by the kernel's rule (the table's trilinear lookup; both 0 where W <= 0)."""
+        c = self.meshes[k]
+        if c.t is None:
+            raise ModelError(f"{self.name}: mesh '{c.name}' is not a helical mesh (no twist axis)")
+        wm = np.asarray(c.table.twist_quantity(c.table.twist.generalized_fdf, tau, x, g))
+        return np.where((wm[..., :1] > 0), wm, 0.0)
+
+    def mesh_twists(self, q: np.ndarray) -> np.ndarray:
+        """Mesh twists (..., m) [rad] of states ``q`` (..., n) (0 for meshes without a twist axis)."""
+        return np.asarray(q) @ self.T.T
+
+    def mesh_force(self, k: int, tau, x, g=0.0) -> np.ndarray:
+        """Force [N] of mesh ``k``'s force law at ``tau`` [cycles], ``x`` [m] (broadcast arrays); a helical mesh's W
+        at twist ``g`` [rad]."""
+        if self.twisted:
+            return self.mesh_generalized(k, tau, x, g)[..., 0]
         tau, x = np.broadcast_arrays(np.asarray(tau, float), np.asarray(x, float))
         tf, xf = np.ascontiguousarray(tau.ravel()), np.ascontiguousarray(x.ravel())
         lw, ta = self.laws[k], self.table_arrays[k]
@@ -592,3 +663,4 @@ def _linear_law_at(lin: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.nda
     a = t - i
     i1 = (i + 1) % npos
     return tuple(lin[r, i] + a * (lin[r, i1] - lin[r, i]) for r in range(3))
+

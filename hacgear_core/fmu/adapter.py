@@ -190,6 +190,13 @@ class Adapter:
             if e_tot > 0 and e_mesh / e_tot > best:
                 best, fm = e_mesh / e_tot, float(w[j] / (2 * math.pi))
         out["pressure"] = self._static_pressures(sy)
+        if sy.twisted:
+            # the static state at the nominal torque: twist moments and the largest tilting moment
+            from_eq = Simulator(sy)
+            out["twist_moment"] = [abs(float(v)) or None for v in from_eq.twist_moment_Nm]
+            out["twist"] = [abs(float(v)) or None for v in from_eq.mesh_twist_rad]
+            tilt = [abs(from_eq.support_reaction(f"{g}.theta_{a}")) for g in sy.gears for a in "xy"]
+            out["tilting_moment"] = max(tilt) or None
         out["resonance_mesh_frequency_Hz"] = fm
         out["resonance_speed_rad_s"] = sy.reference_speed(fm)
         out["strain"] = {}
@@ -303,6 +310,15 @@ class Adapter:
                       f"1 where ideal coast flanks touch (coast approach over the normal backlash "
                       f"{c.backlash_m * 1e6:.4g} µm)", nominal=1.0),
                 ]
+            if c.t is not None:   # helical mesh (docs/helical.md): twist and twist moment
+                spec += [
+                    V(f"{m_}.twist_moment", "Real", "output", "continuous", "N.m",
+                      f"twist moment M of mesh {mn}: generalized force on the mesh twist (f_d = W r_mesh + M r_twist; "
+                      "table lookup over position, deflection and twist)", nominal=nom.get("twist_moment", [None])[k]),
+                    V(f"{m_}.twist", "Real", "output", "continuous", "rad",
+                      f"mesh twist of mesh {mn}: relative rotation of the gears about the normal to the plane of "
+                      "action (gamma = r_twist . q)", nominal=nom.get("twist", [None])[k]),
+                ]
             if mn in self.shared_meshes:
                 spec.append(V(f"{m_}.load_share", "Real", "output", "continuous", "1",
                               f"load-sharing factor of mesh {mn}: its force over the mean force of the meshes of "
@@ -322,6 +338,18 @@ class Adapter:
                 V(f"{g_}.bearing_force_y", "Real", "output", "continuous", "N",
                   f"force of gear {g} on its bearing, y component (fixed frame)", display_unit="kN", nominal=f_max),
             ]
+            if sy.twisted:   # 12-DOF helical pairs: axial force and tilting moments on the bearing
+                spec += [
+                    V(f"{g_}.bearing_force_z", "Real", "output", "continuous", "N",
+                      f"axial force of gear {g} on its bearing (z along the axes; axial support spring)",
+                      display_unit="kN", nominal=f_max),
+                    V(f"{g_}.bearing_moment_x", "Real", "output", "continuous", "N.m",
+                      f"tilting moment of gear {g} on its bearing about x (line of centres; tilting support spring)",
+                      nominal=nom.get("tilting_moment")),
+                    V(f"{g_}.bearing_moment_y", "Real", "output", "continuous", "N.m",
+                      f"tilting moment of gear {g} on its bearing about y (tilting support spring)",
+                      nominal=nom.get("tilting_moment")),
+                ]
         for gauge in self.gauges:
             gear, _, gname = gauge.partition("/")
             z = sy.gears[gear].teeth if gear in sy.gears else 0
@@ -398,6 +426,9 @@ class Adapter:
             if f"{m_}.coast_force" in self.by_name:
                 out[f"{m_}.coast_force"] = mesh(j, lambda k: a.sim.coast_force_N[k])
                 out[f"{m_}.backlash_position"] = mesh(j, lambda k: a.sim.backlash_position[k])
+            if f"{m_}.twist" in self.by_name:
+                out[f"{m_}.twist_moment"] = mesh(j, lambda k: a.sim.twist_moment_Nm[k])
+                out[f"{m_}.twist"] = mesh(j, lambda k: a.sim.mesh_twist_rad[k])
             if mn in self.shared_meshes:
                 out[f"{m_}.load_share"] = mesh(j, lambda k: a.sim.load_share(k))
         for j, g in enumerate(self.gear_names):
@@ -406,6 +437,11 @@ class Adapter:
             out[f"{g_}.speed"] = gear(j, lambda i: a.sim.speed_rad_s[i])
             out[f"{g_}.bearing_force_x"] = gear(j, lambda i: float(a.sim.bearing_force_N(a.sim.gear_names[i])[0]))
             out[f"{g_}.bearing_force_y"] = gear(j, lambda i: float(a.sim.bearing_force_N(a.sim.gear_names[i])[1]))
+            if f"{g_}.bearing_force_z" in self.by_name:
+                for q, dof in (("bearing_force_z", "z"), ("bearing_moment_x", "theta_x"),
+                               ("bearing_moment_y", "theta_y")):
+                    out[f"{g_}.{q}"] = (lambda d: gear(j, lambda i: a.sim.support_reaction(
+                        f"{a.sim.gear_names[i]}.{d}")))(dof)
         for gauge in self.gauges:
             gear_, _, gname = gauge.partition("/")
             out[f"{ident(gear_)}.{ident(gname or gear_)}.root_strain"] = (

@@ -39,6 +39,7 @@ __all__ = [
     "interp_rows",
     "pair_rows",
     "deflection_at_force",
+    "trilinear_flat",
     "trilinear_vec",
     "trilinear_many",
 ]
@@ -190,11 +191,30 @@ def deflection_at_force(tab, x0, dx, tau, force):
     return math.nan
 
 
+@njit(cache=True, inline="always", fastmath=_FM)
+def trilinear_flat(tab, off, nd, nt, kk, c, i, i1, a, j, b, m, t):
+    """Component ``c`` of the trilinear rule on a C-ordered (Np, Nd, Nt, kk) table stored flat in ``tab`` from
+    ``off``, in the cell ``(i, i1, a)`` (:func:`periodic_cell`), ``(j, b)``, ``(m, t)`` (:func:`deflection_cell`
+    of the deflection and the twist axis).  The one trilinear sum: :func:`trilinear_vec` and the kernels' helical
+    force law call it."""
+    sj = nt * kk
+    si = nd * sj
+    r00 = off + i * si + j * sj + m * kk + c
+    r10 = off + i1 * si + j * sj + m * kk + c
+    v00 = tab[r00] + b * (tab[r00 + sj] - tab[r00])
+    v01 = tab[r00 + kk] + b * (tab[r00 + sj + kk] - tab[r00 + kk])
+    v10 = tab[r10] + b * (tab[r10 + sj] - tab[r10])
+    v11 = tab[r10 + kk] + b * (tab[r10 + sj + kk] - tab[r10 + kk])
+    v0 = v00 + t * (v01 - v00)
+    v1 = v10 + t * (v11 - v10)
+    return v0 + a * (v1 - v0)
+
+
 @njit(cache=True, fastmath=_FM)
 def trilinear_vec(tab, x0, inv_dx, g0, inv_dg, tau, x, g, out):
-    """Trilinear value of ``tab`` (Np, Nd, Nt, K) at mesh position ``tau`` [cycles] (periodic), deflection ``x``
-    [m] and twist ``g`` [rad] (both regular grids, linear extrapolation beyond them) for all K trailing
-    components at once → ``out`` (K,).  NaN in any argument gives NaN."""
+    """Trilinear value of ``tab`` (Np, Nd, Nt, K) (C-contiguous) at mesh position ``tau`` [cycles] (periodic),
+    deflection ``x`` [m] and twist ``g`` [rad] (both regular grids, linear extrapolation beyond them) for all K
+    trailing components at once → ``out`` (K,).  NaN in any argument gives NaN."""
     kk = tab.shape[3]
     if math.isnan(tau) or math.isnan(x) or math.isnan(g):
         for c in range(kk):
@@ -203,14 +223,9 @@ def trilinear_vec(tab, x0, inv_dx, g0, inv_dg, tau, x, g, out):
     i, i1, a = periodic_cell(tab.shape[0], tau)
     j, b = deflection_cell(tab.shape[1], x0, inv_dx, x)
     m, t = deflection_cell(tab.shape[2], g0, inv_dg, g)
+    flat = tab.reshape(tab.size)
     for c in range(kk):
-        v00 = tab[i, j, m, c] + b * (tab[i, j + 1, m, c] - tab[i, j, m, c])
-        v01 = tab[i, j, m + 1, c] + b * (tab[i, j + 1, m + 1, c] - tab[i, j, m + 1, c])
-        v10 = tab[i1, j, m, c] + b * (tab[i1, j + 1, m, c] - tab[i1, j, m, c])
-        v11 = tab[i1, j, m + 1, c] + b * (tab[i1, j + 1, m + 1, c] - tab[i1, j, m + 1, c])
-        v0 = v00 + t * (v01 - v00)
-        v1 = v10 + t * (v11 - v10)
-        out[c] = v0 + a * (v1 - v0)
+        out[c] = trilinear_flat(flat, 0, tab.shape[1], tab.shape[2], kk, c, i, i1, a, j, b, m, t)
 
 
 @njit(cache=True, fastmath=_FM)

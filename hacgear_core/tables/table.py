@@ -394,6 +394,34 @@ class MeshTable:
             raise TableError(f"mesh '{self.name}' has no gauge {gauge!r}; gauges: {sorted(self.strain)}")
         return self.interpolate_pair(dict.__getitem__(self.strain, gauge), tooth_phase, deflection)
 
+    def sdf_twist(self, gauge: str, tooth_phase: Any, deflection: Any, twist: Any) -> np.ndarray:
+        """Strain-deflection function of one physical tooth of a helical mesh at mesh twist ``twist`` [rad]: the
+        pair rule of :meth:`sdf` on each twist slice of ``twist.strain[gauge]`` (Np, Nd, Nt, Nw), linear between the
+        two slices that bracket each twist (linear extrapolation beyond the grid, the twist axis's rule in
+        :mod:`~hacgear_core.tables.interp`)."""
+        tw = self._twist()
+        if gauge not in tw.strain:
+            raise TableError(f"mesh '{self.name}' has no twist-resolved gauge {gauge!r}; gauges: {sorted(tw.strain)}")
+        cache = self.__dict__.setdefault("_twist_slices", {})
+        slices = cache.get(gauge)
+        if slices is None:
+            a = tw.strain[gauge]
+            slices = cache[gauge] = [np.ascontiguousarray(a[:, :, k, :]) for k in range(a.shape[2])]
+        ph, x, g = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (tooth_phase, deflection, twist)))
+        nt = len(slices)
+        if nt == 1:
+            return self.interpolate_pair(slices[0], ph, x)
+        r = (g - float(tw.twist_rad[0])) / tw.dg
+        k = np.clip(np.floor(r).astype(int), 0, nt - 2)
+        t = r - k
+        out = np.zeros(ph.shape)
+        for m in np.unique(k):
+            sel = k == m
+            lo = self.interpolate_pair(slices[m], ph[sel], x[sel])
+            hi = self.interpolate_pair(slices[m + 1], ph[sel], x[sel], count=False)
+            out[sel] = lo + t[sel] * (hi - lo)
+        return out
+
     def tooth_load(self, position: Any, deflection: Any, tooth_offset: int = 0) -> np.ndarray:
         """Load of tooth pair ``tooth_offset`` [N] (>= 0; 0 outside the tabulated window)."""
         return np.maximum(self.interpolate_pair(self.tooth_load_N, self.tooth_phase(position, tooth_offset),

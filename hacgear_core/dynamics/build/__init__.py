@@ -1,7 +1,7 @@
 """Builders: model (or lumped parameters) → :class:`~hacgear_core.dynamics.system.LumpedSystem`.
 
 :mod:`.train` builds fixed-axis trains (spur pairs, idler chains), :mod:`.planetary` planetary sets (in the
-carrier frame).  :func:`build_system` dispatches on the
+carrier frame), :mod:`.helical` helical pairs (12 DOF).  :func:`build_system` dispatches on the
 model's kind.
 """
 from __future__ import annotations
@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from hacgear_core.dynamics.build.helical import helical_from_model
 from hacgear_core.dynamics.build.planetary import constant_stiffness_table, planetary_from_model
 from hacgear_core.dynamics.build.train import (
     SpurPairParameters,
@@ -33,10 +34,12 @@ __all__ = [
     "train_from_model",
     "planetary_from_model",
     "constant_stiffness_table",
+    "helical_from_model",
 ]
 
 #: model kind -> builder(model, tables, **options) -> LumpedSystem
-BUILDERS = {"spur_pair": train_from_model, "idler_chain": train_from_model, "planetary": planetary_from_model}
+BUILDERS = {"spur_pair": train_from_model, "idler_chain": train_from_model, "planetary": planetary_from_model,
+            "helical_pair": helical_from_model}
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,147 @@
+"""Builder of helical pairs: model + generalized tables → the 12-DOF :class:`LumpedSystem` (dissertation Eq. 5.1).
+
+DOFs (global frame of docs/helical.md: x along the line of centres, z along the axes)::
+
+    q = [u_a (x, y, z), theta_a (x, y, z), u_b (x, y, z), theta_b (x, y, z)]      (12,)
+
+translations [m] of each gear's centre ``O_g`` (on its axis, mid-face) and small rotations [rad] about it.  Mesh
+deflection ``x = r_mesh . q`` and mesh twist ``gamma = r_twist . q`` with the vectors stored in the table (the
+dissertation's Eq. 5.4 with its slips fixed, docs/helical.md); the mesh puts ``W r_mesh + M r_twist`` on the DOFs
+(W, M from one trilinear lookup over (position, deflection, twist) in the compiled kernel).
+
+Masses and polar inertias from :func:`hacgear_core.geometry.gear_geometry` (as ``hacgear info``); the tilting
+inertia about a diameter through ``O_g`` is ``I_p / 2 + m b^2 / 12`` (exact for a body of uniform section over
+the face width b whose section has >= 3-fold symmetry, as a gear's).  Supports ``[gears.support]`` (Table 5.1):
+translational stiffness on x and y, axial on z, tilting on theta_x and theta_y, rotational on theta_z (the shaft;
+dropped with ``shafts=False`` for drivetrain coupling).  Gyroscopic terms of the spinning gears are not modelled
+(``G = 0``; at 3 kHz mesh frequency the pinion turns at 107 Hz, and the tilting modes lie far above).
+"""
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from hacgear_core.dynamics.build.train import mesh_table
+from hacgear_core.dynamics.system import GearBody, LumpedSystem, MeshCoupling
+from hacgear_core.errors import ModelError
+from hacgear_core.geometry import gear_geometry
+
+__all__ = ["helical_from_model", "DOF_LABELS", "tilting_inertia_kgm2"]
+
+#: labels of a gear's six DOFs, in order
+DOF_LABELS = ("x", "y", "z", "theta_x", "theta_y", "theta_z")
+
+
+def tilting_inertia_kgm2(mass_kg: float, polar_inertia_kgm2: float, face_width_m: float) -> float:
+    """Moment of inertia [kg m^2] of a gear about a diameter through its centre: ``I_p / 2 + m b^2 / 12``."""
+    return 0.5 * polar_inertia_kgm2 + mass_kg * face_width_m ** 2 / 12.0
+
+
+def helical_from_model(model: Any, tables: Any, *, force_law: str = "hac", torque_Nm: float | None = None,
+                       bearing_stiffness_N_per_m: float | None = None, modal_damping_ratio: float | None = None,
+                       shafts: bool = True, tilting_stiffness_Nm_per_rad: float | None = None) -> LumpedSystem:
+    """The 12-DOF lumped system of a helical pair model on its generalized mesh table.
+
+    Parameters
+    ----------
+    model : Model
+        A ``helical_pair`` model (two gears, one mesh); a ``spur_pair`` with a table with a twist axis (the
+        face-resolving solver's, helix angle 0) gets the same 12-DOF model.
+    tables : SystemTables, {mesh: MeshTable} or MeshTable
+        The mesh's table with a twist axis (format version 2).
+    force_law : str
+        ``hac`` only (the generalized FDF).
+    torque_Nm : float, optional
+        Nominal torque on ``[operating] torque_gear`` [N m] (> 0; default the model's).
+    bearing_stiffness_N_per_m : float, optional
+        Overrides the translational (x, y) support stiffness of both gears [N/m] (inf: rigid, the DOFs stay with
+        a stiffness of 1e15 N/m: every gear keeps its six DOFs).
+    modal_damping_ratio : float, optional
+        Default ``[damping] modal_damping_ratio``.
+    shafts : bool
+        Keep the rotational (theta_z) support stiffnesses (constant-speed experiment); False gives the pair its
+        free rotation (drivetrain coupling).
+    tilting_stiffness_Nm_per_rad : float, optional
+        Overrides both gears' tilting stiffness [N m/rad].
+
+    Returns
+    -------
+    LumpedSystem
+        ``kind = "helical_pair"``, n = 12, one mesh with its twist vector.
+    """
+    if model.kind not in ("helical_pair", "spur_pair"):
+        raise ModelError(f"helical builder: model kind must be helical_pair (or a spur_pair with a generalized "
+                         f"table), got {model.kind!r}")
+    if len(model.gears) != 2 or len(model.meshes) != 1:
+        raise ModelError(f"helical builder: a pair of two gears and one mesh, got {len(model.gears)} gears, "
+                         f"{len(model.meshes)} meshes")
+    if force_law != "hac":
+        raise ModelError(f"helical pairs take the HAC generalized force law only, got force_law={force_law!r}")
+    mesh = model.meshes[0]
+    table = mesh_table(tables, mesh.name)
+    tw = getattr(table, "twist", None)
+    if tw is None:
+        raise ModelError(f"mesh '{mesh.name}': the table has no twist axis (a helical pair needs its generalized "
+                         "table: hacgear statics)")
+    gears = {g.name: g for g in model.gears}
+    names = (mesh.gear_a, mesh.gear_b)
+    tz = tuple(int(z) for z in table.teeth)
+    if tz != (gears[names[0]].teeth, gears[names[1]].teeth):
+        raise ModelError(f"mesh '{mesh.name}': the table's teeth {tz} differ from the model's "
+                         f"{(gears[names[0]].teeth, gears[names[1]].teeth)} (table of another model?)")
+    torque = float(model.operating.torque_Nm if torque_Nm is None else torque_Nm)
+    if not (math.isfinite(torque) and torque > 0):
+        raise ModelError(f"torque_Nm [N*m] must be > 0 for a helical pair (one-sided tables), got {torque!r}")
+    tgear = getattr(model.operating, "torque_gear", names[0]) or names[0]
+    if tgear not in names:
+        raise ModelError(f"[operating] torque_gear {tgear!r} is not a gear of the pair {names}")
+    zeta = float(model.damping.modal_damping_ratio if modal_damping_ratio is None else modal_damping_ratio)
+    r_mesh = np.asarray(tw.r_mesh, float)
+    r_twist = np.asarray(tw.r_twist, float)
+    lever = np.asarray(tw.lever_arm_m, float)
+    n = 12
+    dofs = [f"{g}.{lab}" for g in names for lab in DOF_LABELS]
+    M = np.zeros((n, n))
+    K = np.zeros((n, n))
+    bodies = []
+    sense = (math.copysign(1.0, r_mesh[5]), math.copysign(1.0, -r_mesh[11]))
+    u = np.zeros(n)
+    u[5] = 1.0
+    u[11] = -r_mesh[5] / r_mesh[11]
+    for gi, name in enumerate(names):
+        g = gears[name]
+        gg = gear_geometry(g)
+        m, ip = float(gg.mass_kg), float(gg.inertia_kgm2)
+        it = tilting_inertia_kgm2(m, ip, g.face_width_m)
+        sup = g.support
+        kt = sup.translational_stiffness_N_per_m if bearing_stiffness_N_per_m is None else bearing_stiffness_N_per_m
+        ktilt = sup.tilting_stiffness_Nm_per_rad if tilting_stiffness_Nm_per_rad is None \
+            else tilting_stiffness_Nm_per_rad
+        krot = sup.rotational_stiffness_Nm_per_rad if shafts else 0.0
+        kdiag = [kt, kt, sup.axial_stiffness_N_per_m, ktilt, ktilt, krot]
+        kdiag = [min(float(k), 1e15) for k in kdiag]   # rigid supports: a stiff spring keeps the DOF
+        o = 6 * gi
+        M[o:o + 6, o:o + 6] = np.diag([m, m, m, it, it, ip])
+        K[o:o + 6, o:o + 6] = np.diag(kdiag)
+        bodies.append(GearBody(name=name, teeth=g.teeth, sense=sense[gi],
+                               speed_ratio=float(u[o + 5] * sense[0]), rotation=o + 5, translations=(o, o + 1),
+                               directions=np.eye(2), radius_m=float(abs(r_mesh[o + 5])), mass_kg=m, inertia_kgm2=ip,
+                               support=(kdiag[0], krot)))
+    # nominal mesh force: the torque on its gear over that gear's lever arm (r_b cos beta_b)
+    w_nom = torque / float(lever[names.index(tgear)])
+    w = np.zeros(n)
+    w[5] = sense[0] * tz[0] / (2 * math.pi)
+    v_rot = np.zeros(n)
+    v_rot[5], v_rot[11] = r_mesh[5], r_mesh[11]
+    coupling = MeshCoupling(name=mesh.name, gear_a=names[0], gear_b=names[1], table=table, v=r_mesh.copy(), w=w,
+                            v_rot=v_rot, phase=0.0, nominal_force_N=float(w_nom), teeth=tz,
+                            base_radius_m=tuple(float(r) for r in table.base_radius_m),
+                            tooth_passage={names[0]: 0, names[1]: 0},
+                            line_of_action=tuple(float(c) for c in np.asarray(tw.frame["e2"], float)[:2]),
+                            t=r_twist.copy())
+    held = bool(np.any(np.abs(K @ u) > 0))
+    return LumpedSystem(name=model.name, kind="helical_pair", dof_names=dofs, mass=M, stiffness=K, gears=bodies,
+                        meshes=[coupling], torque_Nm=torque, input_gear=tgear, modal_damping_ratio=zeta,
+                        force_law=force_law, reference_gear=names[0], rigid_mode=None if held else u)

@@ -157,7 +157,8 @@ def map_(args) -> None:
             f1 = float(bm.frequency_Hz[0])
             for fac in [float(v) for v in args.speeds.split(",")]:
                 fm = fac * f_n
-                n_keep = bm.count_below(args.mode_factor * max(fm, f_n))
+                # modes up to mode_factor x the highest frequency of interest, at least the first complete set
+                n_keep = max(bm.count_below(args.mode_factor * max(fm, f_n)), int(bm.complete_counts()[1]))
                 l2 = _run(inp.system, inp.model, fm, n_keep, steps=args.steps, cycles=args.cycles, rtol=args.rtol)
                 # the quasi-static run takes level 2's step: only the body modes differ
                 l1 = _run(inp.system, inp.model, fm, 0, steps=l2["steps_per_cycle"], cycles=args.cycles,
@@ -184,6 +185,21 @@ def figure(out: Path) -> None:
     import matplotlib.pyplot as plt
 
     data = json.loads((out / "validity_map.json").read_text())
+    conv = data.get("convergence", {}).get("rows", [])
+    if conv:
+        fig, axes = plt.subplots(1, 3, figsize=(13, 3.6), constrained_layout=True)
+        n = [r["n_modes"] for r in conv]
+        for ax, key, scale, lab in zip(axes, ("dte_rms_m", "peak_force_N", "max_root_strain"), (1e6, 1.0, 1e6),
+                                       ("RMS DTE [um]", "peak mesh force [N]", "max root strain [ue]")):
+            ax.plot(n, [scale * r[key] for r in conv], "o-")
+            ax.set_xscale("symlog", linthresh=1)
+            ax.set_xlabel("body modes per gear (0 = quasi-static, level 1)")
+            ax.set_ylabel(lab)
+            ax.grid(alpha=0.3)
+        fig.suptitle(f"level 2 against the number of body modes, spur_28t_asym 300 N m, "
+                     f"f_m = {data['convergence']['mesh_frequency_Hz']:.0f} Hz, {conv[0]['cycles']}+1 cycles")
+        (out / "figures").mkdir(parents=True, exist_ok=True)
+        fig.savefig(out / "figures" / "validity_map_convergence.png", dpi=110)
     rows = data.get("map", {}).get("rows", [])
     if not rows:
         return

@@ -203,22 +203,27 @@ def figure(out: Path) -> None:
     rows = data.get("map", {}).get("rows", [])
     if not rows:
         return
-    fig, axes = plt.subplots(1, 3, figsize=(13, 4), constrained_layout=True)
-    marks = {}
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4.2), constrained_layout=True)
+    colors, marks = {}, {0.5: "o", 0.75: "s", 1.0: "^"}
     for r in rows:
-        mk = marks.setdefault(r["variant"], "osd^vx<>"[len(marks) % 8])
+        c = colors.setdefault(r["variant"], f"C{len(colors)}")
+        fac = round(r["mesh_frequency_Hz"] / r["lumped_resonance_Hz"], 2)
         for ax, key in zip(axes, ("dte_rms_m", "peak_force_N", "max_root_strain")):
-            ax.plot(r["fm_over_f1"], 100 * abs(r["quasi_static_error"][key]), mk, ms=8,
-                    label=f"{r['variant']} (f1 {r['first_body_mode_Hz']:.0f} Hz)")
+            ax.plot(r["fm_over_f1"], 100 * abs(r["quasi_static_error"][key]), marks.get(fac, "x"), color=c, ms=8)
     for ax, title in zip(axes, ("RMS DTE", "peak mesh force", "max root strain (pinion SG25)")):
         ax.axhline(5.0, color="r", lw=0.8, ls="--")
+        ax.set_yscale("log")
         ax.set_xlabel("mesh frequency / first body mode frequency")
         ax.set_ylabel("|quasi-static - level 2| / level 2 [%]")
         ax.set_title(title)
-        ax.grid(alpha=0.3)
-    h, lab = axes[0].get_legend_handles_labels()
-    uniq = dict(zip(lab, h))
-    axes[0].legend(uniq.values(), uniq.keys(), fontsize=7)
+        ax.grid(alpha=0.3, which="both")
+    f1 = {r["variant"]: r["first_body_mode_Hz"] for r in rows}
+    fnf = {r["variant"]: r["fn_over_f1"] for r in rows}
+    hv = [plt.Line2D([], [], color=c, marker="s", ls="", label=f"{v}: f1 {f1[v]:.0f} Hz, fn/f1 {fnf[v]:.2f}")
+          for v, c in colors.items()]
+    hs = [plt.Line2D([], [], color="k", marker=m, ls="", mfc="none", label=f"f_m = {k:g} f_n") for k, m in marks.items()]
+    axes[0].legend(handles=hv + hs, fontsize=7, loc="lower right")
+    fig.suptitle("quasi-static model (level 1) against level 2 (elastic bodies), 28-tooth pair blank variants, 300 N m")
     (out / "figures").mkdir(parents=True, exist_ok=True)
     fig.savefig(out / "figures" / "validity_map.png", dpi=110)
 

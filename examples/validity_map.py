@@ -197,7 +197,8 @@ def figure(out: Path) -> None:
             ax.set_ylabel(lab)
             ax.grid(alpha=0.3)
         fig.suptitle(f"level 2 against the number of body modes, spur_28t_asym 300 N m, "
-                     f"f_m = {data['convergence']['mesh_frequency_Hz']:.0f} Hz, {conv[0]['cycles']}+1 cycles")
+                     f"f_m = {data['convergence']['mesh_frequency_Hz']:.0f} Hz, "
+                     f"{max(r['cycles'] for r in conv)}+1 cycles from the HAC orbit (level 1 stops when periodic)")
         (out / "figures").mkdir(parents=True, exist_ok=True)
         fig.savefig(out / "figures" / "validity_map_convergence.png", dpi=110)
     rows = data.get("map", {}).get("rows", [])

@@ -26,7 +26,7 @@ extended by the modal DOFs; :func:`~hacgear_core.dynamics.direct.integrate_direc
 level 1 (same solver calls, same RK4).
 
 Neglected, and why: the body's rotation terms (spin softening and Coriolis coupling of the modes, relative size
-``(Omega / omega_1)^2`` and ``2 Omega / omega_1``, below 0.1 % and 3 % for the 28-tooth pair at its mesh
+``(Omega / omega_1)^2`` and ``2 Omega / omega_1``, 0.02 % and 3.1 % for the 28-tooth pair at its mesh
 resonance) and hub translations (the spur-pair systems served here have rigid bearings: rotation DOFs only; a
 system with translation DOFs is refused).
 """

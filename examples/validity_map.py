@@ -157,7 +157,8 @@ def map_(args) -> None:
             f1 = float(bm.frequency_Hz[0])
             for fac in [float(v) for v in args.speeds.split(",")]:
                 fm = fac * f_n
-                n_keep = bm.count_below(args.mode_factor * max(fm, f_n))
+                # modes up to mode_factor x the highest frequency of interest, at least the first complete set
+                n_keep = max(bm.count_below(args.mode_factor * max(fm, f_n)), int(bm.complete_counts()[1]))
                 l2 = _run(inp.system, inp.model, fm, n_keep, steps=args.steps, cycles=args.cycles, rtol=args.rtol)
                 # the quasi-static run takes level 2's step: only the body modes differ
                 l1 = _run(inp.system, inp.model, fm, 0, steps=l2["steps_per_cycle"], cycles=args.cycles,
@@ -184,25 +185,46 @@ def figure(out: Path) -> None:
     import matplotlib.pyplot as plt
 
     data = json.loads((out / "validity_map.json").read_text())
+    conv = data.get("convergence", {}).get("rows", [])
+    if conv:
+        fig, axes = plt.subplots(1, 3, figsize=(13, 3.6), constrained_layout=True)
+        n = [r["n_modes"] for r in conv]
+        for ax, key, scale, lab in zip(axes, ("dte_rms_m", "peak_force_N", "max_root_strain"), (1e6, 1.0, 1e6),
+                                       ("RMS DTE [um]", "peak mesh force [N]", "max root strain [ue]")):
+            ax.plot(n, [scale * r[key] for r in conv], "o-")
+            ax.set_xscale("symlog", linthresh=1)
+            ax.set_xlabel("body modes per gear (0 = quasi-static, level 1)")
+            ax.set_ylabel(lab)
+            ax.grid(alpha=0.3)
+        fig.suptitle(f"level 2 against the number of body modes, spur_28t_asym 300 N m, "
+                     f"f_m = {data['convergence']['mesh_frequency_Hz']:.0f} Hz, "
+                     f"{max(r['cycles'] for r in conv)}+1 cycles from the HAC orbit (level 1 stops when periodic)")
+        (out / "figures").mkdir(parents=True, exist_ok=True)
+        fig.savefig(out / "figures" / "validity_map_convergence.png", dpi=110)
     rows = data.get("map", {}).get("rows", [])
     if not rows:
         return
-    fig, axes = plt.subplots(1, 3, figsize=(13, 4), constrained_layout=True)
-    marks = {}
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4.2), constrained_layout=True)
+    colors, marks = {}, {0.5: "o", 0.75: "s", 1.0: "^"}
     for r in rows:
-        mk = marks.setdefault(r["variant"], "osd^vx<>"[len(marks) % 8])
+        c = colors.setdefault(r["variant"], f"C{len(colors)}")
+        fac = round(r["mesh_frequency_Hz"] / r["lumped_resonance_Hz"], 2)
         for ax, key in zip(axes, ("dte_rms_m", "peak_force_N", "max_root_strain")):
-            ax.plot(r["fm_over_f1"], 100 * abs(r["quasi_static_error"][key]), mk, ms=8,
-                    label=f"{r['variant']} (f1 {r['first_body_mode_Hz']:.0f} Hz)")
+            ax.plot(r["fm_over_f1"], 100 * abs(r["quasi_static_error"][key]), marks.get(fac, "x"), color=c, ms=8)
     for ax, title in zip(axes, ("RMS DTE", "peak mesh force", "max root strain (pinion SG25)")):
         ax.axhline(5.0, color="r", lw=0.8, ls="--")
+        ax.set_yscale("log")
         ax.set_xlabel("mesh frequency / first body mode frequency")
         ax.set_ylabel("|quasi-static - level 2| / level 2 [%]")
         ax.set_title(title)
-        ax.grid(alpha=0.3)
-    h, lab = axes[0].get_legend_handles_labels()
-    uniq = dict(zip(lab, h))
-    axes[0].legend(uniq.values(), uniq.keys(), fontsize=7)
+        ax.grid(alpha=0.3, which="both")
+    f1 = {r["variant"]: r["first_body_mode_Hz"] for r in rows}
+    fnf = {r["variant"]: r["fn_over_f1"] for r in rows}
+    hv = [plt.Line2D([], [], color=c, marker="s", ls="", label=f"{v}: f1 {f1[v]:.0f} Hz, fn/f1 {fnf[v]:.2f}")
+          for v, c in colors.items()]
+    hs = [plt.Line2D([], [], color="k", marker=m, ls="", mfc="none", label=f"f_m = {k:g} f_n") for k, m in marks.items()]
+    axes[0].legend(handles=hv + hs, fontsize=7, loc="lower right")
+    fig.suptitle("quasi-static model (level 1) against level 2 (elastic bodies), 28-tooth pair blank variants, 300 N m")
     (out / "figures").mkdir(parents=True, exist_ok=True)
     fig.savefig(out / "figures" / "validity_map.png", dpi=110)
 

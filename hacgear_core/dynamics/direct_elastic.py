@@ -26,7 +26,7 @@ extended by the modal DOFs; :func:`~hacgear_core.dynamics.direct.integrate_direc
 level 1 (same solver calls, same RK4).
 
 Neglected, and why: the body's rotation terms (spin softening and Coriolis coupling of the modes, relative size
-``(Omega / omega_1)^2`` and ``2 Omega / omega_1``, below 0.1 % and 3 % for the 28-tooth pair at its mesh
+``(Omega / omega_1)^2`` and ``2 Omega / omega_1``, 0.02 % and 3.1 % for the 28-tooth pair at its mesh
 resonance) and hub translations (the spur-pair systems served here have rigid bearings: rotation DOFs only; a
 system with translation DOFs is refused).
 """
@@ -37,12 +37,16 @@ from dataclasses import dataclass
 from typing import Any, Sequence
 
 import numpy as np
+import scipy.linalg
 
 from hacgear_core.dynamics.direct import DirectEquations, DirectTrace, StageLoad, integrate_direct
 from hacgear_core.dynamics.steady import trace_metrics
 from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import ModelError, SolverError
-from hacgear_core.statics.bodymodes import BodyModes
+from hacgear_core.geometry import gear_geometry
+from hacgear_core.model import Model, load_model
+from hacgear_core.statics.bodymodes import BodyModeOptions, BodyModes, gear_body_modes
+from hacgear_core.statics.helical import make_solver
 
 __all__ = ["ElasticMesh", "Level2Options", "Level2Result", "elastic_equations", "elastic_mesh", "highest_frequency_Hz",
            "initial_state", "run_level2"]
@@ -203,9 +207,10 @@ def elastic_equations(system: LumpedSystem, emesh: ElasticMesh, torque_Nm: float
         raise ModelError("coupled mass matrix is not positive definite: the lumped inertia of a gear is below the "
                          "modal participation of its body (sum L_k^2)")
 
-    def pad(a, cols=True):
+    def pad(a):
+        """``a`` (..., n0) with zero columns for the modal DOFs → (..., N)."""
         a = np.asarray(a, float)
-        out = np.zeros(a.shape[:-1] + (N,)) if cols else None
+        out = np.zeros(a.shape[:-1] + (N,))
         out[..., :n0] = a
         return out
 
@@ -296,8 +301,6 @@ def _load(eqs: DirectEquations, emesh: ElasticMesh, n0: int, cycle_offset: list)
 def highest_frequency_Hz(eqs: DirectEquations) -> float:
     """Highest natural frequency [Hz] of ``K q = omega^2 M q`` of the equations (supports and body modes, the
     meshes left out)."""
-    import scipy.linalg
-
     w2 = scipy.linalg.eigh(eqs.K, eqs.M, eigvals_only=True)
     return float(np.sqrt(max(float(np.max(w2)), 0.0)) / (2 * math.pi))
 
@@ -391,12 +394,7 @@ def elastic_mesh(model: Any, mesh_name: str, *, damping_ratio: float, max_freque
     the tables are built with, :func:`hacgear_core.statics.helical.make_solver`) and the fixed-hub modes of both
     gears up to ``max_frequency_Hz`` [Hz] read at that solver's compliance samples, truncated to ``n_modes``
     (per gear; None keeps all; 0 gives level 1)."""
-    from hacgear_core.geometry import gear_geometry
-    from hacgear_core.model import load_model
-    from hacgear_core.statics.bodymodes import BodyModeOptions, gear_body_modes
-    from hacgear_core.statics.helical import make_solver
-
-    if isinstance(model, (str, bytes)) or hasattr(model, "__fspath__"):
+    if not isinstance(model, Model):
         model = load_model(model)
     solver = make_solver(model, mesh_name)
     gears = {g.name: g for g in model.gears}

@@ -126,7 +126,7 @@ MALFORMED = [
      lambda t: _replace_once(t, "  tip_relief_start_roll_deg = 28.54\n", ""),
      r"key 'gears\[0\]\.drive\.tip_relief_start_roll_deg' \[deg\]: missing or zero while tip_relief_um > 0"),
     ("statics grid not an integer",
-     lambda t: _replace_once(t, "positions = 64", "positions = 2"),
+     lambda t: _replace_once(t, "positions = 256", "positions = 2"),
      r"key 'statics\.positions' \[-\]: value 2 out of range; allowed: integer in \[4, 4096\]"),
     ("not TOML",
      lambda t: t + "\nthis is = = not toml\n",

@@ -398,7 +398,7 @@ class StaticsGrid:
     ``face_slices`` slices across the face width (crowning, helix), ``twist_points`` mesh twists from
     ``-max_twist_rad`` to ``+max_twist_rad`` (helical meshes; odd, so that 0 is a grid point)."""
 
-    positions: int = 256
+    positions: int = 64
     loads: int = 32
     deflections: int = 64
     max_torque_factor: float = 3.0

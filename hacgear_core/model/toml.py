@@ -62,7 +62,7 @@ The format (one example per system lives in ``models/``)::
     torque_Nm = 300.0; torque_gear = "pinion"
 
     [statics]
-    positions = 256; loads = 32; max_torque_factor = 3.0
+    positions = 256; loads = 32; max_torque_factor = 3.0   # 256 for spur pairs: docs/hac_vs_direct.md
 
 Planetary sets (``kind = "planetary"``: two meshes, sun -> planet and planet -> ring, each named after the member
 that drives it relative to the carrier)::
@@ -520,7 +520,7 @@ def parse_model(text: str, *, file: str = "<model>", path: Path | None = None, s
     ssec = top.table("statics", required=False)
     if ssec is not None:
         statics = StaticsGrid(
-            positions=ssec.integer("positions", 4, 4096, required=False, default=256),
+            positions=ssec.integer("positions", 4, 4096, required=False, default=64),
             loads=ssec.integer("loads", 2, 1024, required=False, default=32),
             deflections=ssec.integer("deflections", 4, 4096, required=False, default=64),
             max_torque_factor=ssec.number("max_torque_factor", "-", 1.0, 20.0, required=False, default=3.0),

@@ -22,6 +22,11 @@ change per cycle is below ``--rtol`` or ``--cycles`` is reached (reported per ru
 
     python examples/validity_map.py convergence [--fm 2786] [--modes 0,1,3,5,11,37]
     python examples/validity_map.py map [--variants bore40,bore90,web5_60_110] [--speeds 0.5,1.0]
+    python examples/validity_map.py compare [--runs spur_50t_icr137@0.6,...] [--bench-json main256.json]
+    python examples/validity_map.py compare-figure   # docs/figures/hac_vs_direct_level2.png
+
+``compare`` runs level 2 at the speeds of ``benchmarks/bench_hac_vs_direct.py`` and tabulates it beside that
+benchmark's HAC and level-1 numbers (``<out>/hac_vs_direct_level2.json``).
 """
 from __future__ import annotations
 
@@ -48,21 +53,27 @@ def _json_update(path: Path, key: str, value) -> None:
     path.write_text(json.dumps(data, indent=1, default=float))
 
 
-def _run(system, model, fm, n_modes, *, steps, cycles, rtol, max_frequency_Hz=40e3):
+def _run(system, model, fm, n_modes, *, steps, cycles, rtol, max_frequency_Hz=40e3, gauge=GAUGE, mesh="m12",
+         traces=None):
+    """One level-2 run (``n_modes`` body modes per gear; 0 = level 1) from the HAC steady state at ``fm``; with
+    ``traces`` (a dict) the recorded cycle's DTE, mesh force and root strain at ``gauge`` are put into it."""
     from hacgear_core.dynamics import steady_state
     from hacgear_core.dynamics.direct_elastic import Level2Options, elastic_mesh, run_level2
 
     ss = steady_state(system, fm)
-    em = elastic_mesh(model, "m12", damping_ratio=system.modal_damping_ratio, max_frequency_Hz=max_frequency_Hz,
+    em = elastic_mesh(model, mesh, damping_ratio=system.modal_damping_ratio, max_frequency_Hz=max_frequency_Hz,
                       n_modes=(n_modes, n_modes))
     t0 = time.perf_counter()
-    r = run_level2(system, em, fm, ss.state, gauges=(GAUGE,),
+    r = run_level2(system, em, fm, ss.state, gauges=(gauge,),
                    options=Level2Options(rtol=rtol, min_cycles=2, max_cycles=cycles, steps_per_cycle=steps))
+    if traces is not None:
+        traces.update(dte_m=r.trace.dynamic_transmission_error_m[:, 0], force_N=r.trace.mesh_force_N[:, 0],
+                      root_strain_max=r.root_strain[gauge], time_s=r.trace.time_s)
     return dict(n_modes=int(em.n_modes[0]), highest_mode_Hz=float(em.modes[0].frequency_Hz[-1]) if em.n_total else 0.0,
                 success=bool(r.success), message=r.message, cycles=r.cycles, changes=r.changes,
                 dte_rms_m=float(r.metrics["dte_rms_m"][0]), peak_force_N=float(r.metrics["peak_force_N"][0]),
                 contact_loss_fraction=float(r.metrics["contact_loss_fraction"][0]),
-                max_root_strain=float(np.max(r.root_strain[GAUGE])), wall_s_per_cycle=r.wall_s_per_cycle,
+                max_root_strain=float(np.max(r.root_strain[gauge])), wall_s_per_cycle=r.wall_s_per_cycle,
                 wall_s=time.perf_counter() - t0, steps_per_cycle=r.steps_per_cycle,
                 hac=dict(dte_rms_m=float(ss.metrics["dte_rms_m"][0]), peak_force_N=float(ss.metrics["peak_force_N"][0])))
 
@@ -178,6 +189,100 @@ def map_(args) -> None:
     figure(out)
 
 
+COMPARE_RUNS = "spur_50t_icr137@0.6,spur_50t_icr137@1.0,spur_50t_icr137@0.5,spur_28t_asym@0.6"
+
+
+def compare(args) -> None:
+    """HAC / level 1 (from the benchmark JSON of ``benchmarks/bench_hac_vs_direct.py``, same pair, speed and gauge)
+    against level 2 (body modes up to ``--mode-factor`` x max(f_m, f_n), at least the first complete set) for
+    each ``pair@f_m/f_n`` of ``--runs``; rows into ``<out>/hac_vs_direct_level2.json``, level-2 traces of the
+    recorded cycle into ``--traces``."""
+    from hacgear_core.dynamics.direct_elastic import elastic_mesh
+    from hacgear_core.dynamics.inputs import load_inputs
+
+    bench = json.loads(Path(args.bench_json).read_text())["rows"]
+    out = Path(args.out) / "hac_vs_direct_level2.json"
+    rows, traces = [], {}
+    for spec in args.runs.split(","):
+        pair, fac = spec.split("@")
+        fac = float(fac)
+        ref = [r for r in bench if r["pair"] == pair and abs(r["fm_over_fn"] - fac) < 1e-9]
+        if not ref:
+            raise SystemExit(f"{spec}: no row in {args.bench_json}")
+        ref = ref[0]
+        inp = load_inputs(str(ROOT / "models" / pair / "model.toml"))
+        mesh = inp.model.meshes[0].name
+        f_n = float(inp.system.natural_frequencies_Hz()[0])
+        fm = float(ref["mesh_frequency_Hz"])  # the benchmark's speed (fac x its f_n)
+        em = elastic_mesh(inp.model, mesh, damping_ratio=inp.system.modal_damping_ratio)
+        f1 = [float(bm.frequency_Hz[0]) for bm in em.modes]
+        n_keep = max(em.modes[0].count_below(args.mode_factor * max(fm, f_n)), int(em.modes[0].complete_counts()[1]))
+        tr = {}
+        l2 = _run(inp.system, inp.model, fm, n_keep, steps=args.steps, cycles=args.cycles, rtol=args.rtol,
+                  gauge=ref["gauge"], mesh=mesh, traces=tr)
+        key = f"{pair}_{fac:g}"
+        for k, v in tr.items():
+            traces[f"{key}/level2/{k}"] = np.asarray(v)
+        level2 = dict(dte_rms_m=l2["dte_rms_m"], peak_force_N=l2["peak_force_N"],
+                      max_root_strain=l2["max_root_strain"], contact_loss_fraction=l2["contact_loss_fraction"],
+                      wall_s_per_cycle=l2["wall_s_per_cycle"], last_poincare_change=l2["changes"][-1],
+                      changes=l2["changes"], cycles=l2["cycles"], success=l2["success"], message=l2["message"],
+                      n_modes_per_gear=l2["n_modes"], highest_mode_Hz=l2["highest_mode_Hz"],
+                      steps_per_cycle=l2["steps_per_cycle"], wall_s=l2["wall_s"])
+        keys = ("dte_rms_m", "peak_force_N", "max_root_strain", "contact_loss_fraction", "wall_s_per_cycle")
+        row = dict(pair=pair, label=ref["label"], fm_over_fn=fac, mesh_frequency_Hz=fm,
+                   lumped_resonance_Hz=f_n, bench_lumped_resonance_Hz=fm / fac, first_body_mode_Hz=f1,
+                   fn_over_f1=f_n / f1[0], gauge=ref["gauge"], torque_Nm=float(inp.model.operating.torque_Nm),
+                   hac={k: ref["hac"][k] for k in keys}, level1={k: ref["level1"][k] for k in keys}, level2=level2,
+                   error_vs_level2={m: {k: (ref[m][k] - l2[k]) / l2[k] for k in keys[:3]}
+                                    for m in ("hac", "level1")})
+        rows.append(row)
+        print(json.dumps(dict(run=spec, fm=fm, fn=f_n, f1=f1, n=n_keep, nsp=l2["steps_per_cycle"],
+                              l2={k: level2[k] for k in keys + ("last_poincare_change",)},
+                              err=row["error_vs_level2"])), flush=True)
+        _json_update(out, "compare", dict(rows=rows, bench_json=args.bench_json, traces=args.traces,
+                                          command="python examples/validity_map.py " + " ".join(args.argv)))
+        if args.traces:
+            np.savez_compressed(args.traces, **traces)
+
+
+def compare_figure(out: Path, bench_traces: str, traces: str) -> None:
+    """One recorded mesh cycle of DTE, mesh force and the largest root strain over the teeth in mesh (the
+    benchmark's gauge) of HAC, level 1 and level 2 per compared pair and speed."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = json.loads((out / "hac_vs_direct_level2.json").read_text())["compare"]["rows"]
+    tb, t2 = np.load(bench_traces), np.load(traces)
+    fig, axes = plt.subplots(3, len(rows), figsize=(3.6 * len(rows), 8), constrained_layout=True, squeeze=False)
+    for j, r in enumerate(rows):
+        key = f"{r['pair']}_{r['fm_over_fn']:g}"
+        series = {"HAC": (tb[f"{key}/hac/dte_m"], tb[f"{key}/hac/force_N"], np.max(tb[f"{key}/hac/root_strain"], 1)),
+                  "level 1": (tb[f"{key}/level1/dte_m"], tb[f"{key}/level1/force_N"],
+                              np.max(tb[f"{key}/level1/root_strain"], 1)),
+                  "level 2": (t2[f"{key}/level2/dte_m"], t2[f"{key}/level2/force_N"],
+                              t2[f"{key}/level2/root_strain_max"])}
+        for (name, (dte, f, e)), ls in zip(series.items(), ("-", "--", "-")):
+            x = np.arange(len(f)) / len(f)
+            lw = 1.6 if name == "level 2" else 1.1
+            for ax, y in zip(axes[:, j], (1e6 * dte, f, 1e6 * e)):
+                ax.plot(x, y, ls, lw=lw, label=name)
+        axes[0, j].set_title(f"{r['pair']}\n{r['fm_over_fn']:g} f_n = {r['mesh_frequency_Hz']:.0f} Hz ({r['label']})",
+                             fontsize=8)
+        for ax, lab in zip(axes[:, j], ("DTE [um]", "mesh force [N]", f"max root strain {r['gauge']} [ue]")):
+            ax.set_ylabel(lab, fontsize=8)
+            ax.grid(alpha=0.3)
+            ax.tick_params(labelsize=7)
+        axes[2, j].set_xlabel("mesh cycle (recorded)", fontsize=8)
+    axes[0, 0].legend(fontsize=7)
+    fig.suptitle("HAC (tables) / level 1 (static solver per stage) / level 2 (elastic bodies; 6 + 1 cycles from "
+                 "the HAC orbit, not periodic)", fontsize=9)
+    (out / "figures").mkdir(parents=True, exist_ok=True)
+    fig.savefig(out / "figures" / "hac_vs_direct_level2.png", dpi=110)
+
+
 def figure(out: Path) -> None:
     import matplotlib
 
@@ -234,7 +339,7 @@ def main(argv=None) -> int:
 
     argv = sys.argv[1:] if argv is None else argv
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("study", choices=("modes", "convergence", "map", "figure"))
+    ap.add_argument("study", choices=("modes", "convergence", "map", "figure", "compare", "compare-figure"))
     ap.add_argument("--fm", type=float, default=2786.0, help="convergence: mesh frequency [Hz]")
     ap.add_argument("--modes", default="0,1,3,5,11,37", help="convergence: modes per gear (complete sets)")
     ap.add_argument("--variants", default="bore40,bore90,web5_60_110")
@@ -246,10 +351,17 @@ def main(argv=None) -> int:
     ap.add_argument("--cycles", type=int, default=6, help="most mesh cycles before the recorded one")
     ap.add_argument("--rtol", type=float, default=2e-3, help="Poincaré change per cycle that ends a run")
     ap.add_argument("--out", default=str(ROOT / "docs"))
+    ap.add_argument("--runs", default=COMPARE_RUNS, help="compare: pair@f_m/f_n, comma-separated")
+    ap.add_argument("--bench-json", default="/tmp/hac18/main256.json",
+                    help="compare: HAC and level-1 rows of benchmarks/bench_hac_vs_direct.py --json")
+    ap.add_argument("--bench-traces", default="/tmp/hac18/main256.npz",
+                    help="compare-figure: HAC and level-1 traces of benchmarks/bench_hac_vs_direct.py --traces")
+    ap.add_argument("--traces", default="/tmp/hac18/level2.npz", help="compare: level-2 traces written here")
     args = ap.parse_args(argv)
     args.argv = argv
     {"modes": modes, "convergence": convergence, "map": map_,
-     "figure": lambda a: figure(Path(a.out))}[args.study](args)
+     "figure": lambda a: figure(Path(a.out)), "compare": compare,
+     "compare-figure": lambda a: compare_figure(Path(a.out), a.bench_traces, a.traces)}[args.study](args)
     return 0
 
 

@@ -162,6 +162,9 @@ MALFORMED = [
     ("tooth thickness impossible",
      lambda t: _replace_once(t, "tooth_thickness_mm = 7.64", "tooth_thickness_mm = 15.0"),
      r"gear 'pinion': tooth_thickness_m \[m\] = 0\.015 must lie within \(0\.1, 0\.9\) x circular pitch"),
+    ("subnormal twist range (found by the fuzz test: 1e-3 x it underflowed to 0 rad past the parser)",
+     lambda t: _replace_once(t, "deflections = 64\n", "deflections = 64\nmax_twist_mrad = 5e-324\n"),
+     r"key 'statics\.max_twist_mrad' \[mrad\]: value 4\.94066e-324 out of range; allowed: \[1e-06, 10\]"),
 ]
 
 

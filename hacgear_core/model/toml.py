@@ -526,8 +526,8 @@ def parse_model(text: str, *, file: str = "<model>", path: Path | None = None, s
             max_torque_factor=ssec.number("max_torque_factor", "-", 1.0, 20.0, required=False, default=3.0),
             face_slices=ssec.integer("face_slices", 1, 200, required=False, default=21),
             twist_points=ssec.integer("twist_points", 1, 64, required=False, default=1),
-            max_twist_rad=1e-3 * ssec.number("max_twist_mrad", "mrad", 0.0, 10.0, lo_open=True, required=False,
-                                             default=1.0),
+            # below 1e-6 mrad a twist grid is meaningless (and a subnormal value would underflow to 0 rad)
+            max_twist_rad=1e-3 * ssec.number("max_twist_mrad", "mrad", 1e-6, 10.0, required=False, default=1.0),
         )
         ssec.done(("positions", "loads", "deflections", "max_torque_factor", "face_slices", "twist_points",
                    "max_twist_mrad"))

@@ -183,7 +183,8 @@ def test_dynamic_strains_at_the_five_face_gauges(system):
     """Fig. 5.12 (200 N*m, 1200 Hz, 33-tooth gear, gauges SG1-SG5 across the face at the root circle): the five
     dynamic strains differ from each other, and over one revolution of the tooth they are positive before the
     tooth engages (the preceding tooth loads the blank), largest while it is loaded, negative after it leaves
-    the mesh (the following tooth loads the blank)."""
+    the mesh (the following tooth loads the blank).  Face-wise: SG1 (z = -6.3 mm) lies outside the loaded
+    overlap (-4 ... +6 mm) and reads the lowest peak, the gauges inside it (SG3, SG4) the highest."""
     sim = Simulator(system)
     sim.set_speed_input(mesh_frequency_Hz=1200.0)
     sim.set_torque_set_point(200.0)
@@ -193,14 +194,16 @@ def test_dynamic_strains_at_the_five_face_gauges(system):
     ph = ((tau[:, 0] + 16.5) % 33) - 16.5                      # pair phase of the wheel's tooth 0
     eps = np.array([strain_of_tooth(system, f"wheel/SG{i}", tau, x, None, g) for i in range(1, 6)])
     peak = eps.max()
-    assert np.max(eps.max(axis=0) - eps.min(axis=0)) > 0.01 * peak   # they differ (measured: 3.3 % of the peak)
+    assert np.max(eps.max(axis=0) - eps.min(axis=0)) > 0.1 * peak    # they differ (measured: 22.3 % of the peak)
+    peaks = eps.max(axis=1)
+    assert np.argmin(peaks) == 0 and peaks[0] < 0.9 * max(peaks[2], peaks[3])
     for e in eps:
         before = e[(ph > -1.75) & (ph < -1.0)]
         during = e[(ph > -0.5) & (ph < 0.0)]
         after = e[(ph > 0.6) & (ph < 1.25)]
         assert before.size and during.size and after.size
         assert np.all(before > 0) and np.all(after < 0)
-        assert during.mean() > 3 * before.mean() and during.max() > 0.8 * peak
+        assert during.mean() > 3 * before.mean() and during.max() > 0.95 * e.max()   # largest while loaded
 
 
 def test_sweep_at_200_Nm_section_5_5(system):

@@ -4,11 +4,15 @@ The 2D far field (:mod:`hacgear_core.statics.fe`) treats the face as rigid: a lo
 deflects the whole face alike.  A real tooth is a plate: a load at one point deflects it over a width.
 This module measures that from elasticity, once per gear and loaded flank:
 
-* **Mesh.**  A sector of ``teeth`` teeth (the loaded tooth in the middle) and the rim down to
+* **Mesh.**  A sector of ``teeth`` teeth (default 3: the loaded tooth in the middle) and the rim down to
   ``rim_depth_modules`` modules below the root circle, meshed in the transverse plane with gmsh (size fields
   on flanks and fillets) and extruded across the gear's full face width with the helix (gmsh ``twist``: the
   section at axial coordinate ``zeta`` is turned by ``zeta tan(beta) / r``), in layers; prisms split into
-  tetrahedra.  The bottom (rim cut) is held; P2 tetrahedra (scikit-fem), one sparse LU factorisation.
+  tetrahedra.  The bottom (rim cut) is held and the side cuts (mid root land of the outer teeth) are free;
+  P2 tetrahedra (scikit-fem), one sparse LU factorisation.  One tooth is not enough: its side cuts fall in the
+  root land next to the fillets, where a free cut forces the hoop stress to zero, so the root-circle strain
+  reads about a tenth of the whole gear's and the tooth is about 30 % too compliant at the tip (measured on
+  helical_28_33, docs/helical.md); with neighbouring teeth the cuts are a tooth pitch away.
 * **Influence coefficients.**  Unit loads along the inward 3D flank normal at a grid of ``n_s`` profile
   positions (the active flank) × ``n_z`` axial positions (gear face edge to edge) of the middle tooth;
   responses: the normal displacement at the same grid, read at the near-field depth ``depth`` below the
@@ -52,7 +56,8 @@ class Mesh3DOptions:
     """Discretisation of the 3D tooth sector and of its influence grid (lengths in m).
 
     ``flank_size_m`` element size on flanks and fillets; ``body_size_m`` far from them; ``layer_size_m`` target
-    element length across the face (extrusion layers); ``teeth`` teeth in the sector (odd); ``rim_depth_modules``
+    element length across the face (extrusion layers); ``teeth`` teeth in the sector (1, 3 or 5; the loaded
+    tooth in the middle); ``rim_depth_modules``
     rim below the root circle [modules]; ``n_s`` profile positions and ``z_spacing_m`` axial spacing of the load
     grid; ``depth_m`` near-field reading depth (as the 2D far field; reduced to ``depth_fraction`` of the tooth
     chord near the tip)."""
@@ -62,10 +67,10 @@ class Mesh3DOptions:
     fine_layer_m: float = 1.2e-3
     growth_length_m: float = 6.0e-3
     layer_size_m: float = 1.6e-3
-    teeth: int = 1
+    teeth: int = 3
     rim_depth_modules: float = 1.5
     n_s: int = 7
-    z_spacing_m: float = 1.0e-3
+    z_spacing_m: float = 0.5e-3
     depth_m: float = 1.0e-3
     depth_fraction: float = 0.3
     n_per_flank: int = 60

@@ -17,31 +17,9 @@ import argparse
 import json
 import time
 
-import numpy as np
-
 from hacgear_core.geometry import gear_geometry
 from hacgear_core.model import load_model
 from hacgear_core.statics import fe3d
-
-
-def compare(fi, fe, gg) -> dict[str, dict[str, float]]:
-    """Under-the-load deviation and face spread [%] of the influence ``fi`` against direct solves of ``fe``."""
-    s_mid = 0.5 * (fi.s_m[2] + fi.s_m[3]) + 0.1e-3
-    z_line = np.linspace(-7.5e-3, 7.5e-3, 31)
-    loads = {"point": (np.array([s_mid]), np.array([1.37e-3]), np.array([1.0])),
-             "contact_line": (s_mid + np.linspace(-2e-3, 2e-3, 9), np.linspace(-4e-3, 4e-3, 9), np.ones(9) / 9)}
-    out = {}
-    for name, (s_load, z_load, w) in loads.items():
-        X, N, _ = fe3d.helical_flank_points(gg, "drive", s_load, z_load)
-        U = fe.solve((fe.displacement_operator(X, -N).T.toarray() * w).sum(axis=1, keepdims=True))
-        s_resp = np.interp(z_line, z_load, s_load) if s_load.size > 1 else np.full(z_line.size, s_load[0])
-        Xr, Nr, _ = fe3d.helical_flank_points(gg, "drive", s_resp, z_line)
-        depth = np.interp(s_resp, fi.s_m, fi.depth_m)
-        direct = (fe.displacement_operator(Xr - depth[:, None] * Nr, -Nr) @ U).ravel()
-        pred = np.array([np.sum(w * fi.kernel(s_load, z_load, sr, zr)) for sr, zr in zip(s_resp, z_line)])
-        out[name] = dict(under_load_pct=100 * (pred.max() / direct.max() - 1),
-                         spread_pct=100 * np.abs(pred - direct).max() / direct.max())
-    return out
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -61,7 +39,10 @@ def main(argv: list[str] | None = None) -> int:
     for f in a.factors:
         t0 = time.perf_counter()
         fe = fe3d.ToothSectorFE(gg, mat, fe3d.Mesh3DOptions().refined(f))
-        run = dict(factor=f, dofs=fe.n_dofs, build_s=time.perf_counter() - t0, **compare(fi, fe, gg))
+        chk = fe3d.influence_check(fi, fe, gg)
+        run = dict(factor=f, dofs=fe.n_dofs, build_s=time.perf_counter() - t0,
+                   **{k: dict(under_load_pct=100 * v["under_load_rel"], spread_pct=100 * v["spread_rel"])
+                      for k, v in chk.items()})
         report["runs"].append(run)
         if not a.json:
             print(f"factor {f}: {fe.n_dofs} DOF, built in {run['build_s']:.0f} s")

@@ -45,7 +45,7 @@ from hacgear_core.statics.fe import (ElasticMaterial, Gauge, _boundary_pieces, _
                                      _single_thread_blas, cache_dir, gmsh_model, read_npz, write_npz)
 
 __all__ = ["FE3D_CODE_VERSION", "Mesh3DOptions", "ToothSectorFE", "FaceInfluence", "face_influence", "material_of",
-           "helical_flank_points"]
+           "helical_flank_points", "influence_check"]
 
 #: bump when anything changes the numbers produced (part of every cache key)
 FE3D_CODE_VERSION = "fe3d-1"
@@ -535,4 +535,31 @@ def face_influence(gg: Any, material: Any, side: str, *, gauges: Sequence[tuple[
             out.save(path)
         except OSError:
             pass
+    return out
+
+
+def influence_check(fi: FaceInfluence, fe: ToothSectorFE, gg: Any, side: str = "drive") -> dict[str, dict]:
+    """The influence coefficients ``fi`` against direct solves of the 3D model ``fe`` (the same one or a refined
+    one) for two loads off the influence grid on the ``side`` flank of gear ``gg``: ``"point"`` (unit load at a
+    profile position between grid nodes, z = 1.37 mm) and ``"contact_line"`` (nine points along an inclined line,
+    z = -4 ... 4 mm, total 1 N).  Responses: the normal displacement at the near-field reading depth at 31 points
+    along the face (z = -7.5 ... 7.5 mm, on the load's line).  Per load: ``under_load_rel`` (peak predicted /
+    peak direct - 1), ``spread_rel`` (largest deviation along the face / peak direct), ``z_m``, ``direct_m``,
+    ``predicted_m`` (31,)."""
+    s_mid = 0.5 * (fi.s_m[2] + fi.s_m[3]) + 0.1e-3
+    z_line = np.linspace(-7.5e-3, 7.5e-3, 31)
+    loads = {"point": (np.array([s_mid]), np.array([1.37e-3]), np.array([1.0])),
+             "contact_line": (s_mid + np.linspace(-2e-3, 2e-3, 9), np.linspace(-4e-3, 4e-3, 9), np.ones(9) / 9)}
+    out = {}
+    for name, (s_load, z_load, w) in loads.items():
+        X, N, _ = helical_flank_points(gg, side, s_load, z_load)
+        U = fe.solve((fe.displacement_operator(X, -N).T.toarray() * w).sum(axis=1, keepdims=True))
+        s_resp = np.interp(z_line, z_load, s_load) if s_load.size > 1 else np.full(z_line.size, s_load[0])
+        Xr, Nr, _ = helical_flank_points(gg, side, s_resp, z_line)
+        depth = np.interp(s_resp, fi.s_m, fi.depth_m)
+        direct = (fe.displacement_operator(Xr - depth[:, None] * Nr, -Nr) @ U).ravel()
+        pred = np.array([np.sum(w * fi.kernel(s_load, z_load, sr, zr)) for sr, zr in zip(s_resp, z_line)])
+        out[name] = dict(under_load_rel=float(pred.max() / direct.max() - 1),
+                         spread_rel=float(np.abs(pred - direct).max() / direct.max()),
+                         z_m=z_line, direct_m=direct, predicted_m=pred)
     return out

@@ -51,9 +51,19 @@ def tooth_loads(table, tau, x) -> np.ndarray:
     return np.maximum(_per_offset(table, table.tooth_load_N, tau, x), 0.0)
 
 
-def dynamic_contact_pressure(table, tau, x) -> np.ndarray:
-    """Maximum contact pressure over all teeth (n,) [Pa] along the trajectory."""
-    return table.pressure(np.asarray(tau, float).ravel(), np.asarray(x, float).ravel())
+def _twisted(table, twist) -> bool:
+    return twist is not None and getattr(table, "twist", None) is not None
+
+
+def dynamic_contact_pressure(table, tau, x, twist=None) -> np.ndarray:
+    """Maximum contact pressure over all teeth (n,) [Pa] along the trajectory; for a helical mesh table (twist
+    axis) at the mesh twist ``twist`` (n,) [rad] when given (trilinear lookup of the twist-resolved pressure)."""
+    tau = np.asarray(tau, float).ravel()
+    x = np.asarray(x, float).ravel()
+    if _twisted(table, twist):
+        g = np.asarray(twist, float).ravel()
+        return np.maximum(table.twist_quantity(table.twist.peak_pressure_Pa, tau, x, g), 0.0)
+    return table.pressure(tau, x)
 
 
 def _gauge(table, gauge: str) -> np.ndarray:
@@ -73,12 +83,22 @@ def dynamic_root_strain(table, gauge: str, tau, x, tooth: int = 0) -> np.ndarray
     return table.interpolate_pair(_gauge(table, gauge), tau - tooth, np.asarray(x, dtype=float).ravel())
 
 
-def dynamic_mesh_stiffness(table, tau, x) -> np.ndarray:
+def dynamic_mesh_stiffness(table, tau, x, twist=None) -> np.ndarray:
     """Dynamic mesh stiffness (n,) [N/m]: local slope dF/dx of the FDF at the dynamic state
-    (dissertation Fig. 3.12); 0 where the teeth are out of contact."""
-    ta = table_arrays(table)
+    (dissertation Fig. 3.12); 0 where the teeth are out of contact.  For a helical mesh table (twist axis) with
+    the mesh twist ``twist`` (n,) [rad]: dW/dx of the trilinear generalized FDF at that twist (the slope of the
+    deflection cell that holds x, as for spur tables)."""
     tau = np.ascontiguousarray(np.asarray(tau, dtype=float).ravel())
     x = np.ascontiguousarray(np.asarray(x, dtype=float).ravel())
+    if _twisted(table, twist):
+        g = np.asarray(twist, float).ravel()
+        gfdf = table.twist.generalized_fdf
+        j = np.clip(np.floor((x - table.x0_m) * table.inv_dx), 0, table.n_deflections - 2)
+        xa = table.x0_m + j / table.inv_dx
+        w_a, w_b = (table.twist_quantity(gfdf, tau, xx, g)[:, 0] for xx in (xa, xa + 1.0 / table.inv_dx))
+        w = table.twist_quantity(gfdf, tau, x, g)[:, 0]
+        return np.where(w > 0.0, (w_b - w_a) * table.inv_dx, 0.0)
+    ta = table_arrays(table)
     out = np.empty(tau.size)
     slope_many(ta.ftab, ta.x0, ta.inv_dx, tau, x, out)
     return out

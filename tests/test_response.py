@@ -76,3 +76,34 @@ def test_pressure_and_tooth_loads_vanish_without_contact_and_sum_to_force():
     assert np.all(post.dynamic_contact_pressure(tab, tau, x) > 0.0)
     with pytest.raises(TableError, match="gauge"):
         post.dynamic_root_strain(tab, "nope/SG", tau, x)
+
+
+def test_helical_pressure_and_stiffness_are_read_at_the_mesh_twist():
+    """A helical table (twist axis): at zero twist the twisted reads equal the zero-twist ones; at a twist node
+    the pressure is the twist-resolved static solution's (the pattern moves towards a face edge: the peak
+    pressure at +0.5 mrad is above the untwisted one); the stiffness is dW/dx of the generalized FDF at that twist."""
+    from hacgear_core.tables import load_system_tables
+
+    t = load_system_tables("helical_28_33").mesh("m12")
+    tau = np.asarray(t.position, float)
+    xs = static_deflection(table_arrays(t), 3244.1)
+    zero = np.zeros(tau.size)
+    np.testing.assert_allclose(post.dynamic_contact_pressure(t, tau, xs, zero), post.dynamic_contact_pressure(t, tau, xs),
+                               rtol=1e-6)
+    np.testing.assert_allclose(post.dynamic_mesh_stiffness(t, tau, xs, zero), post.dynamic_mesh_stiffness(t, tau, xs),
+                               rtol=1e-9, atol=1e-6)
+    # at grid nodes (position i, deflection j, twist k) the stored twist-resolved pressure comes back
+    gk = np.asarray(t.twist.twist_rad)
+    j = int(np.argmin(np.abs(np.asarray(t.deflection_m) - xs.mean())))
+    xj = np.full(tau.size, t.deflection_m[j])
+    top = post.dynamic_contact_pressure(t, tau, xj, np.full(tau.size, gk[-1]))
+    np.testing.assert_allclose(top, np.asarray(t.twist.peak_pressure_Pa)[:, j, -1], rtol=1e-6)
+    assert top.max() > 1.02 * post.dynamic_contact_pressure(t, tau, xj).max()     # measured +2.4 %
+    # stiffness at a twist: the slope of W over the deflection cell at that twist
+    g = np.full(tau.size, 0.3e-3)
+    k = post.dynamic_mesh_stiffness(t, tau, xs, g)
+    h = 1e-3 / t.inv_dx
+    w = lambda x: t.generalized(tau, x, g)[:, 0]                               # noqa: E731
+    inside = np.abs(((xs - t.x0_m) * t.inv_dx) % 1.0 - 0.5) < 0.49             # away from cell edges
+    np.testing.assert_allclose(k[inside], ((w(xs + h) - w(xs - h)) / (2 * h))[inside], rtol=1e-6)
+    assert np.all(k > 0)

@@ -118,8 +118,9 @@ def run(args: argparse.Namespace) -> int:
             tr[f"{m}.twist_moment_Nm"] = raw["twist_moment_Nm"][:, k]
         if moving:
             tr[f"{m}.dynamic_transmission_error_m"] = raw["dynamic_transmission_error_m"][:, k]
-        tr[f"{m}.dynamic_mesh_stiffness_N_per_m"] = dynamic_mesh_stiffness(c.table, tau[:, k], x[:, k])
-        pressure = dynamic_contact_pressure(c.table, tau[:, k], x[:, k])
+        gk = raw["mesh_twist_rad"][:, k] if c.t is not None else None      # helical: read at the mesh twist
+        tr[f"{m}.dynamic_mesh_stiffness_N_per_m"] = dynamic_mesh_stiffness(c.table, tau[:, k], x[:, k], gk)
+        pressure = dynamic_contact_pressure(c.table, tau[:, k], x[:, k], gk)
         if c.coast_table is not None:  # the flanks in contact: drive or coast (never both)
             pressure = np.maximum(pressure, dynamic_contact_pressure(c.coast_table, tau[:, k], xc[:, k]))
         tr[f"{m}.peak_pressure_Pa"] = pressure

@@ -25,6 +25,7 @@ from hacgear_core.dynamics import kernels
 from hacgear_core.dynamics.equilibrium import static_equilibrium
 from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import ModelError, SolverError
+from hacgear_core.response import dynamic_contact_pressure
 
 __all__ = ["Simulator", "StepResult", "strain_of_tooth", "system_gauges"]
 
@@ -431,7 +432,8 @@ class Simulator:
         """Maximum contact pressure over all teeth of mesh ``mesh`` now [Pa] (table lookup), on the flanks in
         contact: the drive table's, or the coast table's when the teeth have crossed the backlash."""
         c = self.system.meshes[mesh]
-        p = float(c.table.pressure(self.mesh_position[mesh], self.mesh_deflection_m[mesh]))
+        g = [self.mesh_twist_rad[mesh]] if c.t is not None else None      # helical: at the mesh twist
+        p = float(dynamic_contact_pressure(c.table, [self.mesh_position[mesh]], [self.mesh_deflection_m[mesh]], g)[0])
         if c.coast_table is not None:
             p = max(p, float(c.coast_table.pressure(self.mesh_position[mesh], self.coast_approach_m[mesh])))
         return p

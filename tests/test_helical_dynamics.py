@@ -184,7 +184,8 @@ def test_dynamic_strains_at_the_five_face_gauges(system):
     dynamic strains differ from each other, and over one revolution of the tooth they are positive before the
     tooth engages (the preceding tooth loads the blank), largest while it is loaded, negative after it leaves
     the mesh (the following tooth loads the blank).  Face-wise: SG1 (z = -6.3 mm) lies outside the loaded
-    overlap (-4 ... +6 mm) and reads the lowest peak, the gauges inside it (SG3, SG4) the highest."""
+    overlap (-4 ... +6 mm) and reads the lowest peak and the least compression after the pass, the gauges inside
+    it (SG3, SG4) the most of both."""
     sim = Simulator(system)
     sim.set_speed_input(mesh_frequency_Hz=1200.0)
     sim.set_torque_set_point(200.0)
@@ -197,6 +198,8 @@ def test_dynamic_strains_at_the_five_face_gauges(system):
     assert np.max(eps.max(axis=0) - eps.min(axis=0)) > 0.1 * peak    # they differ (measured: 22.3 % of the peak)
     peaks = eps.max(axis=1)
     assert np.argmin(peaks) == 0 and peaks[0] < 0.9 * max(peaks[2], peaks[3])
+    lows = eps.min(axis=1)                  # after the pass: the loaded tooth before it compresses the shared land
+    assert np.argmax(lows) == 0 and lows[0] > 0.85 * min(lows[2], lows[3])   # measured -160 vs -209/-210 ue
     for e in eps:
         before = e[(ph > -1.75) & (ph < -1.0)]
         during = e[(ph > -0.5) & (ph < 0.0)]

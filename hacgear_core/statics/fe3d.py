@@ -17,8 +17,8 @@ This module measures that from elasticity, once per gear and loaded flank:
   positions (the active flank) × ``n_z`` axial positions (gear face edge to edge) of the middle tooth;
   responses: the normal displacement at the same grid, read at the near-field depth ``depth`` below the
   surface as in 2D, and the surface strain along the profile tangent at each gauge radius at every axial
-  grid position.  Arrays ``disp[i_s, i_z, j_s, j_z]`` [m/N] (load i, response j) and
-  ``strain[g, j_z, i_s, i_z]`` [1/N].
+  grid position, on the loaded tooth and on the tooth one pitch before it.  Arrays ``disp[i_s, i_z, j_s, j_z]``
+  [m/N] (load i, response j), ``strain[g, j_z, i_s, i_z]`` and ``strain_prev[g, j_z, i_s, i_z]`` [1/N].
 * **Use.**  The contact solver keeps the 2D whole-gear far field (blank, neighbouring teeth) as the part
   uniform over the face, and adds :meth:`FaceInfluence.correction`, the 3D kernel minus its average over
   both axial positions (load and response): the face-wise distribution that the 2D model lacks, with a zero
@@ -48,7 +48,7 @@ __all__ = ["FE3D_CODE_VERSION", "Mesh3DOptions", "ToothSectorFE", "FaceInfluence
            "helical_flank_points", "influence_check"]
 
 #: bump when anything changes the numbers produced (part of every cache key)
-FE3D_CODE_VERSION = "fe3d-1"
+FE3D_CODE_VERSION = "fe3d-2"
 
 
 @dataclass(frozen=True)
@@ -137,7 +137,8 @@ def helical_flank_points(gg: Any, side: str, s_m: Any, zeta_m: Any, n_profile: i
 class ToothSectorFE:
     """Factorised 3D P2 model of a helical tooth sector (see the module docstring).
 
-    Attributes: ``mesh`` (scikit-fem MeshTet), ``basis`` (vector P2), ``n_dofs``, ``timings_s``, ``rim_radius_m``.
+    Attributes: ``mesh`` (scikit-fem MeshTet), ``basis`` (vector P2), ``n_dofs``, ``timings_s``, ``rim_radius_m``,
+    ``teeth`` (teeth in the sector).
     """
 
     def __init__(self, gg: Any, material: ElasticMaterial, options: Mesh3DOptions = Mesh3DOptions()):
@@ -171,6 +172,7 @@ class ToothSectorFE:
         t3 = time.perf_counter()
         self.n_dofs = int(self.basis.N)
         self.rim_radius_m = float(r_cut)
+        self.teeth = int(options.teeth)
         self.timings_s = {"mesh": t1 - t0, "assemble": t2 - t1, "factorize": t3 - t2}
         tp = self.mesh.p[:, self.mesh.t]                         # (3, 4, T)
         A = np.stack([tp[:, 1] - tp[:, 0], tp[:, 2] - tp[:, 0], tp[:, 3] - tp[:, 0]], axis=-1)  # (3, T, 3)
@@ -327,7 +329,10 @@ class FaceInfluence:
     normal displacement at the reading depth of response point (j_s, j_z) per unit normal force at load point
     (i_s, i_z), ``disp_mean`` (ns, ns) its average over both axial positions, ``strain`` (ng, nz, ns, nz) [1/N]
     profile-tangent surface strain at gauge g at axial grid position j_z per unit force at (i_s, i_z),
-    ``strain_mean`` (ng, ns); ``gauge_names``; ``info`` (mesh, timings, cache key)."""
+    ``strain_mean`` (ng, ns); ``strain_prev``, ``strain_prev_mean``: the same at the gauges of the tooth one pitch
+    before the loaded one (response tooth - load tooth = -1: the tooth whose gauge shares the loaded tooth's
+    compressed root land; zeros for a one-tooth sector, which has no neighbour); ``gauge_names``; ``info`` (mesh,
+    timings, cache key)."""
 
     side: str
     face_width_m: float
@@ -338,10 +343,13 @@ class FaceInfluence:
     disp_mean: np.ndarray
     strain: np.ndarray
     strain_mean: np.ndarray
+    strain_prev: np.ndarray
+    strain_prev_mean: np.ndarray
     gauge_names: tuple
     info: dict = field(default_factory=dict)
 
-    _ARRAYS = ("s_m", "zeta_m", "depth_m", "disp", "disp_mean", "strain", "strain_mean")
+    _ARRAYS = ("s_m", "zeta_m", "depth_m", "disp", "disp_mean", "strain", "strain_mean", "strain_prev",
+               "strain_prev_mean")
 
     @staticmethod
     def _cell(grid: np.ndarray, v: np.ndarray):
@@ -398,12 +406,15 @@ class FaceInfluence:
                 out = out + wl * wr * self.kernel(s_load, np.asarray(z_load) + xl, s_resp, np.asarray(z_resp) + xr)
         return out - self.mean(s_load, s_resp)
 
-    def strain_correction(self, gauge: str, z_gauge: float, s_load, z_load) -> np.ndarray:
-        """Face-wise 3D correction [1/N] of the strain at ``gauge`` at axial coordinate ``z_gauge`` (gear frame)."""
+    def strain_correction(self, gauge: str, z_gauge: float, s_load, z_load, tooth: int = 0) -> np.ndarray:
+        """Face-wise 3D correction [1/N] of the strain at ``gauge`` at axial coordinate ``z_gauge`` (gear frame) on
+        the loaded tooth (``tooth`` 0) or on the tooth one pitch before it (``tooth`` -1)."""
         if gauge not in self.gauge_names:
             raise ModelError(f"no gauge {gauge!r} in the 3D face influence; gauges: {list(self.gauge_names)}")
+        if tooth not in (0, -1):
+            raise ModelError(f"tooth must be 0 (the loaded tooth) or -1 (the one before it), got {tooth!r}")
         g = self.gauge_names.index(gauge)
-        S = self.strain[g]                                  # (nz_resp, ns, nz_load)
+        S = (self.strain if tooth == 0 else self.strain_prev)[g]          # (nz_resp, ns, nz_load)
         d, fd = self._cell(self.zeta_m, np.asarray(z_gauge, float))
         a, fa = self._cell(self.s_m, s_load)
         b, fb = self._cell(self.zeta_m, z_load)
@@ -412,7 +423,8 @@ class FaceInfluence:
             for da, wa in ((0, 1 - fa), (1, fa)):
                 for db, wb in ((0, 1 - fb), (1, fb)):
                     out += wd * wa * wb * S[d + dd, a + da, b + db]
-        mean = (1 - fa) * self.strain_mean[g, a] + fa * self.strain_mean[g, a + 1]
+        sm = self.strain_mean if tooth == 0 else self.strain_prev_mean
+        mean = (1 - fa) * sm[g, a] + fa * sm[g, a + 1]
         return out - mean
 
     def save(self, path: str | os.PathLike) -> None:
@@ -512,23 +524,27 @@ def face_influence(gg: Any, material: Any, side: str, *, gauges: Sequence[tuple[
     D = (R @ U).T.reshape(s_grid.size, zeta.size, s_grid.size, zeta.size)
     w = _face_average(zeta)
     D_mean = np.einsum("azcd,z,d->ac", D, w, w)
-    strain = np.zeros((len(gauges), zeta.size, s_grid.size, zeta.size))
-    for gi, (p, t, nn, _, _) in enumerate(g_loc):
-        # the gauge point turned with the section at every axial grid position
-        a = np.asarray(gg.section_rotation_rad(zeta), float)
-        c, sn = np.cos(a), np.sin(a)
-        q = p - 2e-6 * nn
-        pts = np.stack([c * q[0] - sn * q[1], sn * q[0] + c * q[1], zeta], axis=1)
-        tt = np.stack([c * t[0] - sn * t[1], sn * t[0] + c * t[1], np.zeros_like(zeta)], axis=1)
-        E = model.strain_operator(pts, tt) @ U                       # (nz_resp, ns*nz_load)
-        strain[gi] = E.reshape(zeta.size, s_grid.size, zeta.size)
-    strain_mean = np.einsum("gzad,z,d->ga", strain, w, w)
+    strain = np.zeros((2, len(gauges), zeta.size, s_grid.size, zeta.size))
+    for k, shift in enumerate((0, -1)):
+        if shift != 0 and model.teeth < 3:
+            continue                                                   # no neighbouring tooth in the sector
+        for gi, (p, t, nn, _, _) in enumerate(g_loc):
+            # the gauge point turned with the section at every axial grid position (and by a pitch for shift -1)
+            a = np.asarray(gg.section_rotation_rad(zeta), float) + shift * 2.0 * np.pi / int(gg.z)
+            c, sn = np.cos(a), np.sin(a)
+            q = p - 2e-6 * nn
+            pts = np.stack([c * q[0] - sn * q[1], sn * q[0] + c * q[1], zeta], axis=1)
+            tt = np.stack([c * t[0] - sn * t[1], sn * t[0] + c * t[1], np.zeros_like(zeta)], axis=1)
+            E = model.strain_operator(pts, tt) @ U                   # (nz_resp, ns*nz_load)
+            strain[k, gi] = E.reshape(zeta.size, s_grid.size, zeta.size)
+    strain_mean = np.einsum("kgzad,z,d->kga", strain, w, w)
     t2 = time.perf_counter()
     info = dict(cache_key=key, n_dofs=model.n_dofs, n_tets=int(model.mesh.t.shape[1]), options=asdict(options),
                 rim_radius_m=model.rim_radius_m, timings_s=dict(model.timings_s, build_total=t1 - t0, solve=t2 - t1),
                 code_version=FE3D_CODE_VERSION, gauges=[dict(name=n, flank=f, radius_m=r) for n, f, r, _ in gauges])
     out = FaceInfluence(side=side, face_width_m=float(gg.face_width_m), s_m=s_grid, zeta_m=zeta, depth_m=depth,
-                        disp=D, disp_mean=D_mean, strain=strain, strain_mean=strain_mean,
+                        disp=D, disp_mean=D_mean, strain=strain[0], strain_mean=strain_mean[0],
+                        strain_prev=strain[1], strain_prev_mean=strain_mean[1],
                         gauge_names=tuple(n for n, _, _, _ in gauges), info=info)
     if cache and fe is None:
         try:

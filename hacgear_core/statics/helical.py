@@ -354,9 +354,10 @@ class HelicalMeshContactSolver(MeshContactSolver):
                 M /= self.gear_face_width_m[gear]
                 fi = self.face_influence[gear]
                 zl = self.z_centre_m + s.zeta_m - self.gear_axial_m[gear]
-                ii, jj = np.nonzero(dk == 0)
-                M[ii, jj] += fi.strain_correction(name.split("/", 1)[1], z_g - self.gear_axial_m[gear],
-                                                  s_load[jj], zl[jj])
+                for tooth, k in ((0, 0), (-1, z - 1)):        # the loaded tooth and the one before it
+                    ii, jj = np.nonzero(dk == k)
+                    M[ii, jj] += fi.strain_correction(name.split("/", 1)[1], z_g - self.gear_axial_m[gear],
+                                                      s_load[jj], zl[jj], tooth=tooth)
             elif coupling == "slices":
                 j = int(np.argmin(np.abs(self.slice_z_m - (z_g - self.z_centre_m))))
                 M = np.where((s.slice_index == j)[None, :], M * ns / self.face_width_m, 0.0)

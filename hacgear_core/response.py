@@ -18,7 +18,8 @@ import math
 import numpy as np
 
 from hacgear_core.errors import TableError
-from hacgear_core.tables.fdf import StaticStiffness, static_deflection, static_stiffness, table_arrays
+from hacgear_core.tables.fdf import (StaticStiffness, generalized_slopes, static_deflection, static_stiffness,
+                                     table_arrays)
 from hacgear_core.tables.interp import slope_many
 
 __all__ = [
@@ -86,18 +87,14 @@ def dynamic_root_strain(table, gauge: str, tau, x, tooth: int = 0) -> np.ndarray
 def dynamic_mesh_stiffness(table, tau, x, twist=None) -> np.ndarray:
     """Dynamic mesh stiffness (n,) [N/m]: local slope dF/dx of the FDF at the dynamic state
     (dissertation Fig. 3.12); 0 where the teeth are out of contact.  For a helical mesh table (twist axis) with
-    the mesh twist ``twist`` (n,) [rad]: dW/dx of the trilinear generalized FDF at that twist (the slope of the
-    deflection cell that holds x, as for spur tables)."""
+    the mesh twist ``twist`` (n,) [rad]: dW/dx of the trilinear generalized FDF at that twist
+    (:func:`~hacgear_core.tables.fdf.generalized_slopes`: the slope of the deflection cell that holds x)."""
     tau = np.ascontiguousarray(np.asarray(tau, dtype=float).ravel())
     x = np.ascontiguousarray(np.asarray(x, dtype=float).ravel())
     if _twisted(table, twist):
         g = np.asarray(twist, float).ravel()
-        gfdf = table.twist.generalized_fdf
-        j = np.clip(np.floor((x - table.x0_m) * table.inv_dx), 0, table.n_deflections - 2)
-        xa = table.x0_m + j / table.inv_dx
-        w_a, w_b = (table.twist_quantity(gfdf, tau, xx, g)[:, 0] for xx in (xa, xa + 1.0 / table.inv_dx))
-        w = table.twist_quantity(gfdf, tau, x, g)[:, 0]
-        return np.where(w > 0.0, (w_b - w_a) * table.inv_dx, 0.0)
+        w = table.twist_quantity(table.twist.generalized_fdf, tau, x, g)[:, 0]
+        return np.where(w > 0.0, generalized_slopes(table, tau, x, g)[:, 0, 0], 0.0)
     ta = table_arrays(table)
     out = np.empty(tau.size)
     slope_many(ta.ftab, ta.x0, ta.inv_dx, tau, x, out)

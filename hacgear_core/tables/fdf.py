@@ -10,6 +10,7 @@ static equilibrium: ``x_s(tau)`` solves ``F(tau, x_s) = Fs`` on each table row.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -26,6 +27,7 @@ __all__ = [
     "static_stiffness",
     "contact_count",
     "GeneralizedStiffness",
+    "generalized_slopes",
     "generalized_stiffness",
 ]
 
@@ -202,26 +204,35 @@ class GeneralizedStiffness:
                 ("k_xx_N_per_m", "k_xg_N_per_rad", "k_gx_Nm_per_m", "k_gg_Nm_per_rad")}
 
 
-def generalized_stiffness(table, force_N: float) -> GeneralizedStiffness:
-    """Linearised generalized force law of a helical mesh ``table`` (with a twist axis) at mesh force ``force_N``
-    [N] and zero twist: the derivatives of the table's trilinear rule at the static deflection of each position
-    row (central differences of 1e-3 of a grid step; across gamma = 0, a grid point, they give the mean of the
-    two neighbouring cells' slopes, the twist-grid resolution of the law)."""
+def generalized_slopes(table, position: Any, deflection: Any, twist: Any) -> np.ndarray:
+    """Derivatives of the trilinear generalized FDF of a helical mesh ``table`` (twist axis) at (position
+    [cycles], deflection [m], twist [rad]) (n,) each → (n, 2, 2): ``[[dW/dx, dW/dgamma], [dM/dx, dM/dgamma]]``
+    [N/m, N/rad; N m/m, N m/rad].  Central differences of 1e-3 of a grid step: inside a cell the cell's slope,
+    on a grid line the mean of the two neighbouring cells' slopes."""
     if getattr(table, "twist", None) is None:
-        raise TableError("generalized_stiffness needs a table with a twist axis (helical mesh, format 2+)")
-    ta = table_arrays(table)
-    xs = static_deflection(ta, force_N)
-    pos = np.asarray(table.position, dtype=float)
-    g = np.asarray(table.twist.twist_rad, dtype=float)
-    hx, hg = 1e-3 / table.inv_dx, 1e-3 * float(np.min(np.diff(g)))
-    z = np.zeros(pos.size)
+        raise TableError("generalized_slopes needs a table with a twist axis (helical mesh, format 2+)")
+    p, x, g = np.broadcast_arrays(*(np.asarray(v, dtype=float).ravel() for v in (position, deflection, twist)))
+    hx, hg = 1e-3 / table.inv_dx, 1e-3 * float(np.min(np.diff(table.twist.twist_rad)))
+    gfdf = table.twist.generalized_fdf
 
     def wm(dx, dg):
-        return table.generalized(pos, xs + dx, z + dg)
+        return table.twist_quantity(gfdf, p, x + dx, g + dg)
 
-    ax, bx = wm(hx, 0.0), wm(-hx, 0.0)
-    ag, bg = wm(0.0, hg), wm(0.0, -hg)
+    dx_ = (wm(hx, 0.0) - wm(-hx, 0.0)) / (2 * hx)                         # (n, 2): dW/dx, dM/dx
+    dg_ = (wm(0.0, hg) - wm(0.0, -hg)) / (2 * hg)                         # (n, 2): dW/dgamma, dM/dgamma
+    return np.stack([dx_, dg_], axis=2)
+
+
+def generalized_stiffness(table, force_N: float) -> GeneralizedStiffness:
+    """Linearised generalized force law of a helical mesh ``table`` (with a twist axis) at mesh force ``force_N``
+    [N] and zero twist: the derivatives of the table's trilinear rule (:func:`generalized_slopes`) at the static
+    deflection of each position row (across gamma = 0, a grid point, the twist slopes are the mean of the two
+    neighbouring cells' slopes, the twist-grid resolution of the law)."""
+    if getattr(table, "twist", None) is None:
+        raise TableError("generalized_stiffness needs a table with a twist axis (helical mesh, format 2+)")
+    xs = static_deflection(table_arrays(table), force_N)
+    pos = np.asarray(table.position, dtype=float)
+    k = generalized_slopes(table, pos, xs, np.zeros(pos.size))
     return GeneralizedStiffness(
-        force_N=float(force_N), position=pos, deflection_m=xs,
-        k_xx_N_per_m=(ax[:, 0] - bx[:, 0]) / (2 * hx), k_xg_N_per_rad=(ag[:, 0] - bg[:, 0]) / (2 * hg),
-        k_gx_Nm_per_m=(ax[:, 1] - bx[:, 1]) / (2 * hx), k_gg_Nm_per_rad=(ag[:, 1] - bg[:, 1]) / (2 * hg))
+        force_N=float(force_N), position=pos, deflection_m=xs, k_xx_N_per_m=k[:, 0, 0], k_xg_N_per_rad=k[:, 0, 1],
+        k_gx_Nm_per_m=k[:, 1, 0], k_gg_Nm_per_rad=k[:, 1, 1])

@@ -13,6 +13,7 @@ import pytest
 
 fmpy = pytest.importorskip("fmpy")
 
+from _bench import assert_final_hold  # noqa: E402
 from hacgear_core.dynamics.build import build_system  # noqa: E402
 from hacgear_core.dynamics.simulator import Simulator  # noqa: E402
 from hacgear_core.fmu.bench import BenchConfig, run_drivetrain_bench  # noqa: E402
@@ -100,11 +101,6 @@ def test_helical_fmu_in_a_drivetrain_bench(fmu):
     res = run_drivetrain_bench(fmu["path"], cfg)
     assert res["input_gear"] == "pinion" and res["output_gear"] == "wheel"
     assert res["speed_ratio"] == pytest.approx(28 / 33, rel=1e-9)
-    t = res["time_s"]
-    end = t > t[-1] - 0.01
-    w_ref = 2600.0 * 2 * math.pi / 60
-    assert np.mean(res["input_speed_rad_s"][end]) == pytest.approx(w_ref, rel=0.02)
-    assert np.mean(res["output_speed_rad_s"][end]) == pytest.approx(w_ref * 28 / 33, rel=0.02)
-    assert np.mean(res["shaft2_torque_Nm"][end]) == pytest.approx(-235.7, rel=0.05)
+    end = assert_final_hold(res, cfg, 28 / 33, window_s=0.01, rel_speed=0.02)
     f = np.mean(res["m12.force"][end])
     assert f == pytest.approx(res["static_mesh_force_N"]["m12"], rel=0.05)

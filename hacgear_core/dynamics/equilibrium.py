@@ -17,6 +17,7 @@ import numpy as np
 
 from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import SolverError
+from hacgear_core.tables.fdf import generalized_slopes
 from hacgear_core.tables.interp import deflection_at_force
 
 __all__ = ["EquilibriumResult", "static_equilibrium", "static_state", "LoadSharing", "load_sharing"]
@@ -91,14 +92,10 @@ def static_equilibrium(system: LumpedSystem, tau_ref: float = 0.0, fext: np.ndar
     def tangent(tau, xx, kbar_floor):
         x, xc = xx
         if tw:
-            # central differences of the generalized law (2 x 2 per mesh) on [v t]
+            # the generalized law's 2 x 2 slopes per mesh (the table's rule) on [v t]
             a = keff.copy()
             for k in range(m):
-                hx, hg = 1e-9, 1e-7
-                d = [system.mesh_generalized(k, tau[k], x[k] + e[0], xc[k] + e[1])
-                     for e in ((hx, 0.0), (-hx, 0.0), (0.0, hg), (0.0, -hg))]
-                jac = np.array([[(d[0][0] - d[1][0]) / (2 * hx), (d[2][0] - d[3][0]) / (2 * hg)],
-                                [(d[0][1] - d[1][1]) / (2 * hx), (d[2][1] - d[3][1]) / (2 * hg)]])
+                jac = generalized_slopes(system.meshes[k].table, tau[k], x[k], xc[k])[0]
                 jac[0, 0] = max(jac[0, 0], kbar_floor[k])
                 b = np.vstack([system.V[k], system.T[k]])
                 a += b.T @ jac @ b

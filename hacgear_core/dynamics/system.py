@@ -663,4 +663,3 @@ def _linear_law_at(lin: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.nda
     a = t - i
     i1 = (i + 1) % npos
     return tuple(lin[r, i] + a * (lin[r, i1] - lin[r, i]) for r in range(3))
-

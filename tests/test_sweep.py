@@ -165,3 +165,24 @@ def test_fine_and_coarse_grids_find_the_same_jumps_on_the_fe_tables():
     for key, (lo, hi) in found[217].items():
         clo, chi = found[21][key]
         assert clo - 50.0 <= lo and hi <= chi + 50.0, (key, (lo, hi), (clo, chi))
+
+
+def test_stability_checked_sweep_stores_the_multipliers(tmp_path):
+    """With ``options.stability`` every row carries its orbit's largest Floquet multiplier: both branches of the
+    softening region are stable orbits (< 1), the file holds the same numbers as the run, a plain sweep NaN."""
+    from hacgear_core.dynamics.steady import SteadyStateOptions
+
+    p, tab = softening()
+    fn = fn_rot()
+    fm = tuple(np.linspace(0.6 * fn, 1.2 * fn, 13))
+    out = tmp_path / "s.h5"
+    r = run_sweep(SweepSpec(system(p, tab), fm, "both", options=SteadyStateOptions(stability=True)), out=out,
+                  progress=False)
+    for b in ("up", "down"):
+        mu = r.branches[b].max_multiplier
+        assert mu.shape == (13,) and np.all((mu > 0) & (mu < 1))
+        stored = sw.read_sweep(out, r.run_id)[b].max_multiplier
+        assert np.array_equal(stored, mu)
+    assert "max_multiplier" in r.to_json()["branches"]["up"]
+    plain = run_sweep(SweepSpec(system(p, tab), fm[:2], "up"), progress=False)
+    assert np.all(np.isnan(plain.branches["up"].max_multiplier))

@@ -41,6 +41,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="processes for the branches (2 runs up and down in parallel) [-] (default %(default)s)")
     p.add_argument("--rtol", type=float, default=1e-5, help="steady-state tolerance (relative) [-] (default %(default)s)")
     p.add_argument("--max-cycles", type=int, default=3000, help="cycle cap per speed [-] (default %(default)s)")
+    p.add_argument("--stability", action="store_true",
+                   help="Floquet check of every detected orbit: an unstable one (largest multiplier modulus > 1) is "
+                        "left along its growing perturbation, so each speed ends on an attractor; the table gains the "
+                        "column |mu|max (--json: max_multiplier per speed)")
     p.add_argument("--torques", default=None,
                    help="several torques on the input gear, comma separated [N*m] (instead of --torque): one sweep "
                         "per torque, all branches in parallel over --workers processes")
@@ -69,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
         check_out_path(args.out, "--out", suffixes=(".h5", ".hdf5"))
     if args.workers < 1:
         raise ModelError(f"--workers must be >= 1, got {args.workers}")
-    opts = SteadyStateOptions(rtol=args.rtol, max_cycles=args.max_cycles)
+    opts = SteadyStateOptions(rtol=args.rtol, max_cycles=args.max_cycles, stability=args.stability)
     specs = [SweepSpec(inp.system, tuple(fms), args.direction, torque_Nm=t, options=opts,
                        label=f"{inp.system.name} {t or inp.system.torque_Nm:g} N*m") for t in torques]
     n_tasks = sum(len(s.branches) for s in specs)
@@ -105,14 +109,15 @@ def run(args: argparse.Namespace) -> int:
             for k, mn in enumerate(res.spec.mesh_names):
                 print(f" mesh {mn}:")
                 print("   f_m [Hz]   rms x [µm]  mean x [µm]" + ("  DTE rms [µm]" if moving else "")
-                      + "  F_max [N]  loss [-]  DF_F  state")
+                      + "  F_max [N]  loss [-]  DF_F  state" + ("     |mu|max" if args.stability else ""))
                 for i, f in enumerate(r.mesh_frequency_Hz):
                     m = {key: v[i, k] for key, v in r.metrics.items()}
                     st = f"period-{r.period_cycles[i]}" if r.converged[i] else "CAP"
                     print(f"  {f:9.1f}  {m['rms_deflection_m'] * 1e6:10.4f}  {m['mean_deflection_m'] * 1e6:11.4f}  "
                           + (f"{m['dte_rms_m'] * 1e6:12.4f}  " if moving else "")
                           + f"{m['peak_force_N']:9.1f}  {m['contact_loss_fraction']:8.3f}  "
-                          f"{m['dynamic_factor_force']:4.2f}  {st}")
+                          f"{m['dynamic_factor_force']:4.2f}  {st}"
+                          + (f"  {r.max_multiplier[i]:10.4f}" if args.stability else ""))
         conf = [j for j in res.jumps if j.confirmed]
         for j in conf:
             print(f"{j.kind} of mesh {j.mesh} in the {j.branch} sweep between {j.interval_Hz[0]:.1f} and "

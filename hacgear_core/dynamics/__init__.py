@@ -4,14 +4,15 @@ gear system.
 :mod:`.system` (bodies, supports, mesh couplings → matrices), :mod:`.build` (model → system, one builder per
 kind), :mod:`.force_laws` (HAC and conventional laws), :mod:`.kernels` (the compiled RK4 loop shared with the
 FMUs), :mod:`.simulator` (time stepping, both experiments), :mod:`.equilibrium` (static equilibrium),
-:mod:`.steady` (steady-state detection), :mod:`.sweep` (speed sweeps, jumps, resumable output), :mod:`.modes`
-(modal analysis, impulse test), :mod:`.inputs` (the CLI's MODEL argument), :mod:`.synthetic` (synthetic tables
+:mod:`.steady` (steady-state detection), :mod:`.floquet` (stability of periodic orbits), :mod:`.sweep` (speed
+sweeps, jumps, resumable output), :mod:`.modes` (modal analysis, impulse test), :mod:`.inputs` (the CLI's MODEL argument), :mod:`.synthetic` (synthetic tables
 for tests and demonstrations).
 """
 from __future__ import annotations
 
 from hacgear_core.dynamics.build import SpurPairParameters, build_system, spur_pair_system
 from hacgear_core.dynamics.equilibrium import EquilibriumResult, static_equilibrium, static_state
+from hacgear_core.dynamics.floquet import FloquetResult, floquet
 from hacgear_core.dynamics.force_laws import FORCE_LAWS, ForceLaw, make_force_law
 from hacgear_core.dynamics.modes import (
     ImpulseResult,
@@ -26,6 +27,8 @@ from hacgear_core.dynamics.sweep import SweepResult, SweepSpec, detect_jumps, ru
 from hacgear_core.dynamics.system import GearBody, LumpedSystem, MeshCoupling
 
 __all__ = [
+    "FloquetResult",
+    "floquet",
     "LumpedSystem",
     "GearBody",
     "MeshCoupling",

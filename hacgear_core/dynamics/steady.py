@@ -12,6 +12,14 @@ transient whose phase turns by about ``2 pi m / n`` per cycle passes the lag-``n
 integration stops at ``max_cycles`` and the result says so (``converged = False``, ``status = "cap"``); its
 metrics then come from the last 4 cycles.
 
+Stability (``stability=True``).  Detection alone can accept an unstable orbit: a symmetric system (identical,
+in-phase planets) keeps a symmetric solution to rounding even where it is unstable, because the perturbation that
+would grow starts at 1e-16 and grows by only a few per cent per cycle.  With ``stability`` every detected orbit is
+refined by shooting and its Floquet multipliers computed (:mod:`~hacgear_core.dynamics.floquet`); an orbit with a
+multiplier outside the unit circle is pushed along that multiplier's eigenvector (``kick`` of the scale below)
+and integrated on, up to ``max_kicks`` times, so the response settles on an attractor.  The result then carries
+the largest elastic multiplier modulus of the orbit it returns (``max_multiplier``; < 1 stable).
+
 Metrics over the final period (``n`` cycles, every step), per mesh (arrays of length m): mean and RMS of the
 oscillating part of the mesh deflection, dynamic transmission error (mean, RMS, peak-to-peak); on the flanks the
 nominal torque loads (the drive flanks, the coast flanks for a negative torque): peak and minimum force, fraction
@@ -30,6 +38,7 @@ import numpy as np
 
 from hacgear_core.dynamics import kernels
 from hacgear_core.dynamics.equilibrium import static_equilibrium
+from hacgear_core.dynamics.floquet import floquet
 from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import ModelError
 from hacgear_core.response import skipped_tooth_fraction, static_strain_max, strain_dynamic_factor
@@ -64,6 +73,9 @@ class SteadyStateOptions:
     max_period: int = 4
     chunk_cycles: int = 16
     min_steps_per_cycle: int = 128
+    stability: bool = False
+    max_kicks: int = 3
+    kick: float = 1e-2
 
     def __post_init__(self) -> None:
         if not (0 < self.rtol < 1):
@@ -74,6 +86,10 @@ class SteadyStateOptions:
             raise ModelError(f"max_period [cycles] must be in [1, 16], got {self.max_period}")
         if self.chunk_cycles < 1 or self.min_steps_per_cycle < 8:
             raise ModelError("chunk_cycles must be >= 1 and min_steps_per_cycle >= 8")
+        if not 0 <= self.max_kicks <= 10:
+            raise ModelError(f"max_kicks must be in [0, 10], got {self.max_kicks}")
+        if not (0 < self.kick < 1):
+            raise ModelError(f"kick [-] (relative to the static mesh deflection) must be in (0, 1), got {self.kick}")
 
 
 @dataclass
@@ -90,6 +106,11 @@ class SteadyStateResult:
     state: np.ndarray
     metrics: dict
     trace: dict = field(default_factory=dict)
+    #: largest modulus of the orbit's elastic Floquet multipliers (< 1: stable); NaN unless checked
+    #: (``SteadyStateOptions.stability``) on a converged orbit
+    max_multiplier: float = math.nan
+    #: unstable orbits left (pushed off along their growing perturbation) before this one
+    kicks: int = 0
 
 
 def _projection(system: LumpedSystem) -> np.ndarray:
@@ -238,6 +259,8 @@ def steady_state(system: LumpedSystem, mesh_frequency_Hz: float, state0: np.ndar
     rec_o = np.zeros((opt.chunk_cycles, kernels.record_width(mm)))
     cycles = 0
     period = 0
+    kicks = 0
+    mu_max = math.nan
     while cycles < opt.max_cycles and period == 0:
         nc = min(opt.chunk_cycles, opt.max_cycles - cycles)
         kin[:] = (0.0, 0.0, omega)
@@ -260,6 +283,19 @@ def steady_state(system: LumpedSystem, mesh_frequency_Hz: float, state0: np.ndar
                         continue
                 period = per
                 break
+        if period and opt.stability:
+            fq = floquet(system, fm, s, period, torque_Nm=torque_Nm, steps_per_cycle=nsp)
+            mu_max = fq.max_multiplier
+            if fq.success and not fq.stable and kicks < opt.max_kicks and cycles < opt.max_cycles:
+                # push the orbit off along its growing perturbation, sized ``kick`` in the scaled coordinates
+                v = np.real(fq.vectors[:, 0])
+                if not np.any(np.abs(proj @ v) > 0):
+                    v = np.imag(fq.vectors[:, 0])
+                s = fq.state + v * (opt.kick / np.max(np.abs(proj @ v)))
+                hist[cycles] = proj @ s
+                kicks += 1
+                period = 0
+                mu_max = math.nan
     converged = period > 0
     nrec_cyc = period if converged else 4
     nrec = nrec_cyc * nsp
@@ -278,4 +314,4 @@ def steady_state(system: LumpedSystem, mesh_frequency_Hz: float, state0: np.ndar
         trace["state"] = rs
     status = f"period-{period}" if converged else "cap"
     return SteadyStateResult(fm, converged, status, period if converged else 0, cycles + nrec_cyc, nsp, s.copy(),
-                             metrics, trace)
+                             metrics, trace, mu_max, kicks)

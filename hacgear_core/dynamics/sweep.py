@@ -12,6 +12,7 @@ Results file (HDF5, one row per finished speed, flushed after each row)::
     /sweeps/<run_id>/                 attrs: spec (JSON), label, system, mesh_names (JSON), synthetic_table
     /sweeps/<run_id>/<branch>/        branch = "up" | "down"
         mesh_frequency_Hz (k,)  state (k, 2n)  converged (k,)  period_cycles (k,)  cycles_run (k,)
+        max_multiplier (k,)  (largest elastic Floquet multiplier modulus; NaN unless ``options.stability``)
         <metric> (k, m)  for every name in METRIC_NAMES, one column per mesh
 
 ``run_id`` hashes everything the numbers depend on (the system's fingerprint: matrices, tables, force law,
@@ -130,6 +131,8 @@ class BranchResult:
     state: np.ndarray
     recomputed: int = 0
     discarded: int = 0
+    #: (k,) largest elastic Floquet multiplier modulus of each speed's orbit (NaN: not checked)
+    max_multiplier: np.ndarray | None = None
 
 
 @dataclass
@@ -162,6 +165,8 @@ class SweepResult:
         for b, r in self.branches.items():
             d = {"mesh_frequency_Hz": r.mesh_frequency_Hz.tolist(), "converged": r.converged.astype(bool).tolist(),
                  "period_cycles": r.period_cycles.tolist(), "cycles_run": r.cycles_run.tolist(), "meshes": {}}
+            if r.max_multiplier is not None and np.any(np.isfinite(r.max_multiplier)):
+                d["max_multiplier"] = [None if not math.isfinite(v) else float(v) for v in r.max_multiplier]
             for k, mn in enumerate(names):
                 d["meshes"][mn] = {m: [None if not math.isfinite(v) else v for v in np.asarray(r.metrics[m])[:, k]]
                                    for m in METRIC_NAMES}
@@ -185,8 +190,8 @@ def _open_part(path: Path, n2: int, m: int, spec: SweepSpec, branch: str):
         f.attrs["branch"] = branch
         f.attrs["spec"] = json.dumps(spec._describe(), sort_keys=True)
         f.attrs["rows"] = 0
-        for name in ("mesh_frequency_Hz", "converged", "period_cycles", "cycles_run"):
-            dt = "f8" if name == "mesh_frequency_Hz" else "i8"
+        for name in ("mesh_frequency_Hz", "converged", "period_cycles", "cycles_run", "max_multiplier"):
+            dt = "f8" if name in ("mesh_frequency_Hz", "max_multiplier") else "i8"
             f.create_dataset(name, shape=(0,), maxshape=(None,), dtype=dt, chunks=(64,))
         for name in METRIC_NAMES:
             f.create_dataset(name, shape=(0, m), maxshape=(None, m), dtype="f8", chunks=(64, m))
@@ -210,6 +215,7 @@ def _append_row(f, fm, res) -> None:
     f["converged"][k] = int(res.converged)
     f["period_cycles"][k] = res.period_cycles
     f["cycles_run"][k] = res.cycles_run
+    f["max_multiplier"][k] = res.max_multiplier
     for m in METRIC_NAMES:
         f[m][k] = res.metrics[m]
     f["state"][k] = res.state
@@ -223,6 +229,8 @@ def _branch_from_group(g, branch: str, recomputed: int = 0) -> BranchResult:
         branch=branch, mesh_frequency_Hz=g["mesh_frequency_Hz"][...], converged=g["converged"][...].astype(bool),
         period_cycles=g["period_cycles"][...], cycles_run=g["cycles_run"][...], state=g["state"][...],
         metrics={m: np.atleast_2d(g[m][...].T).T for m in METRIC_NAMES}, recomputed=recomputed,
+        max_multiplier=(g["max_multiplier"][...] if "max_multiplier" in g
+                        else np.full(g["mesh_frequency_Hz"].shape[0], np.nan)),
     )
 
 
@@ -269,7 +277,7 @@ def _run_branch(spec: SweepSpec, branch: str, part: str | None, progress: bool, 
             metrics={k: np.array([r[1].metrics[k] for r in rows]).reshape(-1, m) for k in METRIC_NAMES},
             converged=np.array([r[1].converged for r in rows]), period_cycles=np.array([r[1].period_cycles for r in rows]),
             cycles_run=np.array([r[1].cycles_run for r in rows]), state=np.array([r[1].state for r in rows]),
-            recomputed=len(rows),
+            recomputed=len(rows), max_multiplier=np.array([r[1].max_multiplier for r in rows], dtype=float),
         )
     finally:
         if bar is not None:

@@ -194,3 +194,19 @@ def test_simulate_with_the_coast_flanks_loaded_reports_them(capsys):
     assert main(["simulate", "spur_28t_asym", "--torque", "300", "--fm", "1000", "--cycles", "12", "--json"]) == 0
     d = json.loads(capsys.readouterr().out)["meshes"]["m12"]
     assert d["loaded_flank"] == "drive" and d["contact_loss_fraction"] == 0.0 and d["peak_coast_force_N"] == 0.0
+
+
+def test_sweep_stability_column_and_json(capsys):
+    """``--stability``: every speed's largest Floquet multiplier, in the text table and in the JSON (< 1: the
+    orbits of a damped pair under load are stable)."""
+    rc, d = _cli(["sweep", "synthetic:28t", "--torque", "300", "--fm", "1500:2500:3", "--direction", "up",
+                  "--json", "--no-progress", "--stability"], capsys)
+    assert rc == 0
+    mu = d["branches"]["up"]["max_multiplier"]
+    assert len(mu) == 3 and all(0 < v < 1 for v in mu)
+    assert main(["sweep", "synthetic:28t", "--torque", "300", "--fm", "1500:2500:3", "--direction", "up",
+                 "--no-progress", "--stability"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    i = next(k for k, line in enumerate(lines) if "f_m [Hz]" in line)
+    assert "|mu|max" in lines[i]
+    assert [float(line.split()[-1]) for line in lines[i + 1:i + 4]] == [round(v, 4) for v in mu]

@@ -5,22 +5,27 @@ docs/validation.md "Planetary set" from one run.
 Writes ``docs/validation_planetary.json`` and ``docs/figures/validation_planetary_sweeps.png`` (sun-mesh RMS over
 mesh frequency, up and down sweeps, 3 and 5 planets, with and without tip relief) and prints a summary:
 
-* up/down sweeps 400-4400 Hz (25 Hz steps) of planetary_65_55_175 (15 um tip relief) and
-  planetary_65_55_175_unmodified, 3 and 5 planets: largest up/down difference, width of the double-valued
-  regions, contact loss;
-* up/down sweeps in 2 Hz steps through the two bands where the 3-planet sweeps disagree (the width of each
-  double-valued band and the peaks of the two branches; ``--bands-only`` recomputes just these);
+* up/down sweeps 400-4400 Hz (25 Hz steps, every orbit Floquet-checked: each speed ends on an attractor) of
+  planetary_65_55_175 (15 um tip relief) and planetary_65_55_175_unmodified, 3 and 5 planets: largest up/down
+  difference, width of the double-valued regions, contact loss, speeds where the planets respond differently;
+* 3 planets in 5 Hz steps over the whole range (narrow double-valued bands a 25 Hz grid would step over;
+  ``--fine-only`` recomputes just these);
+* 5 planets: the in-phase (identical-planet) periodic solution continued over the range and its Floquet
+  multipliers: where it is stable, where a planet mode makes it unstable;
+* the support-stiffness and damping sensitivity of the sweeps (``--sensitivity``: Table 4.2 gives neither);
 * steady state at 1600 Hz for 3, 4, 5 planets: central members' translational vs rotational motion, the planets'
   sun-mesh deflections against planet 1's shifted by the mesh delays, the sun mid-space root strain;
 * static load sharing and a 20 um tangential pin error;
 * modes at zero carrier speed and at the carrier speed of 1600 Hz;
 * the one-planet chain solve against the per-mesh solves (what the per-mesh tables leave out).
 
-Run: ``python examples/planetary_validation.py [--quick]`` (about 3 minutes on 2 cores; ``--quick``: 50 Hz steps).
+Run: ``python examples/planetary_validation.py [--quick] [--sensitivity]`` (about 8 minutes on 2 cores, 4 more with
+``--sensitivity``; ``--quick``: 50 Hz steps).
 """
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import time
 from pathlib import Path
@@ -29,6 +34,7 @@ import numpy as np
 
 from hacgear_core.dynamics.build import build_system
 from hacgear_core.dynamics.equilibrium import load_sharing
+from hacgear_core.dynamics.floquet import floquet
 from hacgear_core.dynamics.modes import gyroscopic_modes
 from hacgear_core.dynamics.simulator import strain_of_tooth
 from hacgear_core.dynamics.steady import SteadyStateOptions, steady_state
@@ -39,6 +45,7 @@ from hacgear_core.tables import load_system_tables
 
 ROOT = Path(__file__).resolve().parent.parent
 MODELS = ("planetary_65_55_175", "planetary_65_55_175_unmodified")
+STABLE = SteadyStateOptions(stability=True)  # every detected orbit Floquet-checked; unstable ones are left
 
 
 def _regions(fm, up, dn, rel=0.02):
@@ -66,8 +73,10 @@ def sweeps(step_hz: float) -> dict:
         for n in (3, 5):
             sy = build_system(m, t, planet_count=n)
             t0 = time.perf_counter()
-            r = run_sweep(SweepSpec(sy, tuple(fms), "both"), progress=False)
+            r = run_sweep(SweepSpec(sy, tuple(fms), "both", options=STABLE), progress=False)
             up, dn = r.branches["up"].metrics, r.branches["down"].metrics
+            mu = np.concatenate([r.branches["up"].max_multiplier, r.branches["down"].max_multiplier])
+            caps = int(np.sum(~r.branches["up"].converged) + np.sum(~r.branches["down"].converged))
             sun = [k for k, c in enumerate(sy.meshes) if c.group == "sun_planet"]
             rms_up = up["rms_deflection_m"][:, sun]
             rms_dn = dn["rms_deflection_m"][::-1][:, sun]
@@ -87,6 +96,7 @@ def sweeps(step_hz: float) -> dict:
                 "contact_loss_max": float(max(np.max(up["contact_loss_fraction"]), np.max(dn["contact_loss_fraction"]))),
                 "peak_rms_m": float(max(u.max(), d.max())), "peak_at_Hz": float(fms[np.argmax(np.maximum(u, d))]),
                 "planet_spread_rel": spread, "planets_differ_Hz": differ.tolist(),
+                "max_multiplier": float(np.nanmax(mu)), "cycle_caps": caps,
                 "wall_s": time.perf_counter() - t0}
             print(f"sweep {name} {n} planets: max up/down {rel.max():.3f} at {fms[np.argmax(rel)]:.0f} Hz, "
                   f"double-valued {regions}, contact loss {res[f'{name}/{n}']['contact_loss_max']:.2f}, "
@@ -94,30 +104,113 @@ def sweeps(step_hz: float) -> dict:
     return res
 
 
-def bands(step_hz: float = 2.0) -> dict:
-    """Up/down sweeps in ``step_hz`` steps through the two 3-planet bands where the 25 Hz sweeps of the modified
-    set disagree (3000-3100 Hz and 3690-3760 Hz): the width of each double-valued band and the two branches'
-    peaks."""
-    m = load_model(MODELS[0])
-    t = load_system_tables(MODELS[0])
-    sy = build_system(m, t, planet_count=3)
+def fine_3_planets(step_hz: float = 5.0) -> dict:
+    """3 planets, up/down sweeps in ``step_hz`` steps over 400-4400 Hz, both models (narrow double-valued bands that
+    a 25 Hz grid steps over)."""
+    fms = np.arange(400.0, 4400.0 + 1e-9, step_hz)
     out = {}
-    for lo, hi in ((3000.0, 3100.0), (3690.0, 3760.0)):
-        fms = np.arange(lo, hi + 1e-9, step_hz)
-        r = run_sweep(SweepSpec(sy, tuple(fms), "both"), progress=False)
+    for name in MODELS:
+        sy = build_system(load_model(name), load_system_tables(name), planet_count=3)
+        r = run_sweep(SweepSpec(sy, tuple(fms), "both", options=STABLE), progress=False)
         u = r.branches["up"].metrics["rms_deflection_m"][:, 0]
         d = r.branches["down"].metrics["rms_deflection_m"][::-1, 0]
         rel = np.abs(u - d) / np.maximum(u, d)
-        bad = fms[rel > 0.02]
-        out[f"{lo:.0f}-{hi:.0f}"] = {
-            "step_Hz": step_hz, "double_valued_Hz": [float(bad.min()), float(bad.max())] if bad.size else [],
-            "max_up_down_rel": float(rel.max()),
-            "peak_up_Hz": float(fms[np.argmax(u)]), "peak_up_rms_m": float(u.max()),
-            "peak_down_Hz": float(fms[np.argmax(d)]), "peak_down_rms_m": float(d.max()),
-            "peak_rel": float(abs(u.max() - d.max()) / max(u.max(), d.max())),
-            "contact_loss_max": float(max(np.max(r.branches["up"].metrics["contact_loss_fraction"]),
-                                          np.max(r.branches["down"].metrics["contact_loss_fraction"])))}
-        print(f"3 planets {lo:.0f}-{hi:.0f} Hz by {step_hz:g} Hz: {out[f'{lo:.0f}-{hi:.0f}']}", flush=True)
+        out[name] = {"step_Hz": step_hz, "speeds": int(fms.size), "speeds_within_2pct": int(np.sum(rel <= 0.02)),
+                     "max_up_down_rel": float(rel.max()), "at_Hz": float(fms[np.argmax(rel)]),
+                     "double_valued_Hz": [list(map(float, x)) for x in _regions(fms, u, d)],
+                     "peak_rms_m": float(max(u.max(), d.max())), "peak_at_Hz": float(fms[np.argmax(np.maximum(u, d))]),
+                     "contact_loss_max": float(max(np.max(r.branches["up"].metrics["contact_loss_fraction"]),
+                                                   np.max(r.branches["down"].metrics["contact_loss_fraction"]))),
+                     "max_multiplier": float(np.nanmax(np.concatenate([r.branches[b].max_multiplier
+                                                                       for b in ("up", "down")])))}
+        print(f"3 planets, {name}, {step_hz:g} Hz steps: {out[name]}", flush=True)
+    return out
+
+
+def _symmetrize(sy, s: np.ndarray, n: int) -> np.ndarray:
+    """The in-phase state nearest ``s``: every planet's coordinates (in its own frame) their mean, the central
+    members' translations 0."""
+    s = s.copy()
+    d = {name: i for i, name in enumerate(sy.dof_names)}
+    for off in (0, sy.n):
+        for c in ("zeta", "eta", "theta"):
+            idx = [off + d[f"planet_{i}.{c}"] for i in range(1, n + 1)]
+            s[idx] = s[idx].mean()
+        for c in ("carrier.x", "carrier.y", "sun.x", "sun.y"):
+            s[off + d[c]] = 0.0
+    return s
+
+
+def in_phase_stability(step_hz: float) -> dict:
+    """5 planets: the in-phase periodic solution (identical planets) continued upward over 400-4400 Hz, refined by
+    shooting at every speed, and its largest Floquet multiplier with the linearised mode it grows along."""
+    from hacgear_core.dynamics.modes import gyroscopic_modes
+
+    fms = np.arange(400.0, 4400.0 + 1e-9, step_hz)
+    out = {}
+    for name in MODELS:
+        sy = build_system(load_model(name), load_system_tables(name), planet_count=5)
+        kinds = dict(zip(np.round(gyroscopic_modes(sy, 0.0).natural_frequencies_Hz, 3), gyroscopic_modes(sy, 0.0).types))
+        s, rows = None, []
+        for fm in fms:
+            r = steady_state(sy, fm, None if s is None else _symmetrize(sy, s, 5),
+                             SteadyStateOptions(max_cycles=600))
+            f = floquet(sy, fm, _symmetrize(sy, r.state, 5), 1)
+            s = f.state
+            fd, share = f.dominant_modes(0, 1)[0]
+            kind = min(kinds.items(), key=lambda kv: abs(kv[0] - fd))[1]
+            rows.append((float(fm), f.max_multiplier, float(np.angle(f.multipliers[0]) / np.pi), kind, fd, f.success))
+        unstable = [r for r in rows if r[1] > 1.0]
+        regions, start = [], None
+        for fm, row in zip(fms, rows):  # intervals of consecutive unstable speeds
+            if row[1] > 1.0 and start is None:
+                start = fm
+            if row[1] <= 1.0 and start is not None:
+                regions.append((start, prev))
+                start = None
+            prev = fm
+        if start is not None:
+            regions.append((start, prev))
+        out[name] = {"mesh_frequency_Hz": fms.tolist(), "max_multiplier": [r[1] for r in rows],
+                     "unstable_Hz": [list(map(float, x)) for x in regions],
+                     "unstable_rows": [{"fm_Hz": r[0], "max_multiplier": r[1], "angle_over_pi": r[2], "mode_type": r[3],
+                                        "mode_Hz": r[4]} for r in unstable],
+                     "all_refined": bool(all(r[5] for r in rows)),
+                     "max_multiplier_max": float(max(r[1] for r in rows))}
+        print(f"5 planets in phase, {name}: unstable over {out[name]['unstable_Hz']}, largest |mu| "
+              f"{out[name]['max_multiplier_max']:.4f}; growing modes "
+              f"{sorted({(r[3], round(r[4], 1)) for r in unstable})}", flush=True)
+    return out
+
+
+def sensitivity(step_hz: float = 25.0) -> dict:
+    """Up/down sweeps (3 and 5 planets, both models) for the support stiffnesses and damping ratios Table 4.2 leaves
+    open: sun, carrier and planet-bearing translational stiffness together; the ring stays fixed."""
+    fms = np.arange(400.0, 4400.0 + 1e-9, step_hz)
+    out = {}
+    for name in MODELS:
+        base = load_model(name)
+        tabs = load_system_tables(name)
+        for kb, zeta in ((1e8, 0.02), (2e8, 0.02), (3e8, 0.02), (1e9, 0.02), (1e8, 0.03), (1e8, 0.04)):
+            gears = tuple(g if g.name == "ring" else dataclasses.replace(g, support=dataclasses.replace(
+                g.support, translational_stiffness_N_per_m=kb)) for g in base.gears)
+            pl = dataclasses.replace(base.planetary, carrier_support=dataclasses.replace(
+                base.planetary.carrier_support, translational_stiffness_N_per_m=kb))
+            m = dataclasses.replace(base, gears=gears, planetary=pl)
+            for n in (3, 5):
+                sy = build_system(m, tabs, planet_count=n, modal_damping_ratio=zeta)
+                r = run_sweep(SweepSpec(sy, tuple(fms), "both", options=STABLE), progress=False)
+                u = r.branches["up"].metrics["rms_deflection_m"][:, 0]
+                d = r.branches["down"].metrics["rms_deflection_m"][::-1, 0]
+                rel = np.abs(u - d) / np.maximum(u, d)
+                reg = _regions(fms, u, d)
+                key = f"{name}|{kb:g}|{zeta:g}|{n}"
+                out[key] = {"max_up_down_rel": float(rel.max()), "speeds_within_2pct": int(np.sum(rel <= 0.02)),
+                            "double_valued_width_Hz": float(sum(b - a + step_hz for a, b in reg)),
+                            "contact_loss_max": float(max(np.max(r.branches[b].metrics["contact_loss_fraction"])
+                                                          for b in ("up", "down"))),
+                            "peak_rms_m": float(max(u.max(), d.max()))}
+                print(f"sensitivity {key}: {out[key]}", flush=True)
     return out
 
 
@@ -232,20 +325,27 @@ def figure(sw: dict, path: Path) -> None:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="50 Hz steps")
-    ap.add_argument("--bands-only", action="store_true",
-                    help="recompute only the 2 Hz sweeps through the 3-planet double-valued bands (key "
-                         "'bands_3_planets' of the JSON, a few seconds)")
+    ap.add_argument("--fine-only", action="store_true",
+                    help="recompute only the 3-planet sweeps in 5 Hz steps (key 'fine_3_planets' of the JSON)")
+    ap.add_argument("--sensitivity", action="store_true",
+                    help="also the support-stiffness / damping sensitivity of the sweeps (key 'sensitivity', ~4 min)")
     args = ap.parse_args(argv)
     out = ROOT / "docs" / "validation_planetary.json"
-    if args.bands_only:
+    if args.fine_only:
         res = json.loads(out.read_text())
-        res["bands_3_planets"] = bands()
+        res["fine_3_planets"] = fine_3_planets()
         out.write_text(json.dumps(res, indent=1, default=float))
-        print("updated 'bands_3_planets' in docs/validation_planetary.json")
+        print("updated 'fine_3_planets' in docs/validation_planetary.json")
         return 0
     t0 = time.perf_counter()
     res = {"statics_and_modes": statics_and_modes(), "chain": chain(), "at_1600Hz": at_1600(),
-           "sweeps": sweeps(50.0 if args.quick else 25.0), "bands_3_planets": bands()}
+           "sweeps": sweeps(50.0 if args.quick else 25.0),
+           "fine_3_planets": fine_3_planets(25.0 if args.quick else 5.0),
+           "in_phase_5_planets": in_phase_stability(50.0 if args.quick else 25.0)}
+    if args.sensitivity:
+        res["sensitivity"] = sensitivity()
+    elif out.exists() and "sensitivity" in json.loads(out.read_text()):
+        res["sensitivity"] = json.loads(out.read_text())["sensitivity"]  # kept from the last --sensitivity run
     res["wall_s"] = time.perf_counter() - t0
     out.write_text(json.dumps(res, indent=1, default=float))
     figure(res["sweeps"], ROOT / "docs" / "figures" / "validation_planetary_sweeps.png")

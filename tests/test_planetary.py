@@ -197,8 +197,10 @@ def test_pin_error_load_sharing_hac_follows_the_estimate(model, tables, e_um):
     sy = build_system(model, tables, planet_count=3, pin_errors_m={1: (0.0, e_um * 1e-6)})
     ls = load_sharing(sy, 16)
     k = sy.mesh_stiffness_N_per_m
-    f = _pin_error_estimate(k[0], k[1], 1e8, 1e8, 1e8, math.radians(15.97), 3, 1, e_um * 1e-6, 200.0,
-                            sy.meshes[0].base_radius_m[0])
+    kt = {g.name: g.support.translational_stiffness_N_per_m for g in model.gears}
+    f = _pin_error_estimate(k[0], k[1], kt["planet"], kt["sun"],
+                            model.planetary.carrier_support.translational_stiffness_N_per_m, math.radians(15.97), 3,
+                            1, e_um * 1e-6, 200.0, sy.meshes[0].base_radius_m[0])
     est = f / f.mean()
     assert ls.factor[0] < 1.0
     assert (1 - ls.factor[0]) == pytest.approx(1 - est[0], rel=0.10)
@@ -213,7 +215,10 @@ def test_planet_phasing_suppression(model, tables, n):
     and rotate only where l z_s / N is; otherwise that motion is absent from the steady-state response spectrum
     (<= 1e-3 of the excited one).  Five planets (z_s / N = 13): rotational only."""
     sy = build_system(model, tables, planet_count=n)
-    r = steady_state(sy, 1200.0, options=SteadyStateOptions(rtol=1e-9, max_cycles=6000), keep_trace=True)
+    # 512 RK4 steps per mesh cycle: the phase shifts between the planets (1/3, 1/4 cycle) are not whole steps, so the
+    # step's truncation error breaks the symmetry a little (3 planets, l = 4: 1.4e-3 at 256 steps, 8.7e-5 at 512)
+    r = steady_state(sy, 1200.0, options=SteadyStateOptions(rtol=1e-9, max_cycles=6000, min_steps_per_cycle=512),
+                     keep_trace=True)
     assert r.converged
     st, nsp, per = r.trace["state"], r.steps_per_cycle, r.period_cycles
     d = {name: i for i, name in enumerate(sy.dof_names)}
@@ -291,13 +296,26 @@ def test_bad_planetary_inputs_are_clear(model, tables, lumped):
 
 
 def test_impulse_test_finds_the_linearised_modes(model, tables):
-    """Impulse test of the 3-planet set (free vibration at two frozen mesh positions, the same kernel): the modes
-    up to 2.2 kHz are the linearised ones (cycle-mean mesh stiffness) within 1 % at both positions."""
+    """Impulse test of the 3-planet set (free vibration at two frozen mesh positions, the same kernel): every
+    spectral peak is a natural frequency of the system linearised at that frozen position (each mesh's local slope
+    at its own phased position) within 0.1 %; the modes up to 2.2 kHz are the cycle-mean ones within 2 % (the
+    frozen stiffness departs from the cycle mean, and the phased planets split the pairs)."""
+    import scipy.linalg as sl
+
     from hacgear_core.dynamics.modes import gyroscopic_modes, impulse_test
 
     sy = build_system(model, tables, planet_count=3)
     lin = np.unique(np.round(gyroscopic_modes(sy).natural_frequencies_Hz, 3))
     it = impulse_test(sy)
-    for peaks in (it.single_contact_Hz, it.double_contact_Hz):
+    for pos, peaks in ((it.single_position, it.single_contact_Hz), (it.double_position, it.double_contact_Hz)):
+        assert peaks.size >= 6
+        tau_ref = pos - float(sy.phase[0])
+        eq = static_equilibrium(sy, tau_ref, sy.fext_speed())
+        taus = tau_ref + sy.phase + sy.W @ eq.q
+        kk = np.array([float(sy.mesh_slope(k, taus[k], eq.mesh_deflections_m[k])) for k in range(sy.m)])
+        w2 = sl.eigh(sy.K + (sy.V.T * kk) @ sy.V, sy.M, eigvals_only=True)
+        frozen = np.sqrt(np.clip(w2, 0.0, None)) / (2 * math.pi)
+        for f in peaks:
+            assert np.min(np.abs(frozen - f)) / f < 1e-3, (f, frozen)
         for f in lin[lin < 2200.0]:
-            assert np.min(np.abs(peaks - f)) / f < 0.01, (f, peaks)
+            assert np.min(np.abs(peaks - f)) / f < 0.02, (f, peaks)

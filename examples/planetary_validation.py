@@ -45,7 +45,9 @@ from hacgear_core.tables import load_system_tables
 
 ROOT = Path(__file__).resolve().parent.parent
 MODELS = ("planetary_65_55_175", "planetary_65_55_175_unmodified")
-STABLE = SteadyStateOptions(stability=True)  # every detected orbit Floquet-checked; unstable ones are left
+# every detected orbit Floquet-checked (unstable ones are left); a speed without a periodic attractor (quasi-periodic)
+# is measured over 200 cycles, not a 4-cycle snapshot
+STABLE = SteadyStateOptions(stability=True, cap_record_cycles=200)
 
 
 def _regions(fm, up, dn, rel=0.02):

@@ -42,6 +42,11 @@ def test_period_one_steady_state_detected():
     # a cap that is too small is reported, not hidden
     r3 = steady_state(sy, 0.8 * fn_rot(), options=SteadyStateOptions(max_cycles=3, min_cycles=1, chunk_cycles=1))
     assert not r3.converged and r3.status == "cap"
+    # at the cap the metrics come from cap_record_cycles cycles (a quasi-periodic response needs a long window)
+    r4 = steady_state(sy, 0.8 * fn_rot(), options=SteadyStateOptions(max_cycles=3, min_cycles=1, chunk_cycles=1,
+                                                                     cap_record_cycles=7), keep_trace=True)
+    assert not r4.converged and r4.trace["state"].shape[0] == 7 * r4.steps_per_cycle
+    assert r3.cycles_run == 3 + 4 and r4.cycles_run == 3 + 7
 
 
 def test_two_dof_and_stiff_four_dof_agree():

@@ -10,7 +10,8 @@ period-``n`` orbit (``n = 1..max_period``) is accepted when the scaled infinity-
 ``n > 1`` the orbit must also differ from a period-1 orbit (lag-1 differences >= 100 ``rtol``), since a decaying
 transient whose phase turns by about ``2 pi m / n`` per cycle passes the lag-``n`` test early.  Otherwise
 integration stops at ``max_cycles`` and the result says so (``converged = False``, ``status = "cap"``); its
-metrics then come from the last 4 cycles.
+metrics then come from the next ``cap_record_cycles`` cycles (default 4; a quasi-periodic response needs a long
+window for its RMS to be a property of the motion rather than of where the window fell).
 
 Stability (``stability=True``).  Detection alone can accept an unstable orbit: a symmetric system (identical,
 in-phase planets) keeps a symmetric solution to rounding even where it is unstable, because the perturbation that
@@ -76,6 +77,7 @@ class SteadyStateOptions:
     stability: bool = False
     max_kicks: int = 3
     kick: float = 1e-2
+    cap_record_cycles: int = 4
 
     def __post_init__(self) -> None:
         if not (0 < self.rtol < 1):
@@ -86,6 +88,8 @@ class SteadyStateOptions:
             raise ModelError(f"max_period [cycles] must be in [1, 16], got {self.max_period}")
         if self.chunk_cycles < 1 or self.min_steps_per_cycle < 8:
             raise ModelError("chunk_cycles must be >= 1 and min_steps_per_cycle >= 8")
+        if not 1 <= self.cap_record_cycles <= 4096:
+            raise ModelError(f"cap_record_cycles [mesh cycles] must be in [1, 4096], got {self.cap_record_cycles}")
         if not 0 <= self.max_kicks <= 10:
             raise ModelError(f"max_kicks must be in [0, 10], got {self.max_kicks}")
         if not (0 < self.kick < 1):
@@ -297,7 +301,7 @@ def steady_state(system: LumpedSystem, mesh_frequency_Hz: float, state0: np.ndar
                 period = 0
                 mu_max = math.nan
     converged = period > 0
-    nrec_cyc = period if converged else 4
+    nrec_cyc = period if converged else opt.cap_record_cycles
     nrec = nrec_cyc * nsp
     rs = np.zeros((nrec, n2))
     ro = np.zeros((nrec, kernels.record_width(mm)))

@@ -146,13 +146,12 @@ def _symmetrize(sy, s: np.ndarray, n: int) -> np.ndarray:
 def in_phase_stability(step_hz: float) -> dict:
     """5 planets: the in-phase periodic solution (identical planets) continued upward over 400-4400 Hz, refined by
     shooting at every speed, and its largest Floquet multiplier with the linearised mode it grows along."""
-    from hacgear_core.dynamics.modes import gyroscopic_modes
-
     fms = np.arange(400.0, 4400.0 + 1e-9, step_hz)
     out = {}
     for name in MODELS:
         sy = build_system(load_model(name), load_system_tables(name), planet_count=5)
-        kinds = dict(zip(np.round(gyroscopic_modes(sy, 0.0).natural_frequencies_Hz, 3), gyroscopic_modes(sy, 0.0).types))
+        g0 = gyroscopic_modes(sy, 0.0)
+        kinds = dict(zip(np.round(g0.natural_frequencies_Hz, 3), g0.types))
         s, rows = None, []
         for fm in fms:
             r = steady_state(sy, fm, None if s is None else _symmetrize(sy, s, 5),

@@ -5,8 +5,8 @@ gear system.
 kind), :mod:`.force_laws` (HAC and conventional laws), :mod:`.kernels` (the compiled RK4 loop shared with the
 FMUs), :mod:`.simulator` (time stepping, both experiments), :mod:`.equilibrium` (static equilibrium),
 :mod:`.steady` (steady-state detection), :mod:`.floquet` (stability of periodic orbits), :mod:`.sweep` (speed
-sweeps, jumps, resumable output), :mod:`.modes` (modal analysis, impulse test), :mod:`.inputs` (the CLI's MODEL argument), :mod:`.synthetic` (synthetic tables
-for tests and demonstrations).
+sweeps, jumps, resumable output), :mod:`.modes` (modal analysis, impulse test), :mod:`.inputs` (the CLI's MODEL
+argument), :mod:`.synthetic` (synthetic tables for tests and demonstrations).
 """
 from __future__ import annotations
 

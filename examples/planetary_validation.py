@@ -9,6 +9,7 @@ mesh frequency, up and down sweeps, 3 and 5 planets, with and without tip relief
   planetary_65_55_175 (15 um tip relief) and planetary_65_55_175_unmodified, 3 and 5 planets: largest up/down
   difference, width of the double-valued regions, contact loss, speeds where the planets respond differently;
 * 3 planets in 5 Hz steps over the whole range (narrow double-valued bands a 25 Hz grid would step over;
+  quasi-periodic speeds measured over 1000 cycles, speeds where the branches differ integrated on for 30000 cycles;
   ``--fine-only`` recomputes just these);
 * 5 planets: the in-phase (identical-planet) periodic solution continued over the range and its Floquet
   multipliers: where it is stable, where a planet mode makes it unstable;
@@ -106,23 +107,45 @@ def sweeps(step_hz: float) -> dict:
     return res
 
 
+# the 5 Hz sweeps resolve the quasi-periodic windows next to a mode: there the RMS is measured over 1000 cycles
+# (a 200-cycle window of a slowly modulated response moves its RMS by a few per cent from window to window)
+FINE = dataclasses.replace(STABLE, cap_record_cycles=1000)
+LONG_RUN_CYCLES = 30000
+
+
 def fine_3_planets(step_hz: float = 5.0) -> dict:
     """3 planets, up/down sweeps in ``step_hz`` steps over 400-4400 Hz, both models (narrow double-valued bands that
-    a 25 Hz grid steps over)."""
+    a 25 Hz grid steps over).  At each speed where the branches differ by more than 2 %, the up branch's motion is
+    integrated on for ``LONG_RUN_CYCLES`` cycles from where the up sweep entered that speed: still no periodic orbit
+    there means two attractors coexist (not a transient the cycle cap cut short)."""
     fms = np.arange(400.0, 4400.0 + 1e-9, step_hz)
     out = {}
     for name in MODELS:
         sy = build_system(load_model(name), load_system_tables(name), planet_count=3)
-        r = run_sweep(SweepSpec(sy, tuple(fms), "both", options=STABLE), progress=False)
-        u = r.branches["up"].metrics["rms_deflection_m"][:, 0]
-        d = r.branches["down"].metrics["rms_deflection_m"][::-1, 0]
+        r = run_sweep(SweepSpec(sy, tuple(fms), "both", options=FINE), progress=False)
+        up, dn = r.branches["up"], r.branches["down"]
+        u = up.metrics["rms_deflection_m"][:, 0]
+        d = dn.metrics["rms_deflection_m"][::-1, 0]
         rel = np.abs(u - d) / np.maximum(u, d)
+        apart = []
+        for i in np.flatnonzero(rel > 0.02):
+            start = up.state[i - 1] if i > 0 else None
+            lr = steady_state(sy, float(fms[i]), start,
+                              dataclasses.replace(FINE, max_cycles=LONG_RUN_CYCLES, cap_record_cycles=1000))
+            apart.append({"Hz": float(fms[i]), "rel": float(rel[i]), "up_rms_m": float(u[i]), "down_rms_m": float(d[i]),
+                          "up_periodic": bool(up.converged[i]), "down_periodic": bool(dn.converged[::-1][i]),
+                          "down_multiplier": float(dn.max_multiplier[::-1][i]),
+                          "up_long_run_periodic": bool(lr.converged), "up_long_run_cycles": int(lr.cycles_run),
+                          "up_long_run_rms_m": float(lr.metrics["rms_deflection_m"][0])})
+        capped = (~up.converged) | (~dn.converged[::-1])
         out[name] = {"step_Hz": step_hz, "speeds": int(fms.size), "speeds_within_2pct": int(np.sum(rel <= 0.02)),
                      "max_up_down_rel": float(rel.max()), "at_Hz": float(fms[np.argmax(rel)]),
                      "double_valued_Hz": [list(map(float, x)) for x in _regions(fms, u, d)],
+                     "quasi_periodic_Hz": [float(f) for f in fms[capped]],
+                     "apart": apart,
                      "peak_rms_m": float(max(u.max(), d.max())), "peak_at_Hz": float(fms[np.argmax(np.maximum(u, d))]),
-                     "contact_loss_max": float(max(np.max(r.branches["up"].metrics["contact_loss_fraction"]),
-                                                   np.max(r.branches["down"].metrics["contact_loss_fraction"]))),
+                     "contact_loss_max": float(max(np.max(up.metrics["contact_loss_fraction"]),
+                                                   np.max(dn.metrics["contact_loss_fraction"]))),
                      "max_multiplier": float(np.nanmax(np.concatenate([r.branches[b].max_multiplier
                                                                        for b in ("up", "down")])))}
         print(f"3 planets, {name}, {step_hz:g} Hz steps: {out[name]}", flush=True)

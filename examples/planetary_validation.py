@@ -20,8 +20,8 @@ mesh frequency, up and down sweeps, 3 and 5 planets, with and without tip relief
 * modes at zero carrier speed and at the carrier speed of 1600 Hz;
 * the one-planet chain solve against the per-mesh solves (what the per-mesh tables leave out).
 
-Run: ``python examples/planetary_validation.py [--quick] [--sensitivity]`` (about 8 minutes on 2 cores, 4 more with
-``--sensitivity``; ``--quick``: 50 Hz steps).
+Run: ``python examples/planetary_validation.py [--quick] [--sensitivity]`` (``--sensitivity`` adds about 18 minutes on
+2 cores, the 5 Hz sweeps alone take 13 (``--fine-only``); ``--quick``: 50 Hz steps).
 """
 from __future__ import annotations
 

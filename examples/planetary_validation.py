@@ -130,8 +130,7 @@ def fine_3_planets(step_hz: float = 5.0) -> dict:
         apart = []
         for i in np.flatnonzero(rel > 0.02):
             start = up.state[i - 1] if i > 0 else None
-            lr = steady_state(sy, float(fms[i]), start,
-                              dataclasses.replace(FINE, max_cycles=LONG_RUN_CYCLES, cap_record_cycles=1000))
+            lr = steady_state(sy, float(fms[i]), start, dataclasses.replace(FINE, max_cycles=LONG_RUN_CYCLES))
             apart.append({"Hz": float(fms[i]), "rel": float(rel[i]), "up_rms_m": float(u[i]), "down_rms_m": float(d[i]),
                           "up_periodic": bool(up.converged[i]), "down_periodic": bool(dn.converged[::-1][i]),
                           "down_multiplier": float(dn.max_multiplier[::-1][i]),

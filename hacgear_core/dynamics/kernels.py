@@ -205,9 +205,43 @@ def _sub_k(n, sparse, nnz, kidx, aqv, c, x, ox, out, oo):
 
 
 @njit(cache=True, inline="always", fastmath=_FM)
-def _sub_c(n, adt, c, x, ox, out, oo):
-    """``out[oo:oo+n] -= c (M^-1 C_eff) x[ox:ox+n]`` column by column (``adt`` is its transpose, flat (n*n,))."""
-    for j in range(n):
+def _sub_c(n, sparse, adt, c, x, ox, out, oo):
+    """``out[oo:oo+n] -= c (M^-1 C_eff) x[ox:ox+n]`` column by column (``adt`` is its transpose, flat (n*n,)).
+
+    The generic (``sparse``) loops take the columns eight, then four at a time: each ``out`` entry is loaded and
+    stored once per block instead of once per column (the compiler cannot keep it in a register, as it cannot tell
+    ``out`` from ``adt``), with the same subtractions in the same order, so the same result (bit-identical on
+    every shipped system).  Measured per mesh cycle of the planetary sets (n = 14, 20): 1.04-1.10x
+    (docs/dynamics.md, "Kernel speed")."""
+    j = 0
+    if sparse:
+        while j + 7 < n:
+            b0 = c * x[ox + j]
+            b1 = c * x[ox + j + 1]
+            b2 = c * x[ox + j + 2]
+            b3 = c * x[ox + j + 3]
+            b4 = c * x[ox + j + 4]
+            b5 = c * x[ox + j + 5]
+            b6 = c * x[ox + j + 6]
+            b7 = c * x[ox + j + 7]
+            r = _ix(j * n)
+            for i in range(n):
+                out[oo + i] = (((((((out[oo + i] - adt[r + i] * b0) - adt[r + n + i] * b1)
+                                   - adt[r + 2 * n + i] * b2) - adt[r + 3 * n + i] * b3)
+                                 - adt[r + 4 * n + i] * b4) - adt[r + 5 * n + i] * b5)
+                               - adt[r + 6 * n + i] * b6) - adt[r + 7 * n + i] * b7
+            j += 8
+        while j + 3 < n:
+            b0 = c * x[ox + j]
+            b1 = c * x[ox + j + 1]
+            b2 = c * x[ox + j + 2]
+            b3 = c * x[ox + j + 3]
+            r = _ix(j * n)
+            for i in range(n):
+                out[oo + i] = (((out[oo + i] - adt[r + i] * b0) - adt[r + n + i] * b1)
+                               - adt[r + 2 * n + i] * b2) - adt[r + 3 * n + i] * b3
+            j += 4
+    for j in range(j, n):
         b = c * x[ox + j]
         for i in range(n):
             out[oo + i] -= adt[j * n + i] * b
@@ -226,6 +260,48 @@ def _dot(n, sparse, nz, k, vf, ov, x, ox):
         for j in range(n):
             a += vf[ov + k * n + j] * x[ox + j]
     return a
+
+
+@njit(cache=True, inline="always", fastmath=_FM)
+def _dot3(n, nz, k, vf, o1, o2, o3, x, ox):
+    """Three sparse :func:`_dot` products in one pass over mesh k's pattern: its vectors at offsets ``o1``,
+    ``o2``, ``o3`` of ``vf`` with ``x[ox : ox + n]`` (each sum in the same order as ``_dot``'s)."""
+    a = 0.0
+    b = 0.0
+    c = 0.0
+    for p in range(1, nz[k, 0] + 1):
+        j = _ix(nz[k, p])
+        y = x[ox + j]
+        a += vf[o1 + k * n + j] * y
+        b += vf[o2 + k * n + j] * y
+        c += vf[o3 + k * n + j] * y
+    return a, b, c
+
+
+@njit(cache=True, inline="always", fastmath=_FM)
+def _dot_state(n, nz, k, vf, o_w, o_vc, s):
+    """Mesh k's ``v.q, v.q', w.q, w.q', vc.q, vc.q'`` of the state ``s`` in one pass over its sparse pattern (the
+    sums of :func:`_dot`, in its order)."""
+    xq = 0.0
+    xd = 0.0
+    wq = 0.0
+    wd = 0.0
+    cq = 0.0
+    cd = 0.0
+    for p in range(1, nz[k, 0] + 1):
+        j = _ix(nz[k, p])
+        q = s[j]
+        d = s[n + j]
+        v = vf[k * n + j]
+        w = vf[o_w + k * n + j]
+        c = vf[o_vc + k * n + j]
+        xq += v * q
+        xd += v * d
+        wq += w * q
+        wd += w * d
+        cq += c * q
+        cd += c * d
+    return xq, xd, wq, wd, cq, cd
 
 
 @njit(cache=True, inline="always", fastmath=_FM)
@@ -377,7 +453,13 @@ def _integrate_impl(n, m, variant, s, kin, n_steps, h, mode, fext, rec_every, re
                         adt[j * n + i] = mc[i, j] + oc * mg[i, j]
                 omega_c_set = oc
         dtau = zref_2pi * omega * h
+        # the generic loops form each mesh's step-start products (and below its stage products) in one pass over
+        # its pattern: fewer index loads, the same sums (1.04-1.17x per mesh cycle on the planetary sets, measured)
         for k in range(m):
+            if sparse:
+                wk[o_xq + k], wk[o_xd + k], wk[o_wq + k], wk[o_wd + k], wk[o_cq + k], wk[o_cd + k] = _dot_state(
+                    n, nz, k, vf, o_w, o_vc, s)
+                continue
             wk[o_xq + k] = _dot(n, sparse, nz, k, vf, 0, s, 0)
             wk[o_xd + k] = _dot(n, sparse, nz, k, vf, 0, s, n)
             wk[o_wq + k] = _dot(n, sparse, nz, k, vf, o_w, s, 0)
@@ -422,8 +504,11 @@ def _integrate_impl(n, m, variant, s, kin, n_steps, h, mode, fext, rec_every, re
                 wk[o_p + i] = 0.0
             _sub_k(n, sparse, nnz, kidx, aqv, 1.0, s, 0, wk, o_g0)
             _sub_k(n, sparse, nnz, kidx, aqv, 1.0, s, n, wk, o_p)
-            _sub_c(n, adt, 1.0, s, n, wk, o_g0)
+            _sub_c(n, sparse, adt, 1.0, s, n, wk, o_g0)
             for k in range(m):
+                if sparse:
+                    wk[o_g1 + k], wk[o_gw1 + k], wk[o_gc1 + k] = _dot3(n, nz, k, vf, 0, o_w, o_vc, wk, o_g0)
+                    continue
                 wk[o_g1 + k] = _dot(n, sparse, nz, k, vf, 0, wk, o_g0)
                 wk[o_gw1 + k] = _dot(n, sparse, nz, k, vf, o_w, wk, o_g0)
                 if coast_on:
@@ -435,8 +520,11 @@ def _integrate_impl(n, m, variant, s, kin, n_steps, h, mode, fext, rec_every, re
                 _sub_coast_forces(n, m, sparse, nz, wk, o_c1, vf, o_vci, wk, o_a1)
             for i in range(n):
                 wk[o_a2 + i] = wk[o_g0 + i] + hh * wk[o_p + i]
-            _sub_c(n, adt, hh, wk, o_a1, wk, o_a2)
+            _sub_c(n, sparse, adt, hh, wk, o_a1, wk, o_a2)
             for k in range(m):
+                if sparse:
+                    wk[o_g2 + k], wk[o_gw2 + k], wk[o_gc2 + k] = _dot3(n, nz, k, vf, 0, o_w, o_vc, wk, o_a2)
+                    continue
                 wk[o_g2 + k] = _dot(n, sparse, nz, k, vf, 0, wk, o_a2)
                 wk[o_gw2 + k] = _dot(n, sparse, nz, k, vf, o_w, wk, o_a2)
                 if coast_on:
@@ -487,14 +575,14 @@ def _integrate_impl(n, m, variant, s, kin, n_steps, h, mode, fext, rec_every, re
             for i in range(n):
                 wk[o_a3 + i] = wk[o_g0 + i] + hh * wk[o_p + i]
             _sub_k(n, sparse, nnz, kidx, aqv, hh2, wk, o_a1, wk, o_a3)
-            _sub_c(n, adt, hh, wk, o_a2, wk, o_a3)
+            _sub_c(n, sparse, adt, hh, wk, o_a2, wk, o_a3)
             _sub_forces(n, m, sparse, nz, wk, o_f3, vf, o_vmi, wk, o_a3)
             if coast_on:
                 _sub_coast_forces(n, m, sparse, nz, wk, o_c3, vf, o_vci, wk, o_a3)
             for i in range(n):
                 wk[o_a4 + i] = wk[o_g0 + i] + h * wk[o_p + i]
             _sub_k(n, sparse, nnz, kidx, aqv, hhh, wk, o_a2, wk, o_a4)
-            _sub_c(n, adt, h, wk, o_a3, wk, o_a4)
+            _sub_c(n, sparse, adt, h, wk, o_a3, wk, o_a4)
             _sub_forces(n, m, sparse, nz, wk, o_f4, vf, o_vmi, wk, o_a4)
             if coast_on:
                 _sub_coast_forces(n, m, sparse, nz, wk, o_c4, vf, o_vci, wk, o_a4)

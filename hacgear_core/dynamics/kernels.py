@@ -454,7 +454,8 @@ def _integrate_impl(n, m, variant, s, kin, n_steps, h, mode, fext, rec_every, re
                 omega_c_set = oc
         dtau = zref_2pi * omega * h
         # the generic loops form each mesh's step-start products (and below its stage products) in one pass over
-        # its pattern: fewer index loads, the same sums (1.04-1.17x per mesh cycle on the planetary sets, measured)
+        # its pattern: fewer index loads, the same sums (1.04-1.17x per mesh cycle on the planetary sets, measured);
+        # the coast products come along in the same pass and are read only where the coast terms are on
         for k in range(m):
             if sparse:
                 wk[o_xq + k], wk[o_xd + k], wk[o_wq + k], wk[o_wd + k], wk[o_cq + k], wk[o_cd + k] = _dot_state(

@@ -193,8 +193,26 @@ def _standard_pitch_radii(ga: GearGeometry, gb: GearGeometry, a: float) -> tuple
     return k * ga.z, k * gb.z
 
 
+def _in_file(model: Any, exc: GeometryError) -> GeometryError:
+    """``exc`` with the model file's path in front (a geometry error of a model names its file)."""
+    path = getattr(model, "path", None)
+    if path is None or str(exc).startswith(str(path)):
+        return exc
+    return GeometryError(f"{path}: {exc}")
+
+
 def mesh_geometry(model: Any, mesh_name: str | None = None, *, gears: Mapping[str, GearGeometry] | None = None,
                   strict: bool = True) -> MeshGeometry:
+    """Derived geometry of mesh ``mesh_name`` (None: the first) of ``model``; :func:`_mesh_geometry`, its
+    :class:`GeometryError` naming the model file."""
+    try:
+        return _mesh_geometry(model, mesh_name, gears=gears, strict=strict)
+    except GeometryError as exc:
+        raise _in_file(model, exc) from None
+
+
+def _mesh_geometry(model: Any, mesh_name: str | None = None, *, gears: Mapping[str, GearGeometry] | None = None,
+                   strict: bool = True) -> MeshGeometry:
     """Derived geometry of mesh ``mesh_name`` (None: the first) of ``model``.
 
     Centre distance: the mesh's ``center_distance_m``; else, for planetary sets, the carrier radius
@@ -313,6 +331,9 @@ def mesh_geometry(model: Any, mesh_name: str | None = None, *, gears: Mapping[st
 
 def model_geometry(model: Any, *, strict: bool = True) -> tuple[dict[str, GearGeometry], dict[str, MeshGeometry]]:
     """Geometry of every gear and every mesh of a model: ``(gears, meshes)`` dicts keyed by name."""
-    gears = {g.name: gear_geometry(g) for g in model.gears}
+    try:
+        gears = {g.name: gear_geometry(g) for g in model.gears}
+    except GeometryError as exc:
+        raise _in_file(model, exc) from None
     meshes = {m.name: mesh_geometry(model, m.name, gears=gears, strict=strict) for m in model.meshes}
     return gears, meshes

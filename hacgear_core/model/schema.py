@@ -33,6 +33,8 @@ __all__ = [
     "LumpedGear",
     "PLANETARY_MEMBERS",
     "Model",
+    "Range",
+    "RANGES",
 ]
 
 SYSTEM_KINDS = ("spur_pair", "idler_chain", "planetary", "helical_pair")
@@ -65,6 +67,79 @@ def _check_range(
         hi_txt = "inf" if hi is None else f"{hi:g}"
         allowed = f"{'(' if lo_open or lo is None else '['}{lo_txt}, {hi_txt}{')' if hi_open or hi is None else ']'}"
         raise _fail(name, unit, allowed, value)
+
+
+@dataclass(frozen=True)
+class Range:
+    """The allowed values of one quantity, in its unit ``unit``: ``[lo, hi]`` (``lo_open``/``hi_open``: that bound
+    excluded; None: unbounded), integers only when ``integer``, and ``+inf`` as well when ``allow_inf`` (a rigid
+    support).  :data:`RANGES` holds one per quantity; model files, the command line and the FMUs read them there."""
+
+    unit: str
+    lo: float | None
+    hi: float | None
+    lo_open: bool = False
+    hi_open: bool = False
+    integer: bool = False
+    allow_inf: bool = False
+
+    @property
+    def text(self) -> str:
+        """The range as the error messages state it, e.g. ``integer in [4, 4096]``, ``(0, 1e+15] or inf``."""
+        lo_txt = "-inf" if self.lo is None else f"{self.lo:g}"
+        hi_txt = "inf" if self.hi is None else f"{self.hi:g}"
+        txt = (f"{'(' if self.lo_open or self.lo is None else '['}{lo_txt}, {hi_txt}"
+               f"{')' if self.hi_open or self.hi is None else ']'}")
+        return ("integer in " if self.integer else "") + txt + (" or inf" if self.allow_inf else "")
+
+    def contains(self, value: Any) -> bool:
+        """True when ``value`` lies in the range."""
+        if isinstance(value, bool):
+            return False
+        if self.integer:
+            if not isinstance(value, int):
+                return False
+        else:
+            try:
+                value = float(value)
+            except (TypeError, ValueError, OverflowError):
+                return False
+            if value != value:  # NaN
+                return False
+            if self.allow_inf and value == _INF:
+                return True
+        if self.lo is not None and (value <= self.lo if self.lo_open else value < self.lo):
+            return False
+        if self.hi is not None and (value >= self.hi if self.hi_open else value > self.hi):
+            return False
+        return True
+
+    def check(self, name: str, value: Any, where: str = "") -> Any:
+        """``value`` when it lies in the range, else :class:`ModelError` naming ``name``, the unit, the value and
+        the range (``name``: a field, a model-file key or a command-line option)."""
+        if not self.contains(value):
+            raise _fail(name, self.unit, self.text, value, where)
+        return value
+
+
+#: One range per quantity that a model file, the command line and the FMU share (units as ``Range.unit``).
+RANGES: dict[str, Range] = {
+    "torque_Nm": Range("N*m", 0.0, 1e7, lo_open=True),
+    "modal_damping_ratio": Range("-", 0.0, 1.0),
+    # a rigid bearing is inf (no translation DOF) everywhere: model files, --bearing-stiffness, the FMU; 0 is no
+    # bearing (a floating member of a planetary set; fixed-axis trains need > 0)
+    "translational_stiffness_N_per_m": Range("N/m", 0.0, 1e15, allow_inf=True),
+    "planet_count": Range("-", 1, 12, integer=True),
+    "statics.positions": Range("-", 4, 4096, integer=True),
+    "statics.loads": Range("-", 2, 1024, integer=True),
+    "statics.deflections": Range("-", 4, 4096, integer=True),
+    "statics.face_slices": Range("-", 1, 200, integer=True),
+    "statics.twist_points": Range("-", 1, 64, integer=True),
+    # tables span 0 ... >= 3 x the nominal load (hacgear statics --check requires it)
+    "statics.max_torque_factor": Range("-", 3.0, 20.0),
+    "mesh_frequency_Hz": Range("Hz", 0.0, 1e5, lo_open=True),
+    "speed_rad_s": Range("rad/s", -2e4, 2e4),
+}
 
 
 # --------------------------------------------------------------------------------------------
@@ -148,8 +223,9 @@ class Support:
     tilting_stiffness_Nm_per_rad: float = _INF
 
     def __post_init__(self) -> None:
+        RANGES["translational_stiffness_N_per_m"].check("translational_stiffness_N_per_m",
+                                                        self.translational_stiffness_N_per_m)
         for name, unit in (
-            ("translational_stiffness_N_per_m", "N/m"),
             ("rotational_stiffness_Nm_per_rad", "N*m/rad"),
             ("axial_stiffness_N_per_m", "N/m"),
             ("tilting_stiffness_Nm_per_rad", "N*m/rad"),
@@ -272,8 +348,9 @@ class Gear:
                 )
             if self.bore_diameter_m and self.bore_diameter_m <= self.root_diameter_m:
                 raise ModelError(
-                    f"{where}: bore_diameter [m] (outer rim diameter of an internal gear) = "
-                    f"{self.bore_diameter_m:g} must exceed root_diameter {self.root_diameter_m:g}"
+                    f"{where}: bore_diameter_mm (outer rim diameter of an internal gear) = "
+                    f"{self.bore_diameter_m * 1e3:g} must exceed root_diameter_mm = {self.root_diameter_m * 1e3:g} "
+                    f"(allowed: 0 for no rim, or > {self.root_diameter_m * 1e3:g} mm)"
                 )
         else:
             if not self.root_diameter_m < d_ref < self.tip_diameter_m:
@@ -283,18 +360,26 @@ class Gear:
                 )
             if self.bore_diameter_m >= self.root_diameter_m:
                 raise ModelError(
-                    f"{where}: bore_diameter_m [m] = {self.bore_diameter_m:g} must be smaller than the root "
-                    f"diameter {self.root_diameter_m:g} m (allowed: [0, root_diameter))"
+                    f"{where}: bore_diameter_mm = {self.bore_diameter_m * 1e3:g} must be smaller than "
+                    f"root_diameter_mm = {self.root_diameter_m * 1e3:g} (allowed: [0, {self.root_diameter_m * 1e3:g}) mm)"
                 )
         pitch = math.pi * self.module_m
         if not 0.1 * pitch < self.tooth_thickness_m < 0.9 * pitch:
             raise ModelError(
-                f"{where}: tooth_thickness_m [m] = {self.tooth_thickness_m:g} must lie within (0.1, 0.9) x "
-                f"circular pitch (pi x module_mm = {pitch * 1e3:g} mm) = ({0.1 * pitch:g}, {0.9 * pitch:g}) m"
+                f"{where}: tooth_thickness_mm = {self.tooth_thickness_m * 1e3:g} must lie within (0.1, 0.9) x "
+                f"circular pitch (pi x module_mm = {pitch * 1e3:g} mm); allowed: ({0.1e3 * pitch:g}, "
+                f"{0.9e3 * pitch:g}) mm"
             )
         names = [g.name for g in self.gauges]
         if len(set(names)) != len(names):
             raise ModelError(f"{where}: gauge names must be unique, got {names}")
+        r_lo, r_hi = sorted((0.5 * self.root_diameter_m, 0.5 * self.tip_diameter_m))
+        for gauge in self.gauges:
+            if not r_lo <= gauge.radius_m <= r_hi:
+                raise ModelError(
+                    f"{where}: gauge '{gauge.name}' radius_mm = {gauge.radius_m * 1e3:g} does not lie on the tooth; "
+                    f"allowed: [{r_lo * 1e3:g}, {r_hi * 1e3:g}] mm (root_diameter_mm / 2 to tip_diameter_mm / 2; "
+                    "root gauges sit near the root)")
         if self.web is not None:
             self._check_web(where)
 
@@ -377,7 +462,7 @@ class Damping:
     modal_damping_ratio: float = 0.02
 
     def __post_init__(self) -> None:
-        _check_range("modal_damping_ratio", self.modal_damping_ratio, "-", 0.0, 1.0)
+        RANGES["modal_damping_ratio"].check("modal_damping_ratio", self.modal_damping_ratio)
 
 
 @dataclass(frozen=True)
@@ -388,7 +473,7 @@ class Operating:
     torque_gear: str
 
     def __post_init__(self) -> None:
-        _check_range("torque_Nm", self.torque_Nm, "N*m", 0.0, 1e7, lo_open=True)
+        RANGES["torque_Nm"].check("torque_Nm", self.torque_Nm)
 
 
 @dataclass(frozen=True)
@@ -407,17 +492,8 @@ class StaticsGrid:
     max_twist_rad: float = 1.0e-3
 
     def __post_init__(self) -> None:
-        for name, lo, hi in (
-            ("positions", 4, 4096),
-            ("loads", 2, 1024),
-            ("deflections", 4, 4096),
-            ("face_slices", 1, 200),
-            ("twist_points", 1, 64),
-        ):
-            v = getattr(self, name)
-            if not isinstance(v, int) or not lo <= v <= hi:
-                raise _fail(name, "-", f"integer in [{lo}, {hi}]", v)
-        _check_range("max_torque_factor", self.max_torque_factor, "-", 1.0, 20.0)
+        for name in ("positions", "loads", "deflections", "face_slices", "twist_points", "max_torque_factor"):
+            RANGES[f"statics.{name}"].check(name, getattr(self, name))
         _check_range("max_twist_rad", self.max_twist_rad, "rad", 0.0, 0.01, lo_open=True)
 
 
@@ -432,8 +508,7 @@ class PinError:
     tangential_m: float = 0.0
 
     def __post_init__(self) -> None:
-        if isinstance(self.planet, bool) or not isinstance(self.planet, int) or not 1 <= self.planet <= 12:
-            raise _fail("pin_errors.planet", "-", "integer in [1, 12] (1 = first planet)", self.planet)
+        RANGES["planet_count"].check("pin_errors.planet", self.planet)
         for name in ("radial_m", "tangential_m"):
             _check_range(f"pin_errors.{name}", getattr(self, name), "m", -1e-3, 1e-3)
 
@@ -465,9 +540,7 @@ class Planetary:
     pin_errors: tuple[PinError, ...] = ()
 
     def __post_init__(self) -> None:
-        if isinstance(self.planet_count, bool) or not isinstance(self.planet_count, int) \
-                or not 1 <= self.planet_count <= 12:
-            raise _fail("planet_count", "-", "integer in [1, 12]", self.planet_count)
+        RANGES["planet_count"].check("planet_count", self.planet_count)
         if self.carrier_radius_m is not None:
             _check_range("carrier_radius_m", self.carrier_radius_m, "m", 0.0, 10.0, lo_open=True)
         _check_range("carrier_mass_kg", self.carrier_mass_kg, "kg", 0.0, None)

@@ -89,6 +89,7 @@ give ``name, teeth, internal, mass_kg, inertia_kgm2, base_radius_mm, [gears.supp
 
 from __future__ import annotations
 
+import difflib
 import hashlib
 import math
 import tomllib
@@ -100,7 +101,7 @@ from typing import Any, Callable
 from hacgear_core.errors import ModelError
 from hacgear_core.model.schema import (
     FLANKS, PLANETARY_MEMBERS, RELIEF_SHAPES, SYSTEM_KINDS, WEB_MIN_RIM_M, Damping, Flank, Gauge, Gear, LumpedGear,
-    Material, Mesh, Model, Operating, PinError, Planetary, StaticsGrid, Support, Web,
+    RANGES, Material, Mesh, Model, Operating, PinError, Planetary, StaticsGrid, Support, Web,
 )
 
 __all__ = ["load_model", "parse_model", "model_sha256", "resolve_model_path", "shipped_systems", "shipped_systems_dir",
@@ -133,6 +134,11 @@ class _Section:
     def _get(self, name: str, required: bool, default: Any, unit: str, allowed: str) -> Any:
         if name not in self.data:
             if required:
+                typo = difflib.get_close_matches(name, [k for k in self.data if k not in _KNOWN_KEYS], n=1)
+                if typo:
+                    raise ModelError(f"{self.file}: unknown key '{self.key(typo[0])}' in [{self.path or 'top level'}]"
+                                     f"; did you mean '{name}'? (required key '{self.key(name)}'"
+                                     f"{f' [{unit}]' if unit else ''} is missing; allowed: {allowed})")
                 raise self.error(self.key(name), unit, allowed, None, problem="missing required key")
             self.defaults.append((self.key(name), default))
             return default
@@ -163,6 +169,15 @@ class _Section:
         if bad:
             raise self.error(self.key(name), unit, allowed, v, problem=f"value {v:g} out of range")
         return v
+
+    def ranged(self, name: str, quantity: str, *, required: bool = True, default: Any = None) -> Any:
+        """Read key ``name`` (in the unit of the quantity) within ``RANGES[quantity]``, the range the command line
+        and the FMUs share."""
+        r = RANGES[quantity]
+        if r.integer:
+            return self.integer(name, int(r.lo), int(r.hi), required=required, default=default)
+        return self.number(name, r.unit, r.lo, r.hi, required=required, default=default, lo_open=r.lo_open,
+                           hi_open=r.hi_open, allow_inf=r.allow_inf)
 
     def integer(self, name: str, lo: int, hi: int, *, required: bool = True, default: int | None = None) -> int | None:
         allowed = f"integer in [{lo}, {hi}]"
@@ -209,9 +224,11 @@ class _Section:
     def done(self, allowed: tuple[str, ...]) -> None:
         if self.data:
             unknown = sorted(self.data)
+            near = difflib.get_close_matches(unknown[0], allowed, n=1)
+            hint = f"did you mean '{near[0]}'? " if near else ""
             raise ModelError(
-                f"{self.file}: unknown key '{self.key(unknown[0])}' in [{self.path or 'top level'}]; allowed keys: "
-                f"{', '.join(sorted(allowed))}"
+                f"{self.file}: unknown key '{self.key(unknown[0])}' in [{self.path or 'top level'}]; {hint}allowed "
+                f"keys: {', '.join(sorted(allowed))}"
             )
 
 
@@ -236,6 +253,13 @@ _PLANETARY_KEYS = ("planet_count", "planet_positions_deg", "carrier_radius_mm", 
                    "carrier_inertia_kgm2", "carrier_support", "fixed_member", "pin_errors")
 _PIN_ERROR_KEYS = ("planet", "radial_um", "tangential_um")
 _TOP_KEYS = ("system", "materials", "gears", "meshes", "damping", "operating", "statics", "planetary")
+_STATICS_KEYS = ("positions", "loads", "deflections", "max_torque_factor", "face_slices", "twist_points",
+                 "max_twist_mrad")
+_SYSTEM_KEYS = ("name", "kind", "title", "source", "lumped")
+#: every key a model file may hold: a missing required key next to an unknown key close to it is a misspelling
+_KNOWN_KEYS = frozenset(_MATERIAL_KEYS + _FLANK_KEYS + _GAUGE_KEYS + _SUPPORT_KEYS + _GEAR_KEYS + _WEB_KEYS + _MESH_KEYS
+                        + _LUMPED_GEAR_KEYS + _LUMPED_MESH_KEYS + _PLANETARY_KEYS + _PIN_ERROR_KEYS + _TOP_KEYS
+                        + _STATICS_KEYS + _SYSTEM_KEYS + ("torque_Nm", "torque_gear", "modal_damping_ratio"))
 
 
 def _wrap(sec: _Section, key: str, fn: Callable[[], Any]) -> Any:
@@ -269,8 +293,8 @@ def _read_support(ssec: "_Section | None") -> Support:
     if ssec is None:
         return Support()
     support = Support(
-        ssec.number("translational_stiffness_N_per_m", "N/m", 0.0, None, required=False, default=_INF,
-                    allow_inf=True),
+        ssec.ranged("translational_stiffness_N_per_m", "translational_stiffness_N_per_m", required=False,
+                    default=_INF),
         ssec.number("rotational_stiffness_Nm_per_rad", "N*m/rad", 0.0, None, required=False, default=0.0,
                     allow_inf=True),
         ssec.number("axial_stiffness_N_per_m", "N/m", 0.0, None, required=False, default=_INF, allow_inf=True),
@@ -372,7 +396,7 @@ def _read_lumped_gear(sec: _Section) -> LumpedGear:
 
 def _read_planetary(psec: _Section) -> Planetary:
     """``[planetary]`` → :class:`Planetary` (SI)."""
-    pc = psec.integer("planet_count", 1, 12)
+    pc = psec.ranged("planet_count", "planet_count")
     raw_pos = psec._get("planet_positions_deg", False, None, "deg", "a list of planet_count angles")
     positions = None
     if raw_pos is not None:
@@ -390,7 +414,7 @@ def _read_planetary(psec: _Section) -> Planetary:
     fixed = psec.string("fixed_member", PLANETARY_MEMBERS, required=False, default="ring")
     errors = []
     for esec in psec.array_of_tables("pin_errors", required=False):
-        planet = esec.integer("planet", 1, 12)
+        planet = esec.ranged("planet", "planet_count")
         rad = esec.number("radial_um", "um", -1000.0, 1000.0, required=False, default=0.0)
         tan = esec.number("tangential_um", "um", -1000.0, 1000.0, required=False, default=0.0)
         esec.done(_PIN_ERROR_KEYS)
@@ -468,7 +492,7 @@ def parse_model(text: str, *, file: str = "<model>", path: Path | None = None, s
     title = sys_sec.string("title", required=False, default="")
     source = sys_sec.string("source", required=False, default="")
     lumped = sys_sec.boolean("lumped", default=False)
-    sys_sec.done(("name", "kind", "title", "source", "lumped"))
+    sys_sec.done(_SYSTEM_KEYS)
 
     # gears that give no [gears.support]: the fixed member of a planetary set is then held (ring fixed)
     glist = raw.get("gears", [])
@@ -508,11 +532,11 @@ def parse_model(text: str, *, file: str = "<model>", path: Path | None = None, s
                                                                     math.radians(loc))))
 
     dsec = top.table("damping")
-    damping = Damping(dsec.number("modal_damping_ratio", "-", 0.0, 1.0))
+    damping = Damping(dsec.ranged("modal_damping_ratio", "modal_damping_ratio"))
     dsec.done(("modal_damping_ratio",))
 
     osec = top.table("operating")
-    torque = osec.number("torque_Nm", "N*m", 0.0, 1e7, lo_open=True)
+    torque = osec.ranged("torque_Nm", "torque_Nm")
     tgear = osec.string("torque_gear", required=False, default=gears[0].name)
     osec.done(("torque_Nm", "torque_gear"))
     operating = Operating(torque, tgear)
@@ -520,17 +544,17 @@ def parse_model(text: str, *, file: str = "<model>", path: Path | None = None, s
     ssec = top.table("statics", required=False)
     if ssec is not None:
         statics = StaticsGrid(
-            positions=ssec.integer("positions", 4, 4096, required=False, default=64),
-            loads=ssec.integer("loads", 2, 1024, required=False, default=32),
-            deflections=ssec.integer("deflections", 4, 4096, required=False, default=64),
-            max_torque_factor=ssec.number("max_torque_factor", "-", 1.0, 20.0, required=False, default=3.0),
-            face_slices=ssec.integer("face_slices", 1, 200, required=False, default=21),
-            twist_points=ssec.integer("twist_points", 1, 64, required=False, default=1),
+            positions=ssec.ranged("positions", "statics.positions", required=False, default=64),
+            loads=ssec.ranged("loads", "statics.loads", required=False, default=32),
+            deflections=ssec.ranged("deflections", "statics.deflections", required=False, default=64),
+            max_torque_factor=ssec.ranged("max_torque_factor", "statics.max_torque_factor", required=False,
+                                          default=3.0),
+            face_slices=ssec.ranged("face_slices", "statics.face_slices", required=False, default=21),
+            twist_points=ssec.ranged("twist_points", "statics.twist_points", required=False, default=1),
             # below 1e-6 mrad a twist grid is meaningless (and a subnormal value would underflow to 0 rad)
             max_twist_rad=1e-3 * ssec.number("max_twist_mrad", "mrad", 1e-6, 10.0, required=False, default=1.0),
         )
-        ssec.done(("positions", "loads", "deflections", "max_torque_factor", "face_slices", "twist_points",
-                   "max_twist_mrad"))
+        ssec.done(_STATICS_KEYS)
     else:
         statics = StaticsGrid()
 
@@ -573,12 +597,12 @@ def _parse_lumped(top: _Section, *, name: str, kind: str, title: str, source: st
     dsec = top.table("damping", required=False)
     damping = Damping()
     if dsec is not None:
-        damping = Damping(dsec.number("modal_damping_ratio", "-", 0.0, 1.0))
+        damping = Damping(dsec.ranged("modal_damping_ratio", "modal_damping_ratio"))
         dsec.done(("modal_damping_ratio",))
     osec = top.table("operating", required=False)
     operating = Operating(1.0, gears[0].name)
     if osec is not None:
-        torque = osec.number("torque_Nm", "N*m", 0.0, 1e7, lo_open=True)
+        torque = osec.ranged("torque_Nm", "torque_Nm")
         tgear = osec.string("torque_gear", required=False, default=gears[0].name)
         osec.done(("torque_Nm", "torque_gear"))
         operating = Operating(torque, tgear)
@@ -613,10 +637,13 @@ def resolve_model_path(model: str | Path) -> Path:
     if p.is_dir():
         p = p / "model.toml"
     if p.exists():
+        if not p.is_file():
+            raise ModelError(f"model file {str(p)!r} is not a file (a folder?); give models/<system>/model.toml, its "
+                             "folder or a system name")
         return p.resolve()
     for base in (Path.cwd() / "models", shipped_systems_dir()):
         cand = base / str(model) / "model.toml"
-        if cand.exists():
+        if cand.is_file():
             return cand.resolve()
     raise ModelError(f"model file not found: {model!r} (give models/<system>/model.toml, its folder, or a system name; "
                      f"shipped systems: {', '.join(shipped_systems())})")
@@ -625,7 +652,10 @@ def resolve_model_path(model: str | Path) -> Path:
 def load_model(model: str | Path) -> Model:
     """Read and validate a model file (path, folder or system name) → :class:`Model`."""
     path = resolve_model_path(model)
-    data = path.read_bytes()
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise ModelError(f"{path}: cannot read the model file ({exc.strerror or exc})") from None
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError:

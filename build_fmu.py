@@ -19,6 +19,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from hacgear_core.cli._help import plain_text
+
 HERE = Path(__file__).resolve().parent
 
 
@@ -38,7 +40,7 @@ def validate_fmu(path: str | Path) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+    ap = argparse.ArgumentParser(description=plain_text(__doc__.split("\n\n")[0]),
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--system", action="append", help="system folder name in --models (repeatable; default: all)")
     ap.add_argument("--out", default=str(HERE / "dist"), help="output folder (default: dist/)")

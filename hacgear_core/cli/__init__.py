@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import pkgutil
+import re
 import sys
 
 from hacgear_core import __version__
@@ -44,10 +45,36 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: a value that begins with '-' but is a number or a range (-200, -1e3, -.5, -1000:4000:31, -inf, -200,235.7)
+_NEGATIVE_VALUE = re.compile(r"^-(\d|\.\d|inf\b)", re.IGNORECASE)
+
+
+def _attach_negative_values(parser: argparse.ArgumentParser, argv: list[str]) -> list[str]:
+    """``--opt -1000:4000:31`` -> ``--opt=-1000:4000:31`` for every option that takes one value, so that a negative
+    number or range reaches the option (and then its range check) instead of argparse's "expected one argument"."""
+    takes_value = set()
+    for p in [parser] + [sp for a in parser._actions if isinstance(a, argparse._SubParsersAction)
+                         for sp in a.choices.values()]:
+        takes_value.update(s for a in p._actions if a.option_strings and a.nargs is None
+                           and not isinstance(a, argparse._HelpAction) for s in a.option_strings)
+    out: list[str] = []
+    i = 0
+    while i < len(argv):
+        tok = argv[i]
+        if tok in takes_value and i + 1 < len(argv) and _NEGATIVE_VALUE.match(argv[i + 1]):
+            out.append(f"{tok}={argv[i + 1]}")
+            i += 2
+            continue
+        out.append(tok)
+        i += 1
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``hacgear`` console script; returns the exit status."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    argv = list(sys.argv[1:] if argv is None else argv)
+    args = parser.parse_args(_attach_negative_values(parser, argv))
     if not getattr(args, "func", None):
         parser.print_help()
         return 2

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 
+from hacgear_core.cli._options import check_option
 from hacgear_core.dynamics.force_laws import FORCE_LAWS
 from hacgear_core.dynamics.inputs import DynamicsInputs, load_inputs
 
@@ -22,7 +23,7 @@ def add_model_options(p: argparse.ArgumentParser, torque_required: bool = False)
                    help="tables file to use with a model file (default: tables.h5 next to the model)")
     p.add_argument("--bearing-stiffness", type=float, default=None,
                    help="override every gear's translational bearing stiffness [N/m] (inf: rigid, purely rotational "
-                        "model)")
+                        "model, as in model files and the FMUs; 0: no bearing, a floating planetary member)")
     p.add_argument("--damping-ratio", type=float, default=None,
                    help="override the modal damping ratio [-] (default: model [damping] modal_damping_ratio)")
     p.add_argument("--force-law", choices=FORCE_LAWS, default="hac",
@@ -37,6 +38,11 @@ def add_model_options(p: argparse.ArgumentParser, torque_required: bool = False)
 
 
 def inputs_from_args(args: argparse.Namespace, *, shafts: bool = True) -> DynamicsInputs:
+    """The dynamics inputs of the model options, each checked against its range in the model schema first."""
+    check_option("--torque", args.torque, "torque_Nm", signed=True)
+    check_option("--damping-ratio", args.damping_ratio, "modal_damping_ratio")
+    check_option("--bearing-stiffness", args.bearing_stiffness, "translational_stiffness_N_per_m")
+    check_option("--planets", getattr(args, "planets", None), "planet_count")
     return load_inputs(args.model, torque_Nm=args.torque, bearing_stiffness_N_per_m=args.bearing_stiffness,
                        damping_ratio=args.damping_ratio, tables=args.tables, force_law=args.force_law,
                        allow_hash_mismatch=args.ignore_model_hash, shafts=shafts,

@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from hacgear_core.cli._help import plain_text
 from hacgear_core.cli._paths import check_out_dir
 from hacgear_core.fmu import build_fmu
 from hacgear_core.fmu.bench import BenchConfig, plot_bench, run_drivetrain_bench
@@ -36,7 +37,7 @@ DEFAULT_MODEL = "spur_28t_asym"
 
 def register(sub) -> None:
     p = sub.add_parser("demo", help="run the whole pipeline on the default model and write its outputs",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+                       description=plain_text(__doc__), formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("model", nargs="?", default=DEFAULT_MODEL, help="model (default: %(default)s)")
     p.add_argument("--out", default="demo_out", help="output folder, created if missing (default: %(default)s)")
     p.add_argument("--quick", action="store_true", help="fewer speeds and a shorter drivetrain run")

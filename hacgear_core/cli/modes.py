@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from hacgear_core.cli._dyn_common import add_model_options, inputs_from_args
+from hacgear_core.cli._options import check_option
 from hacgear_core.dynamics.modes import gyroscopic_modes, impulse_test, modal_analysis
 from hacgear_core.errors import ModelError
 from hacgear_core.jsonio import dumps
@@ -65,6 +66,7 @@ def _run_planetary(args: argparse.Namespace, inp) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
+    check_option("--fm", args.fm, "mesh_frequency_Hz")
     inp = inputs_from_args(args)
     sy = inp.system
     if sy.kind == "planetary":

@@ -15,10 +15,10 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-import h5py
-
+from hacgear_core.cli._help import plain_text
 from hacgear_core.cli._paths import check_out_path
 from hacgear_core.errors import TableError
+from hacgear_core.h5files import file_kind
 from hacgear_core.plots.helical import write_helical_figures
 from hacgear_core.plots.sweep import plot_sweep_file
 from hacgear_core.plots.tables import plot_fdf, plot_sdf
@@ -31,7 +31,7 @@ _SUFFIXES = (".png", ".pdf", ".svg")
 
 def register(subparsers: Any) -> None:
     p = subparsers.add_parser("plot", help="plot a tables.h5 (FDF, strain) or a sweep results file",
-                              description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+                              description=plain_text(__doc__), formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("file", help="tables.h5 or sweep results .h5")
     p.add_argument("--out", required=True, help="image file to write (.png, .pdf or .svg; its folder must exist)")
     p.add_argument("--mesh", default=None, help="mesh of a tables file (default: the first)")
@@ -45,11 +45,9 @@ def run(args) -> int:
     if not path.exists():
         raise TableError(f"no such file: {path}")
     out = check_out_path(args.out, "--out", suffixes=_SUFFIXES)
-    try:
-        with h5py.File(path, "r") as f:
-            kind = "tables" if f.attrs.get("format") == "hacgear-tables" else ("sweep" if "sweeps" in f else "")
-    except OSError as exc:
-        raise TableError(f"{path} is not an HDF5 file: {exc}") from None
+    kind = file_kind(path)
+    if kind == "other":
+        raise TableError(f"{path} is not an HDF5 file")
     if kind == "tables":
         tabs = read_tables(path)
         table = tabs.mesh(args.mesh)

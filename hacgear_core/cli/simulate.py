@@ -8,6 +8,7 @@ import sys
 import numpy as np
 
 from hacgear_core.cli._dyn_common import add_model_options, inputs_from_args
+from hacgear_core.cli._options import check_option
 from hacgear_core.cli._paths import check_out_path
 from hacgear_core.dynamics.simulator import Simulator, strain_of_tooth, system_gauges
 from hacgear_core.errors import ModelError
@@ -58,8 +59,8 @@ def run(args: argparse.Namespace) -> int:
     _check_out(args.out)
     if args.cycles < 1 or not 1 <= args.record_cycles <= args.cycles or args.steps_per_cycle < 8:
         raise ModelError("need --cycles >= 1, 1 <= --record-cycles <= --cycles, --steps-per-cycle >= 8")
-    if not args.fm > 0 or (args.fm_end is not None and not args.fm_end > 0):
-        raise ModelError("--fm and --fm-end [Hz] must be > 0")
+    check_option("--fm", args.fm, "mesh_frequency_Hz")
+    check_option("--fm-end", args.fm_end, "mesh_frequency_Hz")
     drive = None
     if args.drive_torques is not None:
         try:

@@ -5,11 +5,13 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
 import numpy as np
 
+from hacgear_core.cli._options import check_option, given
 from hacgear_core.cli._paths import check_out_path
 from hacgear_core.errors import ModelError, TableError
 from hacgear_core.jsonio import dumps
@@ -55,7 +57,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     mode.add_argument("--fresh", action="store_true",
                       help="discard an interrupted run (<out>.partial) and a finished table of the same settings, "
                            "and compute everything again")
-    p.add_argument("--solver", choices=("fe", "analytic"), default="fe",
+    p.add_argument("--solver", choices=("fe", "analytic"), default=None,
                    help="fe: finite-element contact solver (hacgear_core.statics.contact); analytic: the analytical "
                         "reference spring model (not FE; for testing the pipeline); default fe")
     p.add_argument("--check", action="store_true",
@@ -182,20 +184,36 @@ def _check(args: argparse.Namespace) -> int:
     return 0
 
 
+#: options that set up a computation: they have no effect with --check, so giving them there is an error
+_COMPUTE_OPTIONS = {"positions": "--positions", "loads": "--loads", "deflections": "--deflections",
+                    "max_torque_factor": "--max-torque-factor", "deflection_margin": "--deflection-margin",
+                    "workers": "--workers", "resume": "--resume", "fresh": "--fresh", "solver": "--solver",
+                    "no_progress": "--no-progress"}
+
+
 def run(args: argparse.Namespace) -> int:
     if args.check:
+        ignored = [opt for dest, opt in _COMPUTE_OPTIONS.items() if given(args, dest)]
+        if ignored:
+            raise ModelError(f"{', '.join(ignored)}: no effect with --check (it reads the existing table and computes "
+                             "nothing); run `hacgear statics MODEL` without --check to compute a table with them")
         return _check(args)
-    for name in ("positions", "loads", "deflections", "workers"):
-        v = getattr(args, name)
-        if v is not None and v < 1:
-            raise ModelError(f"--{name} [-] = {v}; allowed: integer >= 1")
+    if args.ignore_model_hash:
+        raise ModelError("--ignore-model-hash applies to --check only (a computed table always belongs to its model)")
+    for name in ("positions", "loads", "deflections", "max_torque_factor"):
+        check_option(f"--{name.replace('_', '-')}", getattr(args, name), f"statics.{name}")
+    if args.workers is not None and args.workers < 1:
+        raise ModelError(f"--workers [-] = {args.workers} is out of range; allowed: integer >= 1")
+    if args.deflection_margin is not None and not (math.isfinite(args.deflection_margin)
+                                                   and args.deflection_margin >= 0):
+        raise ModelError(f"--deflection-margin [-] = {args.deflection_margin!r} is out of range; allowed: finite >= 0")
     if args.out is not None:
         check_out_path(args.out, "--out", suffixes=(".h5", ".hdf5"))
     rep = compute_statics(
         args.model, args.out, positions=args.positions, loads=args.loads, deflections=args.deflections,
         max_torque_factor=args.max_torque_factor,
         deflection_margin=DEFAULT_DEFLECTION_MARGIN if args.deflection_margin is None else args.deflection_margin,
-        solver=args.solver, workers=args.workers, resume=not args.fresh, progress=not args.no_progress,
+        solver=args.solver or "fe", workers=args.workers, resume=not args.fresh, progress=not args.no_progress,
     )
     if args.json:
         print(json.dumps(rep.as_dict(), indent=2))

@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from hacgear_core.cli._options import check_option
 from hacgear_core.jsonio import dumps
 from hacgear_core.model import load_model
 from hacgear_core.statics.studies import mesh_stiffness_report, model_variant
@@ -47,6 +48,9 @@ def register(subparsers: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    check_option("--torque", args.torque, "torque_Nm", signed=True)
+    check_option("--positions", args.positions, "statics.positions")
+    check_option("--slices", args.slices, "statics.face_slices")
     model = load_model(args.model)
     if args.no_relief or args.no_crowning:
         model = model_variant(model, tip_relief=not args.no_relief, lead_crowning=not args.no_crowning)

@@ -3,12 +3,14 @@ frequency (each speed from the previous steady state), jumps per mesh, HDF5 resu
 from __future__ import annotations
 
 import argparse
-import math
+
 from hacgear_core.cli._dyn_common import add_model_options, inputs_from_args
+from hacgear_core.cli._options import check_option
 from hacgear_core.cli._paths import check_out_path
 from hacgear_core.dynamics.steady import SteadyStateOptions
 from hacgear_core.dynamics.sweep import SweepSpec, parse_fm, run_sweeps
 from hacgear_core.errors import ModelError
+from hacgear_core.h5files import check_writable_kind
 from hacgear_core.jsonio import dumps
 from hacgear_core.workers import process_pool
 
@@ -26,7 +28,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "worker processes end by themselves) computes only the missing speeds and says how many it reused; "
             "--fresh computes them all again. Jumps: where the up and down branches differ (hysteresis), the "
             "up sweep jumps at the upper end of that region and the down sweep at its lower end (confirmed "
-            "jumps, independent of the speed grid); other RMS changes > 30 %% between adjacent speeds are "
+            "jumps, independent of the speed grid); other RMS changes > 30 % between adjacent speeds are "
             "listed as unconfirmed."),
     )
     add_model_options(p)
@@ -55,22 +57,28 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _torques(args) -> list[float]:
     if args.torques is None:
         return [args.torque]  # None: the model's [operating] torque
+    if args.torque is not None:
+        raise ModelError(f"--torque {args.torque:g} and --torques {args.torques} exclude each other: give one torque "
+                         "with --torque or several with --torques")
     try:
         ts = [float(t) for t in args.torques.split(",") if t.strip()]
     except ValueError:
         raise ModelError(f"--torques must be comma-separated numbers [N*m], got {args.torques!r}") from None
-    if not ts or any(not (t > 0 and math.isfinite(t)) for t in ts):
-        raise ModelError(f"--torques [N*m] must be finite and > 0, got {args.torques!r}")
+    if not ts:
+        raise ModelError(f"--torques must be comma-separated numbers [N*m], got {args.torques!r}")
+    for t in ts:
+        check_option("--torques", t, "torque_Nm", signed=True)
     return ts
 
 
 def run(args: argparse.Namespace) -> int:
     torques = _torques(args)
     args.torque = torques[0]
-    inp = inputs_from_args(args)
     fms = parse_fm(args.fm)
     if args.out is not None:
         check_out_path(args.out, "--out", suffixes=(".h5", ".hdf5"))
+        check_writable_kind(args.out, "sweep", "sweep results")
+    inp = inputs_from_args(args)
     if args.workers < 1:
         raise ModelError(f"--workers must be >= 1, got {args.workers}")
     opts = SteadyStateOptions(rtol=args.rtol, max_cycles=args.max_cycles, stability=args.stability)

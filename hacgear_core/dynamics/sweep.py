@@ -40,6 +40,8 @@ import numpy as np
 from hacgear_core.dynamics.steady import METRIC_NAMES, SteadyStateOptions, steady_state
 from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import ModelError
+from hacgear_core.h5files import SWEEP_FORMAT, check_writable_kind
+from hacgear_core.model.schema import RANGES
 
 __all__ = [
     "SweepSpec",
@@ -64,8 +66,11 @@ def parse_fm(text: str) -> np.ndarray:
         a, b, n = float(a), float(b), int(n)
     except ValueError:
         raise ModelError(f"--fm must be START:STOP:N (Hz, Hz, count), got {text!r}") from None
-    if not (math.isfinite(a) and math.isfinite(b) and 0 < a and 0 < b and n >= 1):
-        raise ModelError(f"--fm START and STOP [Hz] must be > 0 and N >= 1, got {text!r}")
+    r = RANGES["mesh_frequency_Hz"]
+    if not (r.contains(a) and r.contains(b)):
+        raise ModelError(f"--fm START and STOP [Hz] = {text!r} are out of range; allowed: {r.text} each")
+    if n < 1:
+        raise ModelError(f"--fm N [-] = {n} in {text!r} is out of range; allowed: integer >= 1")
     return np.linspace(a, b, n) if n > 1 else np.array([a])
 
 
@@ -293,6 +298,7 @@ def _task(args):
 
 def _copy_into(out: Path, run_id: str, spec: SweepSpec, branch: str, part: Path) -> None:
     with h5py.File(out, "a") as fo, h5py.File(part, "r") as fp:
+        fo.attrs["format"] = SWEEP_FORMAT
         g = fo.require_group("sweeps").require_group(run_id)
         g.attrs["spec"] = json.dumps(spec._describe(), sort_keys=True)
         g.attrs["label"] = spec.label
@@ -357,6 +363,8 @@ def run_sweeps(specs, *, out: str | Path | None = None, executor: Executor | Non
     """
     specs = list(specs)
     outp = Path(out) if out is not None else None
+    if outp is not None:
+        check_writable_kind(outp, "sweep", "sweep results")
     tasks, keys, results, discarded = [], [], {}, {}
     for si, spec in enumerate(specs):
         rid = spec.run_id()

@@ -51,6 +51,7 @@ import numpy as np
 
 from hacgear_core import tables as tb
 from hacgear_core.errors import ModelError, SolverError, TableError
+from hacgear_core.h5files import check_writable_kind
 from hacgear_core.geometry.planetary import planetary_geometry, planetary_torques
 from hacgear_core.geometry.train import nominal_mesh_forces as train_mesh_forces
 from hacgear_core.model import load_model
@@ -395,6 +396,7 @@ def run_statics(
     t0 = time.perf_counter()
     out = Path(out)
     partial = _partial_path(out)
+    check_writable_kind(out, "tables", "a tables file")
     if n_positions < 2:
         raise ModelError(f"positions [-] = {n_positions}; allowed: integer >= 2")
     for k in factories:
@@ -453,6 +455,10 @@ def run_statics(
                 return StaticsReport(True, f"{out} is already complete for these settings; nothing to do "
                                            "(--fresh recomputes it)", out, total, 0, total,
                                      time.perf_counter() - t0, done)
+            diff = tb.layout_difference(out, layouts, root_attrs) or "unfinished positions"
+            raise TableError(f"{out} is a finished table made with other settings (differs: {diff}); it is kept. "
+                             "Write the new grid to another file with --out, or replace this one with "
+                             "--fresh")
         f, resumed_note = tb.open_statics_file(partial, layouts, root_attrs, resume=resume)
         try:
             return _run_phases(f, tb, factories, layouts, positions, executor, deflection_margin, progress,

@@ -25,6 +25,7 @@ import numpy as np
 
 from hacgear_core import __version__
 from hacgear_core.errors import TableError
+from hacgear_core.h5files import TABLES_FORMAT
 from hacgear_core.model import load_model, model_sha256, resolve_model_path
 from hacgear_core.model.provenance import model_values_json, model_values_sha256, values_diff
 from hacgear_core.tables.check import hard_problems
@@ -32,6 +33,7 @@ from hacgear_core.tables.table import MeshTable, SystemTables, TwistTable
 
 __all__ = [
     "FORMAT",
+    "layout_difference",
     "FORMAT_VERSION",
     "READABLE_VERSIONS",
     "DATASETS",
@@ -49,7 +51,7 @@ __all__ = [
     "ATTRS_DIGEST",
 ]
 
-FORMAT = "hacgear-tables"
+FORMAT = TABLES_FORMAT
 FORMAT_VERSION = 3
 #: versions this reader accepts: 1 = drive side only, 2 = drive side + twist axis (helical), 3 = the coast side
 #: where computed and the twist axis where helical (a table without its ``coast/`` subgroup reads ``coast = None``)
@@ -396,6 +398,15 @@ def completed_table_matches(path: str | Path, layouts: Mapping[str, MeshLayout],
             return {m: consistency_summary(f[f"meshes/{m}"]) for m in layouts}
     except OSError:
         return None
+
+
+def layout_difference(path: str | Path, layouts: Mapping[str, MeshLayout], root_attrs: Mapping[str, Any]) -> str:
+    """What differs between the table ``path`` and these layouts/settings (empty when nothing does)."""
+    try:
+        with h5py.File(path, "r") as f:
+            return _same_layout(f, layouts, root_attrs) or ""
+    except OSError as exc:
+        return f"unreadable: {exc}"
 
 
 def write_position(f: Any, mesh: str, phase: int, ip: int, payload: Mapping[str, Any]) -> None:

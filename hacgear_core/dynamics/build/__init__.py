@@ -20,7 +20,9 @@ from hacgear_core.dynamics.build.train import (
     train_from_model,
 )
 from hacgear_core.dynamics.system import LumpedSystem
-from hacgear_core.errors import ModelError
+from hacgear_core.errors import GeometryError, ModelError
+from hacgear_core.geometry.planetary import planetary_geometry
+from hacgear_core.model.schema import RANGES
 
 __all__ = [
     "build_system",
@@ -57,14 +59,27 @@ class StructuralParameter:
 
 def structural_parameters(model: Any) -> tuple[StructuralParameter, ...]:
     """The structural options of ``model``'s builder (none for fixed-axis trains; ``planet_count`` for planetary
-    sets, from 1 to max(5, the model's count): the dissertation's sets have 3, 4 and 5 planets)."""
+    sets: every count of :data:`~hacgear_core.model.schema.RANGES` ``planet_count`` up to the largest whose equally
+    spaced planets the set can assemble without overlapping, the range the command line's ``--planets`` has too)."""
     if model.kind == "planetary":
         n = model.planetary.planet_count
+        r = RANGES["planet_count"]
+        n_max = max([k for k in range(int(r.lo), int(r.hi) + 1) if _planets_fit(model, k)] + [n])
         return (StructuralParameter(
-            "planet_count", n, 1, max(5, n),
-            "number of equally spaced planets; outputs of planets beyond it read 0 (the tables are per mesh kind: "
-            "one FMU serves every count its tables' load range allows)"),)
+            "planet_count", n, int(r.lo), n_max,
+            f"number of equally spaced planets (1 to {n_max}"
+            + (": more do not fit this set" if n_max < r.hi else "") + "); outputs of planets beyond it "
+            "read 0 (the tables are per mesh kind: one FMU serves every count its tables' load range allows)"),)
     return ()
+
+
+def _planets_fit(model: Any, count: int) -> bool:
+    """Whether ``count`` equally spaced planets can be assembled in ``model``'s set without overlapping."""
+    try:
+        planetary_geometry(model, count)
+    except (ModelError, GeometryError):
+        return False
+    return True
 
 
 def build_system(model: Any, tables: Any, **options) -> LumpedSystem:

@@ -41,8 +41,8 @@ def test_planetary_fmu_validates(fmu):
     md = fmpy.read_model_description(str(fmu["path"]))
     names = {v.name: v for v in md.modelVariables}
     pc = names["planet_count"]
-    assert pc.causality == "parameter" and pc.variability == "fixed" and (pc.min, pc.max) == ("1", "5")
-    for i in range(1, 6):
+    assert pc.causality == "parameter" and pc.variability == "fixed" and (pc.min, pc.max) == ("1", "6")
+    for i in range(1, 7):  # 6 equally spaced planets fit this set, 7 cannot be assembled, 8 overlap
         for q in ("force", "contact", "load_share"):
             assert f"sun_planet_{i}.{q}" in names and f"ring_planet_{i}.{q}" in names
         assert f"planet_{i}.bearing_force_x" in names

@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 import os
 import pickle
+import re
 from dataclasses import replace
 from pathlib import Path
 from typing import Callable
@@ -37,6 +38,7 @@ from hacgear_core.dynamics.build import build_system, structural_parameters
 from hacgear_core.dynamics.simulator import Simulator, strain_of_tooth, system_gauges
 from hacgear_core.errors import HacgearError, ModelError
 from hacgear_core.fmu.spec import FmuVariable, ident
+from hacgear_core.model.schema import RANGES
 from hacgear_core.model import load_model
 from hacgear_core.tables import read_tables
 
@@ -49,6 +51,13 @@ MODE_SPEED = 0
 MODE_TORQUE = 1
 #: ContactState items (spec.ENUMERATIONS)
 CONTACT_SEPARATED, CONTACT_DRIVE, CONTACT_COAST = 0, 1, 2
+
+
+#: builder field names (in error messages) -> the FMU parameters that set them
+_FMU_NAME_OF = {"torque_Nm [N*m]": "parameter 'torque' [N.m]", "torque_Nm": "torque",
+                "modal_damping_ratio [-]": "parameter 'modal_damping_ratio' [1]",
+                "translational_stiffness_N_per_m [N/m]": "bearing_stiffness [N/m]"}
+_FMU_NAMES = re.compile("|".join(re.escape(k) for k in sorted(_FMU_NAME_OF, key=len, reverse=True)))
 
 
 def contact_state(force_N: float, coast_force_N: float = 0.0) -> int:
@@ -231,6 +240,9 @@ class Adapter:
         port_t = self.port_torques_Nm
         nom = self.nominal
         w_res = nom["resonance_speed_rad_s"]
+        t_max = RANGES["torque_Nm"].hi
+        k_range = RANGES["translational_stiffness_N_per_m"]
+        w_range = RANGES["speed_rad_s"]
         spec = [
             V("mode", "Integer", "parameter", "fixed", "",
               f"experiment: 0 = constant speed (the reference gear {ref} turns at {ref}.speed_in, torque set-point "
@@ -243,16 +255,18 @@ class Adapter:
             V("torque", "Real", "parameter", "fixed", "N.m",
               f"nominal torque on the input gear {inp}: torque set-point of the constant-speed experiment; in both "
               "modes it sets the linearisation used for the modal damping; negative loads the coast flanks "
-              "(not 0)", sy.torque_Nm, -1e6 if sy.two_sided else 1e-3, 1e6, nominal=abs(sy.torque_Nm)),
+              "(not 0)", sy.torque_Nm, -t_max if sy.two_sided else 1e-3, t_max, nominal=abs(sy.torque_Nm)),
             V("modal_damping_ratio", "Real", "parameter", "fixed", "1",
-              "modal damping ratio of every elastic mode of the linearised system", sy.modal_damping_ratio, 0.0, 0.99),
+              "modal damping ratio of every elastic mode of the linearised system", sy.modal_damping_ratio,
+              RANGES["modal_damping_ratio"].lo, RANGES["modal_damping_ratio"].hi),
         ]
         planets = {a for c in sy.meshes for gi, a in c.gear_alias.items() if gi != a}
         for g, k in zip(self.bearing_gears, self._model_bearings(self.model)):
             what = "every planet's bearing on its pin" if g in planets else f"{'the ' if g == 'carrier' else 'gear '}{g}"
             spec.append(V(f"{ident(g)}.bearing_stiffness", "Real", "parameter", "fixed", "N/m",
-                          f"translational bearing stiffness of {what}; 0 = rigid (no translation)",
-                          0.0 if math.isinf(k) else k, 0.0, 1e15, display_unit="N/µm"))
+                          f"translational bearing stiffness of {what}; inf = rigid (no translation DOF), as in model "
+                          "files and on the command line; 0 = no bearing (a floating member)",
+                          k, k_range.lo, k_range.hi, display_unit="N/µm", allow_inf=k_range.allow_inf))
         spec += [
             V("internal_step", "Real", "parameter", "fixed", "s",
               "largest internal RK4 step; 0 = automatic (mesh period / 128 at the current speed and 1/32 of the "
@@ -260,10 +274,12 @@ class Adapter:
               "no larger than this", 0.0, 0.0, 1e-3),
             V(f"{ident(ref)}.speed_start", "Real", "parameter", "fixed", "rad/s",
               f"drivetrain mode: initial speed of gear {ref} in its sense of rotation (constant-speed mode starts at "
-              f"{ref}.speed_in); default: the mesh resonance", w_res, -2e4, 2e4, display_unit="rpm", nominal=w_res),
+              f"{ref}.speed_in); default: the mesh resonance", w_res, w_range.lo, w_range.hi, display_unit="rpm",
+              nominal=w_res),
             V(f"{ident(ref)}.speed_in", "Real", "input", "continuous", "rad/s",
               f"constant-speed mode: imposed speed of gear {ref}, positive in its sense of rotation (ignored in "
-              "drivetrain mode); default: the mesh resonance", w_res, -2e4, 2e4, display_unit="rpm", nominal=w_res),
+              "drivetrain mode); default: the mesh resonance", w_res, w_range.lo, w_range.hi, display_unit="rpm",
+              nominal=w_res),
         ]
         for g in self.ports:
             role = "driving (positive)" if g == inp else "a braking load is negative"
@@ -468,8 +484,7 @@ class Adapter:
         """
         mode = int(values["mode"])
         shafts = mode == MODE_SPEED
-        bearings = tuple(math.inf if values[f"{ident(g)}.bearing_stiffness"] == 0
-                         else float(values[f"{ident(g)}.bearing_stiffness"]) for g in self.bearing_gears)
+        bearings = tuple(float(values[f"{ident(g)}.bearing_stiffness"]) for g in self.bearing_gears)
         h = float(values["internal_step"]) or None
         structure = tuple((p.name, int(values[p.name])) for p in self.structural)
         key = self._key(float(values["torque"]), float(values["modal_damping_ratio"]), bearings, h, shafts, structure)
@@ -480,9 +495,12 @@ class Adapter:
                 model = self.model
                 if bearings != self._model_bearings(model):
                     model = self._with_bearings(bearings)
-                system = build_system(model, self.tables, torque_Nm=float(values["torque"]),
-                                      modal_damping_ratio=float(values["modal_damping_ratio"]), shafts=shafts,
-                                      **dict(structure))
+                try:
+                    system = build_system(model, self.tables, torque_Nm=float(values["torque"]),
+                                          modal_damping_ratio=float(values["modal_damping_ratio"]), shafts=shafts,
+                                          **dict(structure))
+                except ModelError as exc:  # the builder's field names -> this FMU's parameter names
+                    raise ModelError(_FMU_NAMES.sub(lambda mt: _FMU_NAME_OF[mt.group(0)], str(exc))) from None
             # keep the last few systems: masters that reset and re-initialize do not assemble them again
             self._systems[skey] = system
             while len(self._systems) > 8:

@@ -386,9 +386,30 @@ def plot_bench(res: dict, path: str | Path, title: str = "") -> Path:
     return path
 
 
+def stage_mesh_frequency_Hz(res: dict, name: str) -> np.ndarray:
+    """Mesh frequency [Hz] of stage ``name`` of a multi-stage bench run over time: its input speed over the input
+    port's speed ratio (the reference gear's speed) x the reference gear's teeth / 2 pi."""
+    info = res["layout"].infos[name]
+    r_in = abs(info["ports"][info["input"]]["speed_ratio"])
+    return np.abs(res[f"{name}.{info['input']}.speed"]) / r_in * info["reference_teeth"] / (2 * math.pi)
+
+
+def shaft_labels(res: dict) -> list[str]:
+    """What each shaft of a multi-stage bench connects: ``shaft0`` motor -> first stage, ``shaft1`` ... the
+    couplings between stages, the last one the last stage -> load."""
+    names = list(res["layout"].infos)
+    infos = list(res["layout"].infos.values())
+    out = [f"shaft0: motor -> {names[0]} {infos[0]['input']}"]
+    out += [f"shaft{k + 1}: {names[k]} {infos[k]['output']} -> {names[k + 1]} {infos[k + 1]['input']}"
+            for k in range(len(names) - 1)]
+    out.append(f"shaft{len(names)}: {names[-1]} {infos[-1]['output']} -> load")
+    return out
+
+
 def plot_stages(res: dict, path: str | Path, title: str = "") -> Path:
     """Figure of a multi-stage bench run: speeds of the motor, every stage's input and output and the load; mesh
-    force envelopes of every mesh of every stage over its static force; shaft torques."""
+    force envelopes of every mesh of every stage over its static force, over the stage's own mesh frequency (where
+    its resonances are read, marked); shaft torques, each shaft named by what it connects."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -411,18 +432,24 @@ def plot_stages(res: dict, path: str | Path, title: str = "") -> Path:
     for k, (name, info) in enumerate(lay.infos.items()):
         nom_in = info["ports"][info["input"]]["nominal_torque_Nm"]
         scale = lay.static["input_torque_Nm"][k] / nom_in
+        fm = stage_mesh_frequency_Hz(res, name)
         for m in info["meshes"]:
             fs = info["meshes"][m]["nominal_force_N"] * scale
             tm, fmax, fmin = _envelope(t, res[f"{name}.{m}.force"], w)
-            ax[1].fill_between(tm, fmin / fs, fmax / fs, alpha=0.45, label=f"{name} {m}: range per {w * (t[1] - t[0]) * 1e3:.0f} ms")
+            line = ax[1].fill_between(np.interp(tm, t, fm), fmin / fs, fmax / fs, alpha=0.45,
+                                      label=f"{name} ({info['system']}) {m}: range per {w * (t[1] - t[0]) * 1e3:.0f} ms")
+        ax[1].axvline(info["resonance_mesh_frequency_Hz"], color=line.get_facecolor()[0], lw=0.8, ls="--",
+                      label=f"{name}: linearised mesh resonance {info['resonance_mesh_frequency_Hz']:.0f} Hz")
     ax[1].axhline(1.0, color="k", lw=0.8, ls=":")
-    ax[1].set_xlabel("time [s]")
+    ax[1].set_xlabel("mesh frequency of the stage [Hz] (its reference gear's speed x teeth / 2 pi)")
     ax[1].set_ylabel("mesh force / static mesh force [–]")
     ax[1].legend(fontsize=7, loc="upper left")
-    for k in range(len(lay.infos) + 1):
-        ax[2].plot(t, res[f"shaft{k}.torque"], lw=0.8, label=f"shaft{k}")
+    for k, label in enumerate(shaft_labels(res)):
+        ax[2].plot(t, res[f"shaft{k}.torque"], lw=0.8, label=label)
     ax[2].set_xlabel("time [s]")
-    ax[2].set_ylabel("shaft torque on its side b [N·m]")
+    ax[2].set_ylabel("shaft torque on the stage gear [N·m]")
+    ax[2].set_title("torque each shaft applies to the stage gear at its downstream end (side b) in that gear's sense "
+                    "of rotation: driving > 0; the last shaft brakes the last stage (load) < 0", fontsize=7)
     ax[2].legend(fontsize=7, loc="upper left")
     fig.suptitle(title or "gear stages in a drivetrain (co-simulation, fmpy low-level API)", fontsize=10)
     path = Path(path)

@@ -68,7 +68,9 @@ def fmu_file_name(system: str, fmi_version: int = 2) -> str:
 
 
 def _fmt(x: float) -> str:
-    return repr(float(x))
+    """An xs:double: ``repr`` of finite values, ``INF`` / ``-INF`` for infinities (a rigid bearing)."""
+    x = float(x)
+    return repr(x) if math.isfinite(x) else ("INF" if x > 0 else "-INF")
 
 
 def _sha256(path: Path) -> str:
@@ -225,7 +227,7 @@ def model_description(adapter, info: dict, fmi_version: int = 2) -> bytes:
             if v.min is not None:
                 t["min"] = conv(v.min)
             if v.max is not None:
-                t["max"] = conv(v.max)
+                t["max"] = conv(math.inf if v.allow_inf else v.max)
         if v.start is not None:
             t["start"] = (("true" if v.start else "false") if v.type == "Boolean"
                           else _fmt(v.start) if v.type == "Real" else str(int(v.start)))

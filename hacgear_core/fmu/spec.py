@@ -80,6 +80,9 @@ class FmuVariable:
     min, max : float or None
         Allowed range (inclusive) of parameters and inputs, checked when initialization ends (parameters, the
         inputs of the chosen experiment) and in every ``doStep`` (inputs).
+    allow_inf : bool
+        ``+inf`` is allowed as well (a rigid bearing stiffness): modelDescription.xml then states ``max="INF"``
+        and ``max`` bounds the finite values only.
     display_unit : str
         A display unit of ``unit`` (:data:`DISPLAY_UNITS`), or ``""``.
     nominal : float or None
@@ -100,6 +103,7 @@ class FmuVariable:
     display_unit: str = ""
     nominal: float | None = None
     declared_type: str = ""
+    allow_inf: bool = False
 
     def __post_init__(self) -> None:
         if self.type not in TYPES:
@@ -132,6 +136,8 @@ class FmuVariable:
         for b in (self.min, self.max):
             if b is not None and not math.isfinite(b):
                 raise ValueError(f"FmuVariable {self.name}: min/max must be finite (XML xs:double)")
+        if self.allow_inf and self.type != "Real":
+            raise ValueError(f"FmuVariable {self.name}: only Real variables can allow inf")
         if self.start is not None and self.check(self.start):
             raise ValueError(f"FmuVariable {self.name}: start value {self.start!r} outside its own range")
 
@@ -161,9 +167,13 @@ class FmuVariable:
             return ""
         lo = -math.inf if self.min is None else self.min
         hi = math.inf if self.max is None else self.max
+        if self.allow_inf and v == math.inf:
+            return ""
         if not math.isfinite(v) or not lo <= v <= hi:
+            inf_txt = " or inf" if self.allow_inf else ""
             return (f"{self.causality} '{self.name}'{unit} = {v!r} is outside the allowed range "
-                    f"[{lo:g}, {hi:g}]{' (NaN/inf are not allowed)' if not math.isfinite(v) else ''}")
+                    f"[{lo:g}, {hi:g}]{inf_txt}"
+                    f"{' (NaN/inf are not allowed)' if not math.isfinite(v) and not self.allow_inf else ''}")
         if self.type == "Integer" and v != int(v):
             return f"{self.causality} '{self.name}' must be an integer, got {value!r}"
         return ""
@@ -203,6 +213,7 @@ def variables_table(variables) -> str:
             rng = ", ".join(f"{n} = {k}" for n, k, _ in ENUMERATIONS[v.declared_type][1])
         elif v.min is not None or v.max is not None:
             rng = f"[{_num(v.min) if v.min is not None else '-inf'}, {_num(v.max) if v.max is not None else 'inf'}]"
+            rng += " or inf" if v.allow_inf else ""
         else:
             rng = ""
         rows.append(f"| `{v.name}` | {kind} | {unit} | {rng} | {v.description.replace('|', '/')} |")

@@ -272,6 +272,24 @@ def _expanded(model: Any, mem: PlanetaryMembers, pos: tuple[float, ...]):
     return dup, tuple(planets)
 
 
+def _check_planets_apart(model: Any, positions_rad: Any, carrier_radius_m: float, tip_radius_m: float) -> None:
+    """:class:`GeometryError` when two neighbouring planets (centres on the carrier radius at ``positions_rad``)
+    are closer than a planet tip diameter: their teeth would overlap."""
+    pos = [float(a) for a in positions_rad]
+    if len(pos) < 2:
+        return
+    n_max = int(math.pi / math.asin(min(1.0, tip_radius_m / carrier_radius_m)) + 1e-9)
+    for i, (a, b) in enumerate(zip(pos, pos[1:] + [pos[0] + 2 * math.pi])):
+        gap = 2 * carrier_radius_m * math.sin(0.5 * (b - a))
+        if gap <= 2 * tip_radius_m:
+            j = (i + 1) % len(pos) + 1
+            raise GeometryError(
+                f"{model.name}: planets {i + 1} and {j} at {math.degrees(a):g} and {math.degrees(b) % 360:g} deg "
+                f"overlap: their centres are {gap * 1e3:.4g} mm apart on the carrier radius {carrier_radius_m * 1e3:.6g}"
+                f" mm, less than the planet tip diameter {2e3 * tip_radius_m:.6g} mm; at most {n_max} equally spaced "
+                "planets fit this set")
+
+
 def planetary_geometry(model: Any, planet_count: int | None = None) -> PlanetaryGeometry:
     """Place the planetary set of ``model`` in the carrier frame (module docstring); ``planet_count`` overrides
     the model's count (equally spaced planets).
@@ -294,6 +312,7 @@ def planetary_geometry(model: Any, planet_count: int | None = None) -> Planetary
         if abs(mg[m.name].center_distance_m - rc) > 1e-9:
             raise ModelError(f"mesh '{m.name}': centre distance {mg[m.name].center_distance_m * 1e3:.6g} mm differs "
                              f"from the carrier radius {rc * 1e3:.6g} mm (the planets sit on the carrier radius)")
+    _check_planets_apart(model, pos, rc, gg[mem.planet].tip_radius_m)
     dup, planets = _expanded(model, mem, pos)
     inst_gg = {g.name: gg[mem.planet if g.name in planets else g.name] for g in dup.gears}
     inst_mg = {m.name: mg[m.name.rsplit("_", 1)[0]] for m in dup.meshes}

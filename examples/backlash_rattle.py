@@ -24,6 +24,7 @@ import math
 
 import numpy as np
 
+from hacgear_core.cli._help import plain_text
 from hacgear_core.dynamics.build import build_system
 from hacgear_core.dynamics.simulator import Simulator
 from hacgear_core.model import load_model
@@ -69,7 +70,8 @@ def summary(res: dict, system) -> dict:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=plain_text(__doc__.splitlines()[0]),
+                                 formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     ap.add_argument("--system", default="spur_28t_asym", help="a spur pair with two-sided tables")
     ap.add_argument("--torque", type=float, default=300.0, help="torque before the reversal [N m] (on the pinion)")
     ap.add_argument("--ramp", type=float, default=5e-3, help="duration of the torque reversal [s]")

@@ -33,6 +33,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from hacgear_core.cli._help import plain_text
+
 ROOT = Path(__file__).resolve().parent.parent
 MODEL = ROOT / "models" / "spur_28t_asym" / "model.toml"
 TORQUE_NM = 300.0
@@ -74,7 +76,8 @@ def _measure(text: str, folder: Path, name: str) -> dict:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(description=plain_text(__doc__.split("\n\n")[0]),
+                                 formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     ap.add_argument("--bores", default="30,35,40,46,48,50,60", help="solid blanks: bore diameters [mm], comma separated")
     ap.add_argument("--webs", default="5/60/100,5/60/110,8/60/110",
                     help="webbed blanks on the model's 40 mm bore: thickness/inner/outer diameter [mm] triples, "

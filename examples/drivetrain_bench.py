@@ -21,12 +21,14 @@ from hacgear_core.model import resolve_model_path
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description="Motor - shaft - gear FMU - shaft - load bench through resonance")
+    ap = argparse.ArgumentParser(description="Motor - shaft - gear FMU - shaft - load bench through resonance",
+                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     ap.add_argument("--system", default="spur_28t_asym", help="system to build when --fmu is not given")
-    ap.add_argument("--fmu", help="hacgear FMU (default: built from --system)")
+    ap.add_argument("--fmu", help="hacgear FMU; None: built from --system")
     ap.add_argument("--out", default="drivetrain.png", help="figure (PNG)")
     ap.add_argument("--ramp", type=float, default=BenchConfig.ramp_s, help="ramp duration [s]")
-    ap.add_argument("--rpm", default=None, help="START:END input-gear speeds of the ramp [rpm]")
+    ap.add_argument("--rpm", default=f"{BenchConfig.speed_start_rpm:g}:{BenchConfig.speed_end_rpm:g}",
+                    help="START:END input-gear speeds of the ramp [rpm]")
     args = ap.parse_args(argv)
     cfg = {"ramp_s": args.ramp}
     if args.rpm:

@@ -24,6 +24,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from hacgear_core.cli._help import plain_text  # noqa: E402
+
 
 def tooth_pass(position: np.ndarray, strain: np.ndarray, offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Root strain of one tooth through its pass from one period-1 cycle: the tooth of pair offset ``o`` at mesh
@@ -37,10 +39,11 @@ def tooth_pass(position: np.ndarray, strain: np.ndarray, offsets: np.ndarray) ->
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("json")
-    ap.add_argument("traces")
-    ap.add_argument("--out", default="docs/figures")
+    ap = argparse.ArgumentParser(description=plain_text(__doc__.splitlines()[0]),
+                                 formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    ap.add_argument("json", help="JSON output of benchmarks/bench_hac_vs_direct.py --json")
+    ap.add_argument("traces", help="recorded periods (.npz) of benchmarks/bench_hac_vs_direct.py --traces")
+    ap.add_argument("--out", default="docs/figures", help="folder of the figures")
     ap.add_argument("--extra-json", nargs="*", default=[], help="more grid-study outputs (--level1-json runs)")
     args = ap.parse_args()
     data = json.loads(Path(args.json).read_text())

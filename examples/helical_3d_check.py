@@ -17,15 +17,17 @@ import argparse
 import json
 import time
 
+from hacgear_core.cli._help import plain_text
 from hacgear_core.geometry import gear_geometry
 from hacgear_core.model import load_model
 from hacgear_core.statics import fe3d
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--model", default="helical_28_33")
-    ap.add_argument("--gear", default="wheel")
+    ap = argparse.ArgumentParser(description=plain_text(__doc__.splitlines()[0]),
+                                 formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    ap.add_argument("--model", default="helical_28_33", help="helical pair (model file, folder or system name)")
+    ap.add_argument("--gear", default="wheel", help="gear whose 3D influence is checked")
     ap.add_argument("--factors", type=float, nargs="+", default=[1.0, 1.25],
                     help="mesh refinement factors of the direct 3D solves (1.0 = the influence's own model)")
     ap.add_argument("--json", action="store_true", help="print one JSON object instead of text")

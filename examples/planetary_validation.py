@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from hacgear_core.cli._help import plain_text
 from hacgear_core.dynamics.build import build_system
 from hacgear_core.dynamics.equilibrium import load_sharing
 from hacgear_core.dynamics.floquet import floquet
@@ -346,7 +347,8 @@ def figure(sw: dict, path: Path) -> None:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(description=plain_text(__doc__.split("\n\n")[0]),
+                                 formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="50 Hz steps")
     ap.add_argument("--fine-only", action="store_true",
                     help="recompute only the 3-planet sweeps in 5 Hz steps (key 'fine_3_planets' of the JSON)")

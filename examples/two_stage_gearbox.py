@@ -12,14 +12,13 @@ input and one output port works, the layout follows from its hacgear_fmu.json).
 from __future__ import annotations
 
 import argparse
-import math
 import tempfile
 import time
 
 import numpy as np
 
 from hacgear_core.fmu import build_fmu
-from hacgear_core.fmu.bench import BenchConfig, plot_stages, run_drivetrain_bench
+from hacgear_core.fmu.bench import BenchConfig, plot_stages, run_drivetrain_bench, shaft_labels, stage_mesh_frequency_Hz
 from hacgear_core.fmu.ssp import run_ssp_fmpy, run_ssp_libcosim, write_bench_ssp
 from hacgear_core.model import resolve_model_path
 
@@ -27,11 +26,13 @@ STAGES = ["idler_28_33_39", "spur_28t_asym"]  # first stage driven by the motor;
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description="Two gear stages in a drivetrain, through both stages' resonances")
+    ap = argparse.ArgumentParser(description="Two gear stages in a drivetrain, through both stages' resonances",
+                                 formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     ap.add_argument("--stages", nargs="+", default=STAGES, help="systems of the stages, motor side first")
     ap.add_argument("--out", default="two_stage_gearbox.png", help="figure (PNG)")
-    ap.add_argument("--quick", action="store_true", help="a 0.2 s ramp instead of 1.5 s")
-    ap.add_argument("--ssp", help="also write the bench as this SSP file and run it under fmpy and libcosim")
+    ap.add_argument("--quick", action="store_true", help="a 0.2 s ramp instead of 1.5 s (figure less resolved)")
+    ap.add_argument("--ssp", help="also write the bench as this SSP file and run it under fmpy and libcosim; None: "
+                    "no SSP")
     args = ap.parse_args(argv)
     # the shaft between the stages couples two small gear inertias: a communication step of 2e-5 s resolves it
     # (omega h ~ 0.1), 1e-4 s does not
@@ -45,9 +46,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"two-stage bench: {' -> '.join(args.stages)}: {cfg.steps} steps of {cfg.step_s:g} s in "
               f"{time.perf_counter() - t0:.1f} s wall; overall ratio {res['speed_ratio']:.4f}")
         lay = res["layout"]
+        for label in shaft_labels(res):
+            print(f"  {label}")
         for k, (name, info) in enumerate(lay.infos.items()):
-            r_in = abs(info["ports"][info["input"]]["speed_ratio"])
-            fm = res[f"{name}.{info['input']}.speed"] / r_in * info["reference_teeth"] / (2 * math.pi)
+            fm = stage_mesh_frequency_Hz(res, name)
             scale = lay.static["input_torque_Nm"][k] / info["ports"][info["input"]]["nominal_torque_Nm"]
             for m in info["meshes"]:
                 f = res[f"{name}.{m}.force"]

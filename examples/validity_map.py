@@ -41,6 +41,8 @@ from pathlib import Path
 
 import numpy as np
 
+from hacgear_core.cli._help import plain_text
+
 ROOT = Path(__file__).resolve().parent.parent
 MODEL = ROOT / "models" / "spur_28t_asym" / "model.toml"
 GAUGE = "pinion/SG25"
@@ -338,11 +340,13 @@ def main(argv=None) -> int:
     import sys
 
     argv = sys.argv[1:] if argv is None else argv
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("study", choices=("modes", "convergence", "map", "figure", "compare", "compare-figure"))
+    ap = argparse.ArgumentParser(description=plain_text(__doc__.split("\n\n")[0]),
+                                 formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    ap.add_argument("study", choices=("modes", "convergence", "map", "figure", "compare", "compare-figure"),
+                    help="which study to run or draw")
     ap.add_argument("--fm", type=float, default=2786.0, help="convergence: mesh frequency [Hz]")
     ap.add_argument("--modes", default="0,1,3,5,11,37", help="convergence: modes per gear (complete sets)")
-    ap.add_argument("--variants", default="bore40,bore90,web5_60_110")
+    ap.add_argument("--variants", default="bore40,bore90,web5_60_110", help="blank variants, comma-separated")
     ap.add_argument("--speeds", default="0.5,1.0", help="map: mesh frequencies as multiples of the lumped resonance")
     ap.add_argument("--mode-factor", type=float, default=4.0,
                     help="map: keep the body modes up to this multiple of max(f_m, f_n)")
@@ -350,7 +354,7 @@ def main(argv=None) -> int:
                     help="fewest RK4 steps per mesh cycle (level 2 takes more when its highest frequency needs it)")
     ap.add_argument("--cycles", type=int, default=6, help="most mesh cycles before the recorded one")
     ap.add_argument("--rtol", type=float, default=2e-3, help="Poincaré change per cycle that ends a run")
-    ap.add_argument("--out", default=str(ROOT / "docs"))
+    ap.add_argument("--out", default=str(ROOT / "docs"), help="folder of the JSON results and figures/")
     ap.add_argument("--runs", default=COMPARE_RUNS, help="compare: pair@f_m/f_n, comma-separated")
     ap.add_argument("--bench-json", default="/tmp/hac18/main256.json",
                     help="compare: HAC and level-1 rows of benchmarks/bench_hac_vs_direct.py --json")

@@ -277,3 +277,32 @@ def test_planet_count_range_is_the_same_on_the_cli_and_in_the_fmu(capsys):
     assert rc == 2 and "overlap" in err and "at most 6 equally spaced planets fit this set" in err
     rc, _, err = _run(["modes", "planetary_65_55_175", "--planets", "7", "--no-impulse"], capsys)
     assert rc == 2 and "cannot be assembled" in err
+
+
+# ------------------------------------------------------------------------------ 33.7: the two-stage figure
+def test_two_stage_figure_names_its_shafts_and_plots_over_mesh_frequency(tmp_path):
+    """plot_stages: each shaft named by what it connects, forces over each stage's own mesh frequency (input speed /
+    input speed ratio x reference teeth / 2 pi), the figure written."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from hacgear_core.fmu.bench import plot_stages, shaft_labels, stage_mesh_frequency_Hz
+
+    t = np.linspace(0.0, 0.1, 2001)
+    info = {"s1": {"system": "idler_28_33_39", "input": "gear1", "output": "gear3", "reference_teeth": 28,
+                   "ports": {"gear1": {"speed_ratio": 1.0, "nominal_torque_Nm": 300.0}},
+                   "meshes": {"m12": {"nominal_force_N": 1000.0}}, "resonance_mesh_frequency_Hz": 2800.0},
+            "s2": {"system": "spur_28t_asym", "input": "pinion", "output": "wheel", "reference_teeth": 28,
+                   "ports": {"pinion": {"speed_ratio": -0.5, "nominal_torque_Nm": 300.0}},
+                   "meshes": {"m12": {"nominal_force_N": 2000.0}}, "resonance_mesh_frequency_Hz": 2786.0}}
+    lay = SimpleNamespace(infos=info, static={"input_torque_Nm": [300.0, 300.0]})
+    w = np.linspace(600.0, 1000.0, t.size)
+    res = {"layout": lay, "time_s": t, "motor.speed_reference": w, "motor.speed": w, "load.speed": w,
+           "s1.gear1.speed": w, "s1.gear3.speed": w, "s2.pinion.speed": -w, "s2.wheel.speed": w,
+           "s1.m12.force": 1000.0 + 100 * np.sin(t * 1e4), "s2.m12.force": 2000.0 + 100 * np.sin(t * 1e4),
+           **{f"shaft{k}.torque": np.full(t.size, 300.0) for k in range(3)}}
+    assert shaft_labels(res) == ["shaft0: motor -> s1 gear1", "shaft1: s1 gear3 -> s2 pinion", "shaft2: s2 wheel -> load"]
+    np.testing.assert_allclose(stage_mesh_frequency_Hz(res, "s2"), w / 0.5 * 28 / (2 * math.pi))
+    out = plot_stages(res, tmp_path / "two.png")
+    assert out.stat().st_size > 10_000

@@ -448,8 +448,8 @@ def plot_stages(res: dict, path: str | Path, title: str = "") -> Path:
         ax[2].plot(t, res[f"shaft{k}.torque"], lw=0.8, label=label)
     ax[2].set_xlabel("time [s]")
     ax[2].set_ylabel("shaft torque on the stage gear [N·m]")
-    ax[2].set_title("torque each shaft applies to the stage gear at its downstream end (side b) in that gear's sense "
-                    "of rotation: driving > 0; the last shaft brakes the last stage (load) < 0", fontsize=7)
+    ax[2].set_title("torque each shaft applies to the stage gear at its downstream end (side b), in that gear's "
+                    "sense of rotation:\ndriving > 0; the last shaft brakes the last stage (the load) < 0", fontsize=8)
     ax[2].legend(fontsize=7, loc="upper left")
     fig.suptitle(title or "gear stages in a drivetrain (co-simulation, fmpy low-level API)", fontsize=10)
     path = Path(path)

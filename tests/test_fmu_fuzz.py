@@ -80,6 +80,8 @@ class Model:
     def params_ok(self) -> bool:
         if any(v.check(self.values[n]) for n, v in self.spec.items() if v.causality == "parameter"):
             return False
+        if any(self.values[n] == 0 for n in ("pinion.bearing_stiffness", "wheel.bearing_stiffness")):
+            return False  # 0 = no bearing (inf = rigid): the builder refuses it for a spur pair
         inputs = ["pinion.speed_in"] if self.values["mode"] == 0 else ["pinion.torque_in", "wheel.torque_in"]
         return not any(self.spec[n].check(self.values[n]) for n in inputs)
 

@@ -124,7 +124,8 @@ class Range:
 
 #: One range per quantity that a model file, the command line and the FMU share (units as ``Range.unit``).
 RANGES: dict[str, Range] = {
-    "torque_Nm": Range("N*m", 0.0, 1e7, lo_open=True),
+    # magnitude: a negative torque (command line, FMU) loads the coast flanks; a model file's operating torque is > 0
+    "torque_Nm": Range("N*m", 0.0, 1e6, lo_open=True),
     "modal_damping_ratio": Range("-", 0.0, 1.0),
     # a rigid bearing is inf (no translation DOF) everywhere: model files, --bearing-stiffness, the FMU; 0 is no
     # bearing (a floating member of a planetary set; fixed-axis trains need > 0)

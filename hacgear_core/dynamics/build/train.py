@@ -17,6 +17,7 @@ import numpy as np
 from hacgear_core.dynamics.system import GearBody, LumpedSystem, MeshCoupling
 from hacgear_core.errors import ModelError
 from hacgear_core.geometry import gear_geometry, mesh_geometry, nominal_mesh_forces, train_geometry
+from hacgear_core.model.schema import RANGES
 
 __all__ = ["TrainGear", "TrainMesh", "assemble_train", "train_from_model", "SpurPairParameters", "spur_pair_system"]
 
@@ -343,20 +344,22 @@ class SpurPairParameters:
         s(self, "inertia_kg_m2", _pair("inertia_kg_m2", self.inertia_kg_m2, "kg*m^2", 0.0, 1e6))
         s(self, "base_radius_m", _pair("base_radius_m", self.base_radius_m, "m", 0.0, 20.0))
         s(self, "teeth", _pair("teeth", self.teeth, "-", 6, 1000, integer=True))
+        k_range = RANGES["translational_stiffness_N_per_m"]  # > 0 here: a spur pair's gears need a bearing
         s(self, "bearing_stiffness_N_per_m",
-          _pair("bearing_stiffness_N_per_m", self.bearing_stiffness_N_per_m, "N/m", 0.0, 1e15, allow_inf=True))
+          _pair("bearing_stiffness_N_per_m", self.bearing_stiffness_N_per_m, "N/m", k_range.lo, k_range.hi,
+                allow_inf=k_range.allow_inf))
         s(self, "rotational_stiffness_Nm_per_rad",
           _pair("rotational_stiffness_Nm_per_rad", self.rotational_stiffness_Nm_per_rad, "N*m/rad", 0.0, 1e12,
                 lo_open=False))
-        for name, hi, unit in (("modal_damping_ratio", 1.0, "-"), ("torque_Nm", 1e7, "N*m")):
+        for name, unit in (("modal_damping_ratio", "-"), ("torque_Nm", "N*m")):
             v = getattr(self, name)
             try:
                 v = float(v)
             except (TypeError, ValueError):
                 raise ModelError(f"{name} [{unit}] must be a number, got {v!r}") from None
-            ok = (0.0 <= v < 1.0) if name == "modal_damping_ratio" else (0.0 < abs(v) <= hi)
-            if not ok or math.isnan(v):
-                rng = "[0, 1)" if name == "modal_damping_ratio" else f"[-{hi:g}, {hi:g}] without 0"
+            r = RANGES[name]
+            if not r.contains(abs(v) if name == "torque_Nm" else v):
+                rng = r.text if name == "modal_damping_ratio" else f"[-{r.hi:g}, {r.hi:g}] without 0"
                 raise ModelError(f"{name} [{unit}] must be in {rng}, got {getattr(self, name)!r}")
             s(self, name, v)
         ph = float(self.mesh_phase)

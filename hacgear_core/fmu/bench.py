@@ -436,8 +436,9 @@ def plot_stages(res: dict, path: str | Path, title: str = "") -> Path:
         for m in info["meshes"]:
             fs = info["meshes"][m]["nominal_force_N"] * scale
             tm, fmax, fmin = _envelope(t, res[f"{name}.{m}.force"], w)
+            window = f"range per {w * (t[1] - t[0]) * 1e3:.0f} ms"
             line = ax[1].fill_between(np.interp(tm, t, fm), fmin / fs, fmax / fs, alpha=0.45,
-                                      label=f"{name} ({info['system']}) {m}: range per {w * (t[1] - t[0]) * 1e3:.0f} ms")
+                                      label=f"{name} ({info['system']}) {m}: {window}")
         ax[1].axvline(info["resonance_mesh_frequency_Hz"], color=line.get_facecolor()[0], lw=0.8, ls="--",
                       label=f"{name}: linearised mesh resonance {info['resonance_mesh_frequency_Hz']:.0f} Hz")
     ax[1].axhline(1.0, color="k", lw=0.8, ls=":")

@@ -285,8 +285,8 @@ def _check_planets_apart(model: Any, positions_rad: Any, carrier_radius_m: float
             j = (i + 1) % len(pos) + 1
             raise GeometryError(
                 f"{model.name}: planets {i + 1} and {j} at {math.degrees(a):g} and {math.degrees(b) % 360:g} deg "
-                f"overlap: their centres are {gap * 1e3:.4g} mm apart on the carrier radius {carrier_radius_m * 1e3:.6g}"
-                f" mm, less than the planet tip diameter {2e3 * tip_radius_m:.6g} mm; at most {n_max} equally spaced "
+                f"overlap: their centres are {gap * 1e3:.4g} mm apart on the carrier radius "
+                f"{carrier_radius_m * 1e3:.6g} mm, less than the planet tip diameter {2e3 * tip_radius_m:.6g} mm; at most {n_max} equally spaced "
                 "planets fit this set")
 
 

@@ -362,7 +362,8 @@ class Gear:
             if self.bore_diameter_m >= self.root_diameter_m:
                 raise ModelError(
                     f"{where}: bore_diameter_mm = {self.bore_diameter_m * 1e3:g} must be smaller than "
-                    f"root_diameter_mm = {self.root_diameter_m * 1e3:g} (allowed: [0, {self.root_diameter_m * 1e3:g}) mm)"
+                    f"root_diameter_mm = {self.root_diameter_m * 1e3:g} "
+                    f"(allowed: [0, {self.root_diameter_m * 1e3:g}) mm)"
                 )
         pitch = math.pi * self.module_m
         if not 0.1 * pitch < self.tooth_thickness_m < 0.9 * pitch:

@@ -162,12 +162,13 @@ SHIPPED_SPEEDS = [("spur_28t_asym", 2500.0), ("spur_50t_icr137", 1100.0), ("spur
 @pytest.mark.parametrize("name,fm", SHIPPED_SPEEDS)
 def test_every_shipped_gauge_reads_a_tooth_passage_within_the_dynamic_factor(name, fm):
     """At a speed where the teeth stay loaded, every gauge of every shipped system reads the root strain of a tooth
-    passing through the mesh, and its peak over the static peak at the same torque (same sign) lies between 0.5
+    passing through the mesh, and its peak over the static peak at the same torque (same sign) lies between 0.8
     and the force dynamic factor of the gear's meshes (+5 %).  Why these bounds: the mean mesh force equals the
-    static force (torque balance at constant speed), so the peak tooth load cannot fall far below the static one;
-    the root strain is (nearly) proportional to the tooth load at each mesh position, so its ratio is bounded by
-    the peak mesh force over the static one (the validation finds strain DF 1.16 for force DF 1.24 and 2.74 for
-    3.43)."""
+    static force (torque balance at constant speed) and off resonance it varies by a few per cent, so the peak
+    tooth load stays near the static one (measured 0.95-1.27); the root strain is (nearly) proportional to the
+    tooth load at each mesh position, so its ratio is bounded by the peak mesh force over the static one
+    (measured force factors 1.04-1.65 here; the validation finds strain DF 1.16 for force DF 1.24 and 2.74 for
+    3.43).  Tooth 0, followed before, is out of mesh over the same record of spur_28t_asym and helical_28_33."""
     model = load_model(name)
     sy = build_system(model, load_system_tables(model.path))
     sim = Simulator(sy)
@@ -186,5 +187,5 @@ def test_every_shipped_gauge_reads_a_tooth_passage_within_the_dynamic_factor(nam
         ks = [k for k, c in enumerate(sy.meshes) if gear in (c.gear_a, c.gear_b)]
         df_force = max(rec["mesh_force_N"][:, k].max() / f_static[k] for k in ks)
         assert abs(p.extreme) > 100e-6 and abs(st.extreme) > 100e-6, (g, p.extreme, st.extreme)
-        assert 0.5 < p.factor_over(st) < 1.05 * df_force, (g, p.factor_over(st), df_force)
+        assert 0.8 < p.factor_over(st) < 1.05 * df_force, (g, p.factor_over(st), df_force)
         assert 0 <= p.tooth < sy.gears[gear].teeth

@@ -10,7 +10,8 @@ import numpy as np
 from hacgear_core.cli._dyn_common import add_model_options, inputs_from_args
 from hacgear_core.cli._options import check_option
 from hacgear_core.cli._paths import check_out_path
-from hacgear_core.dynamics.simulator import Simulator, strain_of_tooth, system_gauges
+from hacgear_core.dynamics.simulator import (Simulator, gauge_passage, passage_cycles, static_gauge_passage,
+                                             strain_of_tooth, system_gauges)
 from hacgear_core.errors import ModelError
 from hacgear_core.jsonio import dumps
 from hacgear_core.response import dynamic_contact_pressure, dynamic_mesh_stiffness
@@ -26,15 +27,18 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "linearly to --fm-end) for --cycles mesh cycles, and write the last --record-cycles cycles: per mesh "
             "its position [cycles], deflection [m], force [N], dynamic mesh stiffness [N/m], peak contact pressure "
             "[Pa] (and the dynamic transmission error [m] when gears translate; with rigid bearings it equals the "
-            "deflection), and the root strain [-] at every gauge on tooth 0 of its gear (all its meshes "
-            "superposed). Output: --out file (.csv or .npz) and/or a summary (--json); extremes are reported by "
-            "magnitude with their sign."),
+            "deflection), and the root strain [-] at every gauge (all meshes of its gear superposed) on the tooth "
+            "whose whole passage through the mesh is recorded last. The root strain summary is taken over that "
+            "passage (its tooth, time and mesh cycles are reported; more cycles than --record-cycles are recorded "
+            "when the passage needs them), with the static strain at the same torque. Output: --out file (.csv or "
+            ".npz) and/or a summary (--json); extremes are reported by magnitude with their sign."),
     )
     add_model_options(p)
     p.add_argument("--fm", type=float, required=True, help="mesh frequency [Hz] (start of a run-up)")
     p.add_argument("--fm-end", type=float, default=None, help="mesh frequency at the end of a linear run-up [Hz]")
     p.add_argument("--cycles", type=int, default=400, help="mesh cycles to simulate [-] (default %(default)s)")
-    p.add_argument("--record-cycles", type=int, default=4, help="mesh cycles recorded at the end [-] (default %(default)s)")
+    p.add_argument("--record-cycles", type=int, default=4,
+                   help="mesh cycles written to --out and summarised per mesh, at the end [-] (default %(default)s)")
     p.add_argument("--steps-per-cycle", type=int, default=128, help="recorded samples per mesh cycle [-] (default %(default)s)")
     p.add_argument("--drive-torques", default=None,
                    help="T_in,T_out [N*m]: drivetrain coupling instead of a prescribed speed: shaft torques on the "
@@ -49,10 +53,16 @@ def _check_out(path: str | None) -> None:
         check_out_path(path, "--out", suffixes=(".csv", ".npz"))
 
 
-def _extreme(a: np.ndarray) -> float:
-    """The value of largest magnitude, with its sign."""
-    a = np.asarray(a, float)
-    return float(a[np.argmax(np.abs(a))]) if a.size else float("nan")
+def _passage_summary(p, static, need: int) -> dict:
+    """JSON summary of a gauge's recorded passage ``p`` (None: not recorded) and its ``static`` passage."""
+    if p is None:
+        return {"recorded": False, "cycles_needed": need}
+    out = {"recorded": True, "tooth": p.tooth, "mesh_cycles": list(p.cycles), "time_s": list(p.time_s),
+           "extreme": p.extreme, "max": p.max_strain, "min": p.min_strain}
+    if static is not None:
+        out.update(static_extreme=static.extreme, static_max=static.max_strain, static_min=static.min_strain,
+                   dynamic_factor=p.factor_over(static))
+    return out
 
 
 def run(args: argparse.Namespace) -> int:
@@ -75,7 +85,10 @@ def run(args: argparse.Namespace) -> int:
     sim = Simulator(sy)
     fm0 = args.fm
     fm1 = args.fm if args.fm_end is None else args.fm_end
-    n_free = args.cycles - args.record_cycles
+    gauges = system_gauges(sy)
+    need = {g: passage_cycles(sy, g) for g in gauges}      # a whole tooth passage per gauge
+    n_rec = min(args.cycles, max([args.record_cycles, *need.values()]))
+    n_free = args.cycles - n_rec
     if drive is not None:
         if len(sim.ports) != 2:
             raise ModelError(f"--drive-torques needs a system with two port gears; {sy.name} has {sim.ports}")
@@ -100,7 +113,10 @@ def run(args: argparse.Namespace) -> int:
     for c in range(n_free, args.cycles):
         fm = current_fm(c)
         chunks.append(sim.run(1.0 / fm, 1.0 / (fm * args.steps_per_cycle)))
-    raw = {k: np.concatenate([c[k] for c in chunks]) for k in chunks[0] if k != "state"}
+    full = {k: np.concatenate([c[k] for c in chunks]) for k in chunks[0] if k != "state"}
+    passages = {g: gauge_passage(sy, g, full) for g in gauges}
+    static = {g: static_gauge_passage(sy, g) for g in gauges} if drive is None else {}
+    raw = {k: v[-args.record_cycles * args.steps_per_cycle:] for k, v in full.items()}   # the trace
     tau, x, f = raw["mesh_position"], raw["mesh_deflection_m"], raw["mesh_force_N"]
     xc, fc = raw["coast_approach_m"], raw["coast_force_N"]
     moving = any(g.translations for g in sy.gears.values())
@@ -125,9 +141,9 @@ def run(args: argparse.Namespace) -> int:
         if c.coast_table is not None:  # the flanks in contact: drive or coast (never both)
             pressure = np.maximum(pressure, dynamic_contact_pressure(c.coast_table, tau[:, k], xc[:, k]))
         tr[f"{m}.peak_pressure_Pa"] = pressure
-    gauges = system_gauges(sy)
-    for g in gauges:
-        tr[f"strain[{g}]"] = strain_of_tooth(sy, g, tau, x, xc, raw.get("mesh_twist_rad"))
+    for g in gauges:  # the tooth of the reported passage (tooth 0 when none was recorded)
+        tooth = passages[g].tooth if passages[g] is not None else 0
+        tr[f"strain[{g}]"] = strain_of_tooth(sy, g, tau, x, xc, raw.get("mesh_twist_rad"), tooth=tooth)
     per_mesh = {}
     coast_loaded = sy.torque_Nm < 0 and drive is None  # the operating torque loads the coast flanks
     for k, c in enumerate(sy.meshes):
@@ -154,7 +170,8 @@ def run(args: argparse.Namespace) -> int:
         "final_speed_rad_s": dict(zip(sim.gear_names, sim.speed_rad_s)),
         "final_angle_rad": dict(zip(sim.gear_names, sim.angle_rad)),
         "drive_torques_Nm": drive,
-        "extreme_strain": {g: _extreme(tr[f"strain[{g}]"]) for g in gauges},
+        "extreme_strain": {g: None if p is None else p.extreme for g, p in passages.items()},
+        "root_strain": {g: _passage_summary(p, static.get(g), need[g]) for g, p in passages.items()},
         "out": args.out,
     }
     if args.out:
@@ -189,8 +206,19 @@ def run(args: argparse.Namespace) -> int:
             + "; forces, pressures and strains there are extrapolated. Extend the tables: raise [statics] "
             "max_torque_factor in the model file and run `hacgear statics MODEL`", file=sys.stderr)
     if gauges:
-        print("  root strain, largest magnitude: "
-              + ", ".join(f"{g}: {v * 1e6:+.1f} µε" for g, v in summary["extreme_strain"].items()))
+        print("  root strain over one tooth's passage through the mesh, largest magnitude"
+              + (", the static one at the same torque and their ratio (dynamic factor):" if static else ":"))
+        for g, s in summary["root_strain"].items():
+            if not s["recorded"]:
+                print(f"    {g}: not recorded: a tooth's passage takes {s['cycles_needed']} mesh cycles; give "
+                      f"--cycles >= {s['cycles_needed']}")
+                continue
+            st = (f" (static {s['static_extreme'] * 1e6:+.1f} µε, factor {s['dynamic_factor']:.3f})"
+                  if "static_extreme" in s else "")
+            print(f"    {g}: {s['extreme'] * 1e6:+.1f} µε{st}, range {s['min'] * 1e6:+.1f} … "
+                  f"{s['max'] * 1e6:+.1f} µε; "
+                  f"tooth {s['tooth']}, mesh cycles {s['mesh_cycles'][0]:.2f}-{s['mesh_cycles'][1]:.2f}, "
+                  f"t {s['time_s'][0]:.6g}-{s['time_s'][1]:.6g} s")
     if args.out:
         print(f"  trace written to {args.out}")
     return 0

@@ -21,7 +21,8 @@ from hacgear_core.dynamics.modes import (
     impulse_test,
     modal_analysis,
 )
-from hacgear_core.dynamics.simulator import Simulator, StepResult, strain_of_tooth
+from hacgear_core.dynamics.simulator import (GaugePassage, Simulator, StepResult, gauge_passage,
+                                             static_gauge_passage, strain_of_tooth)
 from hacgear_core.dynamics.steady import SteadyStateOptions, SteadyStateResult, steady_state
 from hacgear_core.dynamics.sweep import SweepResult, SweepSpec, detect_jumps, run_sweep, run_sweeps
 from hacgear_core.dynamics.system import GearBody, LumpedSystem, MeshCoupling
@@ -41,6 +42,9 @@ __all__ = [
     "Simulator",
     "StepResult",
     "strain_of_tooth",
+    "GaugePassage",
+    "gauge_passage",
+    "static_gauge_passage",
     "EquilibriumResult",
     "static_equilibrium",
     "static_state",

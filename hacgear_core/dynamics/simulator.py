@@ -27,7 +27,8 @@ from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import ModelError, SolverError
 from hacgear_core.response import dynamic_contact_pressure
 
-__all__ = ["Simulator", "StepResult", "strain_of_tooth", "system_gauges"]
+__all__ = ["GaugePassage", "PASSAGE_MARGIN_CYCLES", "Simulator", "StepResult", "gauge_passage", "passage_cycles",
+           "passage_window", "static_gauge_passage", "strain_of_tooth", "system_gauges"]
 
 
 @dataclass(frozen=True)
@@ -40,28 +41,40 @@ class StepResult:
 
 
 def _pair_phase(tau: np.ndarray, passage: int, z: int) -> np.ndarray:
-    """Pair phase of tooth 0 of a gear with ``z`` teeth at unwrapped mesh position ``tau``: 0 at its pitch-point
-    passage, wrapped into [-z/2, z/2) (the tooth is back in mesh every z mesh cycles)."""
+    """Pair phase of the tooth of a gear with ``z`` teeth that is at the pitch point at mesh position ``passage``,
+    at unwrapped mesh position ``tau``: 0 at its pitch-point passage, wrapped into [-z/2, z/2) (the tooth is back
+    in mesh every z mesh cycles)."""
     return ((np.asarray(tau, float) - passage + 0.5 * z) % z) - 0.5 * z
 
 
+def _gauge_gear(system: LumpedSystem, gauge: str, tooth: int = 0) -> tuple[str, str, int]:
+    """(gear, gauge name, teeth) of ``gauge`` = ``"<gear>/<gauge>"``; checks the gear and the tooth index."""
+    gear, _, gname = gauge.partition("/")
+    if gear not in system.gears:
+        raise ModelError(f"gauge {gauge!r}: no gear {gear!r} in {system.name}; gears: {sorted(system.gears)}")
+    z = system.gears[gear].teeth
+    if isinstance(tooth, bool) or not isinstance(tooth, (int, np.integer)) or not 0 <= tooth < z:
+        raise ModelError(f"tooth index of gauge {gauge!r} must be an integer in [0, {z - 1}] (gear {gear!r} has "
+                         f"{z} teeth), got {tooth!r}")
+    return gear, gname, z
+
+
 def strain_of_tooth(system: LumpedSystem, gauge: str, tau: np.ndarray, x: np.ndarray,
-                    xc: np.ndarray | None = None, twist: np.ndarray | None = None) -> np.ndarray:
-    """Root strain [-] at ``gauge`` (``"<gear>/<gauge>"``) on tooth 0 of its gear along a trajectory: the sum over
-    every mesh of that gear of its strain-deflection functions at the tooth's pair phase — the drive side's at
-    the mesh deflection and, where the table has one, the coast side's at the coast approach (its pair
+                    xc: np.ndarray | None = None, twist: np.ndarray | None = None, tooth: int = 0) -> np.ndarray:
+    """Root strain [-] at ``gauge`` (``"<gear>/<gauge>"``) on tooth ``tooth`` of its gear along a trajectory: the
+    sum over every mesh of that gear of its strain-deflection functions at the tooth's pair phase — the drive
+    side's at the mesh deflection and, where the table has one, the coast side's at the coast approach (its pair
     ``phase - pair_shift[gear]``, docs/tables.md "The coast side").  An idler's tooth is loaded on one flank by one
     mesh and on the other by the next; any tooth is loaded on its other flank across the backlash.
 
     ``tau``, ``x``, ``xc``: (nr, m) unwrapped mesh positions [cycles], deflections [m] and coast approaches [m] of
     all meshes (``xc`` None: the drive sides only).  ``twist`` (nr, m) [rad]: mesh twists of helical meshes, whose
     strains are then read at (pair phase, deflection, twist) (:meth:`~hacgear_core.tables.MeshTable.sdf_twist`;
-    None: at zero twist).
+    None: at zero twist).  ``tooth`` in [0, z): teeth are counted in the order they reach the mesh, so tooth ``j``
+    is at the pitch point of mesh ``k`` at mesh position ``tooth_passage[gear] + j`` (mod z) of that mesh, j mesh
+    cycles after tooth 0 (the same physical tooth in every mesh of the gear: all mesh positions advance together).
     """
-    gear, _, gname = gauge.partition("/")
-    if gear not in system.gears:
-        raise ModelError(f"gauge {gauge!r}: no gear {gear!r} in {system.name}; gears: {sorted(system.gears)}")
-    z = system.gears[gear].teeth
+    gear, gname, z = _gauge_gear(system, gauge, tooth)
     tau = np.atleast_2d(np.asarray(tau, float))
     x = np.atleast_2d(np.asarray(x, float))
     xc = None if xc is None else np.atleast_2d(np.asarray(xc, float))
@@ -75,7 +88,7 @@ def strain_of_tooth(system: LumpedSystem, gauge: str, tau: np.ndarray, x: np.nda
         if key not in strain:
             continue
         found = True
-        phase = _pair_phase(tau[:, k], c.tooth_passage.get(gear, 0), z)
+        phase = _pair_phase(tau[:, k], c.tooth_passage.get(gear, 0) + int(tooth), z)
         tw = getattr(c.table, "twist", None)
         if c.t is not None and tw is not None and key in tw.strain:
             g = np.zeros(tau.shape[0]) if twist is None else np.atleast_2d(np.asarray(twist, float))[:, k]
@@ -104,6 +117,163 @@ def system_gauges(system: LumpedSystem) -> tuple[str, ...]:
             for g in inv.get(tg, [tg] if tg in system.gears else []):
                 out.add(f"{g}/{gname}")
     return tuple(sorted(out))
+
+
+#: margin [mesh cycles] kept between a tooth's passage and the ends of a record: the recorded mesh positions carry
+#: the vibration (``W q``, thousandths of a cycle) on top of the kinematic mesh position
+PASSAGE_MARGIN_CYCLES = 0.05
+
+
+def _pair_window(table) -> tuple[float, float]:
+    """The pair phases [mesh cycles] ``[-max offset, 1 - min offset)`` over which a table holds a tooth's
+    per-pair quantities (:func:`~hacgear_core.tables.interp.pair_rows`); 0 outside."""
+    offs = np.asarray(table.tooth_offsets, dtype=int)
+    return -float(offs.max()), 1.0 - float(offs.min())
+
+
+def passage_window(system: LumpedSystem, gauge: str) -> tuple[float, float]:
+    """Where tooth 0 of the gear of ``gauge`` passes through its meshes: ``(start, length)`` [mesh cycles] of the
+    shortest stretch of the kinematic mesh position ``c`` (mesh k is at ``c + phase[k]``) that holds every pair
+    phase of that tooth at which a table of the gauge holds strain (each table's pair window, the coast side's
+    moved by its pair shift), ``start`` in [0, z).  Tooth ``j`` passes over the same stretch ``j`` cycles later
+    (mod z, :func:`strain_of_tooth`); outside it the tooth's root strain is 0.  A gear in several meshes (an
+    idler, a sun) spans all of them: its tooth passes one after the other."""
+    gear, gname, z = _gauge_gear(system, gauge)
+    arcs = []
+    for k, c in enumerate(system.meshes):
+        if gear not in (c.gear_a, c.gear_b):
+            continue
+        key = f"{c.gear_alias.get(gear, gear)}/{gname}"
+        if key not in (getattr(c.table, "strain", None) or {}):
+            continue
+        base = c.tooth_passage.get(gear, 0) - float(system.phase[k])
+        lo, hi = _pair_window(c.table)
+        arcs.append((base + lo, hi - lo))
+        tw = getattr(c.table, "twist", None)
+        coast = c.coast_table
+        if (not (c.t is not None and tw is not None and key in tw.strain) and coast is not None
+                and key in (getattr(coast, "strain", None) or {})):
+            shift = coast.pair_shift.get(c.gear_alias.get(gear, gear), 0)
+            lo, hi = _pair_window(coast)
+            arcs.append((base + lo + shift, hi - lo))
+    if not arcs:
+        raise ModelError(f"no strain gauge {gauge!r} in the tables of {system.name}; gauges: {system_gauges(system)}")
+    # the shortest covering stretch of arcs on a circle of z cycles starts where one of them starts
+    best = min(((s0 % z, max((s - s0) % z + n for s, n in arcs)) for s0, _ in arcs), key=lambda a: a[1])
+    return best[0], min(best[1], float(z))
+
+
+def passage_cycles(system: LumpedSystem, gauge: str) -> int:
+    """Mesh cycles a record must span to hold one whole tooth passage at ``gauge`` (:func:`passage_window`), with
+    :data:`PASSAGE_MARGIN_CYCLES` at both ends, wherever the record starts."""
+    return int(math.ceil(passage_window(system, gauge)[1] + 2 * PASSAGE_MARGIN_CYCLES)) + 1
+
+
+@dataclass(frozen=True, eq=False)
+class GaugePassage:
+    """Root strain at one gauge over one tooth's whole passage through the meshes of its gear.
+
+    Attributes
+    ----------
+    gauge : str
+        ``"<gear>/<gauge>"``.
+    tooth : int
+        Index of the tooth in [0, z), counted in the order the teeth reach the mesh (:func:`strain_of_tooth`).
+    cycles : tuple of float
+        (first, last) kinematic mesh position [mesh cycles since the start] of the passage.
+    time_s : tuple of float or None
+        (first, last) time [s] of its samples; None for a static passage.
+    strain : numpy.ndarray
+        (n,) root strain [-] at the samples, in order.
+    """
+
+    gauge: str
+    tooth: int
+    cycles: tuple[float, float]
+    time_s: tuple[float, float] | None
+    strain: np.ndarray
+
+    def __post_init__(self) -> None:
+        a = np.asarray(self.strain, dtype=float)
+        if a.ndim != 1 or a.size < 2 or not np.all(np.isfinite(a)):
+            raise ModelError(f"passage strain of {self.gauge!r} must be a finite 1-D array of >= 2 samples [-]")
+        if not (isinstance(self.tooth, (int, np.integer)) and self.tooth >= 0):
+            raise ModelError(f"passage tooth index of {self.gauge!r} must be an integer >= 0, got {self.tooth!r}")
+        if not self.cycles[1] > self.cycles[0]:
+            raise ModelError(f"passage of {self.gauge!r}: cycles [mesh cycles] must increase, got {self.cycles}")
+        object.__setattr__(self, "strain", a)
+        object.__setattr__(self, "tooth", int(self.tooth))
+
+    @property
+    def max_strain(self) -> float:
+        """Largest (most tensile) strain of the passage [-]."""
+        return float(self.strain.max())
+
+    @property
+    def min_strain(self) -> float:
+        """Smallest (most compressive) strain of the passage [-]."""
+        return float(self.strain.min())
+
+    @property
+    def extreme(self) -> float:
+        """Strain of largest magnitude of the passage, with its sign [-]."""
+        return float(self.strain[np.argmax(np.abs(self.strain))])
+
+    def factor_over(self, static: "GaugePassage") -> float:
+        """Dynamic factor of the strain [-]: this passage's peak on the side (tension or compression) of the
+        ``static`` passage's extreme, over that extreme; NaN when the static passage is all zero."""
+        e = static.extreme
+        if e == 0.0:
+            return math.nan
+        return (self.max_strain if e > 0 else self.min_strain) / e
+
+
+def gauge_passage(system: LumpedSystem, gauge: str, trace: Mapping[str, np.ndarray]) -> GaugePassage | None:
+    """Root strain at ``gauge`` over the last whole tooth passage in a recorded ``trace`` (the dict of
+    :meth:`Simulator.run`, or several concatenated: ``time_s`` (nr,), ``mesh_position``, ``mesh_deflection_m``,
+    ``coast_approach_m`` and for helical meshes ``mesh_twist_rad`` (nr, m)), following the tooth that passes
+    then; None when the trace holds no whole passage (it must span :func:`passage_cycles` mesh cycles)."""
+    start, length = passage_window(system, gauge)
+    z = system.gears[_gauge_gear(system, gauge)[0]].teeth
+    tau = np.atleast_2d(np.asarray(trace["mesh_position"], float))
+    c = tau[:, 0] - float(system.phase[0])
+    n = math.floor(c[-1] - PASSAGE_MARGIN_CYCLES - length - start)
+    a = start + n
+    if a < c[0] + PASSAGE_MARGIN_CYCLES:
+        return None
+    sel = (c >= a) & (c <= a + length)
+    if np.count_nonzero(sel) < 2:
+        return None
+    tooth = int(n % z)
+    tw = trace.get("mesh_twist_rad") if system.twisted else None
+    xc = trace.get("coast_approach_m")
+    eps = strain_of_tooth(system, gauge, tau[sel], np.atleast_2d(np.asarray(trace["mesh_deflection_m"], float))[sel],
+                          None if xc is None else np.atleast_2d(np.asarray(xc, float))[sel],
+                          None if tw is None else np.atleast_2d(np.asarray(tw, float))[sel], tooth=tooth)
+    t = np.asarray(trace["time_s"], float)[sel]
+    return GaugePassage(gauge, tooth, (float(a), float(a + length)), (float(t[0]), float(t[-1])), eps)
+
+
+def static_gauge_passage(system: LumpedSystem, gauge: str, samples_per_cycle: int = 64) -> GaugePassage:
+    """Root strain at ``gauge`` over tooth 0's passage (:func:`passage_window`) with the system in static
+    equilibrium at every mesh position under the constant-speed experiment's loads at the nominal torque
+    (:func:`~hacgear_core.dynamics.equilibrium.static_equilibrium`, ``samples_per_cycle`` positions per mesh
+    cycle; the equilibrium repeats every mesh cycle).  Every tooth passes the same way."""
+    if isinstance(samples_per_cycle, bool) or not isinstance(samples_per_cycle, (int, np.integer)) \
+            or samples_per_cycle < 8:
+        raise ModelError(f"samples_per_cycle [-] must be an integer >= 8, got {samples_per_cycle!r}")
+    start, length = passage_window(system, gauge)
+    eq = [static_equilibrium(system, start + i / samples_per_cycle) for i in range(samples_per_cycle)]
+    npts = int(math.ceil(length * samples_per_cycle)) + 1
+    idx = np.arange(npts) % samples_per_cycle
+    cs = start + np.arange(npts) / samples_per_cycle
+    q = np.array([eq[i].q for i in idx])
+    tau = cs[:, None] + system.phase[None, :] + q @ system.W.T
+    x = np.array([eq[i].mesh_deflections_m for i in idx])
+    xc = None if eq[0].coast_approach_m is None else np.array([eq[i].coast_approach_m for i in idx])
+    tw = None if eq[0].twist_rad is None else np.array([eq[i].twist_rad for i in idx])
+    eps = strain_of_tooth(system, gauge, tau, x, None if system.twisted else xc, tw)
+    return GaugePassage(gauge, 0, (float(cs[0]), float(cs[-1])), None, eps)
 
 
 class Simulator:
@@ -422,11 +592,13 @@ class Simulator:
         tot = sum(self.mesh_force_N[k] for k in idx)
         return self.mesh_force_N[mesh] * len(idx) / tot if tot > 0 else math.nan
 
-    def strain(self, gauge: str) -> float:
-        """Root strain [-] now at ``gauge`` ("<gear>/<gauge>") on tooth 0 of its gear (:func:`strain_of_tooth`)."""
+    def strain(self, gauge: str, tooth: int = 0) -> float:
+        """Root strain [-] now at ``gauge`` ("<gear>/<gauge>") on tooth ``tooth`` of its gear, counted in the order
+        the teeth reach the mesh (:func:`strain_of_tooth`; 0 while that tooth is out of mesh).  The strain over a
+        tooth's whole passage from a recorded run: :func:`gauge_passage`."""
         return float(strain_of_tooth(self.system, gauge, [self.mesh_position], [self.mesh_deflection_m],
                                      [self.coast_approach_m],
-                                     [self.mesh_twist_rad] if self.system.twisted else None)[0])
+                                     [self.mesh_twist_rad] if self.system.twisted else None, tooth=tooth)[0])
 
     def peak_pressure_Pa(self, mesh: int = 0) -> float:
         """Maximum contact pressure over all teeth of mesh ``mesh`` now [Pa] (table lookup), on the flanks in

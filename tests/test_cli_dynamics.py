@@ -244,3 +244,58 @@ def test_simulate_reports_the_root_strain_of_a_tooth_passing_through_the_mesh(ca
     assert rc == 0 and need == 7 and d["extreme_strain"]["wheel/SG25"] is None
     rc, out = _cli(argv + ["--cycles", "5"], capsys)
     assert f"not recorded: a tooth's passage takes {need} mesh cycles; give --cycles >= {need}" in out
+
+
+#: every shipped kind; the helical pair joins once its committed table has a coast side (skipped until then)
+REVERSED_KINDS = ["spur_28t_asym", "idler_28_33_39", "planetary_65_55_175", "helical_28_33"]
+
+
+def _reversed_system(system):
+    """(model, two-sided tables or None, the library's system at the reversed model torque)."""
+    from hacgear_core.dynamics.build import build_system
+    from hacgear_core.model import load_model
+    from hacgear_core.tables import load_system_tables
+
+    model = load_model(system)
+    tabs = load_system_tables(system)
+    if not all(t.coast is not None for t in tabs.meshes.values()):
+        return model, None, None
+    return model, tabs, build_system(model, tabs, torque_Nm=-model.operating.torque_Nm)
+
+
+@pytest.mark.parametrize("system", REVERSED_KINDS)
+def test_simulate_reversed_torque_on_every_kind(system, capsys, tmp_path):
+    """``hacgear simulate SYSTEM --torque -T`` (T the model's torque) at 1000 Hz: every mesh rests on its coast
+    flanks the whole time (drive force 0, coast contact 100 %), its mean drive deflection lies within
+    [-(backlash + coast table range), 0) and no step leaves the tables; the recorded mean coast force is the static
+    coast force of the torque flow (3 %: the planets' instantaneous load sharing, 2.4 %), the peak at least that."""
+    model, tabs, sy = _reversed_system(system)
+    if tabs is None:
+        pytest.skip(f"the committed {system} table is one-sided (no coast side)")
+    torque = -model.operating.torque_Nm
+    trace = tmp_path / "trace.csv"
+    assert main(["simulate", system, "--torque", f"{torque:g}", "--fm", "1000", "--cycles", "12", "--json",
+                 "--out", str(trace)]) == 0
+    d = json.loads(capsys.readouterr().out)
+    tr = np.genfromtxt(trace, delimiter=",", names=True, deletechars="")
+    assert d["torque_Nm"] == torque
+    nominal = dict(zip(sy.mesh_names, sy.nominal_coast_forces_N()))
+    for k, c in enumerate(sy.meshes):
+        s = d["meshes"][c.name]
+        assert s["loaded_flank"] == "coast" and s["peak_force_N"] == 0.0 and s["coast_contact_fraction"] == 1.0
+        assert s["steps_beyond_tables"] == 0
+        assert -(c.backlash_m + np.ptp(c.coast_table.deflection_m)) <= s["mean_deflection_m"] < 0.0, c.name
+        fc = tr[f"{c.name}.coast_force_N"]
+        assert np.mean(fc) == pytest.approx(nominal[c.name], rel=0.03), c.name
+        assert s["peak_coast_force_N"] == pytest.approx(fc.max(), rel=1e-6)
+        assert fc.max() >= 0.97 * nominal[c.name]
+
+
+def test_modes_with_the_coast_flanks_loaded(capsys):
+    """``hacgear modes --torque -T``: the linearisation and the impulse test about the coast flanks (the impulse
+    test's contact positions from the coast table at the coast force; it asked the drive table at force 0)."""
+    rc, d = _cli(["modes", "spur_28t_asym", "--torque", "-300", "--json"], capsys)
+    assert rc == 0
+    f = d["natural_frequencies_Hz"][0]
+    imp = d["impulse_test"]
+    assert imp["single_contact_Hz"] and abs(imp["single_contact_Hz"][0] / f - 1) < 0.1

@@ -24,7 +24,7 @@ from fmpy.fmi2 import FMU2Slave  # noqa: E402
 from fmpy.fmi3 import FMU3Slave  # noqa: E402
 
 import hacgear_core.fmu as hf  # noqa: E402
-from _bench import assert_final_hold  # noqa: E402
+from _bench import assert_final_hold, assert_reversed_torque_run  # noqa: E402
 from hacgear_core.dynamics.build import build_system  # noqa: E402
 from hacgear_core.dynamics.simulator import Simulator  # noqa: E402
 from hacgear_core.errors import HacgearError  # noqa: E402
@@ -832,3 +832,11 @@ def test_model_readme_lists_the_fmu_variables_of_the_spec(system):
     text = (folder / "readme.md").read_text(encoding="utf-8")
     table = variables_table(variables_for(folder))
     assert readme_with_variables(text, table) == text, f"run `python build_fmu.py --system {system} --readme`"
+
+
+@pytest.mark.parametrize("version", ["fmu", "fmu3"])
+@pytest.mark.parametrize("system", SYSTEMS)
+def test_reversed_torque_parameter_loads_the_coast_flanks(built, system, version):
+    """FMI 2.0 and 3.0: the parameter ``torque`` set to minus the model's torque runs the pair (idler chain) on its
+    coast flanks, within the coast tables, balancing the torque (tests/_bench.py)."""
+    assert_reversed_torque_run(fmpy, built[version][system], system)

@@ -12,7 +12,7 @@ import pytest
 fmpy = pytest.importorskip("fmpy")
 
 import hacgear_core.fmu as hf  # noqa: E402
-from _bench import assert_final_hold  # noqa: E402
+from _bench import assert_final_hold, assert_reversed_torque_run  # noqa: E402
 from hacgear_core.dynamics.build import build_system  # noqa: E402
 from hacgear_core.dynamics.simulator import Simulator  # noqa: E402
 from hacgear_core.fmu.bench import BenchConfig, run_drivetrain_bench  # noqa: E402
@@ -97,3 +97,12 @@ def test_planetary_fmu_in_a_drivetrain_bench(fmu):
     f = [np.mean(res[f"sun_planet_{i}.force"][end]) for i in (1, 2, 3)]
     np.testing.assert_allclose(f, np.mean(f), rtol=0.02)
     assert np.mean(f) == pytest.approx(res["static_mesh_force_N"]["sun_planet_1"], rel=0.05)
+
+
+@pytest.mark.parametrize("version", ["", "_fmi3"])
+def test_planetary_fmu_with_the_torque_reversed(fmu, version):
+    """FMI 2.0 and 3.0: ``torque`` = -200 N*m on the sun (it was refused with "swap flank_a/flank_b") loads the coast
+    flanks of every sun-planet and ring-planet mesh of the 3 planets, within the coast tables, balancing the torque
+    (tests/_bench.py)."""
+    path = fmu["path"].with_name(f"{SYSTEM}{version}.fmu")
+    assert_reversed_torque_run(fmpy, path, SYSTEM, speed_rad_s=150.0, planet_count=3)

@@ -99,6 +99,12 @@ def test_kinematics_and_torque_flow(model):
     rbs = g.sun_mesh(1).base_radius_m[0]
     for f in fl["force_N"].values():
         assert f == pytest.approx(200.0 / (4 * rbs), rel=1e-12)
+    # the torque reversed: the same force magnitudes on the coast flanks, the member torques reversed; 0 refused
+    rev = planetary_torques(model, g, -200.0)
+    assert fl["flanks"] == "drive" and rev["flanks"] == "coast" and rev["force_N"] == fl["force_N"]
+    assert rev["torque_ccw_Nm"] == {k: -v for k, v in t.items()}
+    with pytest.raises(ModelError, match=r"torque \[N\*m\] = 0.0 on 'sun'; allowed: finite and not 0"):
+        planetary_torques(model, g, 0.0)
 
 
 def test_driven_gear_a_is_refused(model):

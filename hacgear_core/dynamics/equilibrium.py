@@ -180,7 +180,8 @@ def static_state(system: LumpedSystem, tau_ref: float = 0.0, fext: np.ndarray | 
 class LoadSharing:
     """Static load sharing over a mesh cycle.
 
-    ``positions`` (Np,) reference mesh positions [cycles]; ``forces_N`` (Np, m) static mesh forces; ``groups``
+    ``positions`` (Np,) reference mesh positions [cycles]; ``forces_N`` (Np, m) static mesh forces on the flanks
+    the torque loads (the coast forces for a negative torque); ``groups``
     {group: mesh indices} (meshes of one table kind); ``factor`` (m,) cycle-mean force of each mesh over the mean
     of its group's cycle-mean forces (1 = equal sharing); ``peak_factor`` (m,) largest instantaneous factor
     ``F_k / mean_group(F)`` over the cycle."""
@@ -196,11 +197,12 @@ class LoadSharing:
 def load_sharing(system: LumpedSystem, n_positions: int = 32, fext: np.ndarray | None = None) -> LoadSharing:
     """Static load sharing of the meshes of each group (:attr:`MeshCoupling.group`) at ``n_positions`` reference
     mesh positions over one cycle under ``fext`` (default: the constant-speed experiment's loads, pin-error
-    preloads included)."""
+    preloads included), on the flanks the nominal torque loads (the coast flanks for a negative torque)."""
     if n_positions < 1:
         raise SolverError(f"n_positions [-] must be >= 1, got {n_positions}")
     pos = np.arange(n_positions) / n_positions
-    f = np.array([static_equilibrium(system, float(t), fext).mesh_forces_N for t in pos])
+    eqs = [static_equilibrium(system, float(t), fext) for t in pos]
+    f = np.array([e.coast_forces_N if system.torque_Nm < 0 else e.mesh_forces_N for e in eqs])
     groups: dict[str, list[int]] = {}
     for k, c in enumerate(system.meshes):
         groups.setdefault(c.group or c.name, []).append(k)

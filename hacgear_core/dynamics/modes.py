@@ -99,9 +99,11 @@ def modal_analysis(system: LumpedSystem) -> ModalResult:
 
 def contact_positions(system: LumpedSystem) -> tuple[float, float, float]:
     """(single-contact position, double-contact position, contact ratio estimate) of the first mesh at its
-    nominal static force (see module docstring)."""
-    table = system.meshes[0].table
-    fs = float(system.nominal_forces_N()[0])
+    nominal static force on the flanks the nominal torque loads (the coast side for a negative torque; see module
+    docstring)."""
+    _, forces, tables = system.loaded_side()
+    table = tables[0]
+    fs = float(forces[0])
     cnt = contact_count(table, fs)
     pos = np.asarray(table.position, float)
     if cnt is None or not (np.any(cnt == 1) and np.any(cnt >= 2)):

@@ -430,13 +430,17 @@ def planetary_torques(model: Any, geometry: PlanetaryGeometry, torque_Nm: float 
     """Nominal torques and mesh forces of the constant-speed experiment (equal load sharing).
 
     Returns ``{"torque_ccw_Nm": {sun, ring, carrier: T_j counter-clockwise}, "force_N": {mesh instance: F},
-    "input": member}``; ``torque_Nm`` [N m] (default ``[operating] torque_Nm``) acts on ``input_member``
-    (default ``[operating] torque_gear``) in that member's sense of rotation.
+    "flanks": "drive" | "coast", "input": member}``; ``torque_Nm`` [N m] (default ``[operating] torque_Nm``) acts on
+    ``input_member`` (default ``[operating] torque_gear``) in that member's sense of rotation.  A positive torque
+    presses the flanks the model loads (``flank_a``/``flank_b``, "drive"), a negative one the opposite flanks
+    ("coast"); ``F`` is the magnitude of the force on the pressed flanks at the drive flanks' base radii (the
+    builder converts it to the coast base radii, as the spur and idler builders do).
 
     Raises
     ------
     ModelError
-        The input member is the fixed one, or the torque would press the flanks the model does not load.
+        The input member is the fixed one, the torque is 0, or a positive torque would press the flanks the model
+        does not load.
     """
     mem = geometry.members
     T = model.operating.torque_Nm if torque_Nm is None else float(torque_Nm)
@@ -458,14 +462,19 @@ def planetary_torques(model: Any, geometry: PlanetaryGeometry, torque_Nm: float 
     rbs = sm.base_radius_m[0 if sm.gear_a == mem.sun else 1]
     rbps = sm.base_radius_m[1 if sm.gear_a == mem.sun else 0]
     rbpr = rm.base_radius_m[0 if rm.gear_a != mem.ring else 1]
+    if not (math.isfinite(T) and T != 0.0):
+        raise ModelError(f"torque [N*m] = {T!r} on '{inp}'; allowed: finite and not 0 (negative loads the coast "
+                         "flanks)")
+    # sun-mesh force per planet on the flanks the model loads: > 0 presses them, < 0 the coast flanks
     fs = geometry.relative_sense[mem.sun] * torque[mem.sun] / (n * rbs)
-    if fs <= 0:
-        raise ModelError(f"with the torque on '{inp}' and '{geometry.fixed_member}' fixed, the sun is loaded on the "
-                         "flanks the model does not load (the sun is driven, not driving, relative to the carrier): "
-                         "swap the loaded flanks of the meshes (flank_a/flank_b) and their gear order")
+    if fs * T <= 0:
+        raise ModelError(f"with the torque on '{inp}' and '{geometry.fixed_member}' fixed, a positive torque loads the "
+                         "sun on the flanks the model does not load (the sun is driven, not driving, relative to the "
+                         "carrier): swap the loaded flanks of the meshes (flank_a/flank_b) and their gear order")
+    fs = abs(fs)
     fr = fs * rbps / rbpr
     forces = {}
     for i in range(1, n + 1):
         forces[geometry.sun_mesh(i).name] = fs
         forces[geometry.ring_mesh(i).name] = fr
-    return {"torque_ccw_Nm": torque, "force_N": forces, "input": inp}
+    return {"torque_ccw_Nm": torque, "force_N": forces, "flanks": "drive" if T > 0 else "coast", "input": inp}

@@ -18,7 +18,8 @@ positions run the other way and its deflection is measured from the coast flanks
 * **tooth pairs**: inner pair ``k`` becomes coast pair ``k' = -k`` (``X_k'(tau + 1) = X_k'-1(tau)`` as on the
   drive side).  Coast pair ``k'`` holds the physical tooth of gear ``g`` that drive pair ``k' - pair_shift[g]``
   holds, with ``pair_shift = {gear_a: 1, gear_b: 0}``: the strain of one physical tooth whose drive pair phase
-  is ``phi`` is ``coast.sdf(gauge, phi - pair_shift[gear], x_c)``.
+  is ``phi`` is ``coast.sdf(gauge, phi - pair_shift[gear], x_c)``.  The tabulated pairs are those around the
+  inner solver's own positions (:func:`coast_pair_centre`): coast offsets ``-1 .. 3`` for ``c0 = -1/2``.
 * **hub reactions** are returned in the drive side's solver frame (the inner frame mirrored: ``Fy``, ``Mz``
   change sign).
 
@@ -40,10 +41,11 @@ import numpy as np
 from hacgear_core.errors import SolverError
 from hacgear_core.geometry import mesh_geometry
 from hacgear_core.model import Model, load_model
-from hacgear_core.statics.contact import make_mesh_solver
+from hacgear_core.statics.contact import ContactOptions, make_mesh_solver
 from hacgear_core.statics.contract import MeshStaticSolver, StaticSolution
 
-__all__ = ["CoastSideSolver", "CoastMapping", "coast_mapping", "make_coast_solver", "COAST_PAIR_SHIFT"]
+__all__ = ["CoastSideSolver", "CoastMapping", "coast_mapping", "coast_pair_centre", "make_coast_solver",
+           "COAST_PAIR_SHIFT"]
 
 #: coast pair k' holds the tooth of gear_a (index 0) / gear_b (index 1) that drive pair k' - shift holds
 COAST_PAIR_SHIFT = (1, 0)
@@ -163,9 +165,29 @@ class CoastSideSolver:
         return [self._convert(s, position) for s in a], [self._convert(s, position) for s in b]
 
 
-def make_coast_solver(model: Any, mesh_name: str, **kwargs: Any) -> CoastSideSolver:
+def coast_pair_centre(mapping: CoastMapping) -> int:
+    """Centre of the coast flank pair's window of reported pairs, in the inner solver's own pair numbering.
+
+    The inner solver is asked at its positions ``c0 - tau`` in ``(c0 - 1, c0]`` (``tau`` in [0, 1)); the pairs
+    touching there have inner phase ``c0 - tau - k`` around 0 (the inner contact path is centred on its pitch
+    point), so the window ``centre +- pair_window`` with ``centre = round(c0 - 1/2)`` covers inner phases
+    ``(c0 - 1 - centre - W, c0 - centre + W]``, centred within half a pair on 0.  For ``c0 = -1/2`` (equal
+    tooth thicknesses) that is ``(-2.5, 2.5]`` with the default ``W = 2``: coast offsets ``-1 .. 3``.  A window
+    centred on 0 instead (inner phases ``(-3.5, 1.5]``) loses the pair past inner phase 1.5 that a mesh whose
+    contact spans more than three pairs loads (the ring-planet mesh of ``planetary_65_55_175``: up to 1.6)."""
+    return int(round(mapping.position_offset - 0.5))
+
+
+def make_coast_solver(model: Any, mesh_name: str, *, options: ContactOptions | None = None,
+                      **kwargs: Any) -> CoastSideSolver:
     """Coast side of mesh ``mesh_name``: :func:`~hacgear_core.statics.contact.make_mesh_solver` with
-    ``side="coast"`` (``kwargs`` passed on) wrapped in :class:`CoastSideSolver` with the geometry's mapping."""
+    ``side="coast"`` (``kwargs`` passed on) wrapped in :class:`CoastSideSolver` with the geometry's mapping.
+    ``options`` default: the model's face slices; their ``pair_centre`` is replaced by
+    :func:`coast_pair_centre` (the reported pairs are those that touch at the coast side's own positions)."""
     if not isinstance(model, Model):
         model = load_model(model)
-    return CoastSideSolver(make_mesh_solver(model, mesh_name, side="coast", **kwargs), coast_mapping(model, mesh_name))
+    mapping = coast_mapping(model, mesh_name)
+    if options is None:
+        options = ContactOptions(face_slices=model.statics.face_slices)
+    options = replace(options, pair_centre=coast_pair_centre(mapping))
+    return CoastSideSolver(make_mesh_solver(model, mesh_name, side="coast", options=options, **kwargs), mapping)

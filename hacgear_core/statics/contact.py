@@ -96,7 +96,11 @@ class ContactOptions:
         (:mod:`hacgear_core.statics.helical`).
     pair_window : int
         Tooth pairs examined on each side of the pair nearest the pitch point (>= 1); reported
-        offsets are ``-pair_window..pair_window``.
+        offsets are ``pair_centre - pair_window .. pair_centre + pair_window``.
+    pair_centre : int
+        Centre of the reported window of tooth-pair offsets (-10..10).  0 (default) suits positions in [0, 1);
+        a solver asked at other positions centres the window on the pairs that touch there
+        (:func:`hacgear_core.statics.coast.make_coast_solver`: the coast flanks' own positions ``c0 - tau``).
     n_profile : int
         Samples per flank for the gap computation (100..5000).
     corner_radius_m : float
@@ -110,6 +114,7 @@ class ContactOptions:
     face_slices: int = 21
     face_coupling: str = "rigid"
     pair_window: int = 2
+    pair_centre: int = 0
     n_profile: int = 600
     corner_radius_m: float = 0.1e-3
     fixed_point_tol: float = 1e-6
@@ -122,6 +127,8 @@ class ContactOptions:
             raise ModelError(f"face_coupling must be 'slices', 'rigid' or 'elastic', got {self.face_coupling!r}")
         if not (isinstance(self.pair_window, (int, np.integer)) and 1 <= self.pair_window <= 10):
             raise ModelError(f"pair_window must be an integer in [1, 10], got {self.pair_window!r}")
+        if not (isinstance(self.pair_centre, (int, np.integer)) and -10 <= self.pair_centre <= 10):
+            raise ModelError(f"pair_centre must be an integer in [-10, 10], got {self.pair_centre!r}")
         if not (isinstance(self.n_profile, (int, np.integer)) and 100 <= self.n_profile <= 5000):
             raise ModelError(f"n_profile must be an integer in [100, 5000], got {self.n_profile!r}")
         if not (1e-6 <= self.corner_radius_m <= 1e-2):
@@ -339,8 +346,8 @@ class MeshContactSolver:
         self._mirror = flanks[0] == "coast"
         self._sense_b = 1 if self.internal else -1
         self._pair_sign = (-1, -self._sense_b)      # canonical tooth of pair k: (-k, +k) external, (-k, -k) internal
-        W = options.pair_window
-        self.tooth_offsets = np.arange(-W, W + 1)
+        W, Wc = options.pair_window, options.pair_centre
+        self.tooth_offsets = np.arange(Wc - W, Wc + W + 1)
         self.gauges = tuple(gauges)
         self.gauge_names = tuple(name for _, _, name in gauges)
         self._flank = tuple(
@@ -471,7 +478,9 @@ class MeshContactSolver:
         phi = self.frame_angles(position)
         W = self.options.pair_window
         centre = int(round(position))
-        pairs = np.arange(centre - W - 1, centre + W + 2)
+        # the pairs around the one nearest the pitch point, and every reported offset
+        pairs = np.arange(min(centre - W - 1, int(self.tooth_offsets[0])),
+                          max(centre + W + 1, int(self.tooth_offsets[-1])) + 1)
         geo = [self._pair_geometry(int(p), phi) for p in pairs]
         ns = self.options.face_slices
         npair = len(pairs)

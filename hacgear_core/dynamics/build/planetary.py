@@ -285,12 +285,20 @@ def planetary_from_model(model: Any, tables: Any = None, *, force_law: str = "ha
             if len(rb) != 2 or not np.allclose(rb, mm.base_radius_m, rtol=1e-3):
                 raise ModelError(f"mesh '{kind}': the table's base radii {rb} m differ from the model's "
                                  f"{tuple(mm.base_radius_m)} m (table of another model?)")
-            lmax = float(np.max(getattr(t, "load_N", [np.inf])))
+            # the loaded side's table: the coast side for a negative torque, at the coast base radius
+            side = t if flow["flanks"] == "drive" else getattr(t, "coast", None)
             fnom = flow["force_N"][f"{kind}_1"]
+            if side is not t:
+                if side is None:
+                    raise ModelError(f"mesh '{kind}': a negative torque ({torque:g} N*m) loads the coast flanks and "
+                                     "the tables have no coast side (regenerate them: `hacgear statics`)")
+                fnom *= mm.base_radius_m[0] / mm.coast_base_radius_m[0]
+            lmax = float(np.max(getattr(side, "load_N", [np.inf])))
             if fnom > lmax * (1 + 1e-9):
                 raise ModelError(f"mesh '{kind}': the nominal force per planet {fnom:.6g} N at {torque:g} N*m with "
-                                 f"{n_pl} planets exceeds the tables' largest static load {lmax:.6g} N; generate the "
-                                 "tables for this torque and planet count (`hacgear statics`)")
+                                 f"{n_pl} planets exceeds the tables' largest static load {lmax:.6g} N"
+                                 f"{'' if side is t else ' (coast side)'}; generate the tables for this torque and "
+                                 "planet count (`hacgear statics`)")
             tabs[kind] = t
         base_of[kind] = mm.base_radius_m
     couplings = []

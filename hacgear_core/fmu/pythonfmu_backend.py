@@ -77,7 +77,8 @@ def choose_backend(requested: str | None = None) -> tuple[str, str]:
 
 def build_pythonfmu(res: Path, info: dict, xml: bytes, dest: Path, fmi_version: int) -> Path:
     """Write the FMU ``dest`` with pythonfmu's (FMI 2.0) or pythonfmu3's (FMI 3.0) builder from the resources
-    folder ``res`` (in a temporary folder, whose parent takes the builder's output; complete: model, tables, ``hacgear_fmu.json``, loader, bundle) and the modelDescription ``xml``.
+    folder ``res`` (complete: model, tables, ``hacgear_fmu.json``, loader, bundle; in a temporary folder whose
+    parent takes the builder's output) and the modelDescription ``xml``.
 
     Raises
     ------

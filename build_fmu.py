@@ -5,10 +5,14 @@
     python build_fmu.py                      # every models/<system>/ that has tables.h5, both FMI versions
     python build_fmu.py --system spur_28t_asym --fmi 2 --out dist
     python build_fmu.py --models /tmp/models --check   # other models folder; validate after building
+    python build_fmu.py --backend pythonfmu            # pythonfmu's prebuilt linux64 + win64 binaries
 
 Each FMU is self-contained: the model file, its tables and the hacgear code travel inside it; the importer's
-Python needs only numpy, scipy, h5py and numba (an FMU says what is missing when it cannot run).  Building needs
-a C compiler and Python's headers (the FMU binary is compiled per build).  ``--check`` runs ``fmpy validate``
+Python needs only numpy, scipy, h5py and numba (an FMU says what is missing when it cannot run).  Two backends
+write the FMU's binary: ``native`` compiles our own (strict FMI statuses; needs a C compiler and Python's
+headers), ``pythonfmu`` takes pythonfmu's / pythonfmu3's prebuilt linux64 + win64 binaries (no compiler).  Without
+``--backend`` the native one is used where a C compiler is found, pythonfmu where none is; the script says which
+and why.  ``--check`` runs ``fmpy validate``
 and ``fmutool -check`` on each FMU.  Exit status: 0 when every requested FMU was built (and passed the checks),
 1 otherwise.
 """
@@ -48,6 +52,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--fmi", choices=("2", "3", "all"), default="all",
                     help="FMI version of the FMUs: 2, 3 or all (default: all)")
     ap.add_argument("--check", action="store_true", help="run fmpy validate and fmutool -check on each FMU")
+    ap.add_argument("--backend", choices=("native", "pythonfmu"), default=None,
+                    help="native: own binaries compiled with the C compiler (strict FMI statuses); pythonfmu: "
+                         "pythonfmu's/pythonfmu3's prebuilt linux64 + win64 binaries, no compiler (default: native "
+                         "where a C compiler is found, else pythonfmu)")
     ap.add_argument("--readme", action="store_true",
                     help="instead of building: write each system's FMU variable table (from the FMU's spec) into "
                          "its models/<system>/readme.md")
@@ -56,6 +64,7 @@ def main(argv: list[str] | None = None) -> int:
     from hacgear_core.errors import HacgearError
     from hacgear_core.fmu import build_fmu
     from hacgear_core.fmu.adapter import variables_for
+    from hacgear_core.fmu.pythonfmu_backend import choose_backend
     from hacgear_core.fmu.spec import readme_with_variables, variables_table
 
     versions = (2, 3) if args.fmi == "all" else (int(args.fmi),)
@@ -70,6 +79,9 @@ def main(argv: list[str] | None = None) -> int:
         dirs = sorted(d for d in models.iterdir() if (d / "model.toml").exists())
     status = 0
     built = 0
+    backend, why = choose_backend(args.backend)
+    if not args.readme:
+        print(f"build_fmu: backend {backend}: {why}")
     for d in dirs:
         if not (d / "tables.h5").exists():
             msg = f"{d.name}: skipped, no tables.h5 (run `hacgear statics {d.name}`)"
@@ -92,7 +104,7 @@ def main(argv: list[str] | None = None) -> int:
             continue
         for version in versions:
             try:
-                fmu = build_fmu(d, args.out, fmi_version=version)
+                fmu = build_fmu(d, args.out, fmi_version=version, backend=backend)
             except HacgearError as exc:
                 print(f"build_fmu: error: {d}: {exc}", file=sys.stderr)
                 status = 1

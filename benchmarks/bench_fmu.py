@@ -13,15 +13,20 @@ in turns, so that other load on the machine affects all alike):
 * ``fmpy simulate_fmu``: fmpy's high-level call with its recording (reported);
 * real-time factors (simulated time / CPU time) of the library, the slave and fmpy low-level at this step;
 * fresh processes: instantiate -> end of the first ``doStep`` in two successive fresh processes (the second
-  loads the compiled kernels and the assembled system from the per-user cache; goal <= 1 s).
+  loads the compiled kernels and the assembled system from the per-user cache; goal <= 1 s);
+* the same for the pythonfmu backend's FMU (``build_fmu(..., backend="pythonfmu")``): its slave class
+  (``HacgearSlave``, the Fmi2Slave subclass pythonfmu's binary calls) called directly, and fmpy low-level through
+  pythonfmu's binary (reported).
 
-Judged: FMU slave / library advance (goal <= 1.25).
+Judged: native FMU slave / library advance (goal <= 1.25); the pythonfmu slave's ratio is reported.
 
-    python benchmarks/bench_fmu.py [--system spur_28t_asym] [--fmu FILE] [--speed-rpm 3000] [--repeat 5]
+    python benchmarks/bench_fmu.py [--system spur_28t_asym] [--fmu FILE] [--pythonfmu-fmu FILE] [--speed-rpm 3000]
+        [--repeat 5]
 """
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import math
 import shutil
@@ -67,6 +72,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--system", default="spur_28t_asym", help="system to build when --fmu is not given")
     ap.add_argument("--fmu", help="hacgear FMI 2.0 FMU (default: built from --system's committed tables)")
+    ap.add_argument("--pythonfmu-fmu", help="hacgear FMI 2.0 FMU of the pythonfmu backend (default: built from "
+                                            "--system's committed tables)")
     ap.add_argument("--speed-rpm", type=float, default=3000.0, help="speed of the reference gear [rpm]")
     ap.add_argument("--internal-step", type=float, default=2e-6, help="internal RK4 step [s] (0 = automatic)")
     ap.add_argument("--comm-step", type=float, default=1e-4, help="communication step [s]")
@@ -125,12 +132,42 @@ def main(argv=None) -> int:
                 t += dt
                 get(vrs)
 
-        md = read_model_description(str(fmu_path))
-        vr = {v.name: v.valueReference for v in md.modelVariables}
-        low_vrs = [vr[o] for o in outputs]
+        py_path = (Path(args.pythonfmu_fmu) if args.pythonfmu_fmu else
+                   build_fmu(resolve_model_path(args.system).parent, work / "pythonfmu", backend="pythonfmu"))
+        py_unz = Path(extract(str(py_path)))
+        py_res = py_unz / "resources"
+        module = (py_res / "slavemodule.txt").read_text().strip()
+        spec = importlib.util.spec_from_file_location(module, py_res / f"{module}.py")
+        py_module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(py_module)
 
-        def low_level():
-            f = FMU2Slave(guid=md.guid, unzipDirectory=str(unz), modelIdentifier=md.coSimulation.modelIdentifier,
+        def py_slave():
+            ps = py_module.HacgearSlave(instance_name="bench", resources=str(py_res))
+            ps.setup_experiment(0.0)
+            ps.enter_initialization_mode()
+            ps.set_real([ps._inst.vrs[f"{ref}.speed_in"], ps._inst.vrs["internal_step"]], [speed, args.internal_step])
+            ps.exit_initialization_mode()
+            step, get = ps.do_step, ps.get_real
+            py_vrs = list(vrs)  # pythonfmu's binary passes a list
+            t = 0.0
+            t0 = time.process_time()
+            for _ in range(n):
+                step(t, dt)
+                t += dt
+                get(py_vrs)
+            return time.process_time() - t0
+
+        def low_level_of(path, unzipped):
+            md = read_model_description(str(path))
+            vr = {v.name: v.valueReference for v in md.modelVariables}
+            low_vrs = [vr[o] for o in outputs]
+
+            def low_level():
+                return _low_level(md, vr, low_vrs, unzipped)
+            return low_level
+
+        def _low_level(md, vr, low_vrs, unzipped):
+            f = FMU2Slave(guid=md.guid, unzipDirectory=str(unzipped), modelIdentifier=md.coSimulation.modelIdentifier,
                           instanceName="bench")
             f.instantiate()
             f.setupExperiment(startTime=0.0)
@@ -158,13 +195,18 @@ def main(argv=None) -> int:
             r = fn()
             return r if isinstance(r, float) else time.process_time() - t0
 
+        low_level = low_level_of(fmu_path, unz)
+        py_low_level = low_level_of(py_path, py_unz)
         library()  # warm-up (compilation, caches)
         slave()
-        runs = {"library": [], "slave": [], "low": [], "high": []}
+        py_slave()
+        runs = {"library": [], "slave": [], "low": [], "high": [], "py_slave": [], "py_low": []}
         for _ in range(args.repeat):  # in turns
-            for key, fn in (("library", library), ("slave", slave), ("low", low_level), ("high", high_level)):
+            for key, fn in (("library", library), ("slave", slave), ("low", low_level), ("high", high_level),
+                            ("py_slave", py_slave), ("py_low", py_low_level)):
                 runs[key].append(timed(fn))
-        t_lib, t_slave, t_low, t_high = (min(runs[k]) for k in ("library", "slave", "low", "high"))
+        t_lib, t_slave, t_low, t_high, t_py, t_py_low = (min(runs[k]) for k in ("library", "slave", "low", "high",
+                                                                                 "py_slave", "py_low"))
         first = fresh_process_first_step(fmu_path, f"{ref}.speed_in", speed)
         us = 1e6 / n
         fig = {"system": info["system"], "communication_step_s": dt, "internal_step_s": args.internal_step,
@@ -175,7 +217,11 @@ def main(argv=None) -> int:
                "binary_and_fmpy_floor_us": (t_low - t_slave) * us,
                "real_time_factor": {"library": t_end / t_lib, "fmu_slave": t_end / t_slave,
                                     "fmpy_low_level": t_end / t_low},
-               "fresh_process_first_step_s": first}
+               "fresh_process_first_step_s": first,
+               "pythonfmu": {"fmu_slave_us": t_py * us, "fmpy_low_level_us": t_py_low * us,
+                             "ratio_slave_over_library": t_py / t_lib,
+                             "binary_and_fmpy_floor_us": (t_py_low - t_py) * us,
+                             "real_time_factor": {"fmu_slave": t_end / t_py, "fmpy_low_level": t_end / t_py_low}}}
         if args.json:
             print(json.dumps(fig, indent=1))
         else:
@@ -191,10 +237,17 @@ def main(argv=None) -> int:
             print(f"  binary + fmpy floor      {fig['binary_and_fmpy_floor_us']:7.2f} us/step (reported, not judged)")
             print(f"  fresh process, instantiate -> first doStep: {first[0][0]:.2f} s (CPU {first[0][1]:.2f} s), "
                   f"then {first[1][0]:.2f} s (CPU {first[1][1]:.2f} s); goal <= 1 s for the second")
+            pf = fig["pythonfmu"]
+            print(f"  pythonfmu backend: slave {pf['fmu_slave_us']:7.2f} us/step, fmpy low-level "
+                  f"{pf['fmpy_low_level_us']:7.2f} us/step (real-time factor "
+                  f"{pf['real_time_factor']['fmpy_low_level']:.1f}), wrapper + fmpy floor "
+                  f"{pf['binary_and_fmpy_floor_us']:.2f} us/step")
+            print(f"  reported: pythonfmu slave / library advance = {pf['ratio_slave_over_library']:.3f}")
             verdict = "met" if fig["ratio_slave_over_library"] <= GOAL else "MISSED"
-            print(f"  judged: FMU slave / library advance = {fig['ratio_slave_over_library']:.3f} (goal <= {GOAL}): "
-                  f"{verdict}")
+            print(f"  judged: native FMU slave / library advance = {fig['ratio_slave_over_library']:.3f} "
+                  f"(goal <= {GOAL}): {verdict}")
         shutil.rmtree(unz, ignore_errors=True)
+        shutil.rmtree(py_unz, ignore_errors=True)
     finally:
         shutil.rmtree(work, ignore_errors=True)
     return 0

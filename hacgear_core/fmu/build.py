@@ -38,6 +38,7 @@ from hacgear_core.errors import HacgearError
 from hacgear_core.fmu import bootstrap
 from hacgear_core.fmu.adapter import MODEL_FILE, TABLES_FILE, make_adapter
 from hacgear_core.fmu.components import ComponentAdapter
+from hacgear_core.fmu.pythonfmu_backend import BACKENDS, build_pythonfmu
 from hacgear_core.fmu.slave import FMU_INFO_FILE, value_references
 from hacgear_core.fmu.spec import DISPLAY_UNITS, ENUMERATIONS, TIME, UNITS
 from hacgear_core.model import load_model, model_sha256
@@ -258,9 +259,11 @@ def model_description(adapter, info: dict, fmi_version: int = 2) -> bytes:
 
 
 # ---------------------------------------------------------------------------------------------- the FMU
-def build_fmu(system_dir: str | Path, out_dir: str | Path, *, fmi_version: int = 2) -> Path:
+def build_fmu(system_dir: str | Path, out_dir: str | Path, *, fmi_version: int = 2, backend: str = "native") -> Path:
     """Build ``<out_dir>/<system>.fmu`` (FMI 2.0) or ``<out_dir>/<system>_fmi3.fmu`` (FMI 3.0) from
-    ``<system_dir>/model.toml`` and ``<system_dir>/tables.h5`` (see the module docstring).
+    ``<system_dir>/model.toml`` and ``<system_dir>/tables.h5`` (see the module docstring).  ``backend``:
+    ``native`` (binary compiled from ``fmu_src/``) or ``pythonfmu`` (pythonfmu's / pythonfmu3's prebuilt binaries,
+    :mod:`.pythonfmu_backend`).
 
     Raises
     ------
@@ -270,6 +273,8 @@ def build_fmu(system_dir: str | Path, out_dir: str | Path, *, fmi_version: int =
     """
     if fmi_version not in (2, 3):
         raise HacgearError(f"FMI version must be 2 or 3, got {fmi_version!r}")
+    if backend not in BACKENDS:
+        raise HacgearError(f"FMU backend must be one of {', '.join(BACKENDS)}, got {backend!r}")
     system_dir = Path(system_dir)
     out_dir = Path(out_dir)
     model = load_model(system_dir / MODEL_FILE)
@@ -290,7 +295,7 @@ def build_fmu(system_dir: str | Path, out_dir: str | Path, *, fmi_version: int =
     }
     files = {MODEL_FILE: system_dir / MODEL_FILE, TABLES_FILE: tables}
     out_dir.mkdir(parents=True, exist_ok=True)
-    return _package(adapter, info, files, out_dir / fmu_file_name(model.name, fmi_version), fmi_version)
+    return _package(adapter, info, files, out_dir / fmu_file_name(model.name, fmi_version), fmi_version, backend)
 
 
 def build_component_fmu(kind: str, out_dir: str | Path, *, fmi_version: int = 2) -> Path:
@@ -306,9 +311,10 @@ def build_component_fmu(kind: str, out_dir: str | Path, *, fmi_version: int = 2)
     return _package(adapter, info, {}, out_dir / fmu_file_name(name, fmi_version), fmi_version)
 
 
-def _package(adapter, info: dict, files: dict, dest: Path, fmi_version: int) -> Path:
+def _package(adapter, info: dict, files: dict, dest: Path, fmi_version: int, backend: str = "native") -> Path:
     """Write the FMU ``dest``: binary, modelDescription.xml, resources (``files``: name -> path), the loader and
-    the bundled code; ``info`` completed into hacgear_fmu.json."""
+    the bundled code; ``info`` completed into hacgear_fmu.json.  The pythonfmu backend hands the resources and the
+    modelDescription to pythonfmu's builder."""
     with tempfile.TemporaryDirectory(prefix="hacgear_fmu_") as td:
         td = Path(td)
         res = td / "resources"
@@ -326,6 +332,8 @@ def _package(adapter, info: dict, files: dict, dest: Path, fmi_version: int) -> 
                 "default_experiment": adapter.default_experiment()}
         info["guid"] = _guid(info)
         (res / FMU_INFO_FILE).write_text(json.dumps(info, indent=1), encoding="utf-8")
+        if backend == "pythonfmu":
+            return build_pythonfmu(res, info, model_description(adapter, info, fmi_version), dest, fmi_version)
         binary = compile_binary(fmi_version, td / "binaries" / _PLATFORM[fmi_version] / f"{info['system']}.so")
         xml = model_description(adapter, info, fmi_version)
         tmp = dest.with_name(dest.name + ".tmp")

@@ -512,17 +512,21 @@ class HelicalMeshContactSolver(MeshContactSolver):
 def make_helical_solver(model: Any, mesh_name: str, *, options: ContactOptions | None = None,
                         fe_options: Any = None, plane: str = "stress", cache: bool = True,
                         gauges: Sequence[tuple[str, Any]] | None = None,
-                        fe3d_options: Any = None) -> HelicalMeshContactSolver:
+                        fe3d_options: Any = None, side: str = "drive") -> HelicalMeshContactSolver:
     """The face-resolving static contact solver of mesh ``mesh_name`` (helical, or spur with ``elastic`` face
     coupling).  ``options`` default: the model's face slices and ``face_coupling="elastic"``; the 3D face
-    influence (:func:`hacgear_core.statics.fe3d.face_influence`, cached on disk) is built only for ``elastic``."""
+    influence (:func:`hacgear_core.statics.fe3d.face_influence`, cached on disk) is built only for ``elastic``.
+    ``side``: ``"drive"`` loads the mesh's flanks, ``"coast"`` the other flank of each gear (its own canonical
+    picture and positions, the physical mesh frame; :func:`hacgear_core.statics.coast.make_coast_solver` maps it
+    onto the drive side's positions and deflections)."""
     if not isinstance(model, Model):
         model = load_model(model)
     if options is None:
         options = ContactOptions(face_slices=model.statics.face_slices, face_coupling="elastic")
-    kw = mesh_solver_inputs(model, mesh_name, fe_options=fe_options, plane=plane, cache=cache, gauges=gauges)
+    kw = mesh_solver_inputs(model, mesh_name, fe_options=fe_options, plane=plane, cache=cache, gauges=gauges,
+                            side=side)
     ga, gb = kw.pop("gears")
-    mesh = kw.pop("mesh")
+    kw.pop("mesh")
     gmods = kw.pop("gauge_models")
     zc = kw.pop("z_centre_m")
     kw.pop("model")
@@ -535,11 +539,11 @@ def make_helical_solver(model: Any, mesh_name: str, *, options: ContactOptions |
     infl = (None, None)
     if options.face_coupling == "elastic":
         infl = tuple(
-            fe3d.face_influence(gg, fe3d.material_of(g, plane), side,
+            fe3d.face_influence(gg, fe3d.material_of(g, plane), loaded,
                                 gauges=tuple((x.name, x.flank, x.radius_m,
                                               float(getattr(x, "face_fraction", 0.5))) for x in gmods[i]),
                                 options=fe3d_options, cache=cache)
-            for i, (g, gg, side) in enumerate(((ga, ggs[0], mesh.flank_a), (gb, ggs[1], mesh.flank_b))))
+            for i, (g, gg, loaded) in enumerate(((ga, ggs[0], kw["flanks"][0]), (gb, ggs[1], kw["flanks"][1]))))
     return HelicalMeshContactSolver(
         **kw, options=options,
         helix_k_per_m=math.tan(ga.helix_angle_rad) / ggs[0].pitch_radius_m,
@@ -547,7 +551,8 @@ def make_helical_solver(model: Any, mesh_name: str, *, options: ContactOptions |
         z_centre_m=zc, gear_axial_m=(ga.axial_position_m, gb.axial_position_m),
         gear_face_width_m=(ga.face_width_m, gb.face_width_m), gauge_axial_m=gauge_axial, face_influence=infl,
         description=f"FE far field + Hertz near field, {options.face_slices} slices ({options.face_coupling}), "
-                    f"mesh {mesh_name} of {model.name}")
+                    f"mesh {mesh_name} of {model.name}" + ("" if side == "drive" else
+                                                           f", {side} side ({kw['flanks'][0]}/{kw['flanks'][1]} flanks)"))
 
 
 def make_solver(model: Any, mesh_name: str, *, options: ContactOptions | None = None, **kw) -> MeshContactSolver:

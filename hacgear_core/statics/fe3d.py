@@ -271,7 +271,10 @@ class ToothSectorFE:
             L /= L.sum(axis=1, keepdims=True)
             q = np.einsum("nv,nvd->nd", L, self.mesh.p[:, self.mesh.t[:, el[out]]].transpose(2, 1, 0))
             dist = np.linalg.norm(q - pts[out], axis=1)
-            if np.any(dist > 0.5e-3):
+            # points on the sector's surface are projected onto the nearest candidate element; up to 1 mm away
+            # (measured: the tip corner of helical_28_33's pinion coast flank at the -z face end lies 0.53-0.64 mm
+            # outside the meshed sector; every drive-flank point of the shipped gears lies within 0.5 mm)
+            if np.any(dist > 1e-3):
                 raise GeometryError(f"point(s) lie outside the 3D tooth sector (by up to {dist.max():.3g} m)")
             Xb[out] = L[:, 1:]
         return el, Xb

@@ -281,22 +281,29 @@ def test_reversed_torque_run_stays_on_the_coast_flanks_within_the_tables(reverse
 
 
 def test_reversed_drive_torques_and_the_range_guard(helical, table):
-    """Drivetrain coupling with the torques of issue 36 (-200 N*m on the pinion, +235.7 N*m on the wheel): the
-    teeth cross the backlash and the coast flanks take the load; the deflection stays within the backlash plus the
-    coast table's range and nothing leaves the tables.  Ten times the coast load then drives the coast approach
-    beyond the coast table's top: the steps are counted (out of range)."""
+    """Drivetrain coupling with the torques of issue 36 (-200 N*m on the pinion, +235.7 N*m on the wheel) from the
+    drive-loaded equilibrium: the teeth cross the 407 um backlash and the coast flanks take the load.  The impact
+    of the crossing overshoots the coast table's top (3 x nominal) by a few um for a few steps (measured: 515.1 um
+    against 511.7 um, 6 steps): the range guard counts them; afterwards the pair rests on the coast flanks inside
+    the coast table (no further step counted) with the deflection within the backlash plus the coast table's range.
+    Ten times those torques drive the state beyond the coast table for good: the count grows."""
     sim = Simulator(build_system(helical, {"m12": table}, shafts=False))
     w = 2 * math.pi * 1200.0 / 28
     sim.reset(speed_rad_s=w)
     sim.set_torque_inputs({"pinion": -200.0, "wheel": 235.7})
-    out = sim.run(0.02, 1e-4)
+    out = sim.run(0.02, 1e-5)
     ct = table.coast
-    assert out["contact_state"][-1, 0] == -1 and out["coast_force_N"][-1, 0] > 0
+    xc = out["coast_approach_m"][:, 0]
+    assert 0 < sim.out_of_range_steps[0] < 20 and xc.max() > ct.deflection_m[-1]
+    assert xc.max() < ct.deflection_m[-1] + 0.05 * (ct.deflection_m[-1] - ct.deflection_m[0])
+    n_impact = sim.out_of_range_steps[0]
+    out = sim.run(0.02, 1e-4)
+    assert sim.out_of_range_steps[0] == n_impact
+    assert np.all(out["contact_state"][:, 0] == -1) and np.all(out["coast_force_N"][:, 0] > 0)
     # rigid rotations: x = -xc (drive lever arm / coast lever arm); the tilts and translations add little
     ratio = float(table.twist.lever_arm_m[0]) / float(ct.twist.lever_arm_m[0])
     assert np.all(out["mesh_deflection_m"][:, 0] > -1.2 * ratio * ct.deflection_m[-1])
-    assert np.all(out["coast_approach_m"][:, 0] < ct.deflection_m[-1])
-    assert sim.out_of_range_steps == [0]
+    assert np.all((ct.deflection_m[0] < out["coast_approach_m"][:, 0]) & (out["coast_approach_m"][:, 0] < ct.deflection_m[-1]))
     sim.set_torque_inputs({"pinion": -2000.0, "wheel": 2357.0})
     sim.run(0.005, 1e-4)
-    assert sim.out_of_range_steps[0] > 0
+    assert sim.out_of_range_steps[0] > n_impact + 10

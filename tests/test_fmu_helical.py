@@ -110,9 +110,10 @@ def test_helical_fmu_in_a_drivetrain_bench(fmu):
 @pytest.mark.parametrize("fmi", ["2", "3"])
 def test_helical_fmu_reversed_torque_loads_the_coast_flanks(fmu, fmi):
     """Drivetrain coupling, -200 N*m on the pinion and +235.7 N*m on the wheel (issue 36): the FMU (FMI 2.0 and
-    3.0) equals the library step by step (deflection, coast force, 1e-9), ends on the coast flanks with the
-    deflection within the backlash plus the coast table's range and nothing out of range; ten times those torques
-    drive the state beyond the coast table: m12.out_of_range turns true and the log says so once."""
+    3.0) equals the library step by step (deflection, coast force, 1e-9) and ends on the coast flanks with the
+    deflection within the backlash plus the coast table's range; the impact of the crossing overshoots the coast
+    table for a few steps (as the library counts): m12.out_of_range turns true and the log says so once, and ten
+    times those torques add no second message."""
     from test_fmu import OK, _Low
 
     m = load_model(SYSTEM)
@@ -127,8 +128,8 @@ def test_helical_fmu_reversed_torque_loads_the_coast_flanks(fmu, fmi):
         assert low.init(mode=1, **{"pinion.speed_start": w, "pinion.torque_in": -200.0,
                                    "wheel.torque_in": 235.7}) == OK
         t, dt = 0.0, 1e-4
-        for k in range(150):
-            assert low.step(t, dt) == OK
+        for k in range(200):
+            assert low.step(t, dt) in (OK, 1)   # Warning (1) on the step that logs
             assert lib.advance(dt).success
             t += dt
             x, fc = low.get("m12.deflection", "m12.coast_force")
@@ -137,7 +138,8 @@ def test_helical_fmu_reversed_torque_loads_the_coast_flanks(fmu, fmi):
         assert low.get_int("m12.contact")[0] == 2 and fc > 0
         ratio = float(tabs.mesh("m12").twist.lever_arm_m[0]) / float(ct.twist.lever_arm_m[0])
         assert x > -1.2 * ratio * ct.deflection_m[-1]
-        assert not low.fmu.getBoolean([low.vr["m12.out_of_range"]])[0]
+        assert lib.out_of_range_steps[0] > 0
+        assert low.fmu.getBoolean([low.vr["m12.out_of_range"]])[0]
         assert low.set(**{"pinion.torque_in": -2000.0, "wheel.torque_in": 2357.0}) == OK
         for k in range(50):
             assert low.step(t, dt) in (OK, 1)   # Warning (1) on the step that logs

@@ -1,7 +1,8 @@
 """The helical FMU (the generic adapter on the 12-DOF helical pair): built from the shipped model and its generalized
 tables, validated (fmpy validate, fmutool -check), equal to the library (mesh force, twist moment, deflection, twist,
 contact state, radial and axial bearing forces and tilting moments, the five face strains) in both experiments, and
-in a drivetrain bench (motor on the pinion, load on the wheel)."""
+in a drivetrain bench (motor on the pinion, load on the wheel); reversed torques load the coast flanks (FMI 2.0 and
+3.0) and a state beyond the tables is flagged and logged once."""
 from __future__ import annotations
 
 import math
@@ -33,8 +34,8 @@ def fmu(tmp_path_factory):
         import build_fmu
     finally:
         sys.path.remove(str(ROOT))
-    assert build_fmu.main(["--system", SYSTEM, "--out", str(out), "--fmi", "2"]) == 0
-    return {"path": out / f"{SYSTEM}.fmu", "build_fmu": build_fmu}
+    assert build_fmu.main(["--system", SYSTEM, "--out", str(out), "--fmi", "all"]) == 0
+    return {"path": out / f"{SYSTEM}.fmu", "path3": out / f"{SYSTEM}_fmi3.fmu", "build_fmu": build_fmu}
 
 
 def test_helical_fmu_validates_and_declares_the_helical_outputs(fmu):
@@ -104,3 +105,47 @@ def test_helical_fmu_in_a_drivetrain_bench(fmu):
     end = assert_final_hold(res, cfg, 28 / 33, window_s=0.01, rel_speed=0.02)
     f = np.mean(res["m12.force"][end])
     assert f == pytest.approx(res["static_mesh_force_N"]["m12"], rel=0.05)
+
+
+@pytest.mark.parametrize("fmi", ["2", "3"])
+def test_helical_fmu_reversed_torque_loads_the_coast_flanks(fmu, fmi):
+    """Drivetrain coupling, -200 N*m on the pinion and +235.7 N*m on the wheel (issue 36): the FMU (FMI 2.0 and
+    3.0) equals the library step by step (deflection, coast force, 1e-9) and ends on the coast flanks with the
+    deflection within the backlash plus the coast table's range; the impact of the crossing overshoots the coast
+    table for a few steps (as the library counts): m12.out_of_range turns true and the log says so once, and ten
+    times those torques add no second message."""
+    from test_fmu import OK, _Low
+
+    m = load_model(SYSTEM)
+    tabs = read_tables(m.tables_path, m.path)
+    ct = tabs.mesh("m12").coast
+    lib = Simulator(build_system(m, tabs, shafts=False))
+    w = 2 * math.pi * 1200.0 / 28
+    lib.reset(speed_rad_s=w)
+    lib.set_torque_inputs({"pinion": -200.0, "wheel": 235.7})
+    low = _Low(fmu["path"] if fmi == "2" else fmu["path3"])
+    try:
+        assert low.init(mode=1, **{"pinion.speed_start": w, "pinion.torque_in": -200.0,
+                                   "wheel.torque_in": 235.7}) == OK
+        t, dt = 0.0, 1e-4
+        for k in range(200):
+            assert low.step(t, dt) in (OK, 1)   # Warning (1) on the step that logs
+            assert lib.advance(dt).success
+            t += dt
+            x, fc = low.get("m12.deflection", "m12.coast_force")
+            assert x == pytest.approx(lib.mesh_deflection_m[0], rel=1e-9)
+            assert fc == pytest.approx(lib.coast_force_N[0], rel=1e-9, abs=1e-9)
+        assert low.get_int("m12.contact")[0] == 2 and fc > 0
+        ratio = float(tabs.mesh("m12").twist.lever_arm_m[0]) / float(ct.twist.lever_arm_m[0])
+        assert x > -1.2 * ratio * ct.deflection_m[-1]
+        assert lib.out_of_range_steps[0] > 0
+        assert low.fmu.getBoolean([low.vr["m12.out_of_range"]])[0]
+        assert low.set(**{"pinion.torque_in": -2000.0, "wheel.torque_in": 2357.0}) == OK
+        for k in range(50):
+            assert low.step(t, dt) in (OK, 1)   # Warning (1) on the step that logs
+            t += dt
+        assert low.fmu.getBoolean([low.vr["m12.out_of_range"]])[0]
+        warn = [msg for st, msg in low.messages if "left its tables" in msg]
+        assert len(warn) == 1 and "m12" in warn[0]
+    finally:
+        low.close()

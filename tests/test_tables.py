@@ -646,3 +646,30 @@ def test_planetary_coast_tooth_loads_add_up_to_the_mesh_force(system):
     ring = tabs.mesh("ring_planet").coast
     # the fourth pair: at coast offset 3 at the end of the cycle, > 5 % of the mesh force at the largest deflection
     assert ring.tooth_load_N[-1, -1, -1] > 0.05 * ring.force_N[-1, -1]
+
+
+def test_committed_helical_table_is_two_sided(capsys):
+    """`hacgear statics helical_28_33 --check` passes with both sides (issue 36): the coast region carries the twist
+    axis of the drive side, its own mesh frame (the coast flanks' base helix angle and lever arms: 20 deg transverse
+    flanks, so the base radius is r cos(20 deg)) and a deflection grid from below the coast contact
+    (backlash_normal_m cos(beta_bc)) upwards; no one-sided warning."""
+    import json
+
+    from hacgear_core.cli import main
+    from hacgear_core.geometry import gear_geometry
+
+    assert main(["statics", "helical_28_33", "--check", "--json"]) == 0
+    cap = capsys.readouterr()
+    rep = json.loads(cap.out)
+    assert "warnings" not in rep and rep["problems"] == []
+    d, c = rep["meshes"]["m12"], rep["meshes"]["m12/coast"]
+    assert c["side"] == "coast" and c["flanks"] == ["coast", "coast"]
+    assert c["twist_rad"] == d["twist_rad"]
+    m = load_model("helical_28_33")
+    rb = gear_geometry(m.gears[0]).base_radius_m["coast"]
+    assert c["lever_arm_m"][0] == pytest.approx(rb * math.cos(c["base_helix_angle_rad"]), rel=1e-9)
+    contact = c["backlash_normal_m"] * math.cos(c["base_helix_angle_rad"])
+    assert c["deflection_grid_min_m"] < min(contact, c["no_load_deflection_min_m"]) < c["deflection_grid_max_m"]
+    # tan(beta_b) = tan(beta) cos(alpha_t): the 20 deg coast flanks have the larger base helix angle
+    assert math.tan(abs(c["base_helix_angle_rad"])) == pytest.approx(
+        math.tan(abs(d["base_helix_angle_rad"])) * math.cos(math.radians(20)) / math.cos(math.radians(25)), rel=1e-6)

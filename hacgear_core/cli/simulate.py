@@ -133,13 +133,17 @@ def run(args: argparse.Namespace) -> int:
         if c.t is not None:  # helical mesh: the mesh twist and the twist moment (Fig. 5.11)
             tr[f"{m}.twist_rad"] = raw["mesh_twist_rad"][:, k]
             tr[f"{m}.twist_moment_Nm"] = raw["twist_moment_Nm"][:, k]
+            if "coast_twist_rad" in raw:
+                tr[f"{m}.coast_twist_rad"] = raw["coast_twist_rad"][:, k]
+                tr[f"{m}.coast_twist_moment_Nm"] = raw["coast_twist_moment_Nm"][:, k]
         if moving:
             tr[f"{m}.dynamic_transmission_error_m"] = raw["dynamic_transmission_error_m"][:, k]
         gk = raw["mesh_twist_rad"][:, k] if c.t is not None else None      # helical: read at the mesh twist
         tr[f"{m}.dynamic_mesh_stiffness_N_per_m"] = dynamic_mesh_stiffness(c.table, tau[:, k], x[:, k], gk)
         pressure = dynamic_contact_pressure(c.table, tau[:, k], x[:, k], gk)
         if c.coast_table is not None:  # the flanks in contact: drive or coast (never both)
-            pressure = np.maximum(pressure, dynamic_contact_pressure(c.coast_table, tau[:, k], xc[:, k]))
+            gc = raw["coast_twist_rad"][:, k] if "coast_twist_rad" in raw else None   # helical: at the coast twist
+            pressure = np.maximum(pressure, dynamic_contact_pressure(c.coast_table, tau[:, k], xc[:, k], gc))
         tr[f"{m}.peak_pressure_Pa"] = pressure
     for g in gauges:  # the tooth of the reported passage (tooth 0 when none was recorded)
         tooth = passages[g].tooth if passages[g] is not None else 0
@@ -148,9 +152,11 @@ def run(args: argparse.Namespace) -> int:
     coast_loaded = sy.torque_Nm < 0 and drive is None  # the operating torque loads the coast flanks
     for k, c in enumerate(sy.meshes):
         xk = x[:, k]
-        loaded = fc[:, k] if coast_loaded else f[:, k]
+        # torque inputs: the flanks that carry the load on average
+        coast_k = coast_loaded or (drive is not None and float(fc[:, k].mean()) > float(f[:, k].mean()))
+        loaded = fc[:, k] if coast_k else f[:, k]
         per_mesh[c.name] = {
-            "loaded_flank": "coast" if coast_loaded else "drive",
+            "loaded_flank": "coast" if coast_k else "drive",
             "mean_deflection_m": float(xk.mean()), "rms_deflection_m": float(np.sqrt(np.mean((xk - xk.mean()) ** 2))),
             "peak_force_N": float(f[:, k].max()), "contact_loss_fraction": float(np.mean(loaded <= 0)),
             "max_peak_pressure_Pa": float(tr[f"{c.name}.peak_pressure_Pa"].max()),
@@ -163,6 +169,10 @@ def run(args: argparse.Namespace) -> int:
             gk = raw["mesh_twist_rad"][:, k]
             per_mesh[c.name].update(mean_twist_rad=float(gk.mean()), rms_twist_rad=float(np.sqrt(np.mean(
                 (gk - gk.mean()) ** 2))), mean_twist_moment_Nm=float(raw["twist_moment_Nm"][:, k].mean()))
+        if c.coast_table is not None:
+            per_mesh[c.name].update(mean_coast_approach_m=float(xc[:, k].mean()),
+                                    coast_table_deflection_range_m=[float(c.coast_table.deflection_m[0]),
+                                                                    float(c.coast_table.deflection_m[-1])])
     summary = {
         "model": inp.label, "synthetic_table": inp.synthetic, "torque_Nm": sy.torque_Nm,
         "force_law": args.force_law, "mesh_frequency_Hz": [fm0, fm1], "cycles": args.cycles,
@@ -199,10 +209,19 @@ def run(args: argparse.Namespace) -> int:
             print(f"    coast flanks in contact {s['coast_contact_fraction']:.3f} of the time, peak coast force "
                   f"{s['peak_coast_force_N']:.1f} N, {s['back_side_impacts']} back-side impact(s)")
     beyond = {m: s["steps_beyond_tables"] for m, s in per_mesh.items() if s["steps_beyond_tables"]}
+
+    def grid(m):
+        s = per_mesh[m]
+        out = (f"drive grid {s['table_deflection_range_m'][0] * 1e6:.4g} … "
+               f"{s['table_deflection_range_m'][1] * 1e6:.4g} µm")
+        if "coast_table_deflection_range_m" in s:
+            out += (f", coast grid {s['coast_table_deflection_range_m'][0] * 1e6:.4g} … "
+                    f"{s['coast_table_deflection_range_m'][1] * 1e6:.4g} µm")
+        return out
+
     if beyond:
-        print("  WARNING: the state left the tables' deflection range in " + ", ".join(
-            f"{m}: {n} integration steps (grid {per_mesh[m]['table_deflection_range_m'][0] * 1e6:.4g} … "
-            f"{per_mesh[m]['table_deflection_range_m'][1] * 1e6:.4g} µm)" for m, n in beyond.items())
+        print("  WARNING: the state left the tables' deflection range (or twist axis) in " + ", ".join(
+            f"{m}: {n} integration steps ({grid(m)})" for m, n in beyond.items())
             + "; forces, pressures and strains there are extrapolated. Extend the tables: raise [statics] "
             "max_torque_factor in the model file and run `hacgear statics MODEL`", file=sys.stderr)
     if gauges:

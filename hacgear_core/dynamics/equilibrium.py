@@ -70,15 +70,23 @@ def static_equilibrium(system: LumpedSystem, tau_ref: float = 0.0, fext: np.ndar
     vl = system.Vc if coast_loaded else system.V
 
     tw = system.twisted
+    twc = system.coast_twist
 
     def residual(q):
         tau = _positions(system, tau_ref, q)
         if tw:
-            # helical meshes: the generalized force W v + M t (twist gamma = t . q), one-sided
+            # helical meshes: the generalized force W v + M t (twist gamma = t . q), and with the coast side
+            # Wc v_c + Mc t_c (coast approach xc = v_c . q, coast twist gamma_c = t_c . q)
             x, g = system.V @ q, system.T @ q
             wm = np.array([system.mesh_generalized(k, tau[k], x[k], g[k]) for k in range(m)]).reshape(m, 2)
             r = fe - keff @ q - system.V.T @ wm[:, 0] - system.T.T @ wm[:, 1]
-            return r, tau, (x, g), (wm[:, 0], wm[:, 1])
+            xc, gc = system.Vc @ q, system.Tc @ q
+            wmc = np.zeros((m, 2))
+            if twc:
+                wmc = np.array([system.mesh_generalized(k, tau[k], xc[k], gc[k], coast=True)
+                                for k in range(m)]).reshape(m, 2)
+                r = r - system.Vc.T @ wmc[:, 0] - system.Tc.T @ wmc[:, 1]
+            return r, tau, (x, g, xc, gc), (wm[:, 0], wm[:, 1], wmc[:, 0], wmc[:, 1])
         x = system.V @ q
         f = np.array([float(system.mesh_force(k, tau[k], x[k])) for k in range(m)])
         r = fe - keff @ q - system.V.T @ f
@@ -90,16 +98,27 @@ def static_equilibrium(system: LumpedSystem, tau_ref: float = 0.0, fext: np.ndar
         return r, tau, (x, xc), (f, fc)
 
     def tangent(tau, xx, kbar_floor):
-        x, xc = xx
         if tw:
-            # the generalized law's 2 x 2 slopes per mesh (the table's rule) on [v t]
+            # the generalized law's 2 x 2 slopes per mesh (the table's rule) on [v t] (and [v_c t_c]); the floor
+            # on the flanks the load presses
+            x, g, xc, gc = xx
             a = keff.copy()
             for k in range(m):
-                jac = generalized_slopes(system.meshes[k].table, tau[k], x[k], xc[k])[0]
-                jac[0, 0] = max(jac[0, 0], kbar_floor[k])
-                b = np.vstack([system.V[k], system.T[k]])
-                a += b.T @ jac @ b
+                c = system.meshes[k]
+                sides = [(c.table, x[k], g[k], system.V[k], system.T[k], not coast_loaded)]
+                if twc:
+                    sides.append((c.coast_table, xc[k], gc[k], system.Vc[k], system.Tc[k], coast_loaded))
+                for table, xk, gk, v, t, floored in sides:
+                    jac = generalized_slopes(table, tau[k], xk, gk)[0]
+                    if table is c.coast_table and table.twist_quantity(table.twist.generalized_fdf, tau[k], xk,
+                                                                       gk)[..., 0] <= 0:
+                        jac = np.zeros((2, 2))
+                    if floored:
+                        jac[0, 0] = max(jac[0, 0], kbar_floor[k])
+                    b = np.vstack([v, t])
+                    a += b.T @ jac @ b
             return a
+        x, xc = xx
         ks = np.array([float(system.mesh_slope(k, tau[k], x[k])) for k in range(m)])
         a = keff + (system.V.T * np.maximum(ks, 0.0 if coast_loaded else kbar_floor)) @ system.V
         if two:
@@ -154,7 +173,7 @@ def static_equilibrium(system: LumpedSystem, tau_ref: float = 0.0, fext: np.ndar
     if tw:
         return EquilibriumResult(q=q, mesh_forces_N=f[0], mesh_deflections_m=x[0], success=True,
                                  message=f"converged in {it} Newton steps", iterations=it,
-                                 coast_forces_N=np.zeros(m), coast_approach_m=np.zeros(m), twist_rad=x[1],
+                                 coast_forces_N=f[2], coast_approach_m=x[2] if twc else np.zeros(m), twist_rad=x[1],
                                  twist_moment_Nm=f[1])
     return EquilibriumResult(q=q, mesh_forces_N=f[0], mesh_deflections_m=x[0], success=True,
                              message=f"converged in {it} Newton steps", iterations=it, coast_forces_N=f[1],

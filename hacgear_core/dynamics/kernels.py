@@ -36,6 +36,8 @@ Force laws (one per kernel variant, so the dispatch folds away at compile time):
     g_k = t_k . q), mesh force W and twist moment M from one trilinear lookup
     (:func:`hacgear_core.tables.interp.trilinear_flat`), generalized force ``W v_k + M t_k``; the twist vector
     ``t_k`` and M ride in the coast slots (``vc_k``, ``Fc_k`` above), which such meshes do not use otherwise.
+    A two-sided helical mesh is two meshes of this loop: its drive side k and its coast side m' + k (``m'`` the
+    system's meshes), the coast side with the coast flanks' vectors and generalized FDF (0 below its onset).
 The coast side is always its table.
 
 Tables travel flattened: row ``r`` (drive tables of meshes 0..m-1, then their coast tables m..2m-1) is
@@ -782,7 +784,8 @@ def select_kernel(law: int, n: int, m: int, two_sided: bool = False):
     """
     if law == LAW_TWIST:
         if two_sided:
-            raise ValueError("helical meshes (LAW_TWIST) are one-sided: their tables have no coast side")
+            raise ValueError("helical meshes (LAW_TWIST) take their coast side as meshes m..2m-1 of the same loop "
+                             "(two_sided = False)")
         return _twist_12_1 if (n, m) == (12, 1) else _twist_s
     two_sided = bool(two_sided)
     return _SPECIAL.get((law, n, m, two_sided), _GENERIC[(law, two_sided)])
@@ -793,23 +796,32 @@ def record_width(m: int) -> int:
     return REC * m + 1
 
 
-def record_fields(rec_out: np.ndarray, m: int, twist: bool = False) -> dict[str, np.ndarray]:
+def record_fields(rec_out: np.ndarray, m: int, twist: bool = False, coast_twist: bool = False) -> dict[str, np.ndarray]:
     """Named views of kernel records ``rec_out`` (..., REC m + 1): per mesh (..., m) ``mesh_position``
     (unwrapped) [cycles], ``mesh_deflection_m``, ``mesh_force_N`` (drive flanks), ``dynamic_transmission_error_m``,
     ``coast_approach_m``, ``coast_force_N`` (coast flanks); ``time_s`` (...) since the call started.  ``twist``
     (records of the ``LAW_TWIST`` loop, helical meshes): ``mesh_twist_rad`` and ``twist_moment_Nm`` are the coast
-    columns, and ``coast_approach_m``, ``coast_force_N`` zeros (the helical meshes are one-sided)."""
+    columns, and ``coast_approach_m``, ``coast_force_N`` zeros (one-sided helical meshes).  ``coast_twist``
+    (two-sided helical meshes: the ``LAW_TWIST`` loop over 2 m meshes, mesh ``m + k`` the coast side of mesh
+    ``k``; ``rec_out`` (..., 2 REC m + 1)): ``coast_approach_m``, ``coast_force_N``, ``coast_twist_rad`` and
+    ``coast_twist_moment_Nm`` are the deflection, force, twist and twist moment of those coast meshes."""
     w = REC * m
+    wk = 2 * w if coast_twist else w
     out = {"mesh_position": rec_out[..., REC_POSITION:w:REC], "mesh_deflection_m": rec_out[..., REC_DEFLECTION:w:REC],
            "mesh_force_N": rec_out[..., REC_FORCE:w:REC],
            "dynamic_transmission_error_m": rec_out[..., REC_DTE:w:REC],
            "coast_approach_m": rec_out[..., REC_COAST_APPROACH:w:REC],
-           "coast_force_N": rec_out[..., REC_COAST_FORCE:w:REC], "time_s": rec_out[..., w]}
-    if twist:
+           "coast_force_N": rec_out[..., REC_COAST_FORCE:w:REC], "time_s": rec_out[..., wk]}
+    if twist or coast_twist:
         out["mesh_twist_rad"] = out["coast_approach_m"]
         out["twist_moment_Nm"] = out["coast_force_N"]
         out["coast_approach_m"] = np.zeros_like(out["mesh_twist_rad"])
         out["coast_force_N"] = np.zeros_like(out["mesh_twist_rad"])
+    if coast_twist:
+        out["coast_approach_m"] = rec_out[..., w + REC_DEFLECTION:wk:REC]
+        out["coast_force_N"] = rec_out[..., w + REC_FORCE:wk:REC]
+        out["coast_twist_rad"] = rec_out[..., w + REC_COAST_APPROACH:wk:REC]
+        out["coast_twist_moment_Nm"] = rec_out[..., w + REC_COAST_FORCE:wk:REC]
     return out
 
 

@@ -35,7 +35,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hacgear_core.dynamics import kernels
 from hacgear_core.dynamics.equilibrium import static_equilibrium
 from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import ModelError, SolverError
@@ -176,11 +175,11 @@ def _free_vibration_peaks(system: LumpedSystem, tau: float, periods: int = 400, 
     nsteps = min(nsteps, 2_000_000)
     kin = np.array([tau_ref - math.floor(tau_ref), 0.0, 0.0])
     rs = np.zeros((nsteps, 2 * n))
-    ro = np.zeros((nsteps, kernels.record_width(m)))
+    ro = np.zeros((nsteps, sy.record_width))
     sy.integrate(s, kin, nsteps, dt, fext, rec_every=1, rec_state=rs, rec_out=ro)
     if not np.all(np.isfinite(rs)):
         raise SolverError("impulse test diverged")
-    rf = kernels.record_fields(ro, m, sy.twisted)
+    rf = sy.record_fields(ro)
     loaded, x = ((rf["coast_force_N"], rf["coast_approach_m"]) if sy.torque_Nm < 0
                  else (rf["mesh_force_N"], rf["mesh_deflection_m"]))
     if np.any(loaded <= 0):

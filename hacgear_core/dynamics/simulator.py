@@ -294,9 +294,10 @@ class Simulator:
         self.internal_step_s = internal_step_s
         n, m = system.n, system.m
         self.s = np.zeros(2 * n)
-        self.kin = np.zeros(3 + m)  # kinematics, then per mesh the steps beyond its tables (kernels docstring)
+        # kinematics, then per kernel mesh the steps beyond its tables (kernels docstring)
+        self.kin = np.zeros(3 + system.m_kernel)
         self._rec_s = np.zeros((1, 2 * n))
-        self._rec_o = np.zeros((1, kernels.record_width(m)))
+        self._rec_o = np.zeros((1, system.record_width))
         self.gear_names = tuple(system.gears)
         self._backlash = [float(b) if math.isfinite(b) else 0.0 for b in system.backlash_m]
         self._gears = tuple(system.gears[g] for g in self.gear_names)
@@ -440,7 +441,7 @@ class Simulator:
         per = max(1, int(math.ceil(record_dt_s / h0 - 1e-9)))
         h = record_dt_s / per
         sy = self.system
-        rs, ro = np.zeros((nrec, 2 * sy.n)), np.zeros((nrec, kernels.record_width(sy.m)))
+        rs, ro = np.zeros((nrec, 2 * sy.n)), np.zeros((nrec, sy.record_width))
         t0 = self.time_s
         sy.integrate(self.s, self.kin, nrec * per, h, self.fext, mode=self._mode_code(), rec_every=per,
                      rec_state=rs, rec_out=ro)
@@ -448,7 +449,7 @@ class Simulator:
             raise SolverError("integration diverged (state not finite)")
         self.time_s = t0 + nrec * record_dt_s
         self._update_outputs()
-        out = kernels.record_fields(ro, sy.m, sy.twisted)
+        out = sy.record_fields(ro)
         out["time_s"] = t0 + out["time_s"]
         out["contact_state"] = kernels.contact_state(out["mesh_force_N"], out["coast_force_N"])
         out["state"] = rs
@@ -483,18 +484,29 @@ class Simulator:
         q = self.s[:sy.n]
         tau = self.kin[0] + sy.phase + sy.W @ q
         x = sy.V @ q
-        rec = np.zeros(kernels.record_width(sy.m))
-        fields = kernels.record_fields(rec, sy.m)
-        fields["mesh_position"][:] = self.kin[1] + tau
-        fields["mesh_deflection_m"][:] = x
-        fields["dynamic_transmission_error_m"][:] = sy.V_rot @ q
+        rec = np.zeros(sy.record_width)
+        fields = kernels.record_fields(rec, sy.m_kernel)
+        mk = sy.m
+        fields["mesh_position"][:mk] = self.kin[1] + tau
+        fields["mesh_deflection_m"][:mk] = x
+        fields["dynamic_transmission_error_m"][:mk] = sy.V_rot @ q
         if sy.twisted:
-            # the kernel's record layout: twist and twist moment in the coast columns
+            # the kernel's record layout: twist and twist moment in the coast columns; the coast sides of helical
+            # meshes as meshes m..2m-1
             g = sy.T @ q
-            wm = np.array([sy.mesh_generalized(k, tau[k], x[k], g[k]) for k in range(sy.m)]).reshape(sy.m, 2)
-            fields["mesh_force_N"][:] = wm[:, 0]
-            fields["coast_approach_m"][:] = g
-            fields["coast_force_N"][:] = wm[:, 1]
+            wm = np.array([sy.mesh_generalized(k, tau[k], x[k], g[k]) for k in range(mk)]).reshape(mk, 2)
+            fields["mesh_force_N"][:mk] = wm[:, 0]
+            fields["coast_approach_m"][:mk] = g
+            fields["coast_force_N"][:mk] = wm[:, 1]
+            if sy.coast_twist:
+                xc, gc = sy.Vc @ q, sy.Tc @ q
+                wmc = np.array([sy.mesh_generalized(k, tau[k], xc[k], gc[k], coast=True)
+                                for k in range(mk)]).reshape(mk, 2)
+                fields["mesh_position"][mk:] = self.kin[1] + tau
+                fields["mesh_deflection_m"][mk:] = xc
+                fields["mesh_force_N"][mk:] = wmc[:, 0]
+                fields["coast_approach_m"][mk:] = gc
+                fields["coast_force_N"][mk:] = wmc[:, 1]
         else:
             xc = sy.Vc @ q
             fields["mesh_force_N"][:] = sy.mesh_forces(tau, x)
@@ -517,9 +529,17 @@ class Simulator:
         self.coast_force_N = rec[kernels.REC_COAST_FORCE:R * m:R]
         #: helical meshes: mesh twist [rad] and twist moment [N m] per mesh (empty for other systems)
         self.mesh_twist_rad, self.twist_moment_Nm = [], []
+        #: helical meshes with their coast side: coast twist [rad] and coast twist moment [N m] per mesh
+        self.coast_twist_rad, self.coast_twist_moment_Nm = [], []
         if sy.twisted:
             self.mesh_twist_rad, self.twist_moment_Nm = self.coast_approach_m, self.coast_force_N
             self.coast_approach_m, self.coast_force_N = [0.0] * m, [0.0] * m
+            if sy.coast_twist:
+                w = R * m
+                self.coast_approach_m = rec[w + kernels.REC_DEFLECTION:2 * w:R]
+                self.coast_force_N = rec[w + kernels.REC_FORCE:2 * w:R]
+                self.coast_twist_rad = rec[w + kernels.REC_COAST_APPROACH:2 * w:R]
+                self.coast_twist_moment_Nm = rec[w + kernels.REC_COAST_FORCE:2 * w:R]
         self.in_contact = [f > 0.0 for f in self.mesh_force_N]
         self.coast_contact = [f > 0.0 for f in self.coast_force_N]
         #: per mesh: +1 drive flanks in contact, -1 coast flanks, 0 teeth apart (in the backlash)
@@ -527,8 +547,11 @@ class Simulator:
         #: per mesh: where the teeth are in the backlash, 0 at the drive flanks' kinematic contact, 1 where the
         #: coast flanks of ideal teeth touch (the coast approach over the normal backlash)
         self.backlash_position = [xc / b if b > 0 else 0.0 for xc, b in zip(self.coast_approach_m, self._backlash)]
-        #: per mesh: integration steps whose state lay beyond the mesh's tables (deflection or load range)
+        #: per mesh: integration steps whose state lay beyond the mesh's tables (deflection or load range, twist
+        #: range; either side)
         self.out_of_range_steps = [int(c) for c in kt[3:3 + m]]
+        if sy.m_kernel > m:
+            self.out_of_range_steps = [a + int(b) for a, b in zip(self.out_of_range_steps, kt[3 + m:3 + 2 * m])]
         phi = (kt[1] + kt[0]) / sy.zref_2pi  # reference gear's rotation in its sense [rad]
         w = kt[2]
         self._frame = (sy.carrier_ratio * phi, sy.carrier_ratio * w)  # carrier frame: angle [rad], speed [rad/s]

@@ -260,7 +260,7 @@ def steady_state(system: LumpedSystem, mesh_frequency_Hz: float, state0: np.ndar
     hist[0] = proj @ s
     kin = np.zeros(3)
     rec_s = np.zeros((opt.chunk_cycles, n2))
-    rec_o = np.zeros((opt.chunk_cycles, kernels.record_width(mm)))
+    rec_o = np.zeros((opt.chunk_cycles, system.record_width))
     cycles = 0
     period = 0
     kicks = 0
@@ -304,10 +304,10 @@ def steady_state(system: LumpedSystem, mesh_frequency_Hz: float, state0: np.ndar
     nrec_cyc = period if converged else opt.cap_record_cycles
     nrec = nrec_cyc * nsp
     rs = np.zeros((nrec, n2))
-    ro = np.zeros((nrec, kernels.record_width(mm)))
+    ro = np.zeros((nrec, system.record_width))
     kin[:] = (0.0, 0.0, omega)
     system.integrate(s, kin, nrec, h, fext, rec_every=1, rec_state=rs, rec_out=ro)
-    rf = kernels.record_fields(ro, mm, system.twisted)
+    rf = system.record_fields(ro)
     tau, x, f, dte = rf["mesh_position"], rf["mesh_deflection_m"], rf["mesh_force_N"], rf["dynamic_transmission_error_m"]
     metrics = trace_metrics(system, x, f, dte, tau=tau, static_forces_N=fs, fc=rf["coast_force_N"],
                             cycles=nrec_cyc, coast_static_forces_N=fsc, xc=rf["coast_approach_m"])

@@ -90,7 +90,9 @@ class MeshCoupling:
     Helical meshes (a table with a twist axis, docs/helical.md): ``t`` (n,) the twist vector (``gamma = t . q``
     [rad], the table's ``r_twist`` over the system's DOFs); ``v`` is then the table's ``r_mesh`` and the mesh
     puts the generalized force ``W v + M t`` on the DOFs (W mesh force [N], M twist moment [N m] from one trilinear
-    lookup); such meshes are one-sided (the helical tables have no coast side)."""
+    lookup).  Their coast side (a coast table with a twist axis): ``v_c`` and ``t_c`` (n,) the coast table's
+    ``r_mesh`` and ``r_twist`` (``xc = v_c . q``, ``gamma_c = t_c . q``), the coast generalized force
+    ``Wc v_c + Mc t_c``; without ``t_c`` the helical mesh is one-sided."""
 
     name: str
     gear_a: str
@@ -111,6 +113,7 @@ class MeshCoupling:
     nominal_coast_force_N: float = 0.0
     backlash_m: float = math.inf
     t: np.ndarray | None = None
+    t_c: np.ndarray | None = None
 
     @property
     def coast_table(self):
@@ -265,18 +268,32 @@ class LumpedSystem:
                                  "with helical meshes needs both on every mesh)")
             if force_law != "hac":
                 raise ModelError(f"{name}: helical meshes take the HAC generalized force law only, got {force_law!r}")
-            if self.torque_Nm < 0:
-                raise ModelError(f"{name}: helical meshes are one-sided (no coast tables): torque_Nm must be > 0")
             self.law = kernels.LAW_TWIST
         self.T = np.ascontiguousarray(np.array([np.zeros(n) if c.t is None else c.t for c in self.meshes],
                                                dtype=float))
+        #: helical meshes with their coast side (coast tables with a twist axis): the kernel runs 2 m meshes, the
+        #: coast side of mesh k as mesh m + k (kernels docstring)
+        self.coast_twist = self.twisted and any(c.t_c is not None for c in self.meshes)
+        if self.coast_twist:
+            bad = [c.name for c in self.meshes if c.t_c is None or c.v_c is None
+                   or getattr(c.coast_table, "twist", None) is None]
+            if bad:
+                raise ModelError(f"{name}: helical meshes {bad} lack the coast side (coast vectors v_c, t_c and a "
+                                 "coast table with a twist axis) that the others have")
+        self.Tc = np.ascontiguousarray(np.array([np.zeros(n) if c.t_c is None else c.t_c for c in self.meshes],
+                                                dtype=float))
+        #: meshes of the compiled loop: m, or 2 m for helical meshes with their coast side
+        self.m_kernel = 2 * self.m if self.coast_twist else self.m
         self.coast_arrays: tuple[TableArrays | None, ...] = tuple(
             None if c.coast_table is None else table_arrays(c.coast_table) for c in self.meshes)
         for c in self.meshes:
-            if c.coast_table is not None and c.v_c is None:
+            if c.coast_table is not None and c.v_c is None and not (self.twisted and not self.coast_twist):
                 raise ModelError(f"{name}: mesh '{c.name}' has a coast table but no coast line-of-action vector v_c")
-        #: any mesh has coast-flank tables (the kernel then runs its two-sided loop)
-        self.two_sided = any(ca is not None for ca in self.coast_arrays)
+        #: any mesh has coast-flank tables the dynamics use (the kernel then runs its two-sided loop, or for helical
+        #: meshes the coast sides as meshes m..2m-1)
+        self.two_sided = self.coast_twist or (not self.twisted and any(ca is not None for ca in self.coast_arrays))
+        if self.twisted and not self.coast_twist:
+            self.coast_arrays = (None,) * self.m
         self.Vc = np.ascontiguousarray(np.array([np.zeros(n) if c.v_c is None else c.v_c for c in self.meshes],
                                                 dtype=float))
         self.backlash_m = np.array([c.backlash_m for c in self.meshes], dtype=float)
@@ -300,15 +317,18 @@ class LumpedSystem:
         self.k_lin = self.K + (vl.T * kbar) @ vl
         if self.twisted:
             # the generalized law linearised at zero twist (cycle means; coupling symmetrised: the table's two
-            # couplings agree within 1 %, a potential): K + [v t] [[k_xx, k_xg], [k_gx, k_gg]] [v t]^T
-            gs = [generalized_stiffness(c.table, c.nominal_force_N).means() for c in self.meshes]
+            # couplings agree within 1 %, a potential): K + [v t] [[k_xx, k_xg], [k_gx, k_gg]] [v t]^T, on the
+            # coast side's vectors and table for a negative torque
+            coast = self.torque_Nm < 0
+            gs = [generalized_stiffness(c.coast_table, c.nominal_coast_force_N).means() if coast
+                  else generalized_stiffness(c.table, c.nominal_force_N).means() for c in self.meshes]
             #: per mesh (m, 2, 2): [[dW/dx, dW/dgamma], [dM/dx, dM/dgamma]] cycle means [N/m, N/rad, N m/m, N m/rad]
             self.generalized_stiffness = np.array([[[g["k_xx_N_per_m"], g["k_xg_N_per_rad"]],
                                                     [g["k_gx_Nm_per_m"], g["k_gg_Nm_per_rad"]]] for g in gs])
             self.mesh_stiffness_N_per_m = kbar = self.generalized_stiffness[:, 0, 0].copy()
             self.k_lin = self.K.copy()
             for k in range(self.m):
-                b = np.vstack([self.V[k], self.T[k]])
+                b = np.vstack([self.Vc[k], self.Tc[k]]) if coast else np.vstack([self.V[k], self.T[k]])
                 kg = self.generalized_stiffness[k]
                 self.k_lin += b.T @ (0.5 * (kg + kg.T)) @ b
         w2, phi = _sym_eig(self.k_lin, self.M)
@@ -332,24 +352,35 @@ class LumpedSystem:
         kstiff = self.K.copy()
         if self.twisted:
             # stiffest slopes of each generalized table (any cell, any twist): dW/dx on v, dM/dgamma on t
+            # (of the flanks the nominal torque loads, as above)
             for k, c in enumerate(self.meshes):
-                tw = c.table.twist
-                kmax[k] = max(kmax[k], float(np.max(np.diff(tw.generalized_fdf[..., 0], axis=1)))
-                              * self.table_arrays[k].inv_dx)
+                tw = (c.coast_table if self.torque_Nm < 0 else c.table).twist
+                ta = (self.coast_arrays if self.torque_Nm < 0 else self.table_arrays)[k]
+                kmax[k] = max(kmax[k], float(np.max(np.diff(tw.generalized_fdf[..., 0], axis=1))) * ta.inv_dx)
                 kgg = float(np.max(np.abs(np.diff(tw.generalized_fdf[..., 1], axis=2)))) / tw.dg
-                kstiff += kgg * np.outer(self.T[k], self.T[k])
+                tv = self.Tc[k] if self.torque_Nm < 0 else self.T[k]
+                kstiff += kgg * np.outer(tv, tv)
         kstiff += (vl.T * kmax) @ vl
         w2max, _ = _sym_eig(kstiff, self.M)
         self.max_frequency_Hz = float(np.sqrt(max(w2max.max(), 0.0)) / (2 * math.pi))
         self.minv = np.ascontiguousarray(np.linalg.inv(self.M))
-        self.kernel = kernels.select_kernel(self.law, n, self.m, self.two_sided)
+        mq = self.m_kernel
+        self.kernel = kernels.select_kernel(self.law, n, mq, self.two_sided and not self.twisted)
         mk, mkw = self.minv @ self.K, self.minv @ self.K_W
         off = np.argwhere(((mk != 0) | (mkw != 0)) & ~np.eye(n, dtype=bool)).reshape(-1, 2)
         kidx = np.ascontiguousarray(np.vstack([np.repeat(np.arange(n), 2).reshape(n, 2), off]).astype(np.int64))
+        # the kernel's meshes: the system's, then (helical meshes with their coast side) the coast sides
+        kv, kw_, kvr, kph = self.V, self.W, self.V_rot, self.phase
+        if self.coast_twist:
+            kv, kw_ = np.vstack([self.V, self.Vc]), np.vstack([self.W, self.W])
+            kvr, kph = np.vstack([self.V_rot, np.zeros_like(self.V_rot)]), np.concatenate([self.phase, self.phase])
         if self.twisted:
+            sides = [(c.table, ta) for c, ta in zip(self.meshes, self.table_arrays)]
+            if self.coast_twist:
+                sides += [(c.coast_table, ca) for c, ca in zip(self.meshes, self.coast_arrays)]
             tab, tint, tflt = kernels.flatten_twist_tables(
-                [(c.table.twist.generalized_fdf, ta.x0, ta.inv_dx, float(c.table.twist.twist_rad[0]),
-                  1.0 / c.table.twist.dg) for c, ta in zip(self.meshes, self.table_arrays)])
+                [(t.twist.generalized_fdf, ta.x0, ta.inv_dx, float(t.twist.twist_rad[0]), 1.0 / t.twist.dg)
+                 for t, ta in sides])
         else:
             tab, tint, tflt = kernels.flatten_tables(
                 [(ta.ftab, ta.x0, ta.inv_dx) for ta in self.table_arrays]
@@ -357,13 +388,13 @@ class LumpedSystem:
                    for c, ca in zip(self.meshes, self.coast_arrays)])
         lin, lint = kernels.flatten_linear([lw.lin for lw in self.laws])
         # the kernel's second vector per mesh: the coast line of action, or the twist vector of a helical mesh
-        vc2 = self.T if self.twisted else self.Vc
-        vmi = self.V @ self.minv.T
+        vc2 = (np.vstack([self.T, self.Tc]) if self.coast_twist else self.T) if self.twisted else self.Vc
+        vmi = kv @ self.minv.T
         vci = vc2 @ self.minv.T
-        pattern = (self.V != 0) | (self.W != 0) | (vmi != 0) | (vc2 != 0) | (vci != 0)
+        pattern = (kv != 0) | (kw_ != 0) | (vmi != 0) | (vc2 != 0) | (vci != 0)
         width = max(1, int(pattern.sum(axis=1).max()))
-        nz = np.zeros((self.m, 1 + width), dtype=np.int64)
-        for k in range(self.m):
+        nz = np.zeros((mq, 1 + width), dtype=np.int64)
+        for k in range(mq):
             idx = np.flatnonzero(pattern[k])
             nz[k, 0] = idx.size
             nz[k, 1:1 + idx.size] = idx
@@ -371,15 +402,15 @@ class LumpedSystem:
             mats=np.ascontiguousarray(np.stack([self.minv, self.minv @ self.C, self.minv @ self.G])),
             kidx=kidx, kval=np.ascontiguousarray(np.stack([mk[kidx[:, 0], kidx[:, 1]], mkw[kidx[:, 0], kidx[:, 1]],
                                                          np.zeros(len(kidx))])),
-            vecs=np.ascontiguousarray(np.stack([self.V, self.W, self.V_rot, vmi, vc2, vci])),
-            mmat=np.ascontiguousarray(np.stack([self.V @ self.minv @ self.V.T, self.W @ self.minv @ self.V.T,
-                                                vc2 @ self.minv @ self.V.T, self.V @ self.minv @ vc2.T,
-                                                self.W @ self.minv @ vc2.T, vc2 @ self.minv @ vc2.T])),
-            phase=self.phase,
+            vecs=np.ascontiguousarray(np.stack([kv, kw_, kvr, vmi, vc2, vci])),
+            mmat=np.ascontiguousarray(np.stack([kv @ self.minv @ kv.T, kw_ @ self.minv @ kv.T,
+                                                vc2 @ self.minv @ kv.T, kv @ self.minv @ vc2.T,
+                                                kw_ @ self.minv @ vc2.T, vc2 @ self.minv @ vc2.T])),
+            phase=np.ascontiguousarray(kph, dtype=float),
             u=np.zeros(n) if self.rigid_mode is None else self.rigid_mode,
             scal=np.array([self.carrier_ratio, self.sref, self.zref_2pi]), iref=int(self.iref), tab=tab, tint=tint,
             tflt=tflt, lin=lin, lint=lint, nz=nz)
-        self._work = np.zeros(7 * n + 20 * self.m)
+        self._work = np.zeros(7 * n + 20 * mq)
         self._eff = np.zeros((n, n))
         a = self.arrays
         #: the kernel's trailing arguments (everything but the state, step, mode, loads and records)
@@ -396,7 +427,7 @@ class LumpedSystem:
 
     def __setstate__(self, st: dict) -> None:
         self.__dict__.update(st)
-        self.kernel = kernels.select_kernel(self.law, self.n, self.m, self.two_sided)
+        self.kernel = kernels.select_kernel(self.law, self.n, self.m_kernel, self.two_sided and not self.twisted)
 
     def fingerprint(self) -> str:
         """SHA-256 (hex) of everything the dynamics depend on: matrices, mesh vectors, phases, tables, force law,
@@ -418,6 +449,10 @@ class LumpedSystem:
             for c in self.meshes:
                 h.update(np.ascontiguousarray(c.table.twist.generalized_fdf).tobytes())
                 h.update(np.ascontiguousarray(c.table.twist.twist_rad).tobytes())
+        if self.coast_twist:
+            h.update(self.Tc.tobytes())
+            for c in self.meshes:
+                h.update(np.ascontiguousarray(c.coast_table.twist.generalized_fdf).tobytes())
         if self.two_sided:
             h.update(self.Vc.tobytes())
             for ca in self.coast_arrays:
@@ -534,13 +569,17 @@ class LumpedSystem:
             out[..., k] = self.mesh_force(k, tau[..., k], x[..., k], g[..., k])
         return out
 
-    def mesh_generalized(self, k: int, tau, x, g) -> np.ndarray:
+    def mesh_generalized(self, k: int, tau, x, g, coast: bool = False) -> np.ndarray:
         """Helical mesh ``k``: mesh force W [N] and twist moment M [N m] → (..., 2) at ``tau`` [cycles], ``x`` [m],
-        ``g`` [rad] (broadcast arrays), by the kernel's rule (the table's trilinear lookup; both 0 where W <= 0)."""
+        ``g`` [rad] (broadcast arrays), by the kernel's rule (the table's trilinear lookup; both 0 where W <= 0).
+        ``coast``: the coast side (coast approach ``x``, coast twist ``g``; zeros for a one-sided mesh)."""
         c = self.meshes[k]
         if c.t is None:
             raise ModelError(f"{self.name}: mesh '{c.name}' is not a helical mesh (no twist axis)")
-        wm = np.asarray(c.table.twist_quantity(c.table.twist.generalized_fdf, tau, x, g))
+        table = c.coast_table if coast else c.table
+        if coast and not self.coast_twist:
+            return np.zeros(np.broadcast(np.asarray(tau), np.asarray(x), np.asarray(g)).shape + (2,))
+        wm = np.asarray(table.twist_quantity(table.twist.generalized_fdf, tau, x, g))
         return np.where((wm[..., :1] > 0), wm, 0.0)
 
     def mesh_twists(self, q: np.ndarray) -> np.ndarray:
@@ -626,13 +665,22 @@ class LumpedSystem:
         return float(mesh_frequency_Hz) / self.zref_2pi
 
     # ------------------------------------------------------------------ the kernel
+    @property
+    def record_width(self) -> int:
+        """Columns of the kernel's ``rec_out`` for this system (:func:`kernels.record_width` of its kernel meshes)."""
+        return kernels.record_width(self.m_kernel)
+
+    def record_fields(self, rec_out: np.ndarray) -> dict[str, np.ndarray]:
+        """Named per-mesh views of this system's kernel records (:func:`kernels.record_fields`)."""
+        return kernels.record_fields(rec_out, self.m, self.twisted and not self.coast_twist, self.coast_twist)
+
     def integrate(self, s: np.ndarray, kin: np.ndarray, n_steps: int, h: float, fext: np.ndarray, *,
                   mode: int = kernels.MODE_SPEED, rec_every: int = 0, rec_state: np.ndarray | None = None,
                   rec_out: np.ndarray | None = None) -> int:
         """Advance ``n_steps`` RK4 steps of ``h`` [s] in place (see :mod:`~hacgear_core.dynamics.kernels`)."""
         if rec_state is None:
             rec_state = np.zeros((0, 2 * self.n))
-            rec_out = np.zeros((0, kernels.record_width(self.m)))
+            rec_out = np.zeros((0, self.record_width))
         return self.kernel(s, kin, int(n_steps), float(h), int(mode), fext, int(rec_every), rec_state, rec_out,
                            *self.kernel_constants)
 

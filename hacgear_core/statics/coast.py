@@ -21,7 +21,14 @@ positions run the other way and its deflection is measured from the coast flanks
   is ``phi`` is ``coast.sdf(gauge, phi - pair_shift[gear], x_c)``.  The tabulated pairs are those around the
   inner solver's own positions (:func:`coast_pair_centre`): coast offsets ``-1 .. 3`` for ``c0 = -1/2``.
 * **hub reactions** are returned in the drive side's solver frame (the inner frame mirrored: ``Fy``, ``Mz``
-  change sign).
+  change sign; a face-resolving inner solver already returns them in the physical frame).
+* **face-resolving (helical) inner solvers**
+  (:class:`~hacgear_core.statics.helical.HelicalMeshContactSolver` built with ``side="coast"``) keep their
+  physical mesh frame (``frame``: ``r_mesh``, ``r_twist`` of the coast flanks over the same 12 DOF as the
+  drive side's), the mesh twist ``gamma_c = r_twist · q`` of that frame is passed through unchanged, and the
+  deflection is the normal one: ``x_c = x_s + j_n cos(beta_bc)`` (``beta_bc`` the coast flanks' base helix
+  angle, ``j_n`` the transverse normal backlash), so that ``x_c = r_mesh · q`` with ``q = 0`` the drive
+  kinematic position.
 
 The derivation (``docs/tables.md``, "The coast side"): with both hubs sharing the mesh deflection equally, each
 gear's rotation in mesh cycles is ``u_a = tau + x_d/(2 p_b)``, ``u_b = tau - x_d/(2 p_b)``; the coast-side
@@ -41,8 +48,9 @@ import numpy as np
 from hacgear_core.errors import SolverError
 from hacgear_core.geometry import mesh_geometry
 from hacgear_core.model import Model, load_model
-from hacgear_core.statics.contact import ContactOptions, make_mesh_solver
+from hacgear_core.statics.contact import ContactOptions
 from hacgear_core.statics.contract import MeshStaticSolver, StaticSolution
+from hacgear_core.statics.helical import make_solver, needs_face_resolving_solver
 
 __all__ = ["CoastSideSolver", "CoastMapping", "coast_mapping", "coast_pair_centre", "make_coast_solver",
            "COAST_PAIR_SHIFT"]
@@ -115,10 +123,18 @@ class CoastSideSolver:
         self.backlash_circular_m = mapping.backlash_circular_m
         self.position_offset = mapping.position_offset
         self.pair_shift = dict(mapping.pair_shift)
-        self.contact_deflection_m = mapping.backlash_normal_m
+        # face-resolving inner solver: its physical mesh frame, slices and normal (3D) deflection
+        self._face = bool(getattr(inner, "_resolves_face", False))
+        self.frame = getattr(inner, "frame", None)
+        if self.frame is not None:
+            self.z_centre_m = inner.z_centre_m
+            self.slice_z_m = inner.slice_z_m
+            self.lever_arm_m = tuple(inner.lever_arm_m)
+        cb = 1.0 if self.frame is None else math.cos(self.frame.base_helix_angle_rad)
+        self.contact_deflection_m = mapping.backlash_normal_m * cb
         self.description = (f"{getattr(inner, 'description', type(inner).__name__)}; coast side in drive positions "
                             f"(inner position = {mapping.position_offset:.12g} - position, deflection = inner + "
-                            f"{mapping.backlash_normal_m:.9g} m)")
+                            f"{self.contact_deflection_m:.9g} m)")
 
     # -- coordinates ------------------------------------------------------------------------------
     def inner_position(self, position: float) -> float:
@@ -131,37 +147,52 @@ class CoastSideSolver:
         def per_pair(d: dict) -> dict:
             return {k: np.asarray(v)[r] for k, v in d.items()}
 
-        hub = {g: np.asarray(v, float) * [1.0, -1.0, -1.0] for g, v in sol.hub_reaction.items()}
-        return replace(sol, position=float(position), mesh_deflection_m=sol.mesh_deflection_m + self.backlash_normal_m,
+        flip = [1.0, 1.0, 1.0] if self._face else [1.0, -1.0, -1.0]
+        hub = {g: np.asarray(v, float) * flip for g, v in sol.hub_reaction.items()}
+        return replace(sol, position=float(position),
+                       mesh_deflection_m=sol.mesh_deflection_m + self.contact_deflection_m,
                        tooth_load_N=np.asarray(sol.tooth_load_N)[r], contact_roll_deg=np.asarray(sol.contact_roll_deg)[r],
                        half_width_m=np.asarray(sol.half_width_m)[r], peak_pressure_Pa=np.asarray(sol.peak_pressure_Pa)[r],
                        strain=per_pair(sol.strain), stress=per_pair(sol.stress), hub_reaction=hub,
-                       contact_s_m=None if sol.contact_s_m is None else np.asarray(sol.contact_s_m)[r])
+                       contact_s_m=None if sol.contact_s_m is None else np.asarray(sol.contact_s_m)[r],
+                       pattern_load_N=None if sol.pattern_load_N is None else np.asarray(sol.pattern_load_N)[r])
 
     # -- protocol -----------------------------------------------------------------------------------
-    def no_load_deflection(self, position: float) -> float:
-        """Coast no-load deflection [m] (coast approach at which the coast flanks first touch) at drive ``position``."""
-        return float(self.inner.no_load_deflection(self.inner_position(position))) + self.backlash_normal_m
+    def _twist(self, twist_rad: float) -> dict:
+        if twist_rad and not self._face:
+            raise SolverError(f"mesh '{self.mesh_name}': twist_rad = {twist_rad!r} rad needs a face-resolving "
+                              "(helical) solver; allowed: 0")
+        return {"twist_rad": float(twist_rad)} if self._face else {}
 
-    def solve_load(self, position: float, mesh_force_N: float) -> StaticSolution:
+    def no_load_deflection(self, position: float, twist_rad: float = 0.0) -> float:
+        """Coast no-load deflection [m] (coast approach at which the coast flanks first touch) at drive
+        ``position`` and coast mesh twist ``twist_rad`` [rad] (face-resolving solvers)."""
+        return (float(self.inner.no_load_deflection(self.inner_position(position), **self._twist(twist_rad)))
+                + self.contact_deflection_m)
+
+    def solve_load(self, position: float, mesh_force_N: float, twist_rad: float = 0.0) -> StaticSolution:
         """Load control: coast contact force [N] >= 0 at drive ``position`` → coast approach etc."""
-        return self._convert(self.inner.solve_load(self.inner_position(position), mesh_force_N), position)
+        return self._convert(self.inner.solve_load(self.inner_position(position), mesh_force_N,
+                                                   **self._twist(twist_rad)), position)
 
-    def solve_deflection(self, position: float, mesh_deflection_m: float) -> StaticSolution:
+    def solve_deflection(self, position: float, mesh_deflection_m: float, twist_rad: float = 0.0) -> StaticSolution:
         """Deflection control: coast approach ``x_c`` [m] at drive ``position`` → coast contact force etc."""
         return self._convert(self.inner.solve_deflection(self.inner_position(position),
-                                                         float(mesh_deflection_m) - self.backlash_normal_m), position)
+                                                         float(mesh_deflection_m) - self.contact_deflection_m,
+                                                         **self._twist(twist_rad)), position)
 
-    def solve_position(self, position: float, loads_N: Sequence[float], deflections_m: Sequence[float]):
+    def solve_position(self, position: float, loads_N: Sequence[float], deflections_m: Sequence[float],
+                       twist_rad: float = 0.0):
         """Batch at one position (see :meth:`MeshContactSolver.solve_position`)."""
         p = self.inner_position(position)
-        x = np.asarray(deflections_m, dtype=float).ravel() - self.backlash_normal_m
+        kw = self._twist(twist_rad)
+        x = np.asarray(deflections_m, dtype=float).ravel() - self.contact_deflection_m
         batch = getattr(self.inner, "solve_position", None)
         if batch is not None:
-            a, b = batch(p, np.asarray(loads_N, float).ravel(), x)
+            a, b = batch(p, np.asarray(loads_N, float).ravel(), x, **kw)
         else:
-            a = [self.inner.solve_load(p, F) for F in np.asarray(loads_N, float).ravel()]
-            b = [self.inner.solve_deflection(p, v) for v in x]
+            a = [self.inner.solve_load(p, F, **kw) for F in np.asarray(loads_N, float).ravel()]
+            b = [self.inner.solve_deflection(p, v, **kw) for v in x]
         return [self._convert(s, position) for s in a], [self._convert(s, position) for s in b]
 
 
@@ -180,14 +211,17 @@ def coast_pair_centre(mapping: CoastMapping) -> int:
 
 def make_coast_solver(model: Any, mesh_name: str, *, options: ContactOptions | None = None,
                       **kwargs: Any) -> CoastSideSolver:
-    """Coast side of mesh ``mesh_name``: :func:`~hacgear_core.statics.contact.make_mesh_solver` with
+    """Coast side of mesh ``mesh_name``: :func:`~hacgear_core.statics.helical.make_solver` (spur or helical) with
     ``side="coast"`` (``kwargs`` passed on) wrapped in :class:`CoastSideSolver` with the geometry's mapping.
-    ``options`` default: the model's face slices; their ``pair_centre`` is replaced by
-    :func:`coast_pair_centre` (the reported pairs are those that touch at the coast side's own positions)."""
+    Spur meshes: ``options`` default the model's face slices, and their ``pair_centre`` is replaced by
+    :func:`coast_pair_centre` (the reported pairs are those that touch at the coast side's own positions).  The
+    face-resolving (helical) solver picks its candidate pairs around each slice's own phase and keeps its default
+    options."""
     if not isinstance(model, Model):
         model = load_model(model)
     mapping = coast_mapping(model, mesh_name)
-    if options is None:
-        options = ContactOptions(face_slices=model.statics.face_slices)
-    options = replace(options, pair_centre=coast_pair_centre(mapping))
-    return CoastSideSolver(make_mesh_solver(model, mesh_name, side="coast", options=options, **kwargs), mapping)
+    if not needs_face_resolving_solver(model, mesh_name, options):
+        if options is None:
+            options = ContactOptions(face_slices=model.statics.face_slices)
+        options = replace(options, pair_centre=coast_pair_centre(mapping))
+    return CoastSideSolver(make_solver(model, mesh_name, side="coast", options=options, **kwargs), mapping)

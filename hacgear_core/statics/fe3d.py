@@ -271,7 +271,10 @@ class ToothSectorFE:
             L /= L.sum(axis=1, keepdims=True)
             q = np.einsum("nv,nvd->nd", L, self.mesh.p[:, self.mesh.t[:, el[out]]].transpose(2, 1, 0))
             dist = np.linalg.norm(q - pts[out], axis=1)
-            if np.any(dist > 0.5e-3):
+            # points on the sector's surface are projected onto the nearest candidate element; up to 1 mm away
+            # (measured on helical_28_33: a coast flank's tip corner at a face end lies 0.64 mm outside the meshed
+            # sector on the wheel, 0.53 mm on the pinion with a coarse mesh; every drive-flank point lies within 0.5 mm)
+            if np.any(dist > 1e-3):
                 raise GeometryError(f"point(s) lie outside the 3D tooth sector (by up to {dist.max():.3g} m)")
             Xb[out] = L[:, 1:]
         return el, Xb

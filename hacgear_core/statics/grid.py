@@ -581,8 +581,8 @@ def compute_statics(
     (``hacgear_core.statics.helical.make_solver``: spur, or helical with the model's ``[statics] twist_points``
     mesh twists from ``-max_twist_mrad`` to ``+max_twist_mrad``; the coast side
     ``hacgear_core.statics.coast.make_coast_solver``) or ``"analytic"`` (:class:`AnalyticPairSolver`, reference
-    spring model).  ``sides``: ``("drive", "coast")`` (default; helical meshes: the drive side only, their coast
-    side is issue #16) or ``("drive",)`` (a one-sided table, e.g. for quick studies).
+    spring model).  ``sides``: ``("drive", "coast")`` (default; helical meshes: both sides over the same twist
+    grid, each in its own mesh frame) or ``("drive",)`` (a one-sided table, e.g. for quick studies).
     """
     mdl = load_model(model)
     if solver not in ("fe", "analytic"):
@@ -602,8 +602,6 @@ def compute_statics(
     sides = tuple(sides)
     if "drive" not in sides or not set(sides) <= set(SIDES):
         raise ModelError(f"sides = {sides!r}; allowed: ('drive',) or ('drive', 'coast')")
-    if any(g.is_helical for g in mdl.gears):
-        sides = ("drive",)
     factories = {region_key(m.name, side): ModelSolverFactory(str(mdl.path), m.name, model_values_sha256(mdl),
                                                               solver, side)
                  for m in mdl.meshes for side in sides}

@@ -60,7 +60,8 @@ from hacgear_core.statics.contact import (ContactOptions, ContactState, MeshCont
 from hacgear_core.statics.contract import StaticSolution
 from hacgear_core.statics.nearfield import halfspace_approach_hertz
 
-__all__ = ["HelicalSetup", "MeshFrame", "HelicalMeshContactSolver", "make_helical_solver", "make_solver"]
+__all__ = ["HelicalSetup", "MeshFrame", "HelicalMeshContactSolver", "make_helical_solver", "make_solver",
+           "needs_face_resolving_solver"]
 
 
 @dataclass(frozen=True)
@@ -512,17 +513,21 @@ class HelicalMeshContactSolver(MeshContactSolver):
 def make_helical_solver(model: Any, mesh_name: str, *, options: ContactOptions | None = None,
                         fe_options: Any = None, plane: str = "stress", cache: bool = True,
                         gauges: Sequence[tuple[str, Any]] | None = None,
-                        fe3d_options: Any = None) -> HelicalMeshContactSolver:
+                        fe3d_options: Any = None, side: str = "drive") -> HelicalMeshContactSolver:
     """The face-resolving static contact solver of mesh ``mesh_name`` (helical, or spur with ``elastic`` face
     coupling).  ``options`` default: the model's face slices and ``face_coupling="elastic"``; the 3D face
-    influence (:func:`hacgear_core.statics.fe3d.face_influence`, cached on disk) is built only for ``elastic``."""
+    influence (:func:`hacgear_core.statics.fe3d.face_influence`, cached on disk) is built only for ``elastic``.
+    ``side``: ``"drive"`` loads the mesh's flanks, ``"coast"`` the other flank of each gear (its own canonical
+    picture and positions, the physical mesh frame; :func:`hacgear_core.statics.coast.make_coast_solver` maps it
+    onto the drive side's positions and deflections)."""
     if not isinstance(model, Model):
         model = load_model(model)
     if options is None:
         options = ContactOptions(face_slices=model.statics.face_slices, face_coupling="elastic")
-    kw = mesh_solver_inputs(model, mesh_name, fe_options=fe_options, plane=plane, cache=cache, gauges=gauges)
+    kw = mesh_solver_inputs(model, mesh_name, fe_options=fe_options, plane=plane, cache=cache, gauges=gauges,
+                            side=side)
     ga, gb = kw.pop("gears")
-    mesh = kw.pop("mesh")
+    kw.pop("mesh")
     gmods = kw.pop("gauge_models")
     zc = kw.pop("z_centre_m")
     kw.pop("model")
@@ -535,11 +540,11 @@ def make_helical_solver(model: Any, mesh_name: str, *, options: ContactOptions |
     infl = (None, None)
     if options.face_coupling == "elastic":
         infl = tuple(
-            fe3d.face_influence(gg, fe3d.material_of(g, plane), side,
+            fe3d.face_influence(gg, fe3d.material_of(g, plane), loaded,
                                 gauges=tuple((x.name, x.flank, x.radius_m,
                                               float(getattr(x, "face_fraction", 0.5))) for x in gmods[i]),
                                 options=fe3d_options, cache=cache)
-            for i, (g, gg, side) in enumerate(((ga, ggs[0], mesh.flank_a), (gb, ggs[1], mesh.flank_b))))
+            for i, (g, gg, loaded) in enumerate(((ga, ggs[0], kw["flanks"][0]), (gb, ggs[1], kw["flanks"][1]))))
     return HelicalMeshContactSolver(
         **kw, options=options,
         helix_k_per_m=math.tan(ga.helix_angle_rad) / ggs[0].pitch_radius_m,
@@ -547,7 +552,17 @@ def make_helical_solver(model: Any, mesh_name: str, *, options: ContactOptions |
         z_centre_m=zc, gear_axial_m=(ga.axial_position_m, gb.axial_position_m),
         gear_face_width_m=(ga.face_width_m, gb.face_width_m), gauge_axial_m=gauge_axial, face_influence=infl,
         description=f"FE far field + Hertz near field, {options.face_slices} slices ({options.face_coupling}), "
-                    f"mesh {mesh_name} of {model.name}")
+                    f"mesh {mesh_name} of {model.name}" + ("" if side == "drive" else
+                                                           f", {side} side ({kw['flanks'][0]}/{kw['flanks'][1]} flanks)"))
+
+
+def needs_face_resolving_solver(model: Model, mesh_name: str, options: ContactOptions | None = None) -> bool:
+    """True where mesh ``mesh_name`` needs the face-resolving solver: a helical gear in it, or
+    ``face_coupling="elastic"`` asked for in ``options``."""
+    m = {m.name: m for m in model.meshes}[mesh_name]
+    gears = {g.name: g for g in model.gears}
+    helical = gears[m.gear_a].is_helical or gears[m.gear_b].is_helical
+    return bool(helical or (options is not None and options.face_coupling == "elastic"))
 
 
 def make_solver(model: Any, mesh_name: str, *, options: ContactOptions | None = None, **kw) -> MeshContactSolver:
@@ -558,10 +573,7 @@ def make_solver(model: Any, mesh_name: str, *, options: ContactOptions | None = 
     meshes = {m.name: m for m in model.meshes}
     if mesh_name not in meshes:
         raise ModelError(f"unknown mesh {mesh_name!r}; the model has: {', '.join(meshes) or '(none)'}")
-    gears = {g.name: g for g in model.gears}
-    m = meshes[mesh_name]
-    helical = gears[m.gear_a].is_helical or gears[m.gear_b].is_helical
-    if helical or (options is not None and options.face_coupling == "elastic"):
+    if needs_face_resolving_solver(model, mesh_name, options):
         return make_helical_solver(model, mesh_name, options=options, **kw)
     kw.pop("fe3d_options", None)
     return make_mesh_solver(model, mesh_name, options=options, **kw)

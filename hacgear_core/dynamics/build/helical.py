@@ -7,7 +7,10 @@ DOFs (global frame of docs/helical.md: x along the line of centres, z along the 
 translations [m] of each gear's centre ``O_g`` (on its axis, mid-face) and small rotations [rad] about it.  Mesh
 deflection ``x = r_mesh . q`` and mesh twist ``gamma = r_twist . q`` with the vectors stored in the table (the
 dissertation's Eq. 5.4 with its slips fixed, docs/helical.md); the mesh puts ``W r_mesh + M r_twist`` on the DOFs
-(W, M from one trilinear lookup over (position, deflection, twist) in the compiled kernel).
+(W, M from one trilinear lookup over (position, deflection, twist) in the compiled kernel).  With the coast side
+in the table (``table.coast`` with its twist axis) the coast flanks do the same with the coast table's vectors:
+coast approach ``xc = r_mesh_c . q``, coast twist ``gamma_c = r_twist_c . q``, ``Wc r_mesh_c + Mc r_twist_c``, so
+either torque sign is carried (a negative torque loads the coast flanks).
 
 Masses and polar inertias from :func:`hacgear_core.geometry.gear_geometry` (as ``hacgear info``); the tilting
 inertia about a diameter through ``O_g`` is ``I_p / 2 + m b^2 / 12`` (exact for a body of uniform section over
@@ -92,8 +95,13 @@ def helical_from_model(model: Any, tables: Any, *, force_law: str = "hac", torqu
         raise ModelError(f"mesh '{mesh.name}': the table's teeth {tz} differ from the model's "
                          f"{(gears[names[0]].teeth, gears[names[1]].teeth)} (table of another model?)")
     torque = float(model.operating.torque_Nm if torque_Nm is None else torque_Nm)
-    if not (math.isfinite(torque) and torque > 0):
-        raise ModelError(f"torque_Nm [N*m] must be > 0 for a helical pair (one-sided tables), got {torque!r}")
+    ctw = getattr(getattr(table, "coast", None), "twist", None)
+    if not (math.isfinite(torque) and torque != 0):
+        raise ModelError(f"torque_Nm [N*m] must be finite and nonzero (negative: the coast flanks carry it), "
+                         f"got {torque!r}")
+    if torque < 0 and ctw is None:
+        raise ModelError(f"torque_Nm = {torque!r} N*m loads the coast flanks, but the table of mesh '{mesh.name}' "
+                         "has no coast side with a twist axis (regenerate it: hacgear statics)")
     tgear = getattr(model.operating, "torque_gear", names[0]) or names[0]
     if tgear not in names:
         raise ModelError(f"[operating] torque_gear {tgear!r} is not a gear of the pair {names}")
@@ -129,8 +137,15 @@ def helical_from_model(model: Any, tables: Any, *, force_law: str = "hac", torqu
                                speed_ratio=float(u[o + 5] * sense[0]), rotation=o + 5, translations=(o, o + 1),
                                directions=np.eye(2), radius_m=float(abs(r_mesh[o + 5])), mass_kg=m, inertia_kgm2=ip,
                                support=(kdiag[0], krot)))
-    # nominal mesh force: the torque on its gear over that gear's lever arm (r_b cos beta_b)
-    w_nom = torque / float(lever[names.index(tgear)])
+    # nominal mesh force: the torque on its gear over that gear's lever arm (r_b cos beta_b); the nominal forces
+    # are magnitudes, the torque's sign picks the flanks
+    w_nom = abs(torque) / float(lever[names.index(tgear)])
+    coast = {}
+    if ctw is not None:
+        cb = math.cos(float(ctw.base_helix_angle_rad))
+        coast = dict(v_c=np.asarray(ctw.r_mesh, float).copy(), t_c=np.asarray(ctw.r_twist, float).copy(),
+                     nominal_coast_force_N=abs(torque) / float(np.asarray(ctw.lever_arm_m, float)[names.index(tgear)]),
+                     backlash_m=float(table.coast.backlash_normal_m) * cb)
     w = np.zeros(n)
     w[5] = sense[0] * tz[0] / (2 * math.pi)
     v_rot = np.zeros(n)
@@ -140,7 +155,7 @@ def helical_from_model(model: Any, tables: Any, *, force_law: str = "hac", torqu
                             base_radius_m=tuple(float(r) for r in table.base_radius_m),
                             tooth_passage={names[0]: 0, names[1]: 0},
                             line_of_action=tuple(float(c) for c in np.asarray(tw.frame["e2"], float)[:2]),
-                            t=r_twist.copy())
+                            t=r_twist.copy(), **coast)
     held = bool(np.any(np.abs(K @ u) > 0))
     return LumpedSystem(name=model.name, kind="helical_pair", dof_names=dofs, mass=M, stiffness=K, gears=bodies,
                         meshes=[coupling], torque_Nm=torque, input_gear=tgear, modal_damping_ratio=zeta,

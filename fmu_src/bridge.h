@@ -3,19 +3,237 @@
  * Each FMI call takes the GIL, calls one method of the FMU instance (hacgear_core.fmu.slave.FmuInstance, created
  * by resources/hacgear_fmu_boot.py), passes the instance's queued messages to the master's logger (warnings and
  * errors always, debug messages when logging is on) and returns the status the method returned.  No Python
- * exception crosses this layer: one that escapes a method is logged and answered with Error.  Built against
- * Python's stable ABI (3.11+); the symbols come from the importer's Python (non-Python masters preload libpython).
+ * exception crosses this layer: one that escapes a method is logged and answered with Error.
+ *
+ * Built against Python's stable ABI (3.11+) without linking libpython: the binary references no Python symbol, so
+ * any master loads it.  The C API functions it calls are function pointers (hg_fn_*), resolved at the first
+ * instantiation by hg_ensure_python(): from the process when a Python interpreter is already in it (a Python
+ * master: fmpy, libcosimpy), else from the libpython this binary loads itself (dlopen RTLD_GLOBAL, so that the
+ * extension modules numpy and numba load find the symbols too) and starts with the configured interpreter as its
+ * program name.  The configured interpreter is the one recorded at build (HG_PYTHON_EXECUTABLE, HG_LIBPYTHON
+ * from the generated hg_config.h), or the one named by the environment variable HACGEAR_FMU_PYTHON.
  */
 #ifndef HACGEAR_BRIDGE_H
 #define HACGEAR_BRIDGE_H
 
+#ifndef _GNU_SOURCE
+#define _GNU_SOURCE 1 /* RTLD_DEFAULT */
+#endif
 #define PY_SSIZE_T_CLEAN
 #define Py_LIMITED_API 0x030B0000
 #include <Python.h>
+#include <dlfcn.h>
+#include <pthread.h>
+#include <spawn.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "hg_config.h" /* HG_PYTHON_EXECUTABLE, HG_LIBPYTHON, HG_LIBPYTHON_QUERY (written by the FMU build) */
+
+/* ------------------------------------------------------------------ the Python C API, resolved at run time */
+/* Every C API symbol the bridge uses (the ones Python.h's macros expand to included). */
+#define HG_PY_FUNCTIONS(X)                                                                                        \
+    X(PyBool_FromLong) X(PyBytes_AsString) X(PyBytes_FromStringAndSize) X(PyBytes_Size) X(PyDict_GetItemString) \
+    X(PyDict_New) X(PyDict_SetItemString) X(PyErr_Clear) X(PyErr_Fetch) X(PyErr_Occurred) X(PyEval_EvalCode)    \
+    X(PyEval_GetBuiltins) X(PyEval_SaveThread) X(PyFloat_AsDouble) X(PyFloat_FromDouble) X(PyGILState_Ensure)   \
+    X(PyGILState_Release) X(PyList_GetItem) X(PyList_SetSlice) X(PyList_Size) X(PyLong_AsLong)                  \
+    X(PyLong_AsLongLong) X(PyLong_FromLong) X(PyLong_FromLongLong) X(PyLong_FromUnsignedLong) X(PyObject_Call)  \
+    X(PyObject_CallFunctionObjArgs) X(PyObject_GetAttrString) X(PyObject_IsTrue) X(PyObject_SetAttrString)      \
+    X(PyObject_Str) X(PyTuple_GetItem) X(PyTuple_New) X(PyTuple_Pack) X(PyTuple_SetItem) X(PyTuple_Size)        \
+    X(PyType_GetFlags) X(PyUnicode_AsUTF8AndSize) X(PyUnicode_FromString) X(Py_CompileString) X(Py_DecRef)      \
+    X(Py_DecodeLocale) X(Py_IncRef) X(Py_InitializeEx) X(Py_IsInitialized) X(_PyObject_CallFunction_SizeT)      \
+    X(_PyObject_CallMethod_SizeT) X(_Py_VaBuildValue_SizeT)
+
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wdeprecated-declarations"
+#define HG_DECLARE(name) static __typeof__(&name) hg_fn_##name;
+HG_PY_FUNCTIONS(HG_DECLARE)
+static __typeof__(&Py_SetProgramName) hg_fn_Py_SetProgramName; /* optional: deprecated since 3.11 */
+#pragma GCC diagnostic pop
+static PyObject *hg_py_none;                                   /* &_Py_NoneStruct */
+
+#define PyBool_FromLong (*hg_fn_PyBool_FromLong)
+#define PyBytes_AsString (*hg_fn_PyBytes_AsString)
+#define PyBytes_FromStringAndSize (*hg_fn_PyBytes_FromStringAndSize)
+#define PyBytes_Size (*hg_fn_PyBytes_Size)
+#define PyDict_GetItemString (*hg_fn_PyDict_GetItemString)
+#define PyDict_New (*hg_fn_PyDict_New)
+#define PyDict_SetItemString (*hg_fn_PyDict_SetItemString)
+#define PyErr_Clear (*hg_fn_PyErr_Clear)
+#define PyErr_Fetch (*hg_fn_PyErr_Fetch)
+#define PyErr_Occurred (*hg_fn_PyErr_Occurred)
+#define PyEval_EvalCode (*hg_fn_PyEval_EvalCode)
+#define PyEval_GetBuiltins (*hg_fn_PyEval_GetBuiltins)
+#define PyEval_SaveThread (*hg_fn_PyEval_SaveThread)
+#define PyFloat_AsDouble (*hg_fn_PyFloat_AsDouble)
+#define PyFloat_FromDouble (*hg_fn_PyFloat_FromDouble)
+#define PyGILState_Ensure (*hg_fn_PyGILState_Ensure)
+#define PyGILState_Release (*hg_fn_PyGILState_Release)
+#define PyList_GetItem (*hg_fn_PyList_GetItem)
+#define PyList_SetSlice (*hg_fn_PyList_SetSlice)
+#define PyList_Size (*hg_fn_PyList_Size)
+#define PyLong_AsLong (*hg_fn_PyLong_AsLong)
+#define PyLong_AsLongLong (*hg_fn_PyLong_AsLongLong)
+#define PyLong_FromLong (*hg_fn_PyLong_FromLong)
+#define PyLong_FromLongLong (*hg_fn_PyLong_FromLongLong)
+#define PyLong_FromUnsignedLong (*hg_fn_PyLong_FromUnsignedLong)
+#define PyObject_Call (*hg_fn_PyObject_Call)
+#define PyObject_CallFunctionObjArgs (*hg_fn_PyObject_CallFunctionObjArgs)
+#define PyObject_GetAttrString (*hg_fn_PyObject_GetAttrString)
+#define PyObject_IsTrue (*hg_fn_PyObject_IsTrue)
+#define PyObject_SetAttrString (*hg_fn_PyObject_SetAttrString)
+#define PyObject_Str (*hg_fn_PyObject_Str)
+#define PyTuple_GetItem (*hg_fn_PyTuple_GetItem)
+#define PyTuple_New (*hg_fn_PyTuple_New)
+#define PyTuple_Pack (*hg_fn_PyTuple_Pack)
+#define PyTuple_SetItem (*hg_fn_PyTuple_SetItem)
+#define PyTuple_Size (*hg_fn_PyTuple_Size)
+#define PyUnicode_AsUTF8AndSize (*hg_fn_PyUnicode_AsUTF8AndSize)
+#define PyUnicode_FromString (*hg_fn_PyUnicode_FromString)
+#define Py_CompileString (*hg_fn_Py_CompileString)
+#define Py_IsInitialized (*hg_fn_Py_IsInitialized)
+#define _PyObject_CallFunction_SizeT (*hg_fn__PyObject_CallFunction_SizeT)
+#define _PyObject_CallMethod_SizeT (*hg_fn__PyObject_CallMethod_SizeT)
+#define _Py_VaBuildValue_SizeT (*hg_fn__Py_VaBuildValue_SizeT)
+#define _Py_NoneStruct (*hg_py_none)
+/* Python.h's inline reference counting and type checks reach private symbols (_Py_Dealloc) and PyType_GetFlags:
+ * replaced by the resolved functions. */
+#undef Py_INCREF
+#undef Py_DECREF
+#undef Py_XDECREF
+#define Py_INCREF(o) hg_fn_Py_IncRef((PyObject *)(o))
+#define Py_DECREF(o) hg_fn_Py_DecRef((PyObject *)(o))
+#define Py_XDECREF(o) hg_fn_Py_DecRef((PyObject *)(o)) /* Py_DecRef accepts NULL */
+#define PyType_HasFeature(t, f) ((hg_fn_PyType_GetFlags(t) & (f)) != 0)
+
+static pthread_mutex_t hg_py_lock = PTHREAD_MUTEX_INITIALIZER;
+static int hg_py_ready;
+static char hg_py_origin[1200];  /* where the interpreter came from, for the log */
+static char hg_py_error[2400];   /* why it could not be had */
+
+/* The shared libpython of the interpreter ``exe``: it prints it (HG_LIBPYTHON_QUERY, run with -I); "" on failure. */
+static void hg_query_libpython(const char *exe, char *out, size_t n) {
+    int fd[2];
+    out[0] = '\0';
+    if (pipe(fd) != 0) return;
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_adddup2(&fa, fd[1], 1);
+    posix_spawn_file_actions_addclose(&fa, fd[0]);
+    char *argv[] = {(char *)exe, "-I", "-c", (char *)HG_LIBPYTHON_QUERY, NULL};
+    extern char **environ;
+    pid_t pid;
+    int rc = posix_spawnp(&pid, exe, &fa, NULL, argv, environ);
+    posix_spawn_file_actions_destroy(&fa);
+    close(fd[1]);
+    size_t len = 0;
+    if (rc == 0) {
+        ssize_t r;
+        while (len + 1 < n && (r = read(fd[0], out + len, n - 1 - len)) > 0) len += (size_t)r;
+        int wst;
+        waitpid(pid, &wst, 0);
+        if (!WIFEXITED(wst) || WEXITSTATUS(wst) != 0) len = 0;
+    }
+    close(fd[0]);
+    out[len] = '\0';
+    while (len && (out[len - 1] == '\n' || out[len - 1] == '\r')) out[--len] = '\0';
+}
+
+/* Resolve every C API function from ``lib`` (a dlopen handle or RTLD_DEFAULT); 0 and hg_py_error if one lacks. */
+static int hg_resolve(void *lib, const char *where) {
+#define HG_RESOLVE(name)                                                                                          \
+    if (!(*(void **)&hg_fn_##name = dlsym(lib, #name))) {                                                          \
+        snprintf(hg_py_error, sizeof hg_py_error, "%s lacks the Python C API function %s (not a Python 3.11+?)",  \
+                 where, #name);                                                                                    \
+        return 0;                                                                                                  \
+    }
+    HG_PY_FUNCTIONS(HG_RESOLVE)
+#undef HG_RESOLVE
+    *(void **)&hg_fn_Py_SetProgramName = dlsym(lib, "Py_SetProgramName");
+    hg_py_none = (PyObject *)dlsym(lib, "_Py_NoneStruct");
+    if (!hg_py_none) {
+        snprintf(hg_py_error, sizeof hg_py_error, "%s lacks _Py_NoneStruct (not a Python 3.11+?)", where);
+        return 0;
+    }
+    return 1;
+}
+
+/* Make Python available: NULL, or why not (also in hg_py_error).  A Python interpreter already running in the
+ * process (a Python master) is used as it is; otherwise the configured interpreter's libpython is loaded (unless
+ * one is in the process already) and started, and never finalized (numba and numpy do not survive a
+ * re-initialization). */
+static const char *hg_ensure_python(void) {
+    const char *result = NULL;
+    pthread_mutex_lock(&hg_py_lock);
+    if (hg_py_ready) goto done;
+    const char *env = getenv("HACGEAR_FMU_PYTHON");
+    const char *exe = HG_PYTHON_EXECUTABLE, *how = "configured when the FMU was built";
+    if (env && *env) {
+        exe = env;
+        how = "from HACGEAR_FMU_PYTHON";
+    }
+    char lib[1024];
+    if (dlsym(RTLD_DEFAULT, "Py_IsInitialized")) {
+        if (!hg_resolve(RTLD_DEFAULT, "the master's process")) { result = hg_py_error; goto done; }
+        if (Py_IsInitialized()) {
+            snprintf(hg_py_origin, sizeof hg_py_origin, "the master's own Python interpreter");
+            hg_py_ready = 1;
+            goto done;
+        }
+        snprintf(lib, sizeof lib, "the libpython already in the master's process");
+    } else {
+        snprintf(lib, sizeof lib, "%s", env && *env ? "" : HG_LIBPYTHON);
+        if (env && *env) {
+            hg_query_libpython(exe, lib, sizeof lib);
+            if (!lib[0]) {
+                snprintf(hg_py_error, sizeof hg_py_error,
+                         "HACGEAR_FMU_PYTHON='%s' is not a Python interpreter with a shared libpython (asking it for "
+                         "its libpython failed or gave none); set it to the python executable (3.11+, with numpy, "
+                         "scipy, h5py, numba) of a build with a shared libpython", exe);
+                result = hg_py_error;
+                goto done;
+            }
+        } else if (!lib[0]) {
+            snprintf(hg_py_error, sizeof hg_py_error,
+                     "the Python this FMU was built with (%s) has no shared libpython, so a master that is not a "
+                     "Python program cannot run it: set HACGEAR_FMU_PYTHON to the python executable (3.11+, with "
+                     "numpy, scipy, h5py, numba) of a build with a shared libpython", exe);
+            result = hg_py_error;
+            goto done;
+        }
+        void *h = dlopen(lib, RTLD_NOW | RTLD_GLOBAL);
+        if (!h) {
+            const char *e = dlerror();
+            snprintf(hg_py_error, sizeof hg_py_error,
+                     "cannot load libpython %s of the Python %s (%s): %s; set HACGEAR_FMU_PYTHON to a python "
+                     "executable (3.11+, with numpy, scipy, h5py, numba)", lib, exe, how, e ? e : "unknown error");
+            result = hg_py_error;
+            goto done;
+        }
+        if (!hg_resolve(h, lib)) { result = hg_py_error; goto done; }
+    }
+    if (!Py_IsInitialized()) {
+        /* the program name is the interpreter's path: Python finds its prefix (standard library) and a venv's
+         * site-packages from it, not from whichever python3 comes first on PATH */
+        if (hg_fn_Py_SetProgramName) {
+            wchar_t *w = hg_fn_Py_DecodeLocale(exe, NULL); /* kept: Python holds the pointer */
+            if (w) hg_fn_Py_SetProgramName(w);
+        }
+        hg_fn_Py_InitializeEx(0);
+        PyEval_SaveThread();
+        snprintf(hg_py_origin, sizeof hg_py_origin, "started by the FMU binary: program %s, %s (%s)", exe, lib, how);
+    } else {
+        snprintf(hg_py_origin, sizeof hg_py_origin, "the Python interpreter already running in the process");
+    }
+    hg_py_ready = 1;
+done:
+    pthread_mutex_unlock(&hg_py_lock);
+    return result;
+}
 
 enum { HG_OK = 0, HG_WARNING = 1, HG_DISCARD = 2, HG_ERROR = 3, HG_FATAL = 4 };
 
@@ -33,15 +251,6 @@ struct HgInstance {
     hg_emit_fn emit;     /* the master's logger, version-specific */
     const void *env;     /* version-specific logger data */
 };
-
-/* Python started by this binary when the master is not a Python program (then never finalized: numba and numpy
- * do not survive a re-initialization). */
-static void hg_ensure_python(void) {
-    if (!Py_IsInitialized()) {
-        Py_InitializeEx(0);
-        PyEval_SaveThread();
-    }
-}
 
 static char *hg_strdup(const char *s) {
     size_t n = s ? strlen(s) : 0;
@@ -142,7 +351,8 @@ static int hg_status(HgInstance *h, PyObject *res, const char *call) {
 /* Create the FmuInstance: run resources/hacgear_fmu_boot.py's instantiate(); NULL and *error (malloc'ed) on
  * failure. */
 static const char hg_boot_source[] =
-    "def _hacgear_boot(name, location, token, logging_on, version):\n"
+    "def _hacgear_boot(name, location, token, logging_on, version, origin):\n"
+    "    import sys\n"
     "    import os, urllib.parse, urllib.request\n"
     "    if location.startswith('file:'):\n"
     "        path = urllib.request.url2pathname(urllib.parse.urlparse(location).path)\n"
@@ -152,7 +362,9 @@ static const char hg_boot_source[] =
     "    ns = {'__name__': 'hacgear_fmu_boot', '__file__': boot, '__builtins__': __builtins__}\n"
     "    with open(boot, encoding='utf-8') as f:\n"
     "        exec(compile(f.read(), boot, 'exec'), ns)\n"
-    "    return ns['instantiate'](name, location, token, bool(logging_on), version)\n";
+    "    inst = ns['instantiate'](name, location, token, bool(logging_on), version)\n"
+    "    inst.log(0, f'hacgear FMU: Python {sys.version.split()[0]} at {sys.executable} ({origin})')\n"
+    "    return inst\n";
 
 static PyObject *hg_create(const char *name, const char *location, const char *token, int logging_on,
                            int version, char **error) {
@@ -167,8 +379,8 @@ static PyObject *hg_create(const char *name, const char *location, const char *t
     if (!res) goto fail;
     fn = PyDict_GetItemString(globals, "_hacgear_boot"); /* borrowed */
     if (!fn) goto fail;
-    inst = PyObject_CallFunction(fn, "sssii", name ? name : "", location ? location : "", token ? token : "",
-                                 logging_on, version);
+    inst = PyObject_CallFunction(fn, "sssiis", name ? name : "", location ? location : "", token ? token : "",
+                                 logging_on, version, hg_py_origin);
     if (!inst) goto fail;
     Py_XDECREF(res);
     Py_XDECREF(code);

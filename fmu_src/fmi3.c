@@ -104,14 +104,20 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
         free(I);
         return NULL;
     }
-    hg_ensure_python();
-    PyGILState_STATE gil = PyGILState_Ensure();
     char *error = NULL;
-    PyObject *inst = hg_create(instanceName, resourcePath, instantiationToken, loggingOn ? 1 : 0, 3, &error);
-    if (inst && !hg_attach(&I->h, inst)) {
-        hg_detach(&I->h);
-        inst = NULL;
-        error = hg_strdup("internal error: the FMU instance lacks its methods");
+    PyObject *inst = NULL;
+    PyGILState_STATE gil = PyGILState_UNLOCKED;
+    const char *no_python = hg_ensure_python();
+    if (no_python) {
+        error = hg_strdup(no_python);
+    } else {
+        gil = PyGILState_Ensure();
+        inst = hg_create(instanceName, resourcePath, instantiationToken, loggingOn ? 1 : 0, 3, &error);
+        if (inst && !hg_attach(&I->h, inst)) {
+            hg_detach(&I->h);
+            inst = NULL;
+            error = hg_strdup("internal error: the FMU instance lacks its methods");
+        }
     }
     if (!inst) {
         const char *e = error ? error : "unknown error";
@@ -123,7 +129,7 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
         }
         fprintf(stderr, "hacgear FMU '%s': instantiation failed: %s\n", I->h.name, e);
         free(error);
-        PyGILState_Release(gil);
+        if (!no_python) PyGILState_Release(gil);
         free(I->h.name);
         free(I);
         return NULL;

@@ -6,6 +6,7 @@ from __future__ import annotations
 import importlib.metadata as md_
 import json
 import math
+import os
 import re
 import shutil
 import subprocess
@@ -194,10 +195,12 @@ def test_model_description_fmi2(built):
     assert by["m12.contact"].get("variability") == "discrete"
     assert by["pinion.speed"].find("Real").get("displayUnit") == "rpm"
     assert displays["rad/s"]["rpm"] == pytest.approx(60 / (2 * math.pi), rel=1e-15)
-    assert by["m12.deflection"].find("Real").get("displayUnit") == "µm"
+    assert by["m12.deflection"].find("Real").get("displayUnit") == "um"
     assert by["m12.force"].find("Real").get("displayUnit") == "kN"
     assert by["m12.peak_pressure"].find("Real").get("displayUnit") == "MPa"
-    assert by["wheel.SG25.root_strain"].find("Real").get("displayUnit") == "µε"
+    assert by["wheel.SG25.root_strain"].find("Real").get("displayUnit") == "um/m"
+    assert by["m12.contact_code"].find("Integer") is not None and by["m12.contact_code"].get("variability") == "discrete"
+    assert all(d.get("name").isascii() for d in root.iter("DisplayUnit"))
     assert float(by["m12.force"].find("Real").get("nominal")) == pytest.approx(info["meshes"]["m12"]["nominal_force_N"])
     # ModelStructure: every output, by its 1-based index, in Outputs (no dependencies) and InitialUnknowns
     outputs = {str(i + 1) for i, sv in enumerate(svs) if sv.get("causality") == "output"}
@@ -606,7 +609,8 @@ def test_fmi3_equals_fmi2(built):
         kw = dict(stop_time=0.01, output_interval=1e-4, start_values={"mode": 1})
         r2 = fmpy.simulate_fmu(str(built["fmu"][system]), **kw)
         r3 = fmpy.simulate_fmu(str(built["fmu3"][system]), **kw)
-        assert r2.dtype.names == r3.dtype.names and len(r2) == len(r3) == 101
+        # the same variables (fmpy records FMI 3.0 variables grouped by type: Int32 and Enumeration apart)
+        assert sorted(r2.dtype.names) == sorted(r3.dtype.names) and len(r2) == len(r3) == 101
         for name in r2.dtype.names:
             a, b = np.asarray(r2[name], float), np.asarray(r3[name], float)
             assert np.max(np.abs(a - b)) <= 1e-12 * max(np.max(np.abs(a)), 1e-300), (system, name)
@@ -737,6 +741,116 @@ def test_importer_exits_cleanly(built):
     for _ in range(3):
         p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
         assert p.returncode == 0, (p.returncode, p.stderr[-2000:])
+
+
+def test_c_master_runs_the_fmu_without_preload_in_the_configured_python(built, tmp_path):
+    """A master that is not a Python program (tests/_fmi2_master.c, compiled here; no libpython in it) loads the FMU
+    binary as it is, without LD_PRELOAD: the binary loads the libpython recorded at build and starts that
+    interpreter, not the misleading ``python3`` first on PATH (Debian's system Python where there is one, which
+    lacks numpy and would not even find its own ``_struct`` under this libpython), and says so in its log.  100
+    doSteps give the force the same FMU gives under fmpy; ``HACGEAR_FMU_PYTHON`` names another interpreter, and a
+    wrong one fails the instantiation with a message naming the variable."""
+    cc = shutil.which("cc") or shutil.which("gcc")
+    if not cc:
+        pytest.skip("no C compiler")
+    fmu = built["fmu"]["spur_28t_asym"]
+    h, n = 5e-5, 100
+    low = _Low(fmu)
+    assert low.init() == OK
+    t = 0.0
+    for _ in range(n):
+        assert low.step(t, h) == OK
+        t += h
+    (force,) = low.get("m12.force")
+    low.close()
+    master = tmp_path / "master"
+    r = subprocess.run([cc, "-O1", f"-I{Path(fmpy.__file__).parent / 'c-code'}", "-o", str(master),
+                        str(ROOT / "tests" / "_fmi2_master.c"), "-ldl"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "libpython" not in subprocess.run(["ldd", str(master)], capture_output=True, text=True).stdout
+    unpacked = Path(extract(str(fmu), unzipdir=str(tmp_path / "fmu")))
+    md = read_model_description(str(fmu))
+    vr = {v.name: v.valueReference for v in md.modelVariables}["m12.force"]
+    fake = tmp_path / "bin"
+    fake.mkdir()
+    system_python = Path("/usr/bin/python3")
+    if system_python.exists() and system_python.resolve() != Path(sys.executable).resolve():
+        (fake / "python3").symlink_to(system_python)
+    else:
+        (fake / "python3").write_text("#!/bin/sh\necho 'not the configured python' >&2\nexit 1\n")
+        (fake / "python3").chmod(0o755)
+    env = {k: v for k, v in os.environ.items() if k not in ("LD_PRELOAD", "LD_LIBRARY_PATH", "PYTHONHOME")}
+    env["PATH"] = f"{fake}{os.pathsep}{env.get('PATH', '')}"
+    env.pop("HACGEAR_FMU_PYTHON", None)
+    args = [str(master), str(unpacked / "binaries" / "linux64" / "spur_28t_asym.so"),
+            (unpacked / "resources").as_uri(), md.guid, str(vr), str(n), repr(h)]
+    runtime = json.loads((unpacked / "resources" / "hacgear_fmu.json").read_text())["python_runtime"]
+    assert runtime["executable"] == sys.executable and Path(runtime["libpython"]).is_file()
+    other = str(Path(sys.executable).resolve())  # the same interpreter by another path: named in the log
+    for extra, exe, how in (({}, sys.executable, "configured when the FMU was built"),
+                            ({"HACGEAR_FMU_PYTHON": other}, other, "from HACGEAR_FMU_PYTHON")):
+        p = subprocess.run(args, capture_output=True, text=True, timeout=900, env={**env, **extra})
+        assert p.returncode == 0, p.stdout[-3000:] + p.stderr[-3000:]
+        assert f"hacgear FMU: Python {sys.version.split()[0]} at {exe} (started by the FMU binary" in p.stdout
+        assert f"({how})" in p.stdout, p.stdout[-2000:]
+        value = float(p.stdout.split("VALUE")[1])
+        assert value == pytest.approx(force, rel=1e-12) and 1e3 < value < 1e5
+    p = subprocess.run(args, capture_output=True, text=True, timeout=60,
+                       env={**env, "HACGEAR_FMU_PYTHON": str(tmp_path / "no_python")})
+    assert p.returncode == 1 and "fmi2Instantiate returned NULL" in p.stderr
+    assert f"LOG 3 logStatusError: instantiation failed: HACGEAR_FMU_PYTHON='{tmp_path / 'no_python'}' is not a " \
+           "Python interpreter" in p.stdout
+
+
+def test_contact_code_is_read_under_libcosim_and_ecos(built):
+    """The Integer twin of the contact state, ``<mesh>.contact_code``, is what libcosim (which lists no Enumeration
+    variables) and Ecos (which reads none) see: under both, at every step of the default experiment (the mesh
+    resonance: contact loss), it equals contact_state(force, coast_force) read in the same master, and the drive
+    flanks and the backlash both occur."""
+    from hacgear_core.fmu.adapter import contact_state
+
+    lc = pytest.importorskip("libcosimpy.CosimExecution")
+    from libcosimpy.CosimEnums import CosimVariableType
+    from libcosimpy.CosimObserver import CosimObserver
+    from libcosimpy.CosimSlave import CosimLocalSlave
+
+    fmu, h, n = built["fmu"]["spur_28t_asym"], 5e-5, 300
+    names = ("m12.force", "m12.coast_force")
+    ex = lc.CosimExecution.from_step_size(step_size=int(round(h * 1e9)))
+    i = ex.add_local_slave(CosimLocalSlave(fmu_path=str(fmu), instance_name="g"))
+    vs = {v.name.decode(): v for v in ex.slave_variables(i)}
+    assert "m12.contact" not in vs and vs["m12.contact_code"].type == CosimVariableType.INTEGER.value
+    obs = CosimObserver.create_last_value()
+    ex.add_observer(obs)
+    seen = set()
+    for _ in range(n):
+        assert ex.step(1)
+        (code,) = obs.last_integer_values(i, [vs["m12.contact_code"].reference])
+        force, coast = obs.last_real_values(i, [vs[k].reference for k in names])
+        assert code == contact_state(force, coast)
+        seen.add(code)
+    assert {0, 1} <= seen
+    try:
+        import ecospy
+    except ImportError:
+        pytest.skip("ecospy is not installed (pip install ecospy)")
+    except OSError as exc:  # its libecosc.so loads libtbb
+        pytest.skip(f"ecospy's library does not load ({exc}): apt-get install libtbb12")
+    structure = ecospy.EcosSimulationStructure()
+    structure.add_model("g", str(fmu))
+    sim = ecospy.EcosSimulation(structure=structure, step_size=h)
+    try:
+        sim.init()
+        seen = set()
+        for _ in range(n):
+            sim.step()
+            code = sim.get_integer("g::m12.contact_code")
+            assert code == contact_state(*(sim.get_real(f"g::{k}") for k in names))
+            seen.add(code)
+        assert {0, 1} <= seen
+    finally:
+        sim.terminate()
+        sim.free()
 
 
 def test_drivetrain_bench_follows_the_motor_and_carries_the_load(built):

@@ -114,12 +114,12 @@ def test_two_stage_gearbox(stages, tmp_path):
     res = run_drivetrain_bench(fmus, TWO)
     lay = res["layout"]
     i1, i2 = lay.infos["stage1"], lay.infos["stage2"]
-    assert (i1["input"], i1["output"], i2["input"], i2["output"]) == ("input", "output", "pinion", "wheel")
+    assert (i1["input"], i1["output"], i2["input"], i2["output"]) == ("pinion", "wheel", "pinion", "wheel")
     assert res["speed_ratio"] == pytest.approx(i1["ratio"] * i2["ratio"]) == pytest.approx(1.0)
     t = res["time_s"]
     hold = t < TWO.hold_s
     w0 = TWO.speed_start_rpm * 2 * math.pi / 60
-    for key in ("stage1.input.speed", "stage1.output.speed", "stage2.pinion.speed", "load.speed"):
+    for key in ("stage1.pinion.speed", "stage1.wheel.speed", "stage2.pinion.speed", "load.speed"):
         assert np.mean(res[key][hold]) == pytest.approx(w0, rel=5e-3), key
     # static torque flow: load 300 N m through two unity-ratio stages
     assert lay.static["input_torque_Nm"] == pytest.approx([300.0, 300.0])

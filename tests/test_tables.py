@@ -673,3 +673,40 @@ def test_committed_helical_table_is_two_sided(capsys):
     # tan(beta_b) = tan(beta) cos(alpha_t): the 20 deg coast flanks have the larger base helix angle
     assert math.tan(abs(c["base_helix_angle_rad"])) == pytest.approx(
         math.tan(abs(d["base_helix_angle_rad"])) * math.cos(math.radians(20)) / math.cos(math.radians(25)), rel=1e-6)
+
+
+def test_rename_gears_carries_names_only(tmp_path):
+    """rename_gears: a gear rename of the model file carried over to its table keeps every dataset bit for bit,
+    renames the per-gear groups and gauge names, records the rename and makes the table belong to the renamed model;
+    a model that differs in anything but the names is refused, naming the value, and the file is left as it was."""
+    from hacgear_core.tables.rename import RENAMED_ATTR, rename_gears
+
+    src = REPO / "models" / "spur_50t_icr18"
+    text = (src / "model.toml").read_text()
+    renamed = text.replace('"pinion"', '"gear_a1"').replace('"wheel"', '"gear_b1"')
+    assert renamed != text
+    tab = tmp_path / "tables.h5"
+    shutil.copy(src / "tables.h5", tab)
+    bad = tmp_path / "bad.toml"
+    bad.write_text(renamed.replace("tip_diameter_mm = 156.06", "tip_diameter_mm = 156.07"))
+    before = tab.read_bytes()
+    with pytest.raises(TableError, match=r"gears\.gear_a1\.tip_diameter_m: 0\.15606 in the table, 0\.15607 now"):
+        rename_gears(tab, {"pinion": "gear_a1", "wheel": "gear_b1"}, bad)
+    with pytest.raises(TableError, match=r"renames name gears the table does not have: \['input'\]"):
+        rename_gears(tab, {"input": "gear_a1"}, bad)
+    assert tab.read_bytes() == before
+    good = tmp_path / "model.toml"
+    good.write_text(renamed)
+    with pytest.raises(TableError, match="does not belong to"):
+        read_tables(tab, model_path=good)
+    rename_gears(tab, {"pinion": "gear_a1", "wheel": "gear_b1"}, good)
+    new, old = read_tables(tab, model_path=good), read_tables(src / "tables.h5", model_path=src / "model.toml")
+    assert new.meshes["m12"].gear_names == ("gear_a1", "gear_b1")
+    assert np.array_equal(new.meshes["m12"].force_N, old.meshes["m12"].force_N)
+    with h5py.File(tab) as f, h5py.File(src / "tables.h5") as g:
+        assert sorted(f["meshes/m12/strain"]) == ["gear_a1", "gear_b1"]
+        assert list(f["meshes/m12/coast"].attrs["gauge_names"]) == [b"gear_a1/R70p7", b"gear_b1/R70p7"] or \
+            list(f["meshes/m12/coast"].attrs["gauge_names"]) == ["gear_a1/R70p7", "gear_b1/R70p7"]
+        assert np.array_equal(f["meshes/m12/strain/gear_b1/R70p7"][()], g["meshes/m12/strain/wheel/R70p7"][()],
+                              equal_nan=True)
+        assert '"renames": {"pinion": "gear_a1", "wheel": "gear_b1"}' in str(f.attrs[RENAMED_ATTR])

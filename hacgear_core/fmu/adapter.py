@@ -266,7 +266,7 @@ class Adapter:
             spec.append(V(f"{ident(g)}.bearing_stiffness", "Real", "parameter", "fixed", "N/m",
                           f"translational bearing stiffness of {what}; inf = rigid (no translation DOF), as in model "
                           "files and on the command line; 0 = no bearing (a floating member)",
-                          k, k_range.lo, k_range.hi, display_unit="N/µm", allow_inf=k_range.allow_inf))
+                          k, k_range.lo, k_range.hi, display_unit="N/um", allow_inf=k_range.allow_inf))
         spec += [
             V("internal_step", "Real", "parameter", "fixed", "s",
               "largest internal RK4 step; 0 = automatic (mesh period / 128 at the current speed and 1/32 of the "
@@ -297,16 +297,19 @@ class Adapter:
                   "(0 = contact loss)", display_unit="kN", nominal=f_nom),
                 V(f"{m_}.deflection", "Real", "output", "continuous", "m",
                   f"mesh deflection of mesh {mn}: approach of the loaded flanks along the line of action "
-                  "(dissertation Eqs. 3.4, 4.4)", display_unit="µm", nominal=x_nom),
+                  "(dissertation Eqs. 3.4, 4.4)", display_unit="um", nominal=x_nom),
                 V(f"{m_}.dte", "Real", "output", "continuous", "m",
                   f"dynamic transmission error of mesh {mn}: rotational part of its mesh deflection",
-                  display_unit="µm", nominal=x_nom),
+                  display_unit="um", nominal=x_nom),
                 V(f"{m_}.position", "Real", "output", "continuous", "1",
                   f"mesh position of mesh {mn} in mesh cycles (integer = pitch-point contact of a tooth pair), "
                   "unwrapped", nominal=1.0),
                 V(f"{m_}.contact", "Enumeration", "output", "discrete", "",
                   f"contact state of mesh {mn} at the end of the step: drive flanks, coast flanks (across the "
                   "backlash), or separated (in the backlash)", declared_type="ContactState"),
+                V(f"{m_}.contact_code", "Integer", "output", "discrete", "",
+                  f"{m_}.contact as an Integer, for masters that read no Enumeration: 0 = separated (in the "
+                  "backlash), 1 = drive flanks, 2 = coast flanks (across the backlash)"),
                 V(f"{m_}.peak_pressure", "Real", "output", "continuous", "Pa",
                   f"maximum contact pressure over all teeth of mesh {mn} on the flanks in contact, drive or coast "
                   "(table lookup)", display_unit="MPa",
@@ -371,7 +374,7 @@ class Adapter:
             z = sy.gears[gear].teeth if gear in sy.gears else 0
             spec.append(V(f"{ident(gear)}.{ident(gname or gear)}.root_strain", "Real", "output", "continuous", "1",
                           f"root strain at gauge '{gauge}' of tooth 0 of {gear} (in mesh every {z} mesh cycles, "
-                          "all its meshes superposed; table lookup)", display_unit="µε", nominal=nom["strain"][gauge]))
+                          "all its meshes superposed; table lookup)", display_unit="um/m", nominal=nom["strain"][gauge]))
         names = [v.name for v in spec]
         if len(set(names)) != len(names):
             raise ModelError(f"FMU variable names are not unique: {names}")
@@ -437,6 +440,7 @@ class Adapter:
             out[f"{m_}.position"] = mesh(j, lambda k: a.sim.mesh_position[k])
             out[f"{m_}.contact"] = mesh(j, lambda k: contact_state(a.sim.mesh_force_N[k], a.sim.coast_force_N[k]),
                                         CONTACT_SEPARATED)
+            out[f"{m_}.contact_code"] = out[f"{m_}.contact"]
             out[f"{m_}.peak_pressure"] = mesh(j, lambda k: a.sim.peak_pressure_Pa(k))
             out[f"{m_}.out_of_range"] = mesh(j, lambda k: a.sim.out_of_range_steps[k] > 0, False)
             if f"{m_}.coast_force" in self.by_name:

@@ -7,7 +7,9 @@ An FMU holds:
   (units with display units, nominal values, ranges, enumeration types, structured names, ModelStructure with
   Outputs and InitialUnknowns, a DefaultExperiment at the mesh resonance);
 * ``binaries/<platform>/<system>.so``, compiled from ``fmu_src/fmi2.c`` or ``fmu_src/fmi3.c`` with the system's C
-  compiler against Python's stable ABI and the FMI headers shipped with fmpy;
+  compiler against Python's stable ABI and the FMI headers shipped with fmpy, linking no libpython: in a master
+  that is not a Python program it loads the libpython of the interpreter recorded here (:func:`python_runtime`,
+  overridden by ``HACGEAR_FMU_PYTHON``) itself;
 * ``resources/``: the model file and its tables, ``hacgear_fmu.json`` (system, GUID, variables, minimum versions
   of the importer's packages, ports), the loader ``hacgear_fmu_boot.py`` (:mod:`.bootstrap`) and the hacgear code
   itself as a package whose name is unique to its contents (``hacgear_fmu_<version>_<digest>``), so that the
@@ -45,6 +47,7 @@ from hacgear_core.model import load_model, model_sha256
 from hacgear_core.tables import SystemTables, write_tables
 
 __all__ = ["build_fmu", "build_component_fmu", "model_description", "bundle_package", "compile_binary", "synthetic_system_folder",
+           "python_runtime", "LIBPYTHON_QUERY",
            "REQUIREMENTS", "PYTHON_REQUIREMENT", "fmu_file_name"]
 
 #: Lowest versions of the importer's packages the FMUs are tested with (docs/fmu.md, "What the importer needs"):
@@ -108,14 +111,55 @@ def _fmi_headers() -> Path:
     return d
 
 
-def compile_binary(fmi_version: int, out: str | Path) -> Path:
+#: Python code (run as ``python -I -c``) printing the path of that interpreter's shared libpython, or an empty
+#: line where it has none (a static build without the library).  The FMU build records the building interpreter's
+#: with it; the FMU binary asks the interpreter named by ``HACGEAR_FMU_PYTHON`` with the same code.
+LIBPYTHON_QUERY = ("import os, sysconfig as s; d = s.get_config_var('LIBDIR') or ''; "
+                   "print(next((p for p in (os.path.join(d, s.get_config_var(k) or '') "
+                   "for k in ('INSTSONAME', 'LDLIBRARY')) if '.so' in os.path.basename(p) and os.path.isfile(p)), ''))")
+
+
+def python_runtime(executable: str | None = None) -> dict[str, str]:
+    """The interpreter a native FMU binary starts in a master that is not a Python program: ``executable`` (default
+    this one, ``sys.executable``, a venv's python kept as it is so that its site-packages are found) and its shared
+    ``libpython`` (``""`` where it has none).
+
+    Raises
+    ------
+    HacgearError
+        ``executable`` cannot be run.
+    """
+    exe = str(executable or sys.executable)
+    try:
+        r = subprocess.run([exe, "-I", "-c", LIBPYTHON_QUERY], capture_output=True, text=True, timeout=60)
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        raise HacgearError(f"cannot run the Python interpreter {exe} to find its libpython: {exc}") from None
+    if r.returncode != 0:
+        raise HacgearError(f"the Python interpreter {exe} failed to name its libpython: {r.stderr.strip()[-500:]}")
+    return {"executable": exe, "libpython": r.stdout.strip()}
+
+
+def _c_string(text: str) -> str:
+    """A C string literal of ``text`` (UTF-8 bytes, octal escapes for anything but printable ASCII)."""
+    out = []
+    for b in text.encode("utf-8"):
+        c = chr(b)
+        out.append(c if 32 <= b < 127 and c not in '"\\?' else f"\\{b:03o}")
+    return '"' + "".join(out) + '"'
+
+
+def compile_binary(fmi_version: int, out: str | Path, runtime: dict[str, str] | None = None) -> Path:
     """Compile the FMU binary of ``fmi_version`` (2 or 3) into ``out`` (a shared library).
+
+    The binary links no libpython; ``runtime`` (default :func:`python_runtime` of this interpreter) is the
+    interpreter it starts in a master that is not a Python program (``fmu_src/bridge.h``).
 
     Raises
     ------
     HacgearError
         No C compiler, no Python headers, or a failed compilation (with the compiler's message).
     """
+    runtime = runtime or python_runtime()
     native = _native()
     src = native / f"fmi{fmi_version}.c"
     if not src.exists():
@@ -130,12 +174,18 @@ def compile_binary(fmi_version: int, out: str | Path) -> Path:
                            f"install python{sys.version_info[0]}-dev")
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    cmd = [cc, "-shared", "-fPIC", "-O2", "-std=c99", "-Wall", "-fvisibility=hidden", f"-I{native}",
-           f"-I{_fmi_headers()}", f"-I{py_inc}", "-o", str(out), str(src)]
-    try:
-        r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
-    except (OSError, subprocess.TimeoutExpired) as exc:
-        raise HacgearError(f"the C compiler failed to run: {exc}") from None
+    with tempfile.TemporaryDirectory(prefix="hacgear_cc_") as cfg:
+        (Path(cfg) / "hg_config.h").write_text(
+            "/* written by hacgear_core.fmu.build: the interpreter this FMU binary starts (bridge.h) */\n"
+            f"#define HG_PYTHON_EXECUTABLE {_c_string(runtime['executable'])}\n"
+            f"#define HG_LIBPYTHON {_c_string(runtime['libpython'])}\n"
+            f"#define HG_LIBPYTHON_QUERY {_c_string(LIBPYTHON_QUERY)}\n", encoding="ascii")
+        cmd = [cc, "-shared", "-fPIC", "-O2", "-std=c99", "-Wall", "-fvisibility=hidden", f"-I{native}",
+               f"-I{_fmi_headers()}", f"-I{py_inc}", f"-I{cfg}", "-o", str(out), str(src), "-pthread", "-ldl"]
+        try:
+            r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+        except (OSError, subprocess.TimeoutExpired) as exc:
+            raise HacgearError(f"the C compiler failed to run: {exc}") from None
     if r.returncode != 0 or not out.exists():
         raise HacgearError(f"compiling the FMU binary failed ({' '.join(cmd)}):\n{r.stderr.strip()[-3000:]}")
     return out
@@ -329,12 +379,14 @@ def _package(adapter, info: dict, files: dict, dest: Path, fmi_version: int, bac
                 "model_sha256": _sha256(res / MODEL_FILE) if (res / MODEL_FILE).exists() else "",
                 "tables_sha256": _sha256(res / TABLES_FILE) if (res / TABLES_FILE).exists() else "",
                 "variables": [v.name for v in adapter.variables],
-                "default_experiment": adapter.default_experiment()}
+                "default_experiment": adapter.default_experiment(),
+                "python_runtime": python_runtime()}
         info["guid"] = _guid(info)
         (res / FMU_INFO_FILE).write_text(json.dumps(info, indent=1), encoding="utf-8")
         if backend == "pythonfmu":
             return build_pythonfmu(res, info, model_description(adapter, info, fmi_version), dest, fmi_version)
-        binary = compile_binary(fmi_version, td / "binaries" / _PLATFORM[fmi_version] / f"{info['system']}.so")
+        binary = compile_binary(fmi_version, td / "binaries" / _PLATFORM[fmi_version] / f"{info['system']}.so",
+                                info["python_runtime"])
         xml = model_description(adapter, info, fmi_version)
         tmp = dest.with_name(dest.name + ".tmp")
         with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:

@@ -26,16 +26,17 @@ UNITS: dict[str, dict[str, int]] = {
     "N.m.s/rad": {"kg": 1, "m": 2, "s": -1, "rad": -1},
 }
 
-#: Display units per unit: name -> factor (display value = factor * SI value; FMI ``DisplayUnit``).
+#: Display units per unit: name -> factor (display value = factor * SI value; FMI ``DisplayUnit``).  Names are
+#: ASCII unit expressions as Modelica writes them (``u`` = micro): microstrain is ``um/m``.
 DISPLAY_UNITS: dict[str, dict[str, float]] = {
-    "m": {"µm": 1e6, "mm": 1e3},
+    "m": {"um": 1e6, "mm": 1e3},
     "rad": {"deg": 180.0 / math.pi},
     "rad/s": {"rpm": 30.0 / math.pi},
     "N": {"kN": 1e-3},
     "N.m": {"kN.m": 1e-3},
-    "N/m": {"N/µm": 1e-6},
+    "N/m": {"N/um": 1e-6},
     "Pa": {"MPa": 1e-6},
-    "1": {"µε": 1e6},
+    "1": {"um/m": 1e6},
 }
 
 #: Enumeration types: name -> (description, ((item name, value, description), ...)).
@@ -65,7 +66,8 @@ class FmuVariable:
     type : str
         ``"Real"``, ``"Integer"``, ``"Boolean"`` or ``"Enumeration"`` (then ``declared_type`` names one of
         :data:`ENUMERATIONS`).  Discrete quantities are never Real: switches a master sets are Integer (libcosim,
-        for one, cannot set Enumeration variables), discrete outputs such as contact states are Enumerations.
+        for one, cannot set Enumeration variables), discrete outputs such as contact states are Enumerations with
+        an Integer twin of the same values (libcosim lists no Enumeration variables, Ecos reads none).
     causality : str
         ``parameter`` | ``input`` | ``output`` | ``independent`` (time, FMI 3.0 only).
     variability : str

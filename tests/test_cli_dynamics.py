@@ -210,3 +210,28 @@ def test_sweep_stability_column_and_json(capsys):
     i = next(k for k, line in enumerate(lines) if "f_m [Hz]" in line)
     assert "|mu|max" in lines[i]
     assert [float(line.split()[-1]) for line in lines[i + 1:i + 4]] == [round(v, 4) for v in mu]
+
+
+def test_compile_notices_go_to_stderr_not_into_json(monkeypatch, capsys):
+    """A compile notice of the library (the COMPILE_LOGGER logger) is printed on stderr, prefixed with the command,
+    while --json stdout stays pure JSON; the CLI's handler is gone after the command returns."""
+    import logging
+
+    import hacgear_core.cli.info as info_cli
+    from hacgear_core.dynamics.kernels import COMPILE_LOGGER
+
+    def fake_run(args):
+        logging.getLogger(COMPILE_LOGGER).info("compiling the integration kernel for 2 DOF x 1 mesh (test)")
+        print(json.dumps({"ok": 1}))
+        return 0
+
+    monkeypatch.setattr(info_cli, "run", fake_run)
+    logger = logging.getLogger(COMPILE_LOGGER)
+    before = list(logger.handlers)
+    assert main(["info", "spur_28t_asym", "--json"]) == 0
+    out, err = capsys.readouterr()
+    assert json.loads(out) == {"ok": 1}
+    assert err == "hacgear info: compiling the integration kernel for 2 DOF x 1 mesh (test)\n"
+    assert logger.handlers == before
+    logging.getLogger(COMPILE_LOGGER).info("after the command: silent")
+    assert capsys.readouterr() == ("", "")

@@ -13,10 +13,12 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import logging
 import pkgutil
 import sys
 
 from hacgear_core import __version__
+from hacgear_core.dynamics.kernels import COMPILE_LOGGER
 from hacgear_core.errors import HacgearError
 
 __all__ = ["main", "build_parser"]
@@ -51,11 +53,21 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    # the library's compile notices ("compiling the integration kernel ...") go to stderr, never into --json stdout
+    notices = logging.StreamHandler(sys.stderr)
+    notices.setFormatter(logging.Formatter(f"hacgear {args.command}: %(message)s"))
+    logger = logging.getLogger(COMPILE_LOGGER)
+    level = logger.level
+    logger.addHandler(notices)
+    logger.setLevel(logging.INFO)
     try:
         return int(args.func(args) or 0)
     except HacgearError as exc:  # clear, user-facing errors: no traceback
         print(f"hacgear {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    finally:
+        logger.removeHandler(notices)
+        logger.setLevel(level)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -56,10 +56,13 @@ and at ``REC * m`` the time since the call started [s].
 """
 from __future__ import annotations
 
+import logging
 import math
+import time
 
 import numpy as np
-from numba import njit
+from numba import njit, typeof
+from numba.core import event
 
 from hacgear_core.tables.interp import periodic_cell, deflection_cell, trilinear_flat
 
@@ -81,6 +84,9 @@ __all__ = [
     "flatten_twist_tables",
     "table_row_force",
     "select_kernel",
+    "kernel_label",
+    "prepare_kernel",
+    "COMPILE_LOGGER",
     "flatten_tables",
     "table_onset",
     "record_width",
@@ -786,6 +792,75 @@ def select_kernel(law: int, n: int, m: int, two_sided: bool = False):
         return _twist_12_1 if (n, m) == (12, 1) else _twist_s
     two_sided = bool(two_sided)
     return _SPECIAL.get((law, n, m, two_sided), _GENERIC[(law, two_sided)])
+
+
+#: name of the :mod:`logging` logger of the compile notices of :func:`prepare_kernel` (INFO; silent unless the
+#: application attaches a handler: the ``hacgear`` commands print them on stderr)
+COMPILE_LOGGER = "hacgear.compile"
+
+#: CPU seconds numba 0.68 takes to compile one specialisation on a cold cache (measured: 95 s on one core of the
+#: 2-core development machine, peak resident memory 3.8 GB; docs/dynamics.md "Compile time"): the estimate the
+#: compile notice gives
+COMPILE_CPU_S = 95
+
+
+def kernel_label(law: int, n: int, m: int, two_sided: bool = False) -> str:
+    """What :func:`select_kernel` selects, in words: ``"the integration kernel for 12 DOF x 1 mesh (helical)"``."""
+    kind = {LAW_TABLE: "force tables", LAW_LINEAR: "conventional force law", LAW_TWIST: "helical"}[law]
+    sides = ", both flanks" if two_sided else ""
+    return f"the integration kernel for {n} DOF x {m} mesh{'es' if m != 1 else ''} ({kind}{sides})"
+
+
+class _CompileWatch(event.Listener):
+    """Calls ``notice`` when numba starts compiling ``dispatcher`` (not when it loads it from its cache)."""
+
+    def __init__(self, dispatcher, notice) -> None:
+        self.dispatcher = dispatcher
+        self.notice = notice
+        self.compiled = False
+
+    def on_start(self, ev) -> None:
+        if ev.data.get("dispatcher") is self.dispatcher and not self.compiled:
+            self.compiled = True
+            self.notice()
+
+    def on_end(self, ev) -> None:
+        pass
+
+
+def prepare_kernel(kernel, args, label: str, notice=None) -> tuple[bool, float]:
+    """Make ``kernel`` (a :func:`select_kernel` loop) ready for arguments like ``args`` (the tuple a call passes):
+    numba loads it from its on-disk cache or, the first time on a machine (or after an upgrade of numba or of
+    this file), compiles it and writes the cache.  Before compiling, ``notice(message)`` is called with a line
+    that says so (default: an INFO record of the :data:`COMPILE_LOGGER` logger); loading from the cache is
+    silent.
+
+    Parameters
+    ----------
+    kernel : numba dispatcher
+    args : tuple
+        Arguments of a call (only their numba types matter).
+    label : str
+        What is compiled, in words (:func:`kernel_label`).
+    notice : callable(str), optional
+
+    Returns
+    -------
+    (compiled, seconds) : (bool, float)
+        Whether it compiled (False: it was loaded or already in memory) and the wall time taken [s].
+    """
+    t0 = time.perf_counter()
+    sig = tuple(typeof(a) for a in args)
+    if sig in kernel.overloads:
+        return False, 0.0
+    if notice is None:
+        notice = logging.getLogger(COMPILE_LOGGER).info
+    watch = _CompileWatch(kernel, lambda: notice(
+        f"compiling {label}: once per machine (numba caches it), about {COMPILE_CPU_S} s on one core and up to "
+        "4 GB of memory"))
+    with event.install_listener("numba:compile", watch):
+        kernel.compile(sig)
+    return watch.compiled, time.perf_counter() - t0
 
 
 def record_width(m: int) -> int:

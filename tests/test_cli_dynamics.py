@@ -235,6 +235,12 @@ def test_compile_notices_go_to_stderr_not_into_json(monkeypatch, capsys):
     assert logger.handlers == before
     logging.getLogger(COMPILE_LOGGER).info("after the command: silent")
     assert capsys.readouterr() == ("", "")
+    # a command run inside another (demo's stages) prints each notice once, through the outer command's handler
+    monkeypatch.setattr(info_cli, "run", lambda a: fake_run(a) if a.json else main(["info", "spur_28t_asym",
+                                                                                        "--json"]))
+    assert main(["info", "spur_28t_asym"]) == 0
+    assert capsys.readouterr().err == "hacgear info: compiling the integration kernel for 2 DOF x 1 mesh (test)\n"
+    assert logger.handlers == before
 
 
 def test_stiffness_shows_its_stages_on_stderr(capsys):

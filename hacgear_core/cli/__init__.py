@@ -54,20 +54,25 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 2
     # the library's compile notices ("compiling the integration kernel ...") go to stderr, never into --json stdout
-    notices = logging.StreamHandler(sys.stderr)
-    notices.setFormatter(logging.Formatter(f"hacgear {args.command}: %(message)s"))
+    # (once: a command run inside another, as demo's stages, keeps the outer command's handler)
     logger = logging.getLogger(COMPILE_LOGGER)
     level = logger.level
-    logger.addHandler(notices)
-    logger.setLevel(logging.INFO)
+    notices = None
+    if not any(getattr(h, "hacgear_cli", False) for h in logger.handlers):
+        notices = logging.StreamHandler(sys.stderr)
+        notices.hacgear_cli = True
+        notices.setFormatter(logging.Formatter(f"hacgear {args.command}: %(message)s"))
+        logger.addHandler(notices)
+        logger.setLevel(logging.INFO)
     try:
         return int(args.func(args) or 0)
     except HacgearError as exc:  # clear, user-facing errors: no traceback
         print(f"hacgear {args.command}: error: {exc}", file=sys.stderr)
         return 2
     finally:
-        logger.removeHandler(notices)
-        logger.setLevel(level)
+        if notices is not None:
+            logger.removeHandler(notices)
+            logger.setLevel(level)
 
 
 if __name__ == "__main__":  # pragma: no cover

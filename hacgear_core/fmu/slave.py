@@ -162,7 +162,7 @@ class FmuInstance:
         if self._tables_adapter:
             self.log(OK, f"ExitInitializationMode makes {self.adapter.sim.system.kernel_label} ready: numba loads it "
                          "from its cache, or compiles it the first time on this machine (once per machine, about "
-                         f"{COMPILE_CPU_S} s on one core and up to 4 GB of memory)")
+                         f"{COMPILE_CPU_S} s on one core)")
 
     # ------------------------------------------------------------------ helpers
     def log(self, status: int, message: str) -> None:

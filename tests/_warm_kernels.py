@@ -40,6 +40,7 @@ def _signature(pkg: str):
     sy = build.spur_pair_system(synthetic.synthetic_28t_parameters(tab), tab)
     got = []
     sy.kernel = lambda *args: got.append(args) or 0
+    sy._kernel_ready = sy.kernel  # integrate calls the spy without preparing it
     sy.integrate(np.zeros(2 * sy.n), np.array([0.0, 0.0, 100.0]), 1, 1e-6, np.zeros(sy.n))
     return tuple(numba.typeof(a) for a in got[0])
 

@@ -18,11 +18,11 @@ from _fuzz import FUZZ_COUNTS
 # Kernel specialisations (hacgear_core.dynamics.kernels) a test compiles on a cold numba cache and that no earlier
 # test compiles (measured on a cold cache: first user of each), per "<file>::<test function>": "lib:" hacgear_core's
 # own, "fmu:" those of the code bundled into the FMUs (a renamed copy of hacgear_core, compiled separately).  Each
-# takes about a minute on one core.  With a cold cache the session compiles those of the collected tests in one
+# takes about 15 s on one core.  With a cold cache the session compiles those of the collected tests in one
 # background process, in the order the tests need them, while the tests before them run; a listed test waits for a
 # kernel the background process has started and compiles the others itself (it claims them).  The table only moves
 # work between the two cores: a kernel missing here is compiled by the test that needs it, as before; a stale entry
-# costs the background process a minute.  HACGEAR_TEST_WARM=0 turns the background compilation off.
+# costs the background process ~15 s.  HACGEAR_TEST_WARM=0 turns the background compilation off.
 # Not listed on purpose: the FMU kernels of spur_28t_asym and idler_28_33_39 (fmu:_table_2_1_s2, fmu:_table_3_2_s2),
 # which test_fmu_runs_in_an_environment_without_hacgear compiles in its isolated Python (no hacgear_core), as a
 # user's first FMU run does.

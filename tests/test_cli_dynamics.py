@@ -332,3 +332,43 @@ def test_simulate_helical_beyond_the_coast_table_warns_once(capsys):
     err = capsys.readouterr().err
     assert rc == 0
     assert err.count("WARNING") == 1 and "m12:" in err and "coast grid" in err
+
+
+def test_compile_notices_go_to_stderr_not_into_json(monkeypatch, capsys):
+    """A compile notice of the library (the COMPILE_LOGGER logger) is printed on stderr, prefixed with the command,
+    while --json stdout stays pure JSON; the CLI's handler is gone after the command returns."""
+    import logging
+
+    import hacgear_core.cli.info as info_cli
+    from hacgear_core.dynamics.kernels import COMPILE_LOGGER
+
+    def fake_run(args):
+        logging.getLogger(COMPILE_LOGGER).info("compiling the integration kernel for 2 DOF x 1 mesh (test)")
+        print(json.dumps({"ok": 1}))
+        return 0
+
+    monkeypatch.setattr(info_cli, "run", fake_run)
+    logger = logging.getLogger(COMPILE_LOGGER)
+    before = list(logger.handlers)
+    assert main(["info", "spur_28t_asym", "--json"]) == 0
+    out, err = capsys.readouterr()
+    assert json.loads(out) == {"ok": 1}
+    assert err == "hacgear info: compiling the integration kernel for 2 DOF x 1 mesh (test)\n"
+    assert logger.handlers == before
+    logging.getLogger(COMPILE_LOGGER).info("after the command: silent")
+    assert capsys.readouterr() == ("", "")
+    # a command run inside another (demo's stages) prints each notice once, through the outer command's handler
+    monkeypatch.setattr(info_cli, "run", lambda a: fake_run(a) if a.json else main(["info", "spur_28t_asym",
+                                                                                        "--json"]))
+    assert main(["info", "spur_28t_asym"]) == 0
+    assert capsys.readouterr().err == "hacgear info: compiling the integration kernel for 2 DOF x 1 mesh (test)\n"
+    assert logger.handlers == before
+
+
+def test_stiffness_shows_its_stages_on_stderr(capsys):
+    """hacgear stiffness says on stderr what it is doing before each long stage of each mesh; stdout stays JSON."""
+    assert main(["stiffness", "spur_28t_asym", "--positions", "4", "--json"]) == 0
+    out, err = capsys.readouterr()
+    assert len(json.loads(out)["meshes"]["m12"]["ste_m"]) == 4
+    assert err.splitlines() == ["hacgear stiffness: mesh m12: building the finite-element model of its gears",
+                                "hacgear stiffness: mesh m12: static contact at 4 mesh positions"]

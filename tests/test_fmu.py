@@ -954,3 +954,40 @@ def test_reversed_torque_parameter_loads_the_coast_flanks(built, system, version
     """FMI 2.0 and 3.0: the parameter ``torque`` set to minus the model's torque runs the pair (idler chain) on its
     coast flanks, within the coast tables, balancing the torque (tests/_bench.py)."""
     assert_reversed_torque_run(fmpy, built[version][system], system)
+
+
+def test_kernel_preparation_is_logged_through_the_fmi_logger(built, monkeypatch):
+    """With debug logging on, instantiation says that ExitInitializationMode makes the integration kernel ready
+    (numba's cache or a compile, once per machine); ExitInitializationMode does it, passing the compile notice and
+    the time taken to the FMI logger, so that the first doStep compiles nothing."""
+    from hacgear_core.dynamics.kernels import COMPILE_CPU_S
+    from hacgear_core.dynamics.system import LumpedSystem
+
+    low = _Low(built["fmu"]["spur_28t_asym"])
+    try:
+        inst = FmuInstance(Path(low.dir) / "resources", "direct", low.md.guid, logging_on=True)
+        assert any(st == OK and re.match(r"ExitInitializationMode makes the integration kernel for \d+ DOF x 1 mesh "
+                                         r"\(force tables, both flanks\) ready: numba loads it from its cache, or "
+                                         r"compiles it", m) for st, _, m in inst.messages), inst.messages
+        real = LumpedSystem.prepare_kernel
+        asked = []
+
+        def announcing(self, notice=None):  # as a compile does: the notice first, then the work
+            notice("compiling (test)")
+            asked.append(real(self, notice))
+            return True, 2.5
+
+        monkeypatch.setattr(LumpedSystem, "prepare_kernel", announcing)
+        inst.messages.clear()
+        assert inst.enter_initialization_mode(0.0) == OK and inst.exit_initialization_mode() == OK
+        msgs = [m for st, _, m in inst.messages if st == OK]
+        assert msgs[0] == "compiling (test)" and re.fullmatch(
+            r"compiled the integration kernel for \d+ DOF x 1 mesh \(force tables, both flanks\) in 2\.5 s", msgs[-1])
+        # between them: the real notice, where this process had to compile the kernel (a cold cache)
+        assert all(m.startswith("compiling the integration kernel for ")
+                   and m.endswith(f"about {COMPILE_CPU_S} s on one core") for m in msgs[1:-1])
+        assert len(asked) == 1
+        monkeypatch.setattr(LumpedSystem, "prepare_kernel", real)
+        assert inst.do_step(0.0, 1e-4) == OK
+    finally:
+        low.close()

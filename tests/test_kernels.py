@@ -287,3 +287,52 @@ def test_coast_terms_skipped_only_where_they_are_zero():
     assert np.sum(np.diff((fc > 0).astype(int)) == 1) >= 3
     np.testing.assert_array_equal(out[0][0], out[1][0])
     np.testing.assert_array_equal(out[0][1][:, :-1], out[1][1][:, :-1])
+
+
+def test_prepare_kernel_announces_a_compile_and_nothing_else():
+    """prepare_kernel calls the notice once, before numba compiles (the notice sees no compiled overload yet), and
+    not again when the specialisation is in memory; a different argument type compiles (and announces) anew."""
+    from numba import njit
+
+    from hacgear_core.dynamics.kernels import prepare_kernel
+
+    @njit
+    def twice(a, b):
+        return 2.0 * a[0] + b
+
+    seen = []
+    kern = twice
+    x = np.ones(3)
+    note = lambda msg: seen.append((msg, len(kern.overloads)))  # noqa: E731
+    compiled, sec = prepare_kernel(kern, (x, 1.0), "the test kernel", note)
+    assert compiled and sec > 0
+    assert len(seen) == 1 and seen[0][1] == 0 and seen[0][0].startswith("compiling the test kernel: once per machine")
+    assert prepare_kernel(kern, (x, 1.0), "the test kernel", note) == (False, 0.0)
+    assert len(seen) == 1 and twice(x, 1.0) == 3.0
+    compiled, _ = prepare_kernel(kern, (x, 1), "the test kernel", note)  # int64 b: a second specialisation
+    assert compiled and len(seen) == 2 and seen[1][1] == 1
+
+
+def test_integrate_prepares_the_kernel_once_through_the_compile_logger(caplog):
+    """LumpedSystem.integrate makes its kernel ready on its first call (the notice, if it compiles, goes to the
+    COMPILE_LOGGER logger) and not on later calls; the kernel label names DOFs, meshes and flanks."""
+    import logging
+
+    from hacgear_core.dynamics import kernels
+
+    tab = spur_fdf_table()
+    sy = system(synthetic_28t_parameters(tab), tab)
+    assert sy.kernel_label == "the integration kernel for 2 DOF x 1 mesh (force tables)"
+    calls = []
+    real = sy.prepare_kernel
+    sy.prepare_kernel = lambda notice=None: calls.append(1) or real(notice)
+    s, kin = static_state(sy), np.array([0.0, 0.0, 1000.0 / sy.zref_2pi])
+    with caplog.at_level(logging.INFO, logger=kernels.COMPILE_LOGGER):
+        for _ in range(3):
+            sy.integrate(s, kin, 16, 1e-6, sy.fext_speed())
+    assert calls == [1]
+    assert all(r.name == kernels.COMPILE_LOGGER
+               and r.getMessage().startswith("compiling the integration kernel for 2 DOF") for r in caplog.records)
+    assert kernels.kernel_label(kernels.LAW_TWIST, 12, 1) == "the integration kernel for 12 DOF x 1 mesh (helical)"
+    assert kernels.kernel_label(kernels.LAW_TABLE, 14, 6, True).endswith(
+        "14 DOF x 6 meshes (force tables, both flanks)")

@@ -13,11 +13,13 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import logging
 import pkgutil
 import re
 import sys
 
 from hacgear_core import __version__
+from hacgear_core.dynamics.kernels import COMPILE_LOGGER
 from hacgear_core.errors import HacgearError
 
 __all__ = ["main", "build_parser"]
@@ -78,11 +80,26 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    # the library's compile notices ("compiling the integration kernel ...") go to stderr, never into --json stdout
+    # (once: a command run inside another, as demo's stages, keeps the outer command's handler)
+    logger = logging.getLogger(COMPILE_LOGGER)
+    level = logger.level
+    notices = None
+    if not any(getattr(h, "hacgear_cli", False) for h in logger.handlers):
+        notices = logging.StreamHandler(sys.stderr)
+        notices.hacgear_cli = True
+        notices.setFormatter(logging.Formatter(f"hacgear {args.command}: %(message)s"))
+        logger.addHandler(notices)
+        logger.setLevel(logging.INFO)
     try:
         return int(args.func(args) or 0)
     except HacgearError as exc:  # clear, user-facing errors: no traceback
         print(f"hacgear {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    finally:
+        if notices is not None:
+            logger.removeHandler(notices)
+            logger.setLevel(level)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -26,6 +26,7 @@ import numpy as np
 
 from hacgear_core.cli._help import plain_text
 from hacgear_core.cli._paths import check_out_dir
+from hacgear_core.dynamics.kernels import COMPILE_CPU_S
 from hacgear_core.fmu import build_fmu
 from hacgear_core.fmu.bench import BenchConfig, plot_bench, run_drivetrain_bench
 from hacgear_core.model import load_model
@@ -97,6 +98,8 @@ def run(args) -> int:
     fmu = build_fmu(model.folder, out)
     print(f"[fmu] {fmu} built in {time.perf_counter() - t0:.1f} s")
     # the bench steps at 2e-5 s (the shafts on the gears' inertias); a 0.5 s ramp keeps the demo short
+    print(f"[drivetrain] running {fmu.name} (its first run on this machine compiles the FMU's own copy of the "
+          f"integration kernel: about {COMPILE_CPU_S} s on one core)", flush=True)
     res = run_drivetrain_bench(fmu, BenchConfig(ramp_s=0.2 if args.quick else 0.5))
     for mn, fs in res["static_mesh_force_N"].items():
         f = res[f"{mn}.force"]

@@ -11,6 +11,7 @@ other flank of each gear (the coast side of the tables).
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Any
 
 from hacgear_core.cli._options import check_option
@@ -56,7 +57,8 @@ def run(args: argparse.Namespace) -> int:
         model = model_variant(model, tip_relief=not args.no_relief, lead_crowning=not args.no_crowning)
     torque = model.operating.torque_Nm if args.torque is None else args.torque
     d = mesh_stiffness_report(model, torque, mesh=args.mesh, positions=args.positions, slices=args.slices,
-                              face_coupling=args.face_coupling, twist_rad=args.twist, side=args.side)
+                              face_coupling=args.face_coupling, twist_rad=args.twist, side=args.side,
+                              progress=lambda msg: print(f"hacgear stiffness: {msg}", file=sys.stderr, flush=True))
     if args.json:
         print(dumps(d, indent=1))
         return 0

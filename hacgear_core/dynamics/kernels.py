@@ -58,10 +58,13 @@ and at ``REC * m`` the time since the call started [s].
 """
 from __future__ import annotations
 
+import logging
 import math
+import time
 
 import numpy as np
-from numba import njit
+from numba import njit, typeof
+from numba.core import event
 
 from hacgear_core.tables.interp import periodic_cell, deflection_cell, trilinear_flat
 
@@ -83,6 +86,9 @@ __all__ = [
     "flatten_twist_tables",
     "table_row_force",
     "select_kernel",
+    "kernel_label",
+    "prepare_kernel",
+    "COMPILE_LOGGER",
     "flatten_tables",
     "table_onset",
     "record_width",
@@ -335,420 +341,358 @@ def _sub_coast_forces(n, m, sparse, nz, f, of, vci, ov, out, oo):
                     out[oo + i] -= c * vci[ov + k * n + i]
 
 
-@njit(cache=True, inline="always", fastmath=_FM)
-def _integrate_impl(n, m, variant, s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat,
-                    phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
-    # ``variant`` (a constant in every caller, so its tests fold away): bit 0 the force law, bit 1 sparse mesh
-    # loops, bit 2 two-sided meshes (packed: CPython passes calls of more than 30 arguments through a tuple, which
-    # numba cannot inline)
-    n = _ix(n)
-    m = _ix(m)
-    law = variant & 1
-    sparse = (variant & 2) != 0
-    two_sided = (variant & 4) != 0
-    # bit 3: helical meshes (law LAW_TWIST): the coast slots carry the mesh twist (vc = the twist vectors t_k,
-    # Fc = the twist moments M_k, in every step), the drive slots the mesh force W of the same trilinear lookup
-    twist = (variant & 8) != 0
-    # RK4 of q'' = a(q, q', F).  The force-free acceleration is linear in (q, q'), so every stage's is the
-    # first stage's g0 plus products with the earlier stages' accelerations a1..a3 (hh = h/2):
-    #   a2 = g0 + hh p - hh C a1                  - F2 M^-1 v - Fc2 M^-1 vc      (p = -K q')
-    #   a3 = g0 + hh p - hh^2 K a1 - hh C a2       - F3 M^-1 v - Fc3 M^-1 vc
-    #   a4 = g0 + h p  - h hh K a2 - h C a3        - F4 M^-1 v - Fc4 M^-1 vc
-    #   q  += h q' + h^2/6 (a1 + a2 + a3),   q' += h/6 (a1 + 2 a2 + 2 a3 + a4)
-    # (K, C here M^-1 K_eff, M^-1 C_eff).  The stage mesh deflections and positions are formed from scalars:
-    # with x_q = v.q, x_d = v.q', g = v.(force-free acceleration), stage 2 needs x_q + hh x_d, stage 3
-    # x_q + hh (x_d + hh v.a1), stage 4 x_q + h (x_d + hh v.a2), where v.a1 = g_1 - VV F_1 - VVc Fc_1 (VV =
-    # v M^-1 v^T, VVc = v M^-1 vc^T); likewise for w (positions) and vc (coast approaches).  So each table
-    # lookup waits on a few multiply-adds after an earlier lookup, not on a full stage update.
-    # Vectors and matrices are addressed flat at offsets that are compile-time constants in the specialised
-    # loops (one base pointer per array keeps the loop's working set in registers).
-    minv = mats[0]
-    mc = mats[1]
-    mg = mats[2]
-    mk = kval[0]
-    mkw = kval[1]
-    aqv = kval[2]
-    nnz = kidx.shape[0]
-    vf = vecs.reshape(vecs.size)
-    mf = mmat.reshape(mmat.size)
-    mn = m * n
-    mm = m * m
-    o_w = mn
-    o_rv = 2 * mn
-    o_vmi = 3 * mn
-    o_vc = 4 * mn
-    o_vci = 5 * mn
-    o_wv = mm
-    o_cv = 2 * mm
-    o_vvc = 3 * mm
-    o_wvc = 4 * mm
-    o_cvc = 5 * mm
-    c_ratio = scal[0]
-    sref = scal[1]
-    zref_2pi = scal[2]
-    adt = eff.reshape(n * n)
-    wk = work
-    o_a1 = 0 * n
-    o_a2 = 1 * n
-    o_a3 = 2 * n
-    o_a4 = 3 * n
-    o_g0 = 4 * n
-    o_p = 5 * n
-    o_fm = 6 * n
-    o_xq = 7 * n + 0 * m
-    o_xd = 7 * n + 1 * m
-    o_wq = 7 * n + 2 * m
-    o_wd = 7 * n + 3 * m
-    o_f1 = 7 * n + 4 * m
-    o_f2 = 7 * n + 5 * m
-    o_f3 = 7 * n + 6 * m
-    o_f4 = 7 * n + 7 * m
-    o_g1 = 7 * n + 8 * m
-    o_gw1 = 7 * n + 9 * m
-    o_g2 = 7 * n + 10 * m
-    o_gw2 = 7 * n + 11 * m
-    o_cq = 7 * n + 12 * m
-    o_cd = 7 * n + 13 * m
-    o_c1 = 7 * n + 14 * m
-    o_c2 = 7 * n + 15 * m
-    o_c3 = 7 * n + 16 * m
-    o_c4 = 7 * n + 17 * m
-    o_gc1 = 7 * n + 18 * m
-    o_gc2 = 7 * n + 19 * m
-    for i in range(n):
-        a = 0.0
-        for j in range(n):
-            a += minv[i, j] * fext[j]
-        wk[o_fm + i] = a
-    for k in range(m):
-        wk[o_c1 + k] = 0.0
-        wk[o_c2 + k] = 0.0
-        wk[o_c3 + k] = 0.0
-        wk[o_c4 + k] = 0.0
-    count = kin.shape[0] >= 3 + m
-    nrec = 0
-    nr_cap = rec_state.shape[0]
-    rotating = c_ratio != 0.0
-    omega_c_set = math.nan
-    if not rotating:
-        for z in range(nnz):
-            aqv[z] = mk[z]
-        for i in range(n):
-            for j in range(n):
-                adt[j * n + i] = mc[i, j]
-    hh = 0.5 * h
-    hh2 = hh * hh
-    hhh = h * hh
-    c6 = h / 6.0
-    c6q = h * h / 6.0
-    countdown = rec_every
-    for step in range(n_steps):
-        tau_ref = kin[0]
-        omega = kin[2]
-        if rotating:
-            oc = c_ratio * omega
-            if oc != omega_c_set:
-                for z in range(nnz):
-                    aqv[z] = mk[z] - oc * oc * mkw[z]
-                for i in range(n):
-                    for j in range(n):
-                        adt[j * n + i] = mc[i, j] + oc * mg[i, j]
-                omega_c_set = oc
-        dtau = zref_2pi * omega * h
-        # the generic loops form each mesh's step-start products (and below its stage products) in one pass over
-        # its pattern: fewer index loads, the same sums (1.04-1.17x per mesh cycle on the planetary sets, measured);
-        # the coast products come along in the same pass and are read only where the coast terms are on
-        for k in range(m):
-            if sparse:
-                wk[o_xq + k], wk[o_xd + k], wk[o_wq + k], wk[o_wd + k], wk[o_cq + k], wk[o_cd + k] = _dot_state(
-                    n, nz, k, vf, o_w, o_vc, s)
-                continue
-            wk[o_xq + k] = _dot(n, sparse, nz, k, vf, 0, s, 0)
-            wk[o_xd + k] = _dot(n, sparse, nz, k, vf, 0, s, n)
-            wk[o_wq + k] = _dot(n, sparse, nz, k, vf, o_w, s, 0)
-            wk[o_wd + k] = _dot(n, sparse, nz, k, vf, o_w, s, n)
-            if two_sided or twist:
-                wk[o_cq + k] = _dot(n, sparse, nz, k, vf, o_vc, s, 0)
-                wk[o_cd + k] = _dot(n, sparse, nz, k, vf, o_vc, s, n)
-        if count:
-            for k in range(m):
-                if wk[o_xq + k] > tflt[k, 3] or (two_sided and wk[o_cq + k] > tflt[m + k, 3]) or (
-                        twist and (wk[o_cq + k] < tflt[m + k, 2] or wk[o_cq + k] > tflt[m + k, 3])):
-                    kin[3 + k] += 1.0
-        # Coast terms only in steps where the coast flanks may touch: stages 1 and 2 are checked from the
-        # step-start scalars; a step staged without them is checked again with its stage accelerations (vc . a1,
-        # vc . a2 are the coast stages' e1, e2) and restaged with them if a coast approach reaches within 1e-12 m
-        # of its table's onset (far above the rounding of the two ways of forming it), so skipping is exact.  Under
-        # load the coast flanks stay apart and a two-sided step costs four dot products per mesh more than a
-        # one-sided one (measured: 1.02-1.03x per mesh cycle, against 1.3x with the coast terms in every step).
-        coast_on = twist
-        if two_sided:
-            for k in range(m):
-                lim = tflt[m + k, 2] - 1e-12
-                if wk[o_cq + k] >= lim or wk[o_cq + k] + hh * wk[o_cd + k] >= lim:
-                    coast_on = True
-        while True:
-            # stages 1 and 2: their lookups need only the state
-            for k in range(m):
-                t1 = tau_ref + phase[k] + wk[o_wq + k]
-                t2 = tau_ref + 0.5 * dtau + phase[k] + wk[o_wq + k] + hh * wk[o_wd + k]
-                if twist:
-                    wk[o_f1 + k], wk[o_c1 + k] = twist_force(k, m, tab, tint, tflt, t1, wk[o_xq + k], wk[o_cq + k])
-                    wk[o_f2 + k], wk[o_c2 + k] = twist_force(k, m, tab, tint, tflt, t2, wk[o_xq + k] + hh * wk[o_xd + k],
-                                                             wk[o_cq + k] + hh * wk[o_cd + k])
-                    continue
-                wk[o_f1 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t1, wk[o_xq + k])
-                wk[o_f2 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t2, wk[o_xq + k] + hh * wk[o_xd + k])
-                if coast_on:
-                    wk[o_c1 + k] = table_row_force(tab, tint, tflt, m + k, t1, wk[o_cq + k])
-                    wk[o_c2 + k] = table_row_force(tab, tint, tflt, m + k, t2, wk[o_cq + k] + hh * wk[o_cd + k])
-            for i in range(n):
-                wk[o_g0 + i] = wk[o_fm + i]
-                wk[o_p + i] = 0.0
-            _sub_k(n, sparse, nnz, kidx, aqv, 1.0, s, 0, wk, o_g0)
-            _sub_k(n, sparse, nnz, kidx, aqv, 1.0, s, n, wk, o_p)
-            _sub_c(n, sparse, adt, 1.0, s, n, wk, o_g0)
-            for k in range(m):
-                if sparse:
-                    wk[o_g1 + k], wk[o_gw1 + k], wk[o_gc1 + k] = _dot3(n, nz, k, vf, 0, o_w, o_vc, wk, o_g0)
-                    continue
-                wk[o_g1 + k] = _dot(n, sparse, nz, k, vf, 0, wk, o_g0)
-                wk[o_gw1 + k] = _dot(n, sparse, nz, k, vf, o_w, wk, o_g0)
-                if coast_on:
-                    wk[o_gc1 + k] = _dot(n, sparse, nz, k, vf, o_vc, wk, o_g0)
-            for i in range(n):
-                wk[o_a1 + i] = wk[o_g0 + i]
-            _sub_forces(n, m, sparse, nz, wk, o_f1, vf, o_vmi, wk, o_a1)
-            if coast_on:
-                _sub_coast_forces(n, m, sparse, nz, wk, o_c1, vf, o_vci, wk, o_a1)
-            for i in range(n):
-                wk[o_a2 + i] = wk[o_g0 + i] + hh * wk[o_p + i]
-            _sub_c(n, sparse, adt, hh, wk, o_a1, wk, o_a2)
-            for k in range(m):
-                if sparse:
-                    wk[o_g2 + k], wk[o_gw2 + k], wk[o_gc2 + k] = _dot3(n, nz, k, vf, 0, o_w, o_vc, wk, o_a2)
-                    continue
-                wk[o_g2 + k] = _dot(n, sparse, nz, k, vf, 0, wk, o_a2)
-                wk[o_gw2 + k] = _dot(n, sparse, nz, k, vf, o_w, wk, o_a2)
-                if coast_on:
-                    wk[o_gc2 + k] = _dot(n, sparse, nz, k, vf, o_vc, wk, o_a2)
-            _sub_forces(n, m, sparse, nz, wk, o_f2, vf, o_vmi, wk, o_a2)
-            if coast_on:
-                _sub_coast_forces(n, m, sparse, nz, wk, o_c2, vf, o_vci, wk, o_a2)
-            # stages 3 and 4
-            for k in range(m):
-                a = wk[o_g1 + k]
-                b = wk[o_gw1 + k]
-                c = wk[o_g2 + k]
-                d = wk[o_gw2 + k]
-                for j in range(m):
-                    a -= mf[k * m + j] * wk[o_f1 + j]
-                    b -= mf[o_wv + k * m + j] * wk[o_f1 + j]
-                    c -= mf[k * m + j] * wk[o_f2 + j]
-                    d -= mf[o_wv + k * m + j] * wk[o_f2 + j]
-                if coast_on:
-                    e1 = wk[o_gc1 + k]
-                    e2 = wk[o_gc2 + k]
-                    for j in range(m):
-                        a -= mf[o_vvc + k * m + j] * wk[o_c1 + j]
-                        b -= mf[o_wvc + k * m + j] * wk[o_c1 + j]
-                        c -= mf[o_vvc + k * m + j] * wk[o_c2 + j]
-                        d -= mf[o_wvc + k * m + j] * wk[o_c2 + j]
-                        e1 -= mf[o_cv + k * m + j] * wk[o_f1 + j] + mf[o_cvc + k * m + j] * wk[o_c1 + j]
-                        e2 -= mf[o_cv + k * m + j] * wk[o_f2 + j] + mf[o_cvc + k * m + j] * wk[o_c2 + j]
-                t3 = tau_ref + 0.5 * dtau + phase[k] + wk[o_wq + k] + hh * (wk[o_wd + k] + hh * b)
-                t4 = tau_ref + dtau + phase[k] + wk[o_wq + k] + h * (wk[o_wd + k] + hh * d)
-                if twist:
-                    wk[o_f3 + k], wk[o_c3 + k] = twist_force(k, m, tab, tint, tflt, t3,
-                                                             wk[o_xq + k] + hh * (wk[o_xd + k] + hh * a),
-                                                             wk[o_cq + k] + hh * (wk[o_cd + k] + hh * e1))
-                    wk[o_f4 + k], wk[o_c4 + k] = twist_force(k, m, tab, tint, tflt, t4,
-                                                             wk[o_xq + k] + h * (wk[o_xd + k] + hh * c),
-                                                             wk[o_cq + k] + h * (wk[o_cd + k] + hh * e2))
-                    continue
-                wk[o_f3 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t3,
-                                          wk[o_xq + k] + hh * (wk[o_xd + k] + hh * a))
-                wk[o_f4 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t4,
-                                          wk[o_xq + k] + h * (wk[o_xd + k] + hh * c))
-                if coast_on:
-                    wk[o_c3 + k] = table_row_force(tab, tint, tflt, m + k, t3,
-                                                   wk[o_cq + k] + hh * (wk[o_cd + k] + hh * e1))
-                    wk[o_c4 + k] = table_row_force(tab, tint, tflt, m + k, t4,
-                                                   wk[o_cq + k] + h * (wk[o_cd + k] + hh * e2))
-            for i in range(n):
-                wk[o_a3 + i] = wk[o_g0 + i] + hh * wk[o_p + i]
-            _sub_k(n, sparse, nnz, kidx, aqv, hh2, wk, o_a1, wk, o_a3)
-            _sub_c(n, sparse, adt, hh, wk, o_a2, wk, o_a3)
-            _sub_forces(n, m, sparse, nz, wk, o_f3, vf, o_vmi, wk, o_a3)
-            if coast_on:
-                _sub_coast_forces(n, m, sparse, nz, wk, o_c3, vf, o_vci, wk, o_a3)
-            for i in range(n):
-                wk[o_a4 + i] = wk[o_g0 + i] + h * wk[o_p + i]
-            _sub_k(n, sparse, nnz, kidx, aqv, hhh, wk, o_a2, wk, o_a4)
-            _sub_c(n, sparse, adt, h, wk, o_a3, wk, o_a4)
-            _sub_forces(n, m, sparse, nz, wk, o_f4, vf, o_vmi, wk, o_a4)
-            if coast_on:
-                _sub_coast_forces(n, m, sparse, nz, wk, o_c4, vf, o_vci, wk, o_a4)
-            if not two_sided or coast_on:
-                break
-            # staged one-sided in a two-sided loop: do the coast approaches of stages 3 and 4 stay apart?
-            for k in range(m):
-                lim = tflt[m + k, 2] - 1e-12
-                e1 = _dot(n, sparse, nz, k, vf, o_vc, wk, o_a1)
-                e2 = _dot(n, sparse, nz, k, vf, o_vc, wk, o_a2)
-                if (wk[o_cq + k] + hh * (wk[o_cd + k] + hh * e1) >= lim
-                        or wk[o_cq + k] + h * (wk[o_cd + k] + hh * e2) >= lim):
-                    coast_on = True
-            if not coast_on:
-                break
-        for i in range(n):
-            s[i] += h * s[n + i] + c6q * (wk[o_a1 + i] + wk[o_a2 + i] + wk[o_a3 + i])
-            s[n + i] += c6 * (wk[o_a1 + i] + 2.0 * wk[o_a2 + i] + 2.0 * wk[o_a3 + i] + wk[o_a4 + i])
-        tau_ref += dtau
-        if mode == MODE_TORQUE:
-            a = s[iref]
-            b = s[n + iref]
-            for i in range(n):
-                s[i] -= a * u[i]
-                s[n + i] -= b * u[i]
-            tau_ref += sref * zref_2pi * a
-            kin[2] += sref * b
-        while tau_ref >= 1.0:
-            tau_ref -= 1.0
-            kin[1] += 1.0
-        while tau_ref < 0.0:
-            tau_ref += 1.0
-            kin[1] -= 1.0
-        kin[0] = tau_ref
-        countdown -= 1
-        if countdown == 0:
-            countdown = rec_every
-            if nrec >= nr_cap:
-                continue
-            for i in range(2 * n):
-                rec_state[nrec, i] = s[i]
-            for k in range(m):
-                x = 0.0
-                t = tau_ref + phase[k]
-                d = 0.0
-                xc = 0.0
-                for j in range(n):
-                    x += vf[k * n + j] * s[j]
-                    t += vf[o_w + k * n + j] * s[j]
-                    d += vf[o_rv + k * n + j] * s[j]
-                    xc += vf[o_vc + k * n + j] * s[j]
-                rec_out[nrec, REC * k + REC_POSITION] = kin[1] + t
-                rec_out[nrec, REC * k + REC_DEFLECTION] = x
-                rec_out[nrec, REC * k + REC_DTE] = d
-                rec_out[nrec, REC * k + REC_COAST_APPROACH] = xc
-                if twist:
-                    wt, mt = twist_force(k, m, tab, tint, tflt, t, x, xc)
-                    rec_out[nrec, REC * k + REC_FORCE] = wt
-                    rec_out[nrec, REC * k + REC_COAST_FORCE] = mt
-                else:
-                    rec_out[nrec, REC * k + REC_FORCE] = mesh_force(law, k, tab, tint, tflt, lin, lint, t, x)
-                    rec_out[nrec, REC * k + REC_COAST_FORCE] = (table_row_force(tab, tint, tflt, m + k, t, xc)
-                                                                if two_sided else 0.0)
-            rec_out[nrec, REC * m] = (step + 1) * h
-            nrec += 1
-    return nrec
+def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
+    """The compiled RK4 loop of one specialisation, called ``name`` (see :func:`select_kernel` for its arguments).
 
+    ``n_fixed``, ``m_fixed``: DOFs and meshes the loop is specialised to (0: the sizes of its arguments, the generic
+    loop); ``variant``: bit 0 the force law, bit 1 sparse mesh loops, bit 2 two-sided meshes, bit 3 helical meshes
+    (law ``LAW_TWIST``: the coast slots carry the mesh twist, vc = the twist vectors t_k and Fc = the twist moments
+    M_k, in every step; the drive slots the mesh force W of the same trilinear lookup).  Sizes and flags are
+    constants of the returned function (closure variables), so numba drops the branches of the other force laws and
+    variants before it inlines the helpers into the loop: it types and lowers only this specialisation's code
+    (about a sixth of the compile time and memory of one body holding every variant, whose dead branches only
+    LLVM removed; docs/dynamics.md, "Compile time").  Each loop carries ``name`` as its own name, so numba keeps
+    a cache index per specialisation (processes compiling different ones at the same time never share an index).
+    """
+    law_c = variant & 1
+    sparse_c = (variant & 2) != 0
+    two_sided_c = (variant & 4) != 0
+    twist_c = (variant & 8) != 0
 
-@njit(cache=True, fastmath=_FM)
-def _table_2_1_s1(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal,
-                  iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
-    return _integrate_impl(2, 1, LAW_TABLE, s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats,
-                           vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval,
-                           nz)
-
-
-@njit(cache=True, fastmath=_FM)
-def _table_4_1_s1(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal,
-                  iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
-    return _integrate_impl(4, 1, LAW_TABLE, s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats,
-                           vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval,
-                           nz)
-
-
-@njit(cache=True, fastmath=_FM)
-def _table_3_2_s1(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal,
-                  iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
-    return _integrate_impl(3, 2, LAW_TABLE, s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats,
-                           vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval,
-                           nz)
-
-
-@njit(cache=True, fastmath=_FM)
-def _table_s1(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref,
-              tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
-    return _integrate_impl(s.shape[0] // 2, phase.shape[0], LAW_TABLE | VARIANT_SPARSE, s, kin, n_steps, h, mode,
-                           fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref, tab, tint,
-                           tflt, lin, lint, work, eff, kidx, kval, nz)
-
-
-@njit(cache=True, fastmath=_FM)
-def _linear_s1(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref,
-               tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
-    return _integrate_impl(s.shape[0] // 2, phase.shape[0], LAW_LINEAR | VARIANT_SPARSE, s, kin, n_steps, h, mode,
-                           fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref, tab, tint,
-                           tflt, lin, lint, work, eff, kidx, kval, nz)
-
-
-@njit(cache=True, fastmath=_FM)
-def _table_2_1_s2(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal,
-                  iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
-    return _integrate_impl(2, 1, LAW_TABLE | VARIANT_TWO_SIDED, s, kin, n_steps, h, mode, fext, rec_every,
-                           rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint,
-                           work, eff, kidx, kval, nz)
-
-
-@njit(cache=True, fastmath=_FM)
-def _table_4_1_s2(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal,
-                  iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
-    return _integrate_impl(4, 1, LAW_TABLE | VARIANT_TWO_SIDED, s, kin, n_steps, h, mode, fext, rec_every,
-                           rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint,
-                           work, eff, kidx, kval, nz)
-
-
-@njit(cache=True, fastmath=_FM)
-def _table_3_2_s2(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal,
-                  iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
-    return _integrate_impl(3, 2, LAW_TABLE | VARIANT_TWO_SIDED, s, kin, n_steps, h, mode, fext, rec_every,
-                           rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint,
-                           work, eff, kidx, kval, nz)
-
-
-@njit(cache=True, fastmath=_FM)
-def _table_s2(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref,
-              tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
-    return _integrate_impl(s.shape[0] // 2, phase.shape[0], LAW_TABLE | VARIANT_SPARSE | VARIANT_TWO_SIDED, s,
-                           kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u,
-                           scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz)
-
-
-@njit(cache=True, fastmath=_FM)
-def _linear_s2(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref,
-               tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
-    return _integrate_impl(s.shape[0] // 2, phase.shape[0], LAW_LINEAR | VARIANT_SPARSE | VARIANT_TWO_SIDED, s,
-                           kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u,
-                           scal, iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz)
-
-
-@njit(cache=True, fastmath=_FM)
-def _twist_12_1(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal,
-                iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
-    return _integrate_impl(12, 1, LAW_TABLE | VARIANT_TWIST, s, kin, n_steps, h, mode, fext, rec_every, rec_state,
-                           rec_out, mats, vecs, mmat, phase, u, scal, iref, tab, tint, tflt, lin, lint, work, eff,
-                           kidx, kval, nz)
-
-
-@njit(cache=True, fastmath=_FM)
-def _twist_s(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref,
+    def loop(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref,
              tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
-    return _integrate_impl(s.shape[0] // 2, phase.shape[0], LAW_TABLE | VARIANT_SPARSE | VARIANT_TWIST, s, kin,
-                           n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal,
-                           iref, tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz)
+        n = _ix(n_fixed if n_fixed else s.shape[0] // 2)
+        m = _ix(m_fixed if m_fixed else phase.shape[0])
+        law = law_c
+        sparse = sparse_c
+        two_sided = two_sided_c
+        twist = twist_c
+        # RK4 of q'' = a(q, q', F).  The force-free acceleration is linear in (q, q'), so every stage's is the
+        # first stage's g0 plus products with the earlier stages' accelerations a1..a3 (hh = h/2):
+        #   a2 = g0 + hh p - hh C a1                  - F2 M^-1 v - Fc2 M^-1 vc      (p = -K q')
+        #   a3 = g0 + hh p - hh^2 K a1 - hh C a2       - F3 M^-1 v - Fc3 M^-1 vc
+        #   a4 = g0 + h p  - h hh K a2 - h C a3        - F4 M^-1 v - Fc4 M^-1 vc
+        #   q  += h q' + h^2/6 (a1 + a2 + a3),   q' += h/6 (a1 + 2 a2 + 2 a3 + a4)
+        # (K, C here M^-1 K_eff, M^-1 C_eff).  The stage mesh deflections and positions are formed from scalars:
+        # with x_q = v.q, x_d = v.q', g = v.(force-free acceleration), stage 2 needs x_q + hh x_d, stage 3
+        # x_q + hh (x_d + hh v.a1), stage 4 x_q + h (x_d + hh v.a2), where v.a1 = g_1 - VV F_1 - VVc Fc_1 (VV =
+        # v M^-1 v^T, VVc = v M^-1 vc^T); likewise for w (positions) and vc (coast approaches).  So each table
+        # lookup waits on a few multiply-adds after an earlier lookup, not on a full stage update.
+        # Vectors and matrices are addressed flat at offsets that are compile-time constants in the specialised
+        # loops (one base pointer per array keeps the loop's working set in registers).
+        minv = mats[0]
+        mc = mats[1]
+        mg = mats[2]
+        mk = kval[0]
+        mkw = kval[1]
+        aqv = kval[2]
+        nnz = kidx.shape[0]
+        vf = vecs.reshape(vecs.size)
+        mf = mmat.reshape(mmat.size)
+        mn = m * n
+        mm = m * m
+        o_w = mn
+        o_rv = 2 * mn
+        o_vmi = 3 * mn
+        o_vc = 4 * mn
+        o_vci = 5 * mn
+        o_wv = mm
+        o_cv = 2 * mm
+        o_vvc = 3 * mm
+        o_wvc = 4 * mm
+        o_cvc = 5 * mm
+        c_ratio = scal[0]
+        sref = scal[1]
+        zref_2pi = scal[2]
+        adt = eff.reshape(n * n)
+        wk = work
+        o_a1 = 0 * n
+        o_a2 = 1 * n
+        o_a3 = 2 * n
+        o_a4 = 3 * n
+        o_g0 = 4 * n
+        o_p = 5 * n
+        o_fm = 6 * n
+        o_xq = 7 * n + 0 * m
+        o_xd = 7 * n + 1 * m
+        o_wq = 7 * n + 2 * m
+        o_wd = 7 * n + 3 * m
+        o_f1 = 7 * n + 4 * m
+        o_f2 = 7 * n + 5 * m
+        o_f3 = 7 * n + 6 * m
+        o_f4 = 7 * n + 7 * m
+        o_g1 = 7 * n + 8 * m
+        o_gw1 = 7 * n + 9 * m
+        o_g2 = 7 * n + 10 * m
+        o_gw2 = 7 * n + 11 * m
+        o_cq = 7 * n + 12 * m
+        o_cd = 7 * n + 13 * m
+        o_c1 = 7 * n + 14 * m
+        o_c2 = 7 * n + 15 * m
+        o_c3 = 7 * n + 16 * m
+        o_c4 = 7 * n + 17 * m
+        o_gc1 = 7 * n + 18 * m
+        o_gc2 = 7 * n + 19 * m
+        for i in range(n):
+            a = 0.0
+            for j in range(n):
+                a += minv[i, j] * fext[j]
+            wk[o_fm + i] = a
+        for k in range(m):
+            wk[o_c1 + k] = 0.0
+            wk[o_c2 + k] = 0.0
+            wk[o_c3 + k] = 0.0
+            wk[o_c4 + k] = 0.0
+        count = kin.shape[0] >= 3 + m
+        nrec = 0
+        nr_cap = rec_state.shape[0]
+        rotating = c_ratio != 0.0
+        omega_c_set = math.nan
+        if not rotating:
+            for z in range(nnz):
+                aqv[z] = mk[z]
+            for i in range(n):
+                for j in range(n):
+                    adt[j * n + i] = mc[i, j]
+        hh = 0.5 * h
+        hh2 = hh * hh
+        hhh = h * hh
+        c6 = h / 6.0
+        c6q = h * h / 6.0
+        countdown = rec_every
+        for step in range(n_steps):
+            tau_ref = kin[0]
+            omega = kin[2]
+            if rotating:
+                oc = c_ratio * omega
+                if oc != omega_c_set:
+                    for z in range(nnz):
+                        aqv[z] = mk[z] - oc * oc * mkw[z]
+                    for i in range(n):
+                        for j in range(n):
+                            adt[j * n + i] = mc[i, j] + oc * mg[i, j]
+                    omega_c_set = oc
+            dtau = zref_2pi * omega * h
+            # the generic loops form each mesh's step-start products (and below its stage products) in one pass over
+            # its pattern: fewer index loads, the same sums (1.04-1.17x per mesh cycle on the planetary sets, measured);
+            # the coast products come along in the same pass and are read only where the coast terms are on
+            for k in range(m):
+                if sparse:
+                    wk[o_xq + k], wk[o_xd + k], wk[o_wq + k], wk[o_wd + k], wk[o_cq + k], wk[o_cd + k] = _dot_state(
+                        n, nz, k, vf, o_w, o_vc, s)
+                    continue
+                wk[o_xq + k] = _dot(n, sparse, nz, k, vf, 0, s, 0)
+                wk[o_xd + k] = _dot(n, sparse, nz, k, vf, 0, s, n)
+                wk[o_wq + k] = _dot(n, sparse, nz, k, vf, o_w, s, 0)
+                wk[o_wd + k] = _dot(n, sparse, nz, k, vf, o_w, s, n)
+                if two_sided or twist:
+                    wk[o_cq + k] = _dot(n, sparse, nz, k, vf, o_vc, s, 0)
+                    wk[o_cd + k] = _dot(n, sparse, nz, k, vf, o_vc, s, n)
+            if count:
+                for k in range(m):
+                    if wk[o_xq + k] > tflt[k, 3] or (two_sided and wk[o_cq + k] > tflt[m + k, 3]) or (
+                            twist and (wk[o_cq + k] < tflt[m + k, 2] or wk[o_cq + k] > tflt[m + k, 3])):
+                        kin[3 + k] += 1.0
+            # Coast terms only in steps where the coast flanks may touch: stages 1 and 2 are checked from the
+            # step-start scalars; a step staged without them is checked again with its stage accelerations (vc . a1,
+            # vc . a2 are the coast stages' e1, e2) and restaged with them if a coast approach reaches within 1e-12 m
+            # of its table's onset (far above the rounding of the two ways of forming it), so skipping is exact.  Under
+            # load the coast flanks stay apart and a two-sided step costs four dot products per mesh more than a
+            # one-sided one (measured: 1.02-1.03x per mesh cycle, against 1.3x with the coast terms in every step).
+            coast_on = twist
+            if two_sided:
+                for k in range(m):
+                    lim = tflt[m + k, 2] - 1e-12
+                    if wk[o_cq + k] >= lim or wk[o_cq + k] + hh * wk[o_cd + k] >= lim:
+                        coast_on = True
+            while True:
+                # stages 1 and 2: their lookups need only the state
+                for k in range(m):
+                    t1 = tau_ref + phase[k] + wk[o_wq + k]
+                    t2 = tau_ref + 0.5 * dtau + phase[k] + wk[o_wq + k] + hh * wk[o_wd + k]
+                    if twist:
+                        wk[o_f1 + k], wk[o_c1 + k] = twist_force(k, m, tab, tint, tflt, t1, wk[o_xq + k], wk[o_cq + k])
+                        wk[o_f2 + k], wk[o_c2 + k] = twist_force(k, m, tab, tint, tflt, t2, wk[o_xq + k] + hh * wk[o_xd + k],
+                                                                 wk[o_cq + k] + hh * wk[o_cd + k])
+                        continue
+                    wk[o_f1 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t1, wk[o_xq + k])
+                    wk[o_f2 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t2, wk[o_xq + k] + hh * wk[o_xd + k])
+                    if coast_on:
+                        wk[o_c1 + k] = table_row_force(tab, tint, tflt, m + k, t1, wk[o_cq + k])
+                        wk[o_c2 + k] = table_row_force(tab, tint, tflt, m + k, t2, wk[o_cq + k] + hh * wk[o_cd + k])
+                for i in range(n):
+                    wk[o_g0 + i] = wk[o_fm + i]
+                    wk[o_p + i] = 0.0
+                _sub_k(n, sparse, nnz, kidx, aqv, 1.0, s, 0, wk, o_g0)
+                _sub_k(n, sparse, nnz, kidx, aqv, 1.0, s, n, wk, o_p)
+                _sub_c(n, sparse, adt, 1.0, s, n, wk, o_g0)
+                for k in range(m):
+                    if sparse:
+                        wk[o_g1 + k], wk[o_gw1 + k], wk[o_gc1 + k] = _dot3(n, nz, k, vf, 0, o_w, o_vc, wk, o_g0)
+                        continue
+                    wk[o_g1 + k] = _dot(n, sparse, nz, k, vf, 0, wk, o_g0)
+                    wk[o_gw1 + k] = _dot(n, sparse, nz, k, vf, o_w, wk, o_g0)
+                    if coast_on:
+                        wk[o_gc1 + k] = _dot(n, sparse, nz, k, vf, o_vc, wk, o_g0)
+                for i in range(n):
+                    wk[o_a1 + i] = wk[o_g0 + i]
+                _sub_forces(n, m, sparse, nz, wk, o_f1, vf, o_vmi, wk, o_a1)
+                if coast_on:
+                    _sub_coast_forces(n, m, sparse, nz, wk, o_c1, vf, o_vci, wk, o_a1)
+                for i in range(n):
+                    wk[o_a2 + i] = wk[o_g0 + i] + hh * wk[o_p + i]
+                _sub_c(n, sparse, adt, hh, wk, o_a1, wk, o_a2)
+                for k in range(m):
+                    if sparse:
+                        wk[o_g2 + k], wk[o_gw2 + k], wk[o_gc2 + k] = _dot3(n, nz, k, vf, 0, o_w, o_vc, wk, o_a2)
+                        continue
+                    wk[o_g2 + k] = _dot(n, sparse, nz, k, vf, 0, wk, o_a2)
+                    wk[o_gw2 + k] = _dot(n, sparse, nz, k, vf, o_w, wk, o_a2)
+                    if coast_on:
+                        wk[o_gc2 + k] = _dot(n, sparse, nz, k, vf, o_vc, wk, o_a2)
+                _sub_forces(n, m, sparse, nz, wk, o_f2, vf, o_vmi, wk, o_a2)
+                if coast_on:
+                    _sub_coast_forces(n, m, sparse, nz, wk, o_c2, vf, o_vci, wk, o_a2)
+                # stages 3 and 4
+                for k in range(m):
+                    a = wk[o_g1 + k]
+                    b = wk[o_gw1 + k]
+                    c = wk[o_g2 + k]
+                    d = wk[o_gw2 + k]
+                    for j in range(m):
+                        a -= mf[k * m + j] * wk[o_f1 + j]
+                        b -= mf[o_wv + k * m + j] * wk[o_f1 + j]
+                        c -= mf[k * m + j] * wk[o_f2 + j]
+                        d -= mf[o_wv + k * m + j] * wk[o_f2 + j]
+                    # the coast stages' products, read only where the coast terms are on (defined on every path:
+                    # numba types a loop whose pruned variants leave them unset on some)
+                    e1 = 0.0
+                    e2 = 0.0
+                    if coast_on:
+                        e1 = wk[o_gc1 + k]
+                        e2 = wk[o_gc2 + k]
+                        for j in range(m):
+                            a -= mf[o_vvc + k * m + j] * wk[o_c1 + j]
+                            b -= mf[o_wvc + k * m + j] * wk[o_c1 + j]
+                            c -= mf[o_vvc + k * m + j] * wk[o_c2 + j]
+                            d -= mf[o_wvc + k * m + j] * wk[o_c2 + j]
+                            e1 -= mf[o_cv + k * m + j] * wk[o_f1 + j] + mf[o_cvc + k * m + j] * wk[o_c1 + j]
+                            e2 -= mf[o_cv + k * m + j] * wk[o_f2 + j] + mf[o_cvc + k * m + j] * wk[o_c2 + j]
+                    t3 = tau_ref + 0.5 * dtau + phase[k] + wk[o_wq + k] + hh * (wk[o_wd + k] + hh * b)
+                    t4 = tau_ref + dtau + phase[k] + wk[o_wq + k] + h * (wk[o_wd + k] + hh * d)
+                    if twist:
+                        wk[o_f3 + k], wk[o_c3 + k] = twist_force(k, m, tab, tint, tflt, t3,
+                                                                 wk[o_xq + k] + hh * (wk[o_xd + k] + hh * a),
+                                                                 wk[o_cq + k] + hh * (wk[o_cd + k] + hh * e1))
+                        wk[o_f4 + k], wk[o_c4 + k] = twist_force(k, m, tab, tint, tflt, t4,
+                                                                 wk[o_xq + k] + h * (wk[o_xd + k] + hh * c),
+                                                                 wk[o_cq + k] + h * (wk[o_cd + k] + hh * e2))
+                        continue
+                    wk[o_f3 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t3,
+                                              wk[o_xq + k] + hh * (wk[o_xd + k] + hh * a))
+                    wk[o_f4 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t4,
+                                              wk[o_xq + k] + h * (wk[o_xd + k] + hh * c))
+                    if coast_on:
+                        wk[o_c3 + k] = table_row_force(tab, tint, tflt, m + k, t3,
+                                                       wk[o_cq + k] + hh * (wk[o_cd + k] + hh * e1))
+                        wk[o_c4 + k] = table_row_force(tab, tint, tflt, m + k, t4,
+                                                       wk[o_cq + k] + h * (wk[o_cd + k] + hh * e2))
+                for i in range(n):
+                    wk[o_a3 + i] = wk[o_g0 + i] + hh * wk[o_p + i]
+                _sub_k(n, sparse, nnz, kidx, aqv, hh2, wk, o_a1, wk, o_a3)
+                _sub_c(n, sparse, adt, hh, wk, o_a2, wk, o_a3)
+                _sub_forces(n, m, sparse, nz, wk, o_f3, vf, o_vmi, wk, o_a3)
+                if coast_on:
+                    _sub_coast_forces(n, m, sparse, nz, wk, o_c3, vf, o_vci, wk, o_a3)
+                for i in range(n):
+                    wk[o_a4 + i] = wk[o_g0 + i] + h * wk[o_p + i]
+                _sub_k(n, sparse, nnz, kidx, aqv, hhh, wk, o_a2, wk, o_a4)
+                _sub_c(n, sparse, adt, h, wk, o_a3, wk, o_a4)
+                _sub_forces(n, m, sparse, nz, wk, o_f4, vf, o_vmi, wk, o_a4)
+                if coast_on:
+                    _sub_coast_forces(n, m, sparse, nz, wk, o_c4, vf, o_vci, wk, o_a4)
+                if not two_sided or coast_on:
+                    break
+                # staged one-sided in a two-sided loop: do the coast approaches of stages 3 and 4 stay apart?
+                for k in range(m):
+                    lim = tflt[m + k, 2] - 1e-12
+                    e1 = _dot(n, sparse, nz, k, vf, o_vc, wk, o_a1)
+                    e2 = _dot(n, sparse, nz, k, vf, o_vc, wk, o_a2)
+                    if (wk[o_cq + k] + hh * (wk[o_cd + k] + hh * e1) >= lim
+                            or wk[o_cq + k] + h * (wk[o_cd + k] + hh * e2) >= lim):
+                        coast_on = True
+                if not coast_on:
+                    break
+            for i in range(n):
+                s[i] += h * s[n + i] + c6q * (wk[o_a1 + i] + wk[o_a2 + i] + wk[o_a3 + i])
+                s[n + i] += c6 * (wk[o_a1 + i] + 2.0 * wk[o_a2 + i] + 2.0 * wk[o_a3 + i] + wk[o_a4 + i])
+            tau_ref += dtau
+            if mode == MODE_TORQUE:
+                a = s[iref]
+                b = s[n + iref]
+                for i in range(n):
+                    s[i] -= a * u[i]
+                    s[n + i] -= b * u[i]
+                tau_ref += sref * zref_2pi * a
+                kin[2] += sref * b
+            while tau_ref >= 1.0:
+                tau_ref -= 1.0
+                kin[1] += 1.0
+            while tau_ref < 0.0:
+                tau_ref += 1.0
+                kin[1] -= 1.0
+            kin[0] = tau_ref
+            countdown -= 1
+            if countdown == 0:
+                countdown = rec_every
+                if nrec >= nr_cap:
+                    continue
+                for i in range(2 * n):
+                    rec_state[nrec, i] = s[i]
+                for k in range(m):
+                    x = 0.0
+                    t = tau_ref + phase[k]
+                    d = 0.0
+                    xc = 0.0
+                    for j in range(n):
+                        x += vf[k * n + j] * s[j]
+                        t += vf[o_w + k * n + j] * s[j]
+                        d += vf[o_rv + k * n + j] * s[j]
+                        xc += vf[o_vc + k * n + j] * s[j]
+                    rec_out[nrec, REC * k + REC_POSITION] = kin[1] + t
+                    rec_out[nrec, REC * k + REC_DEFLECTION] = x
+                    rec_out[nrec, REC * k + REC_DTE] = d
+                    rec_out[nrec, REC * k + REC_COAST_APPROACH] = xc
+                    if twist:
+                        wt, mt = twist_force(k, m, tab, tint, tflt, t, x, xc)
+                        rec_out[nrec, REC * k + REC_FORCE] = wt
+                        rec_out[nrec, REC * k + REC_COAST_FORCE] = mt
+                    else:
+                        rec_out[nrec, REC * k + REC_FORCE] = mesh_force(law, k, tab, tint, tflt, lin, lint, t, x)
+                        rec_out[nrec, REC * k + REC_COAST_FORCE] = (table_row_force(tab, tint, tflt, m + k, t, xc)
+                                                                    if two_sided else 0.0)
+                rec_out[nrec, REC * m] = (step + 1) * h
+                nrec += 1
+        return nrec
 
+    loop.__name__ = loop.__qualname__ = name
+    return njit(cache=True, fastmath=_FM)(loop)
+
+
+
+
+_table_2_1_s1 = _make_loop("_table_2_1_s1", 2, 1, LAW_TABLE)
+_table_4_1_s1 = _make_loop("_table_4_1_s1", 4, 1, LAW_TABLE)
+_table_3_2_s1 = _make_loop("_table_3_2_s1", 3, 2, LAW_TABLE)
+_table_s1 = _make_loop("_table_s1", 0, 0, LAW_TABLE | VARIANT_SPARSE)
+_linear_s1 = _make_loop("_linear_s1", 0, 0, LAW_LINEAR | VARIANT_SPARSE)
+_table_2_1_s2 = _make_loop("_table_2_1_s2", 2, 1, LAW_TABLE | VARIANT_TWO_SIDED)
+_table_4_1_s2 = _make_loop("_table_4_1_s2", 4, 1, LAW_TABLE | VARIANT_TWO_SIDED)
+_table_3_2_s2 = _make_loop("_table_3_2_s2", 3, 2, LAW_TABLE | VARIANT_TWO_SIDED)
+_table_s2 = _make_loop("_table_s2", 0, 0, LAW_TABLE | VARIANT_SPARSE | VARIANT_TWO_SIDED)
+_linear_s2 = _make_loop("_linear_s2", 0, 0, LAW_LINEAR | VARIANT_SPARSE | VARIANT_TWO_SIDED)
+_twist_12_1 = _make_loop("_twist_12_1", 12, 1, LAW_TABLE | VARIANT_TWIST)
+_twist_s = _make_loop("_twist_s", 0, 0, LAW_TABLE | VARIANT_SPARSE | VARIANT_TWIST)
 
 _SPECIAL = {(LAW_TABLE, 2, 1, False): _table_2_1_s1, (LAW_TABLE, 4, 1, False): _table_4_1_s1,
             (LAW_TABLE, 3, 2, False): _table_3_2_s1, (LAW_TABLE, 2, 1, True): _table_2_1_s2,
@@ -789,6 +733,74 @@ def select_kernel(law: int, n: int, m: int, two_sided: bool = False):
         return _twist_12_1 if (n, m) == (12, 1) else _twist_s
     two_sided = bool(two_sided)
     return _SPECIAL.get((law, n, m, two_sided), _GENERIC[(law, two_sided)])
+
+
+#: name of the :mod:`logging` logger of the compile notices of :func:`prepare_kernel` (INFO; silent unless the
+#: application attaches a handler: the ``hacgear`` commands print them on stderr)
+COMPILE_LOGGER = "hacgear.compile"
+
+#: CPU seconds numba 0.68 takes to compile one specialisation on a cold cache (measured: 15-17 s on one core of the
+#: 2-core development machine, peak resident memory 0.5-0.6 GB; docs/dynamics.md "Compile time"): the estimate
+#: the compile notice gives
+COMPILE_CPU_S = 15
+
+
+def kernel_label(law: int, n: int, m: int, two_sided: bool = False) -> str:
+    """What :func:`select_kernel` selects, in words: ``"the integration kernel for 12 DOF x 1 mesh (helical)"``."""
+    kind = {LAW_TABLE: "force tables", LAW_LINEAR: "conventional force law", LAW_TWIST: "helical"}[law]
+    sides = ", both flanks" if two_sided else ""
+    return f"the integration kernel for {n} DOF x {m} mesh{'es' if m != 1 else ''} ({kind}{sides})"
+
+
+class _CompileWatch(event.Listener):
+    """Calls ``notice`` when numba starts compiling ``dispatcher`` (not when it loads it from its cache)."""
+
+    def __init__(self, dispatcher, notice) -> None:
+        self.dispatcher = dispatcher
+        self.notice = notice
+        self.compiled = False
+
+    def on_start(self, ev) -> None:
+        if ev.data.get("dispatcher") is self.dispatcher and not self.compiled:
+            self.compiled = True
+            self.notice()
+
+    def on_end(self, ev) -> None:
+        pass
+
+
+def prepare_kernel(kernel, args, label: str, notice=None) -> tuple[bool, float]:
+    """Make ``kernel`` (a :func:`select_kernel` loop) ready for arguments like ``args`` (the tuple a call passes):
+    numba loads it from its on-disk cache or, the first time on a machine (or after an upgrade of numba or of
+    this file), compiles it and writes the cache.  Before compiling, ``notice(message)`` is called with a line
+    that says so (default: an INFO record of the :data:`COMPILE_LOGGER` logger); loading from the cache is
+    silent.
+
+    Parameters
+    ----------
+    kernel : numba dispatcher
+    args : tuple
+        Arguments of a call (only their numba types matter).
+    label : str
+        What is compiled, in words (:func:`kernel_label`).
+    notice : callable(str), optional
+
+    Returns
+    -------
+    (compiled, seconds) : (bool, float)
+        Whether it compiled (False: it was loaded or already in memory) and the wall time taken [s].
+    """
+    t0 = time.perf_counter()
+    sig = tuple(typeof(a) for a in args)
+    if sig in kernel.overloads:
+        return False, 0.0
+    if notice is None:
+        notice = logging.getLogger(COMPILE_LOGGER).info
+    watch = _CompileWatch(kernel, lambda: notice(
+        f"compiling {label}: once per machine (numba caches it), about {COMPILE_CPU_S} s on one core"))
+    with event.install_listener("numba:compile", watch):
+        kernel.compile(sig)
+    return watch.compiled, time.perf_counter() - t0
 
 
 def record_width(m: int) -> int:

@@ -383,6 +383,10 @@ def run_sweeps(specs, *, out: str | Path | None = None, executor: Executor | Non
     if executor is None:
         outs = [_task(t) for t in tasks]
     else:
+        # compile (or load) each kernel here, once, before the workers start: they then load it from numba's cache
+        # instead of each compiling the same one at the same time
+        for t in tasks:
+            t[0].system.prepare_kernel()
         outs = list(executor.map(_task, tasks))
     for key, t, r in zip(keys, tasks, outs):
         results[key] = r

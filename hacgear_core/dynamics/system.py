@@ -417,12 +417,14 @@ class LumpedSystem:
         self.kernel_constants = (a.mats, a.vecs, a.mmat, a.phase, a.u, a.scal, a.iref, a.tab, a.tint, a.tflt, a.lin,
                                  a.lint, self._work, self._eff, a.kidx, a.kval, a.nz)
         self._cache: dict = {}
+        self._kernel_ready = None  # the kernel prepare_kernel has made ready in this process
 
     def __getstate__(self) -> dict:
         # the compiled kernel travels by name (process pools): reselected on unpickling
         st = dict(self.__dict__)
         st.pop("kernel", None)
         st["_cache"] = {}
+        st["_kernel_ready"] = None
         return st
 
     def __setstate__(self, st: dict) -> None:
@@ -681,8 +683,27 @@ class LumpedSystem:
         if rec_state is None:
             rec_state = np.zeros((0, 2 * self.n))
             rec_out = np.zeros((0, self.record_width))
+        if self._kernel_ready is not self.kernel:
+            self.prepare_kernel()
         return self.kernel(s, kin, int(n_steps), float(h), int(mode), fext, int(rec_every), rec_state, rec_out,
                            *self.kernel_constants)
+
+    def prepare_kernel(self, notice=None) -> tuple[bool, float]:
+        """Load this system's kernel specialisation from numba's cache or compile it (once per machine), saying
+        so first through ``notice(message)`` (default: the :data:`~hacgear_core.dynamics.kernels.COMPILE_LOGGER`
+        logger); :meth:`integrate` does this on its first call.  Returns ``(compiled, seconds)``
+        (:func:`~hacgear_core.dynamics.kernels.prepare_kernel`)."""
+        n = self.n
+        args = (np.zeros(2 * n), np.zeros(3 + self.m_kernel), 0, 0.0, kernels.MODE_SPEED, np.zeros(n), 0,
+                np.zeros((0, 2 * n)), np.zeros((0, self.record_width)), *self.kernel_constants)
+        out = kernels.prepare_kernel(self.kernel, args, self.kernel_label, notice)
+        self._kernel_ready = self.kernel
+        return out
+
+    @property
+    def kernel_label(self) -> str:
+        """This system's kernel specialisation in words (the compile notice's)."""
+        return kernels.kernel_label(self.law, self.n, self.m_kernel, self.two_sided and not self.twisted)
 
     def with_changes(self, **changes) -> "LumpedSystem":
         """A copy rebuilt with some constructor arguments changed (torque, damping, force law...)."""

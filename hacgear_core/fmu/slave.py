@@ -31,6 +31,7 @@ import json
 import math
 from pathlib import Path
 
+from hacgear_core.dynamics.kernels import COMPILE_CPU_S
 from hacgear_core.errors import HacgearError
 from hacgear_core.fmu.adapter import make_adapter
 from hacgear_core.fmu.components import COMPONENTS, ComponentAdapter
@@ -158,6 +159,10 @@ class FmuInstance:
         self._readers: dict = {}
         for note in notes:
             self.log(WARNING, str(note))
+        if self._tables_adapter:
+            self.log(OK, f"ExitInitializationMode makes {self.adapter.sim.system.kernel_label} ready: numba loads it "
+                         "from its cache, or compiles it the first time on this machine (once per machine, about "
+                         f"{COMPILE_CPU_S} s on one core)")
 
     # ------------------------------------------------------------------ helpers
     def log(self, status: int, message: str) -> None:
@@ -279,6 +284,10 @@ class FmuInstance:
             msg = self._configure()
             if msg:
                 return self._error(f"{self._fn('ExitInitializationMode')}: invalid parameters or start values: {msg}")
+            if self._tables_adapter:  # compile (or load) the kernel here, not in the first doStep
+                compiled, seconds = self.adapter.sim.system.prepare_kernel(notice=lambda m: self.log(OK, m))
+                if compiled:
+                    self.log(OK, f"compiled {self.adapter.sim.system.kernel_label} in {seconds:.1f} s")
             self.state = STEP
             return OK
         except Exception as exc:

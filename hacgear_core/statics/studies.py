@@ -293,7 +293,7 @@ def helical_mesh_report(solver: HelicalMeshContactSolver, mesh_force_N: float, p
 
 def mesh_stiffness_report(model: Any, torque_Nm: float, *, mesh: str | None = None, positions: int = 64,
                           slices: int | None = None, face_coupling: str | None = None, twist_rad: float = 0.0,
-                          side: str = "drive") -> dict:
+                          side: str = "drive", progress=None) -> dict:
     """Static transmission error and mesh stiffness of every mesh (or of ``mesh``) of ``model`` under ``torque_Nm``
     [N m] on ``model.operating.torque_gear``: each mesh is loaded with the force that the torque flow through the
     train gives it (:func:`hacgear_core.geometry.nominal_mesh_forces`), reported as the torque on its gear_a.
@@ -303,7 +303,8 @@ def mesh_stiffness_report(model: Any, torque_Nm: float, *, mesh: str | None = No
     a coast pair at the pitch point; ``mesh_cycle_drive`` gives the drive-side position of each) and the STE is
     the coast mesh deflection from the coast flanks' kinematic contact (add ``backlash_normal_m`` for the coast
     approach from the drive kinematic position, the coast tables' deflection axis).  ``twist_rad``: mesh twist of
-    helical meshes.
+    helical meshes.  ``progress(message)``, if given, is called before each mesh's two long stages (building its
+    finite-element model, solving the contact at the positions).
 
     Returns a dict (SI, unit in the key names): ``model``, ``torque_Nm``, ``torque_gear``, ``side`` and ``meshes``
     {name: mesh force, base radii, flanks, mean (local-slope), secant and average-slope stiffness, STE over the
@@ -338,6 +339,8 @@ def mesh_stiffness_report(model: Any, torque_Nm: float, *, mesh: str | None = No
     for m in model.meshes:
         if mesh is not None and m.name != mesh:
             continue
+        if progress is not None:
+            progress(f"mesh {m.name}: building the finite-element model of its gears")
         if side == "coast":
             solver = make_mesh_solver(model, m.name, options=opts, side="coast")
             force = coast_forces[m.name]
@@ -346,6 +349,8 @@ def mesh_stiffness_report(model: Any, torque_Nm: float, *, mesh: str | None = No
             lever = getattr(solver, "lever_arm_m", solver.base_radius_m)
             force = nominal_mesh_forces(model, {m.name: tuple(lever)}, torque_Nm=torque_Nm)[m.name] \
                 if len(model.meshes) == 1 else _train_force(model, torque_Nm, m.name, solver)
+        if progress is not None:
+            progress(f"mesh {m.name}: static contact at {positions} mesh positions")
         c = mesh_stiffness_curve(solver, force, positions=positions, twist_rad=twist_rad)
         extra = {}
         if side == "coast":

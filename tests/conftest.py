@@ -28,7 +28,7 @@ from _fuzz import FUZZ_COUNTS
 # user's first FMU run does.
 WARM_KERNELS = {
     "test_fmu.py::test_fmu_step_path_equals_library_advance": ("lib:_table_3_2_s2",),
-    "test_fmu_helical.py::test_helical_fmu_equals_the_library": ("fmu:_twist_12_1", "lib:_twist_12_1"),
+    "test_fmu_helical.py::test_helical_fmu_equals_the_library": ("fmu:_twist_s", "lib:_twist_s"),
     "test_fmu_planetary.py::test_planetary_fmu_equals_the_library": ("fmu:_table_s2", "lib:_table_s2"),
     "test_fmu_ssp.py::test_two_stage_gearbox": ("fmu:_table_2_1_s1",),
     "test_idler.py::test_chain_with_a_decoupled_third_gear_reproduces_the_spur_pair": ("lib:_table_3_2_s1",),

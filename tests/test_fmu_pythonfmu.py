@@ -22,7 +22,8 @@ fmpy = pytest.importorskip("fmpy")
 pytest.importorskip("pythonfmu")
 pytest.importorskip("pythonfmu3")
 
-from test_fmu import _ISOLATED_RUN, _Low, _isolated_site, _library  # noqa: E402
+from test_fmu import (_ISOLATED_RUN, _Low, _isolated_site, _library,  # noqa: E402
+                      assert_fmu_time_series_equals_library)
 
 from hacgear_core.errors import HacgearError  # noqa: E402
 from hacgear_core.fmu import build_fmu  # noqa: E402
@@ -94,25 +95,7 @@ def test_validate_and_fmutool_check(built, version):
 @pytest.mark.parametrize("version", (2, 3))
 def test_outputs_equal_the_library_step_for_step(built, version):
     """Same speed, torque, internal step: the pythonfmu FMU under fmpy equals the library (<= 1e-9 relative)."""
-    speed, torque, h_int, dt, n = 520.0, 250.0, 2e-6, 1e-4, 200
-    out = ["m12.force", "m12.deflection", "m12.dte", "m12.position", "pinion.angle", "wheel.speed"]
-    res = fmpy.simulate_fmu(str(built[version]), start_time=0.0, stop_time=n * dt, output_interval=dt, output=out,
-                            start_values={"pinion.speed_in": speed, "torque": torque, "internal_step": h_int})
-    sim = _library(SYSTEM, h_int, torque)
-    sim.reset(speed_rad_s=speed)
-    sim.set_speed_input(speed_rad_s=speed)
-    get = {"m12.force": lambda: sim.mesh_force_N[0], "m12.deflection": lambda: sim.mesh_deflection_m[0],
-           "m12.dte": lambda: sim.dynamic_transmission_error_m[0], "m12.position": lambda: sim.mesh_position[0],
-           "pinion.angle": lambda: sim.angle_rad[0], "wheel.speed": lambda: sim.speed_rad_s[1]}
-    lib = {k: [] for k in get}
-    for _ in range(n):
-        assert sim.advance(dt).success
-        for k, g in get.items():
-            lib[k].append(g())
-    assert len(res) == n + 1
-    for k, v in lib.items():
-        v = np.asarray(v)
-        assert np.max(np.abs(res[k][1:] - v)) <= 1e-9 * np.max(np.abs(v)), k
+    res = assert_fmu_time_series_equals_library(built[version], SYSTEM, 1e-9)
     assert np.ptp(res["m12.force"]) > 0.05 * np.mean(res["m12.force"])
 
 

@@ -177,7 +177,7 @@ def test_simulate_beyond_the_tables_says_so(capsys):
     warning counting the steps and naming the remedy, and the JSON carries the count."""
     assert main(["simulate", "spur_28t_asym", "--torque", "30000", "--fm", "1000", "--cycles", "12"]) == 0
     err = capsys.readouterr().err
-    assert "left the tables' deflection range in m12" in err and "max_torque_factor" in err
+    assert "left the tables' range (deflection, and twist for helical meshes) in m12" in err and "max_torque_factor" in err
     assert main(["simulate", "spur_28t_asym", "--torque", "30000", "--fm", "1000", "--cycles", "12", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["meshes"]["m12"]["steps_beyond_tables"] > 0

@@ -220,7 +220,7 @@ def run(args: argparse.Namespace) -> int:
         return out
 
     if beyond:
-        print("  WARNING: the state left the tables' deflection range (or twist axis) in " + ", ".join(
+        print("  WARNING: the state left the tables' range (deflection, and twist for helical meshes) in " + ", ".join(
             f"{m}: {n} integration steps ({grid(m)})" for m, n in beyond.items())
             + "; forces, pressures and strains there are extrapolated. Extend the tables: raise [statics] "
             "max_torque_factor in the model file and run `hacgear statics MODEL`", file=sys.stderr)

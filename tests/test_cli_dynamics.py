@@ -366,9 +366,13 @@ def test_compile_notices_go_to_stderr_not_into_json(monkeypatch, capsys):
 
 
 def test_stiffness_shows_its_stages_on_stderr(capsys):
-    """hacgear stiffness says on stderr what it is doing before each long stage of each mesh; stdout stays JSON."""
-    assert main(["stiffness", "spur_28t_asym", "--positions", "4", "--json"]) == 0
+    """hacgear stiffness says on stderr what it is doing before each long stage of each mesh and, on a stderr that
+    is no terminal, how many positions are solved at each quarter; stdout stays JSON."""
+    assert main(["stiffness", "spur_28t_asym", "--positions", "8", "--json"]) == 0
     out, err = capsys.readouterr()
-    assert len(json.loads(out)["meshes"]["m12"]["ste_m"]) == 4
+    assert len(json.loads(out)["meshes"]["m12"]["ste_m"]) == 8
     assert err.splitlines() == ["hacgear stiffness: mesh m12: building the finite-element model of its gears",
-                                "hacgear stiffness: mesh m12: static contact at 4 mesh positions"]
+                                "hacgear stiffness: mesh m12: static contact at 8 mesh positions",
+                                "hacgear stiffness: 2 of 8 positions solved",
+                                "hacgear stiffness: 4 of 8 positions solved",
+                                "hacgear stiffness: 6 of 8 positions solved"]

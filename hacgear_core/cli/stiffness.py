@@ -14,6 +14,8 @@ import argparse
 import sys
 from typing import Any
 
+from tqdm import tqdm
+
 from hacgear_core.cli._options import check_option
 from hacgear_core.jsonio import dumps
 from hacgear_core.model import load_model
@@ -48,6 +50,23 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=run)
 
 
+def _position_progress():
+    """``on_position(done, total)`` for :func:`mesh_stiffness_report`: a progress bar on an interactive stderr, a
+    line at each quarter of the positions otherwise (logs, pipes)."""
+    state = {"bar": None}
+
+    def on_position(done: int, total: int) -> None:
+        if sys.stderr.isatty():
+            if done == 1:
+                state["bar"] = tqdm(total=total, desc="hacgear stiffness: positions", unit="position", file=sys.stderr)
+            state["bar"].update(1)
+            if done == total:
+                state["bar"].close()
+        elif total >= 8 and done % (total // 4) == 0 and done < total:
+            print(f"hacgear stiffness: {done} of {total} positions solved", file=sys.stderr, flush=True)
+    return on_position
+
+
 def run(args: argparse.Namespace) -> int:
     check_option("--torque", args.torque, "torque_Nm", signed=True)
     check_option("--positions", args.positions, "statics.positions")
@@ -58,7 +77,8 @@ def run(args: argparse.Namespace) -> int:
     torque = model.operating.torque_Nm if args.torque is None else args.torque
     d = mesh_stiffness_report(model, torque, mesh=args.mesh, positions=args.positions, slices=args.slices,
                               face_coupling=args.face_coupling, twist_rad=args.twist, side=args.side,
-                              progress=lambda msg: print(f"hacgear stiffness: {msg}", file=sys.stderr, flush=True))
+                              progress=lambda msg: print(f"hacgear stiffness: {msg}", file=sys.stderr, flush=True),
+                              on_position=_position_progress())
     if args.json:
         print(dumps(d, indent=1))
         return 0

@@ -49,9 +49,9 @@ class StiffnessCurve:
 
 
 def mesh_stiffness_curve(solver: MeshContactSolver, mesh_force_N: float, positions: int = 64,
-                         rel_step: float = 0.02, twist_rad: float = 0.0) -> StiffnessCurve:
+                         rel_step: float = 0.02, twist_rad: float = 0.0, on_position=None) -> StiffnessCurve:
     """Static transmission error and mesh stiffness over one mesh cycle (at mesh twist ``twist_rad`` [rad] for a
-    face-resolving solver).
+    face-resolving solver).  ``on_position(done, total)``, if given, is called after each position's solves.
 
     The local-slope stiffness at each position is the central difference ``dW/dx`` from two
     load-controlled solves at ``W (1 ± rel_step)``.
@@ -84,6 +84,8 @@ def mesh_stiffness_curve(solver: MeshContactSolver, mesh_force_N: float, positio
             m = np.flatnonzero(solver.tooth_offsets == pp)
             if m.size:
                 loads[i, m] = pr["load_N"][j]
+        if on_position is not None:
+            on_position(i + 1, positions)
     return StiffnessCurve(mesh_cycle=pos, ste_m=x, no_load_deflection_m=x0, local_slope_stiffness_N_per_m=k,
                           mean_mesh_stiffness_N_per_m=float(k.mean()),
                           secant_mesh_stiffness_N_per_m=float(W / x.mean()), mesh_force_N=W, tooth_load_N=loads,
@@ -293,7 +295,7 @@ def helical_mesh_report(solver: HelicalMeshContactSolver, mesh_force_N: float, p
 
 def mesh_stiffness_report(model: Any, torque_Nm: float, *, mesh: str | None = None, positions: int = 64,
                           slices: int | None = None, face_coupling: str | None = None, twist_rad: float = 0.0,
-                          side: str = "drive", progress=None) -> dict:
+                          side: str = "drive", progress=None, on_position=None) -> dict:
     """Static transmission error and mesh stiffness of every mesh (or of ``mesh``) of ``model`` under ``torque_Nm``
     [N m] on ``model.operating.torque_gear``: each mesh is loaded with the force that the torque flow through the
     train gives it (:func:`hacgear_core.geometry.nominal_mesh_forces`), reported as the torque on its gear_a.
@@ -304,7 +306,8 @@ def mesh_stiffness_report(model: Any, torque_Nm: float, *, mesh: str | None = No
     the coast mesh deflection from the coast flanks' kinematic contact (add ``backlash_normal_m`` for the coast
     approach from the drive kinematic position, the coast tables' deflection axis).  ``twist_rad``: mesh twist of
     helical meshes.  ``progress(message)``, if given, is called before each mesh's two long stages (building its
-    finite-element model, solving the contact at the positions).
+    finite-element model, solving the contact at the positions), ``on_position(done, total)`` after each position
+    (:func:`mesh_stiffness_curve`).
 
     Returns a dict (SI, unit in the key names): ``model``, ``torque_Nm``, ``torque_gear``, ``side`` and ``meshes``
     {name: mesh force, base radii, flanks, mean (local-slope), secant and average-slope stiffness, STE over the
@@ -322,8 +325,8 @@ def mesh_stiffness_report(model: Any, torque_Nm: float, *, mesh: str | None = No
         raise ModelError(f"mesh {mesh!r} is not a mesh of the model; allowed: {', '.join(names)}")
     helical = any(g.is_helical for g in model.gears)
     if helical and side == "coast":
-        raise ModelError("side = 'coast' is not available for helical meshes yet (the coast side of the helical "
-                         "solver is part of issue #16); allowed: drive")
+        raise ModelError("side = 'coast': this report covers the drive side of helical meshes only (their coast side "
+                         "is in the tables: hacgear statics --check, hacgear simulate --torque -T); allowed: drive")
     if face_coupling is None:
         face_coupling = "elastic" if helical else "rigid"
     if twist_rad and not (helical or face_coupling == "elastic"):
@@ -351,7 +354,7 @@ def mesh_stiffness_report(model: Any, torque_Nm: float, *, mesh: str | None = No
                 if len(model.meshes) == 1 else _train_force(model, torque_Nm, m.name, solver)
         if progress is not None:
             progress(f"mesh {m.name}: static contact at {positions} mesh positions")
-        c = mesh_stiffness_curve(solver, force, positions=positions, twist_rad=twist_rad)
+        c = mesh_stiffness_curve(solver, force, positions=positions, twist_rad=twist_rad, on_position=on_position)
         extra = {}
         if side == "coast":
             g = geo[m.name]

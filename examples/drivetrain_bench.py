@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from hacgear_core.dynamics.kernels import COMPILE_CPU_S
 from hacgear_core.fmu import build_fmu
 from hacgear_core.fmu.bench import BenchConfig, plot_bench, run_drivetrain_bench
 from hacgear_core.model import resolve_model_path
@@ -36,6 +37,8 @@ def main(argv: list[str] | None = None) -> int:
         cfg.update(speed_start_rpm=a, speed_end_rpm=b)
     with tempfile.TemporaryDirectory(prefix="hacgear_bench_") as td:
         fmu = Path(args.fmu) if args.fmu else build_fmu(resolve_model_path(args.system).parent, td)
+        print(f"bench: running {fmu.name} (its first run on this machine compiles the FMU's own copy of the "
+              f"integration kernel: about {COMPILE_CPU_S} s on one core)", flush=True)
         t0 = time.perf_counter()
         res = run_drivetrain_bench(fmu, BenchConfig(**cfg))
         wall = time.perf_counter() - t0

@@ -17,6 +17,7 @@ import time
 
 import numpy as np
 
+from hacgear_core.dynamics.kernels import COMPILE_CPU_S
 from hacgear_core.fmu import build_fmu
 from hacgear_core.fmu.bench import BenchConfig, plot_stages, run_drivetrain_bench, shaft_labels, stage_mesh_frequency_Hz
 from hacgear_core.fmu.ssp import run_ssp_fmpy, run_ssp_libcosim, write_bench_ssp
@@ -41,6 +42,9 @@ def main(argv: list[str] | None = None) -> int:
                       coupling_shaft_stiffness_Nm_per_rad=1.0e4)
     with tempfile.TemporaryDirectory(prefix="hacgear_2stage_") as td:
         fmus = [build_fmu(resolve_model_path(s).parent, td) for s in args.stages]
+        print(f"two-stage bench: running {', '.join(f.name for f in fmus)} for {cfg.steps} steps (the first run on "
+              f"this machine compiles each FMU's own copy of the integration kernel: about {COMPILE_CPU_S} s each on "
+              "one core)", flush=True)
         t0 = time.perf_counter()
         res = run_drivetrain_bench(fmus, cfg)
         print(f"two-stage bench: {' -> '.join(args.stages)}: {cfg.steps} steps of {cfg.step_s:g} s in "

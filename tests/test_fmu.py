@@ -813,6 +813,13 @@ def test_contact_code_is_read_under_libcosim_and_ecos(built):
     variables) and Ecos (which reads none) see: under both, at every step of the default experiment (the mesh
     resonance: contact loss), it equals contact_state(force, coast_force) read in the same master, and the drive
     flanks and the backlash both occur."""
+    assert_contact_code_under_libcosim_and_ecos(built["fmu"]["spur_28t_asym"])
+
+
+def assert_contact_code_under_libcosim_and_ecos(fmu, h=5e-5, n=300):
+    """Run the FMI 2.0 FMU ``fmu`` (spur_28t_asym's variables) ``n`` steps of ``h`` [s] under libcosim, then under
+    Ecos (skipped, naming what is missing, where ecospy or its libtbb12 is not installed), checking
+    ``m12.contact_code`` against contact_state(force, coast_force) at every step."""
     from hacgear_core.fmu.adapter import contact_state
 
     lc = pytest.importorskip("libcosimpy.CosimExecution")
@@ -820,7 +827,6 @@ def test_contact_code_is_read_under_libcosim_and_ecos(built):
     from libcosimpy.CosimObserver import CosimObserver
     from libcosimpy.CosimSlave import CosimLocalSlave
 
-    fmu, h, n = built["fmu"]["spur_28t_asym"], 5e-5, 300
     names = ("m12.force", "m12.coast_force")
     ex = lc.CosimExecution.from_step_size(step_size=int(round(h * 1e9)))
     i = ex.add_local_slave(CosimLocalSlave(fmu_path=str(fmu), instance_name="g"))

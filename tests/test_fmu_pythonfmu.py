@@ -23,7 +23,7 @@ pytest.importorskip("pythonfmu")
 pytest.importorskip("pythonfmu3")
 
 from test_fmu import (_ISOLATED_RUN, _Low, _isolated_site, _library,  # noqa: E402
-                      assert_fmu_time_series_equals_library)
+                      assert_contact_code_under_libcosim_and_ecos, assert_fmu_time_series_equals_library)
 
 from hacgear_core.errors import HacgearError  # noqa: E402
 from hacgear_core.fmu import build_fmu  # noqa: E402
@@ -184,6 +184,12 @@ def test_runs_without_hacgear_and_without_pythonfmu(built, tmp_path):
     assert {"numpy", "scipy", "h5py", "numba"} <= loaded and "hacgear_core" not in loaded
     origin = p.stdout.split("PYTHONFMU")[1].strip()
     assert "/resources/pythonfmu/" in origin and not origin.startswith(str(site))
+
+
+def test_contact_code_under_libcosim_and_ecos(built):
+    """The pythonfmu FMU (FMI 2.0) under libcosim and Ecos: ``m12.contact_code`` equals the contact state of the
+    forces read in the same master at every step, drive contact and backlash both occur."""
+    assert_contact_code_under_libcosim_and_ecos(built[2])
 
 
 @pytest.mark.slow

@@ -195,9 +195,10 @@ def test_contact_code_under_libcosim_and_ecos(built):
 @pytest.mark.slow
 @pytest.mark.parametrize("system", ALL_SYSTEMS)
 def test_every_system_validates_and_equals_the_native_fmu(system, tmp_path):
-    """Every shipped system with tables, both FMI versions: fmpy validate + fmutool pass, and the pythonfmu FMU
-    gives the native FMU's outputs in its default experiment (<= 1e-9 relative; the native ones equal the library
-    in tests/test_fmu*.py)."""
+    """Every shipped system with tables, both FMI versions, both backends: fmpy validate + fmutool pass, and the
+    pythonfmu FMU gives the native FMU's outputs in its default experiment (<= 1e-9 relative; the native ones equal
+    the library in tests/test_fmu*.py); FMI 2.0 FMUs of both backends run under libcosim and Ecos with fmpy's
+    first mesh force."""
     sys.path.insert(0, str(ROOT))
     try:
         import build_fmu as script
@@ -206,10 +207,52 @@ def test_every_system_validates_and_equals_the_native_fmu(system, tmp_path):
     for version in (2, 3):
         py = build_fmu(ROOT / "models" / system, tmp_path / "py", fmi_version=version, backend="pythonfmu")
         nat = build_fmu(ROOT / "models" / system, tmp_path / "nat", fmi_version=version, backend="native")
-        assert script.validate_fmu(py) == []
+        assert script.validate_fmu(py) == [] and script.validate_fmu(nat) == []
         kw = dict(stop_time=5e-3, output_interval=1e-4)
         a, b = fmpy.simulate_fmu(str(py), **kw), fmpy.simulate_fmu(str(nat), **kw)
         assert a.dtype.names == b.dtype.names
         for name in a.dtype.names:
             x, y = np.asarray(a[name], float), np.asarray(b[name], float)
             assert np.max(np.abs(x - y)) <= 1e-9 * max(np.max(np.abs(y)), 1e-300), (system, version, name)
+        if version == 2:
+            for fmu in (py, nat):
+                _assert_libcosim_and_ecos_equal_fmpy(fmu, b)
+
+
+def _assert_libcosim_and_ecos_equal_fmpy(fmu, reference, h=1e-4, n=50):
+    """The FMI 2.0 FMU's first mesh force under libcosim and under Ecos (in-process) at the communication step
+    ``h`` [s] equals fmpy's ``reference`` run of the same default experiment step for step (<= 1e-9 relative)."""
+    from fmpy import read_model_description
+    from libcosimpy.CosimExecution import CosimExecution
+    from libcosimpy.CosimObserver import CosimObserver
+    from libcosimpy.CosimSlave import CosimLocalSlave
+
+    name = next(v.name for v in read_model_description(str(fmu)).modelVariables
+                if v.causality == "output" and v.name.endswith(".force"))
+    ref = np.asarray(reference[name][1:n + 1], float)
+    tol = 1e-9 * np.max(np.abs(ref))
+    ex = CosimExecution.from_step_size(step_size=int(round(h * 1e9)))
+    i = ex.add_local_slave(CosimLocalSlave(fmu_path=str(fmu), instance_name="g"))
+    vr = {v.name.decode(): v.reference for v in ex.slave_variables(i)}[name]
+    obs = CosimObserver.create_last_value()
+    ex.add_observer(obs)
+    got = []
+    for _ in range(n):
+        assert ex.step(1)
+        got.append(obs.last_real_values(i, [vr])[0])
+    assert np.max(np.abs(np.asarray(got) - ref)) <= tol, (fmu.name, "libcosim", name)
+    import ecospy  # needs Debian's libtbb12, which .ci/run installs
+
+    structure = ecospy.EcosSimulationStructure()
+    structure.add_model("g", str(fmu))
+    sim = ecospy.EcosSimulation(structure=structure, step_size=h)
+    try:
+        sim.init()
+        got = []
+        for _ in range(n):
+            sim.step()
+            got.append(sim.get_real(f"g::{name}"))
+    finally:
+        sim.terminate()
+        sim.free()
+    assert np.max(np.abs(np.asarray(got) - ref)) <= tol, (fmu.name, "Ecos", name)

@@ -417,6 +417,30 @@ static void hg_detach(HgInstance *h) {
     h->inst = h->messages = h->do_step = h->get_real = h->set_real = NULL;
 }
 
+/* Start Python (or join the interpreter running in the process) and create the instance attached to h.  Returns
+   the instance with the GIL held; NULL with *error set (malloc'd, NULL for "unknown") otherwise, *gil_held saying
+   whether the GIL was taken (release it with *gil). */
+static PyObject *hg_instantiate(HgInstance *h, const char *name, const char *location, const char *token,
+                                int logging_on, int fmi_version, char **error, PyGILState_STATE *gil,
+                                int *gil_held) {
+    *error = NULL;
+    *gil_held = 0;
+    const char *no_python = hg_ensure_python();
+    if (no_python) {
+        *error = hg_strdup(no_python);
+        return NULL;
+    }
+    *gil = PyGILState_Ensure();
+    *gil_held = 1;
+    PyObject *inst = hg_create(name, location, token, logging_on, fmi_version, error);
+    if (inst && !hg_attach(h, inst)) {
+        hg_detach(h);
+        *error = hg_strdup("internal error: the FMU instance lacks its methods");
+        return NULL;
+    }
+    return inst;
+}
+
 /* A tuple of value references. */
 static PyObject *hg_vrs(const unsigned int *vr, size_t n) {
     PyObject *t = PyTuple_New((Py_ssize_t)n);

@@ -67,20 +67,9 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
         return NULL;
     }
     char *error = NULL;
-    PyObject *inst = NULL;
     PyGILState_STATE gil = PyGILState_UNLOCKED;
-    const char *no_python = hg_ensure_python();
-    if (no_python) {
-        error = hg_strdup(no_python);
-    } else {
-        gil = PyGILState_Ensure();
-        inst = hg_create(instanceName, fmuResourceLocation, fmuGUID, loggingOn ? 1 : 0, 2, &error);
-        if (inst && !hg_attach(&I->h, inst)) {
-            hg_detach(&I->h);
-            inst = NULL;
-            error = hg_strdup("internal error: the FMU instance lacks its methods");
-        }
-    }
+    int gil_held = 0;
+    PyObject *inst = hg_instantiate(&I->h, instanceName, fmuResourceLocation, fmuGUID, loggingOn ? 1 : 0, 2, &error, &gil, &gil_held);
     if (!inst) {
         const char *e = error ? error : "unknown error";
         /* the reason reaches the user without debug logging: the logger (status Error) and stderr */
@@ -98,7 +87,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
         }
         fprintf(stderr, "hacgear FMU '%s': instantiation failed: %s\n", I->h.name, e);
         free(error);
-        if (!no_python) PyGILState_Release(gil);
+        if (gil_held) PyGILState_Release(gil);
         free(I->h.name);
         free(I);
         return NULL;

@@ -105,20 +105,9 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
         return NULL;
     }
     char *error = NULL;
-    PyObject *inst = NULL;
     PyGILState_STATE gil = PyGILState_UNLOCKED;
-    const char *no_python = hg_ensure_python();
-    if (no_python) {
-        error = hg_strdup(no_python);
-    } else {
-        gil = PyGILState_Ensure();
-        inst = hg_create(instanceName, resourcePath, instantiationToken, loggingOn ? 1 : 0, 3, &error);
-        if (inst && !hg_attach(&I->h, inst)) {
-            hg_detach(&I->h);
-            inst = NULL;
-            error = hg_strdup("internal error: the FMU instance lacks its methods");
-        }
-    }
+    int gil_held = 0;
+    PyObject *inst = hg_instantiate(&I->h, instanceName, resourcePath, instantiationToken, loggingOn ? 1 : 0, 3, &error, &gil, &gil_held);
     if (!inst) {
         const char *e = error ? error : "unknown error";
         char *msg = (char *)malloc(strlen(e) + 64);
@@ -129,7 +118,7 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
         }
         fprintf(stderr, "hacgear FMU '%s': instantiation failed: %s\n", I->h.name, e);
         free(error);
-        if (!no_python) PyGILState_Release(gil);
+        if (gil_held) PyGILState_Release(gil);
         free(I->h.name);
         free(I);
         return NULL;

@@ -13,7 +13,8 @@ write the FMU's binary: ``native`` compiles our own (strict FMI statuses; needs 
 headers), ``pythonfmu`` takes pythonfmu's / pythonfmu3's prebuilt linux64 + win64 binaries (no compiler).  Without
 ``--backend`` the native one is used where a C compiler is found, pythonfmu where none is; the script says which
 and why.  ``--check`` runs ``fmpy validate``
-and ``fmutool -check`` on each FMU.  Exit status: 0 when every requested FMU was built (and passed the checks),
+and ``fmutool -check`` on each FMU.  Each build runs the new FMU once in a separate Python process and ships the
+compiled numba code of that run (``--no-compiled-code``: not).  Exit status: 0 when every requested FMU was built (and passed the checks),
 1 otherwise.
 """
 from __future__ import annotations
@@ -56,6 +57,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="native: own binaries compiled with the C compiler (strict FMI statuses); pythonfmu: "
                          "pythonfmu's/pythonfmu3's prebuilt linux64 + win64 binaries, no compiler (default: native "
                          "where a C compiler is found, else pythonfmu)")
+    ap.add_argument("--no-compiled-code", action="store_true",
+                    help="do not ship the compiled numba code of the FMU's run (resources/numba_cache/, made by "
+                         "running each FMU once at build time); the importer then compiles it at its first "
+                         "instantiation, once per machine")
     ap.add_argument("--readme", action="store_true",
                     help="instead of building: write each system's FMU variable table (from the FMU's spec) into "
                          "its models/<system>/readme.md")
@@ -104,7 +109,8 @@ def main(argv: list[str] | None = None) -> int:
             continue
         for version in versions:
             try:
-                fmu = build_fmu(d, args.out, fmi_version=version, backend=backend)
+                fmu = build_fmu(d, args.out, fmi_version=version, backend=backend,
+                                compiled_code=not args.no_compiled_code)
             except HacgearError as exc:
                 print(f"build_fmu: error: {d}: {exc}", file=sys.stderr)
                 status = 1

@@ -740,6 +740,138 @@ def test_fresh_process_loads_cached_kernels_and_system(built):
     assert list((bootstrap.cache_root() / "systems").glob("*.pickle"))
 
 
+_SHIPPED_RUN = r"""
+import json, sys
+import numpy as np
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+md = read_model_description({fmu!r}); d = extract({fmu!r})
+vr = {{v.name: v.valueReference for v in md.modelVariables}}
+log = []
+f = FMU2Slave(guid=md.guid, unzipDirectory=d, modelIdentifier=md.coSimulation.modelIdentifier, instanceName='x')
+f.instantiate(loggingOn=True, callbacks=None)
+f.setupExperiment(startTime=0.0); f.enterInitializationMode()
+f.setReal([vr['pinion.speed_in']], [314.0]); f.exitInitializationMode()
+names = ['m12.force', 'm12.deflection', 'm12.dte', 'm12.position', 'pinion.speed']
+rows = []
+for k in range(40):
+    f.doStep(k * 1e-4, 1e-4)
+    rows.append(f.getReal([vr[n] for n in names]))
+mod = next(m for n, m in sys.modules.items() if n.endswith('.dynamics.kernels') and n.startswith('hacgear_fmu_'))
+misses = sum(sum(x.stats.cache_misses.values()) for x in vars(mod).values() if hasattr(x, 'stats'))
+print('RESULT', json.dumps({{'rows': rows, 'kernel_cache_misses': misses}}))
+f.terminate(); f.freeInstance()
+"""
+
+
+def _shipped_run(fmu, cache):
+    """A fresh process with empty caches (FMU cache folder ``cache``, no NUMBA_CACHE_DIR) runs 40 steps of
+    ``fmu`` with debug logging: (the FMU's log lines, outputs (40, 5), numba cache misses of the kernels)."""
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env["HACGEAR_FMU_CACHE"] = str(cache)
+    p = subprocess.run([sys.executable, "-c", _SHIPPED_RUN.format(fmu=str(fmu))], capture_output=True, text=True,
+                       timeout=900, env=env)
+    assert p.returncode == 0, p.stdout[-2000:] + p.stderr[-3000:]
+    out = json.loads(p.stdout.split("RESULT", 1)[1])
+    return [ln for ln in p.stdout.splitlines() if ln.startswith("[")], np.array(out["rows"]), \
+        out["kernel_cache_misses"]
+
+
+def test_fmu_ships_its_compiled_code_and_falls_back_to_compiling(built, tmp_path):
+    """The FMU carries the compiled numba code of its run (resources/numba_cache/): a fresh process with empty
+    caches loads it, compiling nothing (the log says so, numba counts no cache miss); with the shipped kernel index
+    made for another numba version numba compiles (the log says so first) and the outputs are bit-identical."""
+    fmu = built["fmu"]["spur_28t_asym"]
+    with zipfile.ZipFile(fmu) as z:
+        manifest = json.loads(z.read("resources/numba_cache/manifest.json"))
+        names = z.namelist()
+    kernel = [e for e in manifest["functions"] if e["module"] == "dynamics.kernels"]
+    assert [e["function"] for e in kernel] == ["_table_2_1_s2"]  # the one specialisation this FMU runs
+    assert {"bilinear_many", "interp_rows"} <= {e["function"] for e in manifest["functions"]}  # system assembly
+    assert all(f"resources/numba_cache/{e['module']}/{f}" in names for e in manifest["functions"] for f in e["files"])
+    log, shipped, misses = _shipped_run(fmu, tmp_path / "cache_a")
+    assert misses == 0, log
+    assert not any("compiling" in m for m in log), log
+    assert any(re.search(r"loaded the integration kernel for 2 DOF x 1 mesh .* from the compiled code shipped in "
+                         r"this FMU \(nothing compiled\)", m) for m in log), log
+    # the kernel's index as numba writes it: its numba version first (a pickle), then the entries
+    index = next(f for f in kernel[0]["files"] if f.endswith(".nbi"))
+    member = f"resources/numba_cache/dynamics.kernels/{index}"
+    with zipfile.ZipFile(fmu) as z:
+        data = z.read(member)
+    import io
+    import pickle
+
+    buf = io.BytesIO(data)
+    assert pickle.load(buf) == manifest["machine"]["numba"]
+    tampered = tmp_path / "tampered.fmu"
+    shutil.copyfile(fmu, tampered)
+    hf.build._rewrite_zip_member(tampered, member, pickle.dumps("0.0.0-other", protocol=-1) + buf.read())
+    log2, compiled, misses2 = _shipped_run(tampered, tmp_path / "cache_b")
+    assert misses2 >= 1, log2
+    notice = [m for m in log2 if "compiling the integration kernel for 2 DOF x 1 mesh" in m]
+    assert len(notice) == 1 and "numba did not accept the compiled code shipped in this FMU" in notice[0], log2
+    assert any(re.search(r"compiled the integration kernel .* in [\d.]+ s", m) for m in log2), log2
+    assert log2.index(notice[0]) < next(i for i, m in enumerate(log2) if re.search(r"compiled the integration", m))
+    assert shipped.shape == (40, 5) and np.all(np.isfinite(shipped)) and np.ptp(shipped[:, 0]) > 0
+    assert np.array_equal(shipped, compiled)
+
+
+_INSTALL_RUN = r"""
+import json, shutil, sys
+from pathlib import Path
+res, alt = Path({res!r}), Path({alt!r})
+info = json.loads((res / "hacgear_fmu.json").read_text())
+package = info["bundle"]["package"]
+sys.path.insert(0, str(res))
+boot = __import__("hacgear_fmu_boot")
+folder, notes = boot.stable_copy(res / package, package, info["bundle"]["sha256"])
+sys.path.append(str(folder))
+nc = __import__(package + ".fmu.numba_cache", fromlist=["x"])
+kernels = __import__(package + ".dynamics.kernels", fromlist=["x"])
+out = {{"cache_dir": kernels._table_2_1_s2._cache.cache_path, "machine": nc.machine()}}
+out["other"] = nc.install(package, alt)
+out["none"] = nc.install(package, res / "no_such_folder")
+out["first"] = nc.install(package, res / nc.SHIPPED_DIR)
+out["again"] = nc.install(package, res / nc.SHIPPED_DIR)
+print("RESULT", json.dumps(out))
+"""
+
+
+def test_shipped_code_is_installed_where_numba_looks_once(built, tmp_path):
+    """:func:`numba_cache.install` (fresh process, empty caches, ``NUMBA_CACHE_DIR`` set): installs nothing, saying
+    why, when the manifest names another numba and CPU or is missing; else copies the shipped files into numba's
+    own cache folder of each function (below ``NUMBA_CACHE_DIR`` here), and leaves an existing index alone."""
+    from hacgear_core.fmu import numba_cache
+
+    d = Path(extract(str(built["fmu"]["spur_28t_asym"])))
+    try:
+        res = d / "resources"
+        shipped = res / numba_cache.SHIPPED_DIR
+        manifest = json.loads((shipped / numba_cache.MANIFEST_FILE).read_text())
+        other = json.loads(json.dumps(manifest))
+        other["machine"].update(numba="0.0.1", cpu="other-cpu")
+        alt = tmp_path / "alt"
+        shutil.copytree(shipped, alt)
+        (alt / numba_cache.MANIFEST_FILE).write_text(json.dumps(other))
+        env = dict(os.environ, HACGEAR_FMU_CACHE=str(tmp_path / "fmu_cache"), NUMBA_CACHE_DIR=str(tmp_path / "nb"))
+        p = subprocess.run([sys.executable, "-c", _INSTALL_RUN.format(res=str(res), alt=str(alt))],
+                           capture_output=True, text=True, timeout=600, env=env)
+        assert p.returncode == 0, p.stderr[-3000:]
+        out = json.loads(p.stdout.split("RESULT", 1)[1])
+        n, why = out["other"]
+        assert n == 0 and "numba 0.0.1" in why and "other-cpu" in why and f"here {out['machine']['cpu']}" in why
+        assert out["none"] == [0, "this FMU ships no compiled code"]
+        assert out["first"] == [len(manifest["functions"]), ""] and out["again"] == [0, ""]
+        cache_dir = Path(out["cache_dir"])
+        assert cache_dir.is_relative_to(tmp_path / "nb")
+        entry = next(e for e in manifest["functions"] if e["function"] == "_table_2_1_s2")
+        for f in entry["files"]:
+            assert (cache_dir / f).read_bytes() == (shipped / "dynamics.kernels" / f).read_bytes()
+    finally:
+        shutil.rmtree(d, ignore_errors=True)
+
+
 def test_importer_exits_cleanly(built):
     """Fresh importer processes that load scipy, numba and h5py only through the FMU exit with status 0."""
     code = (f"import fmpy\nr = fmpy.simulate_fmu({str(built['fmu']['spur_28t_asym'])!r}, stop_time=2e-3, "
@@ -979,8 +1111,8 @@ def test_kernel_preparation_is_logged_through_the_fmi_logger(built, monkeypatch)
     try:
         inst = FmuInstance(Path(low.dir) / "resources", "direct", low.md.guid, logging_on=True)
         assert any(st == OK and re.match(r"ExitInitializationMode makes the integration kernel for \d+ DOF x 1 mesh "
-                                         r"\(force tables, both flanks\) ready: numba loads it from its cache, or "
-                                         r"compiles it", m) for st, _, m in inst.messages), inst.messages
+                                         r"\(force tables, both flanks\) ready: numba loads it from its cache \(or the "
+                                         r"compiled code shipped in this FMU\), or compiles it", m) for st, _, m in inst.messages), inst.messages
         real = LumpedSystem.prepare_kernel
         asked = []
 

@@ -13,7 +13,11 @@ An FMU holds:
 * ``resources/``: the model file and its tables, ``hacgear_fmu.json`` (system, GUID, variables, minimum versions
   of the importer's packages, ports), the loader ``hacgear_fmu_boot.py`` (:mod:`.bootstrap`) and the hacgear code
   itself as a package whose name is unique to its contents (``hacgear_fmu_<version>_<digest>``), so that the
-  importer's Python needs only numpy, scipy, h5py and numba.
+  importer's Python needs only numpy, scipy, h5py and numba;
+* ``resources/numba_cache/``: the compiled code of that package's numba functions the FMU runs with its start
+  values (the integration kernel's specialisation, the table functions), made by running the FMU once in a
+  separate Python process at build time (:mod:`.numba_cache`): an importer with the same numba, Python and CPU
+  loads it instead of compiling.
 """
 from __future__ import annotations
 
@@ -40,6 +44,7 @@ from hacgear_core.errors import HacgearError
 from hacgear_core.fmu import bootstrap
 from hacgear_core.fmu.adapter import MODEL_FILE, TABLES_FILE, make_adapter
 from hacgear_core.fmu.components import ComponentAdapter
+from hacgear_core.fmu.numba_cache import MANIFEST_FILE, SHIPPED_DIR, machine
 from hacgear_core.fmu.pythonfmu_backend import BACKENDS, build_pythonfmu
 from hacgear_core.fmu.slave import FMU_INFO_FILE, value_references
 from hacgear_core.fmu.spec import DISPLAY_UNITS, ENUMERATIONS, TIME, UNITS
@@ -47,7 +52,7 @@ from hacgear_core.model import load_model, model_sha256
 from hacgear_core.tables import SystemTables, write_tables
 
 __all__ = ["build_fmu", "build_component_fmu", "model_description", "bundle_package", "compile_binary", "synthetic_system_folder",
-           "python_runtime", "LIBPYTHON_QUERY",
+           "python_runtime", "LIBPYTHON_QUERY", "ship_compiled_code",
            "REQUIREMENTS", "PYTHON_REQUIREMENT", "fmu_file_name"]
 
 #: Lowest versions of the importer's packages the FMUs are tested with (docs/fmu.md, "What the importer needs"):
@@ -309,11 +314,13 @@ def model_description(adapter, info: dict, fmi_version: int = 2) -> bytes:
 
 
 # ---------------------------------------------------------------------------------------------- the FMU
-def build_fmu(system_dir: str | Path, out_dir: str | Path, *, fmi_version: int = 2, backend: str = "native") -> Path:
+def build_fmu(system_dir: str | Path, out_dir: str | Path, *, fmi_version: int = 2, backend: str = "native",
+              compiled_code: bool = True) -> Path:
     """Build ``<out_dir>/<system>.fmu`` (FMI 2.0) or ``<out_dir>/<system>_fmi3.fmu`` (FMI 3.0) from
     ``<system_dir>/model.toml`` and ``<system_dir>/tables.h5`` (see the module docstring).  ``backend``:
     ``native`` (binary compiled from ``fmu_src/``) or ``pythonfmu`` (pythonfmu's / pythonfmu3's prebuilt binaries,
-    :mod:`.pythonfmu_backend`).
+    :mod:`.pythonfmu_backend`).  ``compiled_code``: ship the compiled numba code of the FMU's run
+    (:func:`ship_compiled_code`; False: the importer compiles it at its first instantiation, once per machine).
 
     Raises
     ------
@@ -345,7 +352,8 @@ def build_fmu(system_dir: str | Path, out_dir: str | Path, *, fmi_version: int =
     }
     files = {MODEL_FILE: system_dir / MODEL_FILE, TABLES_FILE: tables}
     out_dir.mkdir(parents=True, exist_ok=True)
-    return _package(adapter, info, files, out_dir / fmu_file_name(model.name, fmi_version), fmi_version, backend)
+    return _package(adapter, info, files, out_dir / fmu_file_name(model.name, fmi_version), fmi_version, backend,
+                    compiled_code)
 
 
 def build_component_fmu(kind: str, out_dir: str | Path, *, fmi_version: int = 2) -> Path:
@@ -361,10 +369,79 @@ def build_component_fmu(kind: str, out_dir: str | Path, *, fmi_version: int = 2)
     return _package(adapter, info, {}, out_dir / fmu_file_name(name, fmi_version), fmi_version)
 
 
-def _package(adapter, info: dict, files: dict, dest: Path, fmi_version: int, backend: str = "native") -> Path:
+#: Python code (run as ``python -c CODE RESOURCES``) that instantiates the FMU in ``RESOURCES`` through its loader,
+#: initializes it with its start values, takes one communication step and collects the compiled code of that run
+#: (:func:`hacgear_core.fmu.numba_cache.collect`); prints the manifest's function count
+_SHIP_RUN = r"""
+import importlib, importlib.util, json, sys
+from pathlib import Path
+res = Path(sys.argv[1])
+spec = importlib.util.spec_from_file_location("hacgear_fmu_boot_build", res / "{boot}")
+boot = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(boot)
+info = json.loads((res / boot.INFO_FILE).read_text(encoding="utf-8"))
+inst = boot.instantiate("build", str(res), info["guid"], False, info["fmi_version"])
+ok = (inst.enter_initialization_mode(0.0) == 0 and inst.exit_initialization_mode() == 0
+      and inst.do_step(0.0, 1e-4) == 0)
+if not ok:
+    raise SystemExit("the FMU failed its first step: " + "; ".join(m[2] for m in inst.messages))
+package = info["bundle"]["package"]
+manifest = importlib.import_module(package + ".fmu.numba_cache").collect(package, res / "{shipped}")
+print(len(manifest["functions"]))
+"""
+
+
+def ship_compiled_code(res: str | Path) -> int:
+    """Run the FMU whose resources are ``res`` (complete but for the compiled code) once in a separate Python
+    process, through its loader as an importer does, and store the compiled numba code of that run in
+    ``res/numba_cache/`` (:mod:`.numba_cache`); returns the number of functions stored.  numba loads the builder's
+    own cache where it has compiled the same code before, so only the first build of a hacgear version and
+    kernel specialisation compiles (~15 s); the result is kept per GUID and builder machine in
+    ``<FMU cache>/compiled/`` (:func:`~hacgear_core.fmu.bootstrap.cache_root`), so that rebuilding the same FMU
+    copies it.
+
+    Raises
+    ------
+    HacgearError
+        The run failed (its message).
+    """
+    res = Path(res)
+    shipped = res / SHIPPED_DIR
+    guid = json.loads((res / FMU_INFO_FILE).read_text(encoding="utf-8"))["guid"]
+    key = hashlib.sha256(json.dumps([guid, machine()], sort_keys=True).encode()).hexdigest()[:32]
+    memo = bootstrap.cache_root() / "compiled" / key
+    if (memo / MANIFEST_FILE).is_file():
+        try:
+            shutil.copytree(memo, shipped)
+            return len(json.loads((shipped / MANIFEST_FILE).read_text(encoding="utf-8"))["functions"])
+        except (OSError, ValueError, KeyError):
+            shutil.rmtree(shipped, ignore_errors=True)  # run it
+    code = _SHIP_RUN.replace("{boot}", bootstrap.BOOT_FILE).replace("{shipped}", SHIPPED_DIR)
+    try:
+        r = subprocess.run([sys.executable, "-c", code, str(res)], capture_output=True, text=True, timeout=1800,
+                           stdin=subprocess.DEVNULL)
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        raise HacgearError(f"running the FMU at build time to compile its code failed: {exc}") from None
+    if r.returncode != 0:
+        raise HacgearError("running the FMU at build time to compile its code failed: "
+                           f"{(r.stderr or r.stdout).strip()[-3000:]}")
+    try:
+        memo.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{key}-", dir=memo.parent))
+        shutil.copytree(shipped, tmp / "c")
+        os.replace(tmp / "c", memo)
+        shutil.rmtree(tmp, ignore_errors=True)
+    except OSError:  # not kept (unwritable cache, or another build kept it first): the next build runs it again
+        pass
+    return int(r.stdout.strip().splitlines()[-1])
+
+
+def _package(adapter, info: dict, files: dict, dest: Path, fmi_version: int, backend: str = "native",
+             compiled_code: bool = False) -> Path:
     """Write the FMU ``dest``: binary, modelDescription.xml, resources (``files``: name -> path), the loader and
-    the bundled code; ``info`` completed into hacgear_fmu.json.  The pythonfmu backend hands the resources and the
-    modelDescription to pythonfmu's builder."""
+    the bundled code; ``info`` completed into hacgear_fmu.json; with ``compiled_code`` the compiled code of the
+    FMU's run (:func:`ship_compiled_code`).  The pythonfmu backend hands the resources and the modelDescription to
+    pythonfmu's builder."""
     with tempfile.TemporaryDirectory(prefix="hacgear_fmu_") as td:
         td = Path(td)
         res = td / "resources"
@@ -383,6 +460,8 @@ def _package(adapter, info: dict, files: dict, dest: Path, fmi_version: int, bac
                 "python_runtime": python_runtime()}
         info["guid"] = _guid(info)
         (res / FMU_INFO_FILE).write_text(json.dumps(info, indent=1), encoding="utf-8")
+        if compiled_code:
+            ship_compiled_code(res)
         if backend == "pythonfmu":
             return build_pythonfmu(res, info, model_description(adapter, info, fmi_version), dest, fmi_version)
         binary = compile_binary(fmi_version, td / "binaries" / _PLATFORM[fmi_version] / f"{info['system']}.so",

@@ -35,6 +35,7 @@ from hacgear_core.dynamics.kernels import COMPILE_CPU_S
 from hacgear_core.errors import HacgearError
 from hacgear_core.fmu.adapter import make_adapter
 from hacgear_core.fmu.components import COMPONENTS, ComponentAdapter
+from hacgear_core.fmu.numba_cache import SHIPPED_DIR, install as install_shipped_code
 from hacgear_core.fmu.spec import TIME, TYPES, FmuVariable
 
 __all__ = ["FMU_INFO_FILE", "FmuInstance", "fmu_info", "value_references", "MAX_SUBSTEPS_PER_STEP",
@@ -116,10 +117,15 @@ class FmuInstance:
             raise HacgearError(f"instantiation token {token!r} is not this FMU's ({self.info.get('guid')!r}): the "
                                "modelDescription.xml read by the master belongs to another FMU or build")
         cache_file = None if cache_dir is None else Path(cache_dir) / f"{str(token).strip('{}')}.pickle"
+        #: (functions whose shipped compiled code was installed, why none was): before anything is compiled
+        self.shipped_code = (0, "")
         if self.info.get("kind") in COMPONENTS:
             self.adapter = ComponentAdapter(self.info["kind"])
             self._tables_adapter = False
         else:
+            package = __name__.split(".")[0]
+            if package == self.info.get("bundle", {}).get("package"):  # the FMU's own bundled code
+                self.shipped_code = install_shipped_code(package, self.resources / SHIPPED_DIR)
             self.adapter = make_adapter(self.resources, cache_file)
             self._tables_adapter = True
         variables = self.adapter.variables
@@ -161,7 +167,7 @@ class FmuInstance:
             self.log(WARNING, str(note))
         if self._tables_adapter:
             self.log(OK, f"ExitInitializationMode makes {self.adapter.sim.system.kernel_label} ready: numba loads it "
-                         "from its cache, or compiles it the first time on this machine (once per machine, about "
+                         "from its cache (or the compiled code shipped in this FMU), or compiles it the first time on this machine (once per machine, about "
                          f"{COMPILE_CPU_S} s on one core)")
 
     # ------------------------------------------------------------------ helpers
@@ -285,9 +291,16 @@ class FmuInstance:
             if msg:
                 return self._error(f"{self._fn('ExitInitializationMode')}: invalid parameters or start values: {msg}")
             if self._tables_adapter:  # compile (or load) the kernel here, not in the first doStep
-                compiled, seconds = self.adapter.sim.system.prepare_kernel(notice=lambda m: self.log(OK, m))
+                installed, why_not = self.shipped_code
+                why = (f" (the compiled code shipped in this FMU was not used: {why_not})" if why_not else
+                       " (numba did not accept the compiled code shipped in this FMU)" if installed else "")
+                compiled, seconds = self.adapter.sim.system.prepare_kernel(notice=lambda m: self.log(OK, m + why))
+                label = self.adapter.sim.system.kernel_label
                 if compiled:
-                    self.log(OK, f"compiled {self.adapter.sim.system.kernel_label} in {seconds:.1f} s")
+                    self.log(OK, f"compiled {label} in {seconds:.1f} s")
+                elif installed:
+                    self.log(OK, f"loaded {label} from the compiled code shipped in this FMU (nothing compiled)")
+                    self.shipped_code = (0, "")
             self.state = STEP
             return OK
         except Exception as exc:

@@ -24,8 +24,8 @@ from _fuzz import FUZZ_COUNTS
 # work between the two cores: a kernel missing here is compiled by the test that needs it, as before; a stale entry
 # costs the background process ~15 s.  HACGEAR_TEST_WARM=0 turns the background compilation off.
 # Not listed on purpose: the FMU kernels of spur_28t_asym and idler_28_33_39 (fmu:_table_2_1_s2, fmu:_table_3_2_s2),
-# which test_fmu_runs_in_an_environment_without_hacgear compiles in its isolated Python (no hacgear_core), as a
-# user's first FMU run does.
+# which the FMU builds of tests/test_fmu.py's first test compile (build_fmu runs each new FMU once, in the per-user
+# FMU cache, to ship the compiled code in it).
 WARM_KERNELS = {
     "test_fmu.py::test_fmu_step_path_equals_library_advance": ("lib:_table_3_2_s2",),
     "test_fmu_helical.py::test_helical_fmu_equals_the_library": ("fmu:_twist_s", "lib:_twist_s"),

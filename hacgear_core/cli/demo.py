@@ -95,11 +95,13 @@ def run(args) -> int:
              for j in sw.get("jumps", []) if j.get("confirmed")]
     print(f"  confirmed jumps: {', '.join(jumps) if jumps else 'none'}")
     t0 = time.perf_counter()
+    print(f"[fmu] building the FMU (the build runs it once and ships its compiled code; the first build on this "
+          f"machine compiles the FMU's own copy of the integration kernel: about {COMPILE_CPU_S} s on one core)",
+          flush=True)
     fmu = build_fmu(model.folder, out)
     print(f"[fmu] {fmu} built in {time.perf_counter() - t0:.1f} s")
     # the bench steps at 2e-5 s (the shafts on the gears' inertias); a 0.5 s ramp keeps the demo short
-    print(f"[drivetrain] running {fmu.name} (its first run on this machine compiles the FMU's own copy of the "
-          f"integration kernel: about {COMPILE_CPU_S} s on one core)", flush=True)
+    print(f"[drivetrain] running {fmu.name}", flush=True)
     res = run_drivetrain_bench(fmu, BenchConfig(ramp_s=0.2 if args.quick else 0.5))
     for mn, fs in res["static_mesh_force_N"].items():
         f = res[f"{mn}.force"]

@@ -1,6 +1,7 @@
 """FMI 2.0 and FMI 3.0 co-simulation FMUs of gear systems: :mod:`.spec` (variables declared once), :mod:`.adapter`
 (the one adapter of every kind: FMI variables <-> simulator), :mod:`.slave` (the FMI state machine and statuses
-the FMU's binary calls), :mod:`.bootstrap` (the loader that runs in the importer's Python), ``fmu_src/`` of the checkout
+the FMU's binary calls), :mod:`.bootstrap` (the loader that runs in the importer's Python), :mod:`.numba_cache` (the compiled code an FMU
+ships: collected at build time, installed at instantiation), ``fmu_src/`` of the checkout
 (the C sources of the FMU binaries, installed as ``hacgear_core.fmu.slaves``), :mod:`.build` (FMU build, modelDescription.xml),
 :mod:`.pythonfmu_backend` (the FMUs written by pythonfmu / pythonfmu3, their slave :mod:`.pythonfmu_slave`), :mod:`.components` (motor, shaft,
 load of the benches), :mod:`.bench` (drivetrain benches of any number of gear stages), :mod:`.ssp` (the benches as

@@ -26,6 +26,7 @@ import datetime as _dt
 import hashlib
 import importlib.resources
 import json
+import logging
 import math
 import os
 import re
@@ -39,6 +40,7 @@ from pathlib import Path
 from xml.etree import ElementTree as ET
 
 from hacgear_core import __version__
+from hacgear_core.dynamics.kernels import COMPILE_CPU_S, COMPILE_LOGGER
 from hacgear_core.dynamics.synthetic import spur_fdf_table
 from hacgear_core.errors import HacgearError
 from hacgear_core.fmu import bootstrap
@@ -407,8 +409,8 @@ def ship_compiled_code(res: str | Path) -> int:
     """
     res = Path(res)
     shipped = res / SHIPPED_DIR
-    guid = json.loads((res / FMU_INFO_FILE).read_text(encoding="utf-8"))["guid"]
-    key = hashlib.sha256(json.dumps([guid, machine()], sort_keys=True).encode()).hexdigest()[:32]
+    info = json.loads((res / FMU_INFO_FILE).read_text(encoding="utf-8"))
+    key = hashlib.sha256(json.dumps([info["guid"], machine()], sort_keys=True).encode()).hexdigest()[:32]
     memo = bootstrap.cache_root() / "compiled" / key
     if (memo / MANIFEST_FILE).is_file():
         try:
@@ -416,6 +418,9 @@ def ship_compiled_code(res: str | Path) -> int:
             return len(json.loads((shipped / MANIFEST_FILE).read_text(encoding="utf-8"))["functions"])
         except (OSError, ValueError, KeyError):
             shutil.rmtree(shipped, ignore_errors=True)  # run it
+    logging.getLogger(COMPILE_LOGGER).info(
+        f"running the FMU {info['system']} once to ship its compiled code: numba compiles what this machine's "
+        f"cache lacks (the first build of a hacgear version: about {COMPILE_CPU_S} s per kernel specialisation)")
     code = _SHIP_RUN.replace("{boot}", bootstrap.BOOT_FILE).replace("{shipped}", SHIPPED_DIR)
     try:
         r = subprocess.run([sys.executable, "-c", code, str(res)], capture_output=True, text=True, timeout=1800,

@@ -31,7 +31,8 @@ resident memory, of three runs per system:
   what an importer with another numba or CPU sees the first time (numba compiles, once per machine);
 * warm: the first FMU again in a fresh process with the caches the cold run left.
 
-Targets: cold <= 15 s and <= 1 GB (judged on the shipped-code run), warm <= 1 s; each figure is printed with its
+Targets: cold <= 15 s and <= 1 GB (judged on the shipped-code run), warm <= 1 s, on wall time (the verdict on
+CPU time is printed beside it: other load on the machine stretches wall time); each figure is printed with its
 ratio to the target.
 
     python benchmarks/bench_fmu.py [--system spur_28t_asym] [--fmu FILE] [--pythonfmu-fmu FILE] [--speed-rpm 3000]
@@ -122,15 +123,17 @@ def first_step_per_kind(systems, speed_rpm: float, as_json: bool) -> int:
         finally:
             shutil.rmtree(work, ignore_errors=True)
         met = cold[0] <= COLD_TARGET_S and cold[2] <= COLD_TARGET_MB and warm[0] <= WARM_TARGET_S
+        met_cpu = cold[1] <= COLD_TARGET_S and cold[2] <= COLD_TARGET_MB and warm[1] <= WARM_TARGET_S
         ok &= met
-        fig = {"system": system, "met": met}
+        fig = {"system": system, "met": met, "met_on_cpu_time": met_cpu}
         for key, run, target in (("cold_shipped", cold, COLD_TARGET_S), ("cold_compiling", compiling, COLD_TARGET_S),
                                  ("warm", warm, WARM_TARGET_S)):
             fig[key] = {"wall_s": run[0], "cpu_s": run[1], "peak_rss_MB": run[2], "ratio_time": run[0] / target,
                         "ratio_rss": run[2] / COLD_TARGET_MB}
         figs.append(fig)
         if not as_json:
-            print(f"{system}: {'met' if met else 'MISSED'}")
+            print(f"{system}: {'met' if met else 'MISSED'} (on CPU time instead of wall time: "
+                  f"{'met' if met_cpu else 'MISSED'})")
             for key, words in (("cold_shipped", "cold, shipped code"), ("cold_compiling", "cold, compiling  "),
                                ("warm", "warm              ")):
                 f = fig[key]

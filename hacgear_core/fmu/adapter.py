@@ -101,7 +101,7 @@ class Adapter:
         self.tables = tables
         self.kind = model.kind
         #: fixed Integer parameters that change the structure (planet count); the outputs cover the largest one
-        self.structural = structural_parameters(model)
+        self.structural = structural_parameters(model) if prepared is None else prepared["structural"]
         big = {p.name: p.max for p in self.structural}
         if prepared is None:
             base = build_system(model, tables)
@@ -146,7 +146,7 @@ class Adapter:
     def prepared(self) -> dict:
         """What a new adapter of the same model and tables can start from (see the ``prepared`` parameter)."""
         return {"system": self.base_system, "spec_system": self.spec_system, "drive_system": self._drive_system,
-                "nominal": self.nominal}
+                "nominal": self.nominal, "structural": self.structural}
 
     def _model_bearings(self, model) -> tuple:
         """Translational support stiffness of every gear of the model (and the carrier of a planetary set)."""

@@ -37,7 +37,8 @@ Force laws (one per kernel variant, so the dispatch folds away at compile time):
     (:func:`hacgear_core.tables.interp.trilinear_flat`), generalized force ``W v_k + M t_k``; the twist vector
     ``t_k`` and M ride in the coast slots (``vc_k``, ``Fc_k`` above), which such meshes do not use otherwise.
     A two-sided helical mesh is two meshes of this loop: its drive side k and its coast side m' + k (``m'`` the
-    system's meshes), the coast side with the coast flanks' vectors and generalized FDF (0 below its onset).
+    system's meshes), the coast side with the coast flanks' vectors and generalized FDF (0 below its onset); a
+    drive-only table's coast side is a zero table whose range ends at the backlash (:func:`flatten_twist_tables`).
 The coast side is always its table.
 
 Tables travel flattened: row ``r`` (drive tables of meshes 0..m-1, then their coast tables m..2m-1) is

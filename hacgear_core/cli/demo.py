@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from hacgear_core.cli._help import plain_text
-from hacgear_core.cli._paths import check_out_dir
+from hacgear_core.outpaths import check_out_dir
 from hacgear_core.dynamics.kernels import COMPILE_CPU_S
 from hacgear_core.fmu import build_fmu
 from hacgear_core.fmu.bench import BenchConfig, plot_bench, run_drivetrain_bench

@@ -9,7 +9,7 @@ import numpy as np
 
 from hacgear_core.cli._dyn_common import add_model_options, inputs_from_args
 from hacgear_core.cli._options import check_option
-from hacgear_core.cli._paths import check_out_path
+from hacgear_core.outpaths import check_out_path
 from hacgear_core.dynamics.simulator import (Simulator, gauge_passage, passage_cycles, static_gauge_passage,
                                              strain_of_tooth, system_gauges)
 from hacgear_core.errors import ModelError

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from hacgear_core.cli._options import check_option, given
-from hacgear_core.cli._paths import check_out_path
+from hacgear_core.outpaths import check_out_path
 from hacgear_core.errors import ModelError, TableError
 from hacgear_core.jsonio import dumps
 from hacgear_core.model import load_model, resolve_model_path

@@ -7,8 +7,10 @@ interpolation), :mod:`.dynamics` (the lumped model: systems, compiled kernel, si
 modes), :mod:`.fmu` (FMI 2.0 / 3.0 co-simulation FMUs and SSP benches).  Beside it: :mod:`.response` (root
 strain, contact pressure and mesh stiffness through the tables), :mod:`.studies` (the direct contact models HAC
 is checked against, the validity map), :mod:`.plots` (figures), :mod:`.cli` (the ``hacgear`` command), and the
-shared modules :mod:`.errors`, :mod:`.jsonio`, :mod:`.h5files`, :mod:`.outpaths`, :mod:`.workers`.  Everything
-inside is SI; lower stages never import higher ones (``tests/test_imports.py``).
+shared modules :mod:`.encodings` (experiment modes, contact states), :mod:`.errors`, :mod:`.jsonio`,
+:mod:`.h5files`, :mod:`.outpaths`, :mod:`.workers`.  Everything inside is SI; no import cycle between modules or
+subpackages, and nothing in the pipeline imports the command line, the plots or the studies
+(``tests/test_imports.py``).
 """
 from __future__ import annotations
 

@@ -180,9 +180,10 @@ class PythonComponent:
     """A component of :mod:`~hacgear_core.fmu.components` as a Python object (get, set, step)."""
 
     def __init__(self, kind: str, params: dict) -> None:
-        cls, variables, self._inputs, self._outputs, _ = COMPONENTS[kind]
+        cls, variables, self._inputs, _ = COMPONENTS[kind]
         defaults = {v.name: v.start for v in variables if v.causality == "parameter"}
         self.obj = cls(**{**defaults, **params})
+        self._outputs = {v.name: v.read.attr for v in variables if v.causality == "output"}
 
     def get(self, name):
         return getattr(self.obj, self._outputs[name])

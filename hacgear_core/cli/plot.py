@@ -16,9 +16,9 @@ from pathlib import Path
 from typing import Any
 
 from hacgear_core.cli._help import plain_text
-from hacgear_core.outpaths import check_out_path
 from hacgear_core.errors import TableError
 from hacgear_core.h5files import file_kind
+from hacgear_core.outpaths import check_out_path
 from hacgear_core.plots.helical import write_helical_figures
 from hacgear_core.plots.sweep import plot_sweep_file
 from hacgear_core.plots.tables import plot_fdf, plot_sdf

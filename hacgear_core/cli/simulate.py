@@ -9,12 +9,12 @@ import numpy as np
 
 from hacgear_core.cli._dyn_common import add_model_options, inputs_from_args
 from hacgear_core.cli._options import check_option
-from hacgear_core.outpaths import check_out_path
 from hacgear_core.dynamics.simulator import (Simulator, gauge_passage, passage_cycles, static_gauge_passage,
                                              strain_of_tooth, system_gauges)
 from hacgear_core.dynamics.steady import trace_metrics
 from hacgear_core.errors import ModelError
 from hacgear_core.jsonio import dumps
+from hacgear_core.outpaths import check_out_path
 from hacgear_core.response import dynamic_contact_pressure, dynamic_mesh_stiffness
 
 __all__ = ["register", "run", "SIMULATE_METRICS"]

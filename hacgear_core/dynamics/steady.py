@@ -156,6 +156,11 @@ def _static_strain(system: LumpedSystem, forces: np.ndarray, tables) -> list[dic
     return c[key]
 
 
+def _ratio(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a / b`` where ``b > 0``, NaN elsewhere (a flank pair without static force has no dynamic factor)."""
+    return np.divide(a, b, out=np.full(np.shape(a), math.nan), where=np.asarray(b) > 0)
+
+
 def trace_metrics(system: LumpedSystem, x, f, dte, tau=None, static_forces_N=None, fc=None, cycles: int = 1,
                   coast_static_forces_N=None, xc=None, coast_loaded=None, periodic: bool = True) -> dict:
     """Response metrics (:data:`METRIC_NAMES`, each an (m,) array) of a record of ``cycles`` mesh cycles: ``x``,
@@ -197,7 +202,7 @@ def trace_metrics(system: LumpedSystem, x, f, dte, tau=None, static_forces_N=Non
         "back_side_contact_fraction": np.mean(on, axis=0),
         "peak_back_side_force_N": np.max(fb, axis=0),
         "back_side_impacts_per_cycle": np.sum(starts, axis=0) / max(int(cycles), 1),
-        "dynamic_factor_force": np.max(fl, axis=0) / np.where(coast, fsc, fs),
+        "dynamic_factor_force": _ratio(np.max(fl, axis=0), np.where(coast, fsc, fs)),
         "dynamic_factor_strain": np.full(system.m, math.nan),
     }
     if tau is not None:

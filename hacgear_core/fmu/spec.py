@@ -322,7 +322,8 @@ def variables_table(variables) -> str:
         if v.declared_type:
             rng = ", ".join(f"{n} = {k}" for n, k, _ in ENUMERATIONS[v.declared_type][1])
         elif v.min is not None or v.max is not None:
-            rng = f"[{_num(v.min) if v.min is not None else '-inf'}, {_num(v.max) if v.max is not None else 'inf'}]"
+            rng = (f"{'(' if v.min_open else '['}{_num(v.min) if v.min is not None else '-inf'}, "
+                   f"{_num(v.max) if v.max is not None else 'inf'}{')' if v.max_open else ']'}")
             rng += " or inf" if v.allow_inf else ""
         else:
             rng = ""

@@ -3,17 +3,53 @@ getters, the slave's fast-path expressions and the guarded (fallible) set are ge
 parameter ranges come from the model schema's one table."""
 from __future__ import annotations
 
+import gzip
+import json
 import math
+import sys
 from pathlib import Path
+from xml.etree import ElementTree as ET
 
 import pytest
 
 import hacgear_core.fmu as hf
 from hacgear_core.encodings import ContactState
+from hacgear_core.fmu.build import model_description
 from hacgear_core.fmu.spec import FmuVariable, Reading, ranged
+from hacgear_core.model import shipped_systems_dir
 from hacgear_core.model.schema import RANGES
 
 ROOT = Path(__file__).resolve().parent.parent
+#: modelDescription.xml (FMI 2.0 and 3.0) of every shipped system before the variables were declared once: the
+#: elements with their attributes, in order (written by ``python tests/test_fmu_declarations.py --write``)
+REFERENCE = Path(__file__).resolve().parent / "data" / "model_descriptions.json.gz"
+
+
+def _description(system: str, fmi_version: int) -> bytes:
+    """modelDescription.xml of a shipped system with a fixed GUID and description (what the declarations give)."""
+    ad = hf.make_adapter(shipped_systems_dir() / system)
+    info = {"system": system, "guid": "{fixed}", "description": "d", "default_experiment": ad.default_experiment()}
+    return model_description(ad, info, fmi_version)
+
+
+def _elements(xml: bytes) -> list:
+    """The XML as a list of (tag, attributes) in document order, without the generation date and the package
+    version (they change with every build and release)."""
+    root = ET.fromstring(xml)
+    for key in ("generationDateAndTime", "version", "generationTool"):
+        root.attrib.pop(key, None)
+    return [[e.tag, dict(e.attrib)] for e in root.iter()]
+
+
+def _same(a: str, b: str) -> bool:
+    """Attribute values equal, numbers within 1e-9 relative (eigenvalues may differ in their last bits)."""
+    if a == b:
+        return True
+    try:
+        x, y = float(a), float(b)
+    except ValueError:
+        return False
+    return math.isclose(x, y, rel_tol=1e-9, abs_tol=0.0)
 
 
 @pytest.fixture(scope="module")
@@ -83,3 +119,34 @@ def test_open_bounds_and_readings_are_checked():
         Reading(attr="mesh_force_N", call=lambda s, k: 0.0)
     with pytest.raises(ValueError, match="only outputs"):
         FmuVariable("x", "Real", "parameter", "fixed", "m", "x", 0.0, read=Reading(attr="x"))
+
+
+def _reference() -> dict:
+    with gzip.open(REFERENCE, "rt", encoding="utf-8") as f:
+        return json.load(f)
+
+
+@pytest.mark.parametrize("key", sorted(_reference()))
+def test_model_description_of_every_shipped_system_is_unchanged(key):
+    """Every shipped system's modelDescription.xml (both FMI versions) has the variables, value references, units,
+    display units, ranges, nominal and start values and descriptions it had before the declarations were unified
+    (numbers within 1e-9 relative)."""
+    system, version = key.rsplit("_fmi", 1)
+    got = _elements(_description(system, int(version)))
+    ref = _reference()[key]
+    assert [t for t, _ in got] == [t for t, _ in ref]
+    for (tag, a), (_, b) in zip(got, ref):
+        assert sorted(a) == sorted(b), (tag, a.get("name"))
+        bad = {k: (a[k], b[k]) for k in a if not _same(a[k], b[k])}
+        assert not bad, (tag, a.get("name"), bad)
+
+
+if __name__ == "__main__" and sys.argv[1:] == ["--write"]:
+    from hacgear_core.model import shipped_systems
+
+    data = {f"{s}_fmi{v}": _elements(_description(s, v)) for s in shipped_systems()
+            if (shipped_systems_dir() / s / "tables.h5").exists() for v in (2, 3)}
+    REFERENCE.parent.mkdir(exist_ok=True)
+    with gzip.open(REFERENCE, "wt", encoding="utf-8") as f:
+        json.dump(data, f, indent=0, sort_keys=True)
+    print(f"wrote {REFERENCE}: {len(data)} modelDescriptions")

@@ -390,7 +390,7 @@ def test_simulate_drive_only_helical_table_flags_the_backlash_crossing(capsys, t
             "--record-cycles", "8", "--json"]
     assert main(argv) == 0
     m = json.loads(capsys.readouterr().out)["meshes"]["m12"]
-    assert m["steps_beyond_tables"] > 100 and m["contact_loss_fraction"] == 1.0 and m["peak_coast_force_N"] == 0.0
+    assert m["steps_beyond_tables"] > 100 and m["contact_loss_fraction"] == 1.0 and m["peak_back_side_force_N"] == 0.0
     assert 390e-6 < m["backlash_m"] < 400e-6     # j_n cos(beta_bc) = 406.9 um x cos 14.13 deg = 394.5 um
     assert main(argv[:-1]) == 0
     err = capsys.readouterr().err

@@ -352,7 +352,7 @@ def test_drive_only_table_runs_the_drive_flanks_as_the_two_sided_one(helical, ta
         assert np.array_equal(a[k], b[k]), k
     # the coast vectors from the geometry equal the table's within 1e-15: the coast approach within rounding
     np.testing.assert_allclose(b["coast_approach_m"], a["coast_approach_m"], rtol=1e-12)
-    assert np.all(b["coast_force_N"] == 0) and np.all(b["contact_state"] == 1)
+    assert np.all(b["coast_force_N"] == 0) and np.all(b["contact_state"] == ContactState.DRIVE_FLANK)
 
 
 def test_drive_only_table_flags_the_teeth_crossing_the_backlash(helical, table, drive_only):
@@ -377,7 +377,7 @@ def test_drive_only_table_flags_the_teeth_crossing_the_backlash(helical, table, 
             assert np.array_equal(two["state"], one["state"])
         if n_cross is not None:
             # every recorded sample beyond the backlash: each is the start of a counted step
-            assert np.all(xc > b) and np.all(one["contact_state"][:, 0] == 0)
+            assert np.all(xc > b) and np.all(one["contact_state"][:, 0] == ContactState.SEPARATED)
             assert sims[1].out_of_range_steps[0] >= n_cross + xc.size
             break
         if xc.max() <= b:

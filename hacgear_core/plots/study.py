@@ -34,7 +34,7 @@ def _title_key(res: StudyResults) -> str:
 
 def harris_map(res: StudyResults):
     """Static transmission error peak-to-peak [µm] over torque [N m], one curve per finished variant."""
-    fig, ax = plt.subplots(figsize=(7.0, 4.6))
+    fig, ax = plt.subplots(figsize=(8.0, 4.6))
     cmap = plt.get_cmap("viridis")
     n = len(res.labels)
     for i in range(n):
@@ -47,7 +47,7 @@ def harris_map(res: StudyResults):
     ax.set_title(f"Harris map: {res.name}")
     ax.set_ylim(bottom=0)
     ax.grid(True, alpha=0.3)
-    ax.legend(title=_title_key(res), fontsize=8)
+    ax.legend(title=_title_key(res), fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.tight_layout()
     return fig
 
@@ -93,7 +93,7 @@ def best_variant_chart(res: StudyResults):
     best = best_variants(res)
     names = list(best)
     n = len(res.labels)
-    fig, ax = plt.subplots(figsize=(8.0, 0.5 + 0.9 * len(names)))
+    fig, ax = plt.subplots(figsize=(9.5, 0.8 + 0.9 * len(names)))
     h = 0.8 / n
     cmap = plt.get_cmap("viridis")
     for c, name in enumerate(names):
@@ -104,7 +104,8 @@ def best_variant_chart(res: StudyResults):
             ax.barh(y, vals[i], height=h * 0.9, color=cmap(i / max(n - 1, 1)),
                     label=_short(res, i) if c == 0 else None, edgecolor="k" if i == b["index"] else "none",
                     linewidth=2.0)
-        ax.annotate(f"best: {_short(res, b['index'])}", (1.0, c + 0.45), fontsize=8, ha="left", va="bottom")
+        ax.annotate(f"best: {_short(res, b['index'])}", (float(np.nanmax(vals)) * 1.02, c), fontsize=8, ha="left",
+                    va="center")
     ax.set_yticks(range(len(names)), [s.replace("spectrum_mean_", "spectrum mean: ").replace("sweep_max_", "sweep max: ")
                                       for s in names], fontsize=8)
     ax.axvline(1.0, color="k", lw=0.8)
@@ -115,7 +116,8 @@ def best_variant_chart(res: StudyResults):
     else:
         sp = "static torques, equal shares"
     ax.set_title(f"best variant per criterion ({sp})", fontsize=9)
-    ax.legend(title=_title_key(res), fontsize=7, loc="lower right")
+    ax.legend(title=_title_key(res), fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    ax.set_xlim(0, ax.get_xlim()[1] * 1.15)
     ax.invert_yaxis()
     fig.tight_layout()
     return fig

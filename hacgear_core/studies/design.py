@@ -165,7 +165,7 @@ def _grid_digest(model: Any, solver: str) -> str:
 
 def _prepare(spec: StudySpec, values: tuple, tables_dir: Path) -> tuple[Path, Path, Any]:
     text, base = variant_model_text(spec, values)
-    model = parse_model(text, file=f"variant ({spec.label(values)}) of {base}")
+    model = parse_model(text, file=f"variant of {base}")
     if model.lumped:
         raise ModelError(f"base model {base} is a lumped model (constant mesh stiffnesses): it has no tooth "
                          "geometry or tables to study")

@@ -22,7 +22,8 @@ static torques, ``nf`` speeds)::
 
     /                         attrs: format, study_name, study_json, study_sha256, hacgear_version
     /variables/<i>/values     (nv,) value of variable i per variant   attrs: key, unit
-    /variant_label (nv,)  status (nv,) 0 pending | 1 done | 2 failed   error (nv,)  tables_file (nv,)  mesh (nv,)
+    /variant_label (nv,)  status (nv,) 0 pending | 1 done | 2 failed   error (nv,)  mesh (nv,)
+    /tables_file (nv,)        the variant's tables, relative to the results file's folder
     /static/torque_Nm (nt,)   /static/<metric> (nv, nt) for STATIC_METRICS
     /dynamic/mesh_frequency_Hz (nf,)  /dynamic/torque_Nm (nv,)  /dynamic/<up|down>/<metric> (nv, nf), ascending
     /dynamic/jumps_json (nv,) confirmed jumps of the variant's mesh (JSON list)
@@ -39,6 +40,7 @@ import concurrent.futures as cf
 import hashlib
 import json
 import math
+import os
 import sys
 import time
 import tomllib
@@ -363,13 +365,13 @@ def run_study(spec: StudySpec, out: str | Path, *, tables_dir: str | Path | None
             if status[i] == _STATUS["done"]:
                 with h5py.File(out, "r") as f:
                     tf = f["tables_file"][i].decode() if isinstance(f["tables_file"][i], bytes) else f["tables_file"][i]
-                outcomes.append(VariantOutcome(i, label, "reused", tables_file=str(tf)))
+                outcomes.append(VariantOutcome(i, label, "reused", tables_file=str(out.resolve().parent / tf)))
                 continue
             t1 = time.perf_counter()
             tables = ""
             reused = False
             try:
-                mpath, tpath, _ = _prepare(spec, values, tables_dir)
+                mpath, tpath, _ = _prepare(spec, values, tables_dir.resolve())
                 tables = str(tpath)
                 reused = tpath.exists()
                 compute_statics(mpath, tpath, solver=spec.solver, executor=executor,
@@ -381,13 +383,14 @@ def run_study(spec: StudySpec, out: str | Path, *, tables_dir: str | Path | None
                 if spec.dynamic:
                     dynamic = _dynamic_rows(spec, inp.system, k, tpath.with_name(tpath.stem + "_sweeps.h5"),
                                             executor, progress, f"variant {i + 1}/{len(spec.variants)}")
-                _write_variant(out, i, "done", tables=tables, mesh=inp.system.mesh_names[k], static=static,
-                               dynamic=dynamic)
+                _write_variant(out, i, "done", tables=os.path.relpath(tpath, out.resolve().parent),
+                               mesh=inp.system.mesh_names[k], static=static, dynamic=dynamic)
                 outcomes.append(VariantOutcome(i, label, "computed", tables_file=tables, tables_reused=reused,
                                                seconds=time.perf_counter() - t1))
             except HacgearError as exc:
                 msg = f"variant {i + 1} ({label}): {exc}"
-                _write_variant(out, i, "failed", error=msg, tables=tables)
+                _write_variant(out, i, "failed", error=msg,
+                               tables=os.path.relpath(tables, out.resolve().parent) if tables else "")
                 outcomes.append(VariantOutcome(i, label, "failed", error=msg, tables_file=tables,
                                                seconds=time.perf_counter() - t1))
             if bar is not None:

@@ -62,7 +62,8 @@ from hacgear_core.model import parse_model, resolve_model_path
 from hacgear_core.model.provenance import model_values_sha256
 from hacgear_core.response import static_strain_max
 from hacgear_core.statics import compute_statics
-from hacgear_core.studies.study_file import MODEL_KEY, StudySpec, apply_key, dump_toml
+from hacgear_core.model.toml_writer import dumps as dump_toml
+from hacgear_core.studies.study_file import MODEL_KEY, StudySpec, apply_key
 from hacgear_core.tables.fdf import static_stiffness
 
 __all__ = ["STATIC_METRICS", "DYNAMIC_METRICS", "VariantOutcome", "StudyReport", "StudyResults", "run_study",

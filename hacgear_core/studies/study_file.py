@@ -53,13 +53,12 @@ from typing import Any
 from hacgear_core.errors import ModelError
 from hacgear_core.model.schema import RANGES
 
-__all__ = ["Variable", "StudySpec", "load_study", "parse_study", "apply_key", "dump_toml", "MODEL_KEY"]
+__all__ = ["Variable", "StudySpec", "load_study", "parse_study", "apply_key", "MODEL_KEY"]
 
 #: the variable key whose values are base models
 MODEL_KEY = "model"
 
 _SEGMENT = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*)(?:\[([^\]]+)\])?$")
-_BARE = re.compile(r"^[A-Za-z0-9_-]+$")
 _SOLVERS = ("fe", "analytic")
 _DIRECTIONS = ("up", "down", "both")
 
@@ -231,56 +230,6 @@ def apply_key(raw: dict, key: str, value: Any) -> int:
             raise ModelError(f"variable key {key!r}: {where + last!r} = {old!r} is not numeric")
         node[last] = value
     return len(nodes)
-
-
-# ------------------------------------------------------------------------------------------------ TOML text
-def _toml_key(k: str) -> str:
-    return k if _BARE.match(k) else json.dumps(k)
-
-
-def _toml_value(v: Any) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int):
-        return str(v)
-    if isinstance(v, float):
-        if math.isnan(v):
-            return "nan"
-        if math.isinf(v):
-            return "inf" if v > 0 else "-inf"
-        return repr(v)
-    if isinstance(v, str):
-        return json.dumps(v)
-    if isinstance(v, list):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    raise ModelError(f"cannot write {type(v).__name__} value {v!r} to TOML")
-
-
-def _is_table_list(v: Any) -> bool:
-    return isinstance(v, list) and bool(v) and all(isinstance(x, dict) for x in v)
-
-
-def _emit(d: dict, prefix: str, lines: list[str]) -> None:
-    for k, v in d.items():
-        if not isinstance(v, dict) and not _is_table_list(v):
-            lines.append(f"{_toml_key(k)} = {_toml_value(v)}")
-    for k, v in d.items():
-        path = f"{prefix}.{_toml_key(k)}" if prefix else _toml_key(k)
-        if isinstance(v, dict):
-            lines.append(f"\n[{path}]")
-            _emit(v, path, lines)
-        elif _is_table_list(v):
-            for item in v:
-                lines.append(f"\n[[{path}]]")
-                _emit(item, path, lines)
-
-
-def dump_toml(raw: dict, header: str = "") -> str:
-    """TOML text of a parsed TOML document ``raw`` (tables, arrays of tables, scalars and arrays of scalars);
-    ``tomllib.loads(dump_toml(raw)) == raw``.  ``header``: comment lines put first."""
-    lines = [f"# {h}" for h in header.splitlines()] if header else []
-    _emit(raw, "", lines)
-    return "\n".join(lines).lstrip("\n") + "\n"
 
 
 # ------------------------------------------------------------------------------------------------ study file

@@ -280,7 +280,8 @@ values = ["spur_28t_asym", "{lumped}", "{tables}"]
     rep2 = run_study(load_study(p2), tmp_path / "low.h5", workers=1, progress=False)
     assert [v.status for v in rep2.variants] == ["computed", "failed"]
     err = rep2.variants[1].error
-    assert "operating.torque_Nm=50" in err and "static torque 200 N*m" in err and "beyond the load range" in err
+    assert "operating.torque_Nm=50" in err and "static torque 200 N*m lies beyond the load range" in err
+    assert "0 … 150 N*m" in err and rep2.variants[1].tables_file == ""        # refused before any table
 
 
 def test_cli_study_json_and_plot(tmp_path):

@@ -52,18 +52,19 @@ import h5py
 import numpy as np
 
 from hacgear_core import __version__
-from hacgear_core.dynamics.inputs import load_inputs
+from hacgear_core.dynamics.build import build_system
 from hacgear_core.dynamics.steady import SteadyStateOptions
 from hacgear_core.dynamics.sweep import SweepSpec, run_sweeps
 from hacgear_core.errors import HacgearError, ModelError, TableError
 from hacgear_core.geometry.gear import gear_geometry
 from hacgear_core.h5files import STUDY_FORMAT, check_writable_kind, file_kind
-from hacgear_core.model import parse_model, resolve_model_path
+from hacgear_core.model import load_model, parse_model, resolve_model_path
 from hacgear_core.model.provenance import model_values_sha256
 from hacgear_core.response import static_strain_max
 from hacgear_core.statics import compute_statics
 from hacgear_core.model.toml_writer import dumps as dump_toml
 from hacgear_core.studies.study_file import MODEL_KEY, StudySpec, apply_key
+from hacgear_core.tables import load_system_tables
 from hacgear_core.tables.fdf import static_stiffness
 
 __all__ = ["STATIC_METRICS", "DYNAMIC_METRICS", "VariantOutcome", "StudyReport", "StudyResults", "run_study",
@@ -380,15 +381,15 @@ def run_study(spec: StudySpec, out: str | Path, *, tables_dir: str | Path | None
                 reused = tpath.exists()
                 compute_statics(mpath, tpath, solver=spec.solver, executor=executor,
                                 workers=1 if executor is None else None, progress=progress)
-                inp = load_inputs(str(mpath), tables=str(tpath))
-                k = _mesh_index(spec, inp.system)
-                static = _static_rows(spec, inp.system, k)
+                system = build_system(load_model(mpath), load_system_tables(mpath, tpath))
+                k = _mesh_index(spec, system)
+                static = _static_rows(spec, system, k)
                 dynamic = None
                 if spec.dynamic:
-                    dynamic = _dynamic_rows(spec, inp.system, k, tpath.with_name(tpath.stem + "_sweeps.h5"),
+                    dynamic = _dynamic_rows(spec, system, k, tpath.with_name(tpath.stem + "_sweeps.h5"),
                                             executor, progress, f"variant {i + 1}/{len(spec.variants)}")
                 _write_variant(out, i, "done", tables=os.path.relpath(tpath, out.resolve().parent),
-                               mesh=inp.system.mesh_names[k], static=static, dynamic=dynamic)
+                               mesh=system.mesh_names[k], static=static, dynamic=dynamic)
                 outcomes.append(VariantOutcome(i, label, "computed", tables_file=tables, tables_reused=reused,
                                                seconds=time.perf_counter() - t1))
             except HacgearError as exc:

@@ -284,7 +284,7 @@ values = ["spur_28t_asym", "{lumped}", "{tables}"]
     assert "0 … 150 N*m" in err and rep2.variants[1].tables_file == ""        # refused before any table
 
 
-def test_cli_study_json_and_plot(tmp_path):
+def test_cli_study_json_and_plot(tmp_path, capsys):
     from hacgear_core.cli import main
 
     study = _quick(tmp_path, relief=(0.0, 30.0), speeds=3)
@@ -294,6 +294,15 @@ def test_cli_study_json_and_plot(tmp_path):
     for name in ("map.png", "map_dynamic.png", "map_best.png"):
         assert (tmp_path / name).stat().st_size > 10_000
     assert main(["study", str(study), "--out", str(tmp_path / "map.png"), "--no-progress"]) == 2   # not .h5
+    with h5py.File(tmp_path / "tables.h5", "w") as f:                     # never written over: another kind
+        f.attrs["format"] = "hacgear-tables"
+    assert main(["study", str(study), "--out", str(tmp_path / "tables.h5"), "--no-progress"]) == 2
+    assert "refusing to write study results into it" in capsys.readouterr().err
+    assert main(["study", str(study), "--out", str(out), "--json"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    assert rep["variants_reused"] == 2 and rep["best"]["spectrum_mean_ste_peak_to_peak_m"]["index"] in (0, 1)
+    assert rep["variants"][1]["static"]["ste_peak_to_peak_m"][2] == read_study(out).static["ste_peak_to_peak_m"][1, 2]
+    assert rep["variants"][0]["sweep_max"]["dynamic_factor_force"] >= 1.0
     # a results file of another study is kept, not overwritten
     other = _quick(tmp_path, relief=(0.0, 10.0), speeds=3, name="other.toml")
     assert main(["study", str(other), "--out", str(out), "--workers", "1", "--no-progress"]) == 2

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+import numpy as np
+
 from hacgear_core.cli._paths import check_out_path
 from hacgear_core.errors import ModelError
 from hacgear_core.jsonio import dumps
@@ -82,6 +84,16 @@ def run(args: argparse.Namespace) -> int:
     best = best_variants(res)
     if args.json:
         d = rep.as_dict()
+        d["static_torque_Nm"] = res.torque_Nm
+        for v in d["variants"]:
+            i = v["index"]
+            if not res.done[i]:
+                continue
+            v["static"] = {m: res.static[m][i] for m in res.static}
+            if res.dynamic:
+                v["sweep_max"] = {m: max(float(np.nanmax(br[m][i])) for br in res.dynamic.values())
+                                  for m in ("dynamic_factor_force", "peak_root_strain", "contact_loss_fraction")}
+                v["jumps"] = res.jumps[i]
         d["best"] = {k: {kk: vv for kk, vv in v.items() if kk != "values"} for k, v in best.items()}
         print(dumps(d, indent=1))
         return 1 if rep.failed else 0
@@ -92,6 +104,16 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {v.index + 1:3d} {v.label}: {what}" + (f" ({v.seconds:.1f} s)" if v.status == "computed" else ""))
         if v.error:
             print(f"      {v.error}")
+    done = np.flatnonzero(res.done)
+    if done.size:
+        print("static transmission error peak-to-peak [µm] at " + ", ".join(f"{t:g}" for t in res.torque_Nm) + " N·m:")
+        for i in done:
+            print(f"  {res.labels[i]}: " + ", ".join(f"{x * 1e6:.2f}" for x in res.static["ste_peak_to_peak_m"][i]))
+        if res.dynamic:
+            print(f"largest force dynamic factor of the sweeps at {np.nanmax(res.dynamic_torque_Nm):g} N·m:")
+            for i in done:
+                df = max(float(np.nanmax(br["dynamic_factor_force"][i])) for br in res.dynamic.values())
+                print(f"  {res.labels[i]}: {df:.2f} ({len(res.jumps[i])} confirmed jump(s))")
     for name, b in best.items():
         print(f"best by {name}: {b['label']} ({b['value']:.6g} {b['unit']})")
     if rep.failed:

@@ -4,11 +4,9 @@ physics on the shipped example study."""
 from __future__ import annotations
 
 import json
-import os
 import signal
 import subprocess
 import sys
-import time
 import tomllib
 from pathlib import Path
 
@@ -23,7 +21,7 @@ from hacgear_core.model.toml_writer import dumps as dump_toml
 from hacgear_core.studies import apply_key, load_study, parse_study, read_study, run_study
 from hacgear_core.studies.design import variant_model_text
 
-from _procs import session_processes, wait_for_no_orphans
+from _procs import kill_when, session_processes
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "studies" / "spur_28t_asym_relief.toml"
@@ -203,27 +201,16 @@ def test_killed_study_reruns_without_recomputing_finished_variants(tmp_path):
     cmd = [sys.executable, "-c", "import sys; from hacgear_core.cli import main; sys.exit(main())", "study", str(study),
            "--out", str(out), "--tables-dir", str(tmp_path / "tables"), "--workers", "1", "--no-progress"]
     proc = subprocess.Popen(cmd, cwd=tmp_path, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    status = None
-    try:
-        t0 = time.monotonic()
-        while time.monotonic() - t0 < 240 and proc.poll() is None:
-            time.sleep(0.02)
-            if not out.exists():
-                continue
-            try:
-                with h5py.File(out, "r", locking=False) as f:
-                    status = f["status"][()].copy()
-            except (OSError, KeyError):
-                continue
-            if status[0] == 1:
-                os.kill(proc.pid, signal.SIGKILL)
-                break
-    finally:
-        if proc.poll() is None:
-            os.kill(proc.pid, signal.SIGKILL)
-        proc.wait(timeout=30)
-        wait_for_no_orphans(proc.pid)
+
+    def first_variant_written() -> bool:
+        if not out.exists():
+            return False
+        with h5py.File(out, "r", locking=False) as f:
+            return bool(f["status"][0] == 1)
+
+    orphans = kill_when(proc, first_variant_written)
     assert proc.returncode == -signal.SIGKILL, proc.stderr.read().decode()
+    assert not orphans, orphans
     with h5py.File(out, "r") as f:
         at_kill = f["status"][()]
     assert at_kill[0] == 1 and at_kill[2] == 0, at_kill
@@ -274,7 +261,8 @@ values = ["spur_28t_asym", "{lumped}", "{tables}"]
     assert res.status.tolist().count(1) == 1 and res.status.tolist().count(2) == 8
     assert all(e for e, s in zip(res.errors, res.status) if s == 2)
     # torques beyond a variant's tables: an operating torque of 50 N*m gives tables up to 150 N*m only
-    low = QUICK.format(relief=[30.0], speeds=2) + '\n[[variables]]\nkey = "operating.torque_Nm"\nvalues = [300.0, 50.0]\n'
+    low = QUICK.format(relief=[30.0], speeds=2) + (
+        '\n[[variables]]\nkey = "operating.torque_Nm"\nvalues = [300.0, 50.0]\n')
     p2 = tmp_path / "low.toml"
     p2.write_text(low)
     rep2 = run_study(load_study(p2), tmp_path / "low.h5", workers=1, progress=False)

@@ -106,13 +106,14 @@ def best_variant_chart(res: StudyResults):
                     linewidth=2.0)
         ax.annotate(f"best: {_short(res, b['index'])}", (float(np.nanmax(vals)) * 1.02, c), fontsize=8, ha="left",
                     va="center")
-    ax.set_yticks(range(len(names)), [s.replace("spectrum_mean_", "spectrum mean: ").replace("sweep_max_", "sweep max: ")
-                                      for s in names], fontsize=8)
+    ticks = [s.replace("spectrum_mean_", "spectrum mean: ").replace("sweep_max_", "sweep max: ") for s in names]
+    ax.set_yticks(range(len(names)), ticks, fontsize=8)
     ax.axvline(1.0, color="k", lw=0.8)
     ax.set_xlabel("value / best value [-]")
     spec = res.spec
     if spec.get("spectrum_torques_Nm"):
-        sp = ", ".join(f"{t:g} N·m {w * 100:.0f} %" for t, w in zip(spec["spectrum_torques_Nm"], spec["spectrum_weights"]))
+        sp = ", ".join(f"{t:g} N·m {w * 100:.0f} %"
+                       for t, w in zip(spec["spectrum_torques_Nm"], spec["spectrum_weights"]))
     else:
         sp = "static torques, equal shares"
     ax.set_title(f"best variant per criterion ({sp})", fontsize=9)

@@ -3,8 +3,8 @@
 For each variant (one combination of the study's variable values, :mod:`.study_file`):
 
 1. **model**: the base model file with the variables set, written as ``<tables dir>/<values hash>/model.toml``;
-   its values are validated (the model reader's ranges), its gears built (:func:`~hacgear_core.geometry.gear.gear_geometry`:
-   impossible teeth are refused);
+   its values are validated (the model reader's ranges), its gears built
+   (:func:`~hacgear_core.geometry.gear.gear_geometry`: impossible teeth are refused);
 2. **tables**: :func:`~hacgear_core.statics.compute_statics` with the study's grid, on the study's executor (a local
    process pool, or a Dask cluster's executor), into ``tables_<grid hash>.h5`` beside that model file.  The
    folder is named after the model values' SHA-256 (:mod:`~hacgear_core.model.provenance`), the file after the

@@ -175,6 +175,9 @@ def _prepare(spec: StudySpec, values: tuple, tables_dir: Path) -> tuple[Path, Pa
                          "geometry or tables to study")
     for g in model.gears:
         gear_geometry(g)
+    meshes = [m.name for m in model.meshes]
+    if spec.mesh is not None and spec.mesh not in meshes:
+        raise ModelError(f"[study] mesh = {spec.mesh!r} is not a mesh of the variant's model {base} ({meshes})")
     # the tables span 0 ... max_torque_factor x the operating torque (mesh forces are linear in the torque)
     top = model.statics.max_torque_factor * abs(model.operating.torque_Nm)
     asked = [("static torque", t) for t in spec.static_torques_Nm]

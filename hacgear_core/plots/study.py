@@ -24,7 +24,8 @@ def _short(res: StudyResults, i: int) -> str:
     if len(res.variables) == 1:
         v = res.variables[0]
         x = v["values"][i]
-        return f"{x:g} {v['unit']}" if isinstance(x, float) else str(x)
+        unit = {"um": "µm", "Nm": "N·m", "-": ""}.get(v["unit"], v["unit"])
+        return f"{x:g} {unit}".strip() if isinstance(x, float) else str(x)
     return res.labels[i]
 
 

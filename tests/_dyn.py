@@ -1,13 +1,19 @@
-"""Shared fixtures of the dynamics tests: a spur pair of two 28-tooth gears on analytic tables."""
+"""Shared fixtures of the dynamics tests: a spur pair of two 28-tooth gears on analytic tables; a copy of a shipped
+system whose tables lack their coast side (a drive-only file, as older versions wrote)."""
 from __future__ import annotations
 
 import math
+import shutil
+from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 
 from hacgear_core.dynamics.build import SpurPairParameters, spur_pair_system
 from hacgear_core.dynamics.simulator import Simulator
 from hacgear_core.dynamics.synthetic import linear_fdf_table
+from hacgear_core.model import resolve_model_path
+from hacgear_core.tables import load_system_tables, write_tables
 
 K = 150e6
 RB = 0.0634
@@ -47,3 +53,16 @@ def softening():
     xs = 100.0 / RB / K
     tab = linear_fdf_table(K, offset_amplitude_m=0.2 * xs, x_max_m=6 * xs)
     return params(modal_damping_ratio=0.03, torque_Nm=100.0), tab
+
+
+def drive_only_copy(system: str, folder: Path) -> Path:
+    """``folder/<system>``: the shipped model file of ``system`` and its committed tables without their coast sides
+    (written through the tables API); returns the folder."""
+    src = Path(resolve_model_path(system))
+    src = src if src.is_dir() else src.parent
+    dst = Path(folder) / system
+    dst.mkdir(parents=True)
+    shutil.copy(src / "model.toml", dst / "model.toml")
+    tabs = load_system_tables(src)
+    write_tables(dst / "tables.h5", replace(tabs, meshes={k: replace(t, coast=None) for k, t in tabs.meshes.items()}))
+    return dst

@@ -376,3 +376,23 @@ def test_stiffness_shows_its_stages_on_stderr(capsys):
                                 "hacgear stiffness: 2 of 8 positions solved",
                                 "hacgear stiffness: 4 of 8 positions solved",
                                 "hacgear stiffness: 6 of 8 positions solved"]
+
+
+def test_simulate_drive_only_helical_table_flags_the_backlash_crossing(capsys, tmp_path):
+    """A drive-only helical table (the committed one without its coast side): `simulate --drive-torques=-200,235.7`
+    drives the teeth across the backlash with no coast flanks to stop them; the summary counts the steps beyond it
+    (many more than the two-sided table's few impact steps, 6), the flanks carry nothing in the recorded cycles and
+    one WARNING names the mesh, the backlash and the fix; exit 0 as for any out-of-range run."""
+    from _dyn import drive_only_copy
+
+    folder = drive_only_copy("helical_28_33", tmp_path)
+    argv = ["simulate", str(folder), "--drive-torques=-200,235.7", "--fm", "1200", "--cycles", "24",
+            "--record-cycles", "8", "--json"]
+    assert main(argv) == 0
+    m = json.loads(capsys.readouterr().out)["meshes"]["m12"]
+    assert m["steps_beyond_tables"] > 100 and m["contact_loss_fraction"] == 1.0 and m["peak_coast_force_N"] == 0.0
+    assert 390e-6 < m["backlash_m"] < 400e-6     # j_n cos(beta_bc) = 406.9 um x cos 14.13 deg = 394.5 um
+    assert main(argv[:-1]) == 0
+    err = capsys.readouterr().err
+    assert err.count("WARNING") == 1 and "m12:" in err and "no coast table: beyond the backlash (394.5 µm" in err
+    assert "hacgear statics" in err

@@ -2,7 +2,8 @@
 tables, validated (fmpy validate, fmutool -check), equal to the library (mesh force, twist moment, deflection, twist,
 contact state, radial and axial bearing forces and tilting moments, the five face strains) in both experiments, and
 in a drivetrain bench (motor on the pinion, load on the wheel); reversed torques load the coast flanks (FMI 2.0 and
-3.0) and a state beyond the tables is flagged and logged once."""
+3.0) and a state beyond the tables is flagged and logged once; on a drive-only table (no coast side) the teeth
+crossing the backlash are flagged and logged once."""
 from __future__ import annotations
 
 import math
@@ -26,14 +27,20 @@ SYSTEM = "helical_28_33"
 GAUGES = ("SG1", "SG2", "SG3", "SG4", "SG5")
 
 
-@pytest.fixture(scope="module")
-def fmu(tmp_path_factory):
-    out = tmp_path_factory.mktemp("hfmu")
+def _build_fmu():
+    """The repository's build_fmu script as a module."""
     sys.path.insert(0, str(ROOT))
     try:
         import build_fmu
     finally:
         sys.path.remove(str(ROOT))
+    return build_fmu
+
+
+@pytest.fixture(scope="module")
+def fmu(tmp_path_factory):
+    out = tmp_path_factory.mktemp("hfmu")
+    build_fmu = _build_fmu()
     assert build_fmu.main(["--system", SYSTEM, "--out", str(out), "--fmi", "all"]) == 0
     return {"path": out / f"{SYSTEM}.fmu", "path3": out / f"{SYSTEM}_fmi3.fmu", "build_fmu": build_fmu}
 
@@ -145,6 +152,60 @@ def test_helical_fmu_reversed_torque_loads_the_coast_flanks(fmu, fmi):
             assert low.step(t, dt) in (OK, 1)   # Warning (1) on the step that logs
             t += dt
         assert low.fmu.getBoolean([low.vr["m12.out_of_range"]])[0]
+        warn = [msg for st, msg in low.messages if "left its tables" in msg]
+        assert len(warn) == 1 and "m12" in warn[0]
+    finally:
+        low.close()
+
+
+@pytest.fixture(scope="module")
+def drive_only_fmu(tmp_path_factory):
+    """FMI 2.0 and 3.0 FMUs of the helical pair built on its table without the coast side."""
+    from _dyn import drive_only_copy
+
+    models = tmp_path_factory.mktemp("drive_only_models")
+    drive_only_copy(SYSTEM, models)
+    out = tmp_path_factory.mktemp("drive_only_fmu")
+    assert _build_fmu().main(["--models", str(models), "--system", SYSTEM, "--out", str(out), "--fmi", "all"]) == 0
+    return {"2": out / f"{SYSTEM}.fmu", "3": out / f"{SYSTEM}_fmi3.fmu", "models": models / SYSTEM}
+
+
+@pytest.mark.parametrize("fmi", ["2", "3"])
+def test_drive_only_helical_fmu_flags_the_backlash_crossing(drive_only_fmu, fmi):
+    """A drive-only helical table in the FMU (FMI 2.0 and 3.0), drivetrain coupling with the torques of issue 36
+    reversed: the FMU follows the library step by step (deflection 1e-9, step count beyond the tables equal);
+    m12.out_of_range stays false while the coast approach is below the backlash and turns true once the teeth
+    pass it (no coast flanks carry them: force and coast force 0), with one log message."""
+    from test_fmu import OK, _Low
+
+    m = load_model(drive_only_fmu["models"])
+    tabs = read_tables(m.tables_path, m.path)
+    assert tabs.mesh("m12").coast is None
+    sy = build_system(m, tabs, shafts=False)
+    lib = Simulator(sy)
+    w = 2 * math.pi * 1200.0 / 28
+    lib.reset(speed_rad_s=w)
+    lib.set_torque_inputs({"pinion": -200.0, "wheel": 235.7})
+    low = _Low(drive_only_fmu[fmi])
+    try:
+        assert low.init(mode=1, **{"pinion.speed_start": w, "pinion.torque_in": -200.0,
+                                   "wheel.torque_in": 235.7}) == OK
+        t, dt, flagged = 0.0, 1e-4, None
+        for k in range(60):
+            assert low.step(t, dt) in (OK, 1)   # Warning (1) on the step that logs
+            assert lib.advance(dt).success
+            t += dt
+            x, f, fc = low.get("m12.deflection", "m12.force", "m12.coast_force")
+            assert x == pytest.approx(lib.mesh_deflection_m[0], rel=1e-9)
+            assert f == 0.0 or lib.coast_approach_m[0] < sy.backlash_m[0]
+            assert fc == 0.0
+            oor = low.fmu.getBoolean([low.vr["m12.out_of_range"]])[0]
+            assert oor == (lib.out_of_range_steps[0] > 0)
+            if lib.coast_approach_m[0] < sy.backlash_m[0] and flagged is None:
+                assert not oor
+            if oor and flagged is None:
+                flagged = k
+        assert flagged is not None and lib.coast_approach_m[0] > 2 * sy.backlash_m[0]
         warn = [msg for st, msg in low.messages if "left its tables" in msg]
         assert len(warn) == 1 and "m12" in warn[0]
     finally:

@@ -17,13 +17,13 @@ import numpy as np
 import pytest
 
 from hacgear_core.dynamics.build import build_system, helical_from_model
-from hacgear_core.dynamics.build.helical import tilting_inertia_kgm2
+from hacgear_core.dynamics.build.helical import coast_vectors, tilting_inertia_kgm2
 from hacgear_core.dynamics.build.train import SpurPairParameters, spur_pair_system
 from hacgear_core.dynamics.equilibrium import static_equilibrium
 from hacgear_core.dynamics.simulator import Simulator, strain_of_tooth
 from hacgear_core.dynamics.sweep import SweepSpec, run_sweep
 from hacgear_core.errors import ModelError
-from hacgear_core.geometry import gear_geometry
+from hacgear_core.geometry import gear_geometry, mesh_geometry
 from hacgear_core.model import load_model
 from hacgear_core.statics import ContactOptions
 from hacgear_core.statics.helical import make_helical_solver
@@ -307,3 +307,81 @@ def test_reversed_drive_torques_and_the_range_guard(helical, table):
     sim.set_torque_inputs({"pinion": -2000.0, "wheel": 2357.0})
     sim.run(0.005, 1e-4)
     assert sim.out_of_range_steps[0] > n_impact + 10
+
+
+# ------------------------------------------------------------------------------------------ drive-only table
+@pytest.fixture(scope="module")
+def drive_only(table):
+    """The committed table without its coast side (what an older file or a drive-only statics run holds)."""
+    return replace(table, coast=None)
+
+
+def test_coast_vectors_of_a_drive_only_table_are_the_coast_solvers(helical, table, drive_only, system):
+    """The coast flanks' vectors the builder derives from the drive frame and the coast pressure angle (line of
+    action mirrored about the line of centres, one lead for both flanks) are those the coast solver computed for
+    the committed coast table (1e-14), and the guard's backlash is the coast approach at first contact
+    (j_n cos beta_bc, the two-sided system's)."""
+    mg = mesh_geometry(helical, "m12", strict=False)
+    rm, rt, bc = coast_vectors(table.twist.frame, mg.operating_pressure_angle_coast_rad)
+    ctw = table.coast.twist
+    np.testing.assert_allclose(rm, ctw.r_mesh, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(rt, ctw.r_twist, rtol=0, atol=1e-14)
+    assert bc == pytest.approx(ctw.base_helix_angle_rad, abs=1e-14)
+    sy = build_system(helical, {"m12": drive_only})
+    assert sy.coast_twist and not sy.two_sided and sy.m_kernel == 2
+    np.testing.assert_allclose(sy.Vc, system.Vc, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(sy.Tc, system.Tc, rtol=0, atol=1e-14)
+    assert sy.backlash_m[0] == pytest.approx(system.backlash_m[0], rel=1e-12)
+    assert sy.backlash_m[0] == pytest.approx(table.coast.backlash_normal_m * math.cos(bc), rel=1e-12)
+    with pytest.raises(ModelError, match="no coast side"):
+        build_system(helical, {"m12": drive_only}, torque_Nm=-200.0)
+
+
+def test_drive_only_table_runs_the_drive_flanks_as_the_two_sided_one(helical, table, drive_only, system):
+    """Under the nominal torque the coast flanks stay apart: the drive-only table's run is bit-identical to the
+    two-sided table's (states and drive records), with no step out of range and zero coast force."""
+    outs = []
+    for tab in (table, drive_only):
+        sim = Simulator(build_system(helical, {"m12": tab}))
+        sim.set_speed_input(mesh_frequency_Hz=1200.0)
+        outs.append((sim.run(10 / 1200.0, 1 / 1200.0 / 32), sim.out_of_range_steps))
+    (a, na), (b, nb) = outs
+    assert na == nb == [0]
+    for k in ("state", "mesh_deflection_m", "mesh_force_N", "mesh_twist_rad", "twist_moment_Nm"):
+        assert np.array_equal(a[k], b[k]), k
+    # the coast vectors from the geometry equal the table's within 1e-15: the coast approach within rounding
+    np.testing.assert_allclose(b["coast_approach_m"], a["coast_approach_m"], rtol=1e-12)
+    assert np.all(b["coast_force_N"] == 0) and np.all(b["contact_state"] == 1)
+
+
+def test_drive_only_table_flags_the_teeth_crossing_the_backlash(helical, table, drive_only):
+    """Drivetrain coupling, torques of issue 36 reversed (-200 N*m on the pinion, +235.7 N*m on the wheel) from
+    the drive-loaded equilibrium, on the drive-only table: the run is the two-sided table's (bit-identical) until
+    the coast flanks meet; no step is counted while the coast approach stays below the backlash; beyond it the
+    teeth pass through each other (no coast table carries them) and every step counts, growing with the run."""
+    b = None
+    sims = []
+    for tab in (table, drive_only):
+        sy = build_system(helical, {"m12": tab}, shafts=False)
+        b = sy.backlash_m[0]
+        sim = Simulator(sy)
+        sim.reset(speed_rad_s=2 * math.pi * 1200.0 / 28)
+        sim.set_torque_inputs({"pinion": -200.0, "wheel": 235.7})
+        sims.append(sim)
+    n_cross = None
+    for _ in range(100):
+        two, one = (s.run(1e-4, 1e-5) for s in sims)
+        xc = one["coast_approach_m"][:, 0]
+        if np.all(two["coast_force_N"] == 0):
+            assert np.array_equal(two["state"], one["state"])
+        if n_cross is not None:
+            # every recorded sample beyond the backlash: each is the start of a counted step
+            assert np.all(xc > b) and np.all(one["contact_state"][:, 0] == 0)
+            assert sims[1].out_of_range_steps[0] >= n_cross + xc.size
+            break
+        if xc.max() <= b:
+            assert sims[1].out_of_range_steps == [0]
+        else:
+            n_cross = sims[1].out_of_range_steps[0]
+    assert n_cross is not None, "the coast approach never reached the backlash"
+    assert np.all(one["coast_force_N"] == 0) and np.all(one["mesh_force_N"] == 0)

@@ -3,6 +3,7 @@ torques in) with table post-processing (root strain, contact pressure, dynamic m
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 
 import numpy as np
@@ -173,6 +174,9 @@ def run(args: argparse.Namespace) -> int:
             per_mesh[c.name].update(mean_coast_approach_m=float(xc[:, k].mean()),
                                     coast_table_deflection_range_m=[float(c.coast_table.deflection_m[0]),
                                                                     float(c.coast_table.deflection_m[-1])])
+        elif c.v_c is not None and math.isfinite(c.backlash_m):
+            # a drive-only table: beyond the backlash the teeth pass through each other (counted as out of range)
+            per_mesh[c.name].update(backlash_m=float(c.backlash_m))
     summary = {
         "model": inp.label, "synthetic_table": inp.synthetic, "torque_Nm": sy.torque_Nm,
         "force_law": args.force_law, "mesh_frequency_Hz": [fm0, fm1], "cycles": args.cycles,
@@ -217,6 +221,9 @@ def run(args: argparse.Namespace) -> int:
         if "coast_table_deflection_range_m" in s:
             out += (f", coast grid {s['coast_table_deflection_range_m'][0] * 1e6:.4g} … "
                     f"{s['coast_table_deflection_range_m'][1] * 1e6:.4g} µm")
+        if "backlash_m" in s:
+            out += (f"; no coast table: beyond the backlash ({s['backlash_m'] * 1e6:.4g} µm coast approach) the teeth "
+                    "pass through each other, build the coast side with `hacgear statics MODEL`")
         return out
 
     if beyond:

@@ -106,7 +106,7 @@ def static_equilibrium(system: LumpedSystem, tau_ref: float = 0.0, fext: np.ndar
             for k in range(m):
                 c = system.meshes[k]
                 sides = [(c.table, x[k], g[k], system.V[k], system.T[k], not coast_loaded)]
-                if twc:
+                if twc and c.coast_table is not None:
                     sides.append((c.coast_table, xc[k], gc[k], system.Vc[k], system.Tc[k], coast_loaded))
                 for table, xk, gk, v, t, floored in sides:
                     jac = generalized_slopes(table, tau[k], xk, gk)[0]

@@ -37,7 +37,8 @@ Force laws (one per kernel variant, so the dispatch folds away at compile time):
     (:func:`hacgear_core.tables.interp.trilinear_flat`), generalized force ``W v_k + M t_k``; the twist vector
     ``t_k`` and M ride in the coast slots (``vc_k``, ``Fc_k`` above), which such meshes do not use otherwise.
     A two-sided helical mesh is two meshes of this loop: its drive side k and its coast side m' + k (``m'`` the
-    system's meshes), the coast side with the coast flanks' vectors and generalized FDF (0 below its onset).
+    system's meshes), the coast side with the coast flanks' vectors and generalized FDF (0 below its onset); a
+    drive-only table's coast side is a zero table whose range ends at the backlash (:func:`flatten_twist_tables`).
 The coast side is always its table.
 
 Tables travel flattened: row ``r`` (drive tables of meshes 0..m-1, then their coast tables m..2m-1) is
@@ -896,10 +897,21 @@ def flatten_twist_tables(tables) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     ``(gfdf (Np, Nd, Nt, 2) [W N, M N m], x0 [m], inv_dx [1/m], g0 [rad], inv_dg [1/rad])`` → ``(tab, tint,
     tflt)`` with rows k: ``(offset, Np, Nd)``, ``(x0, 1/dx, x_on, x_max)`` (x_on: the onset of W over every twist)
     and rows m + k: ``(offset, Nt, 2)``, ``(g0, 1/dg, g_min, g_max)`` (beyond the twist grid the state is
-    counted as out of range)."""
+    counted as out of range).  An entry ``(None, x_max [m])`` is an absent table (the coast side of a drive-only
+    table): W = M = 0 everywhere, the state out of range beyond deflection ``x_max`` at any twist."""
     parts, rows_d, rows_t, fl_d, fl_t = [], [], [], [], []
     o = 0
-    for g, a0, idx, g0, idg in tables:
+    for entry in tables:
+        if entry[0] is None:
+            g = np.zeros((2, 2, 2, 2))
+            parts.append(g.ravel())
+            rows_d.append((o, 2, 2))
+            rows_t.append((o, 2, 2))
+            fl_d.append((0.0, 1.0, math.inf, float(entry[1])))
+            fl_t.append((0.0, 1.0, -math.inf, math.inf))
+            o += g.size
+            continue
+        g, a0, idx, g0, idg = entry
         g = np.ascontiguousarray(g, dtype=np.float64)
         if g.ndim != 4 or g.shape[3] != 2 or g.shape[2] < 2:
             raise ValueError(f"generalized FDF must be (Np, Nd, Nt >= 2, 2), got {g.shape}")

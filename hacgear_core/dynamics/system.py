@@ -92,7 +92,10 @@ class MeshCoupling:
     puts the generalized force ``W v + M t`` on the DOFs (W mesh force [N], M twist moment [N m] from one trilinear
     lookup).  Their coast side (a coast table with a twist axis): ``v_c`` and ``t_c`` (n,) the coast table's
     ``r_mesh`` and ``r_twist`` (``xc = v_c . q``, ``gamma_c = t_c . q``), the coast generalized force
-    ``Wc v_c + Mc t_c``; without ``t_c`` the helical mesh is one-sided."""
+    ``Wc v_c + Mc t_c``.  A drive-only table with ``v_c`` and ``t_c`` (the coast flanks' vectors from the
+    geometry) keeps its coast side force-free: a zero table whose deflection range ends at ``backlash_m`` (the
+    coast approach at which the coast flanks touch), so a state beyond the backlash counts as out of range.
+    Without ``t_c`` the helical mesh is one-sided and unguarded."""
 
     name: str
     gear_a: str
@@ -271,15 +274,18 @@ class LumpedSystem:
             self.law = kernels.LAW_TWIST
         self.T = np.ascontiguousarray(np.array([np.zeros(n) if c.t is None else c.t for c in self.meshes],
                                                dtype=float))
-        #: helical meshes with their coast side (coast tables with a twist axis): the kernel runs 2 m meshes, the
-        #: coast side of mesh k as mesh m + k (kernels docstring)
+        #: helical meshes with their coast side (coast vectors v_c, t_c and a coast table with a twist axis, or for
+        #: a drive-only table the zero table that ends at the backlash): the kernel runs 2 m meshes, the coast side
+        #: of mesh k as mesh m + k (kernels docstring)
         self.coast_twist = self.twisted and any(c.t_c is not None for c in self.meshes)
         if self.coast_twist:
             bad = [c.name for c in self.meshes if c.t_c is None or c.v_c is None
-                   or getattr(c.coast_table, "twist", None) is None]
+                   or (c.coast_table is not None and getattr(c.coast_table, "twist", None) is None)
+                   or (c.coast_table is None and not (math.isfinite(c.backlash_m) and c.backlash_m >= 0))]
             if bad:
                 raise ModelError(f"{name}: helical meshes {bad} lack the coast side (coast vectors v_c, t_c and a "
-                                 "coast table with a twist axis) that the others have")
+                                 "coast table with a twist axis, or for a drive-only table a finite backlash_m [m] "
+                                 ">= 0) that the others have")
         self.Tc = np.ascontiguousarray(np.array([np.zeros(n) if c.t_c is None else c.t_c for c in self.meshes],
                                                 dtype=float))
         #: meshes of the compiled loop: m, or 2 m for helical meshes with their coast side
@@ -291,7 +297,7 @@ class LumpedSystem:
                 raise ModelError(f"{name}: mesh '{c.name}' has a coast table but no coast line-of-action vector v_c")
         #: any mesh has coast-flank tables the dynamics use (the kernel then runs its two-sided loop, or for helical
         #: meshes the coast sides as meshes m..2m-1)
-        self.two_sided = self.coast_twist or (not self.twisted and any(ca is not None for ca in self.coast_arrays))
+        self.two_sided = any(ca is not None for ca in self.coast_arrays) and (self.coast_twist or not self.twisted)
         if self.twisted and not self.coast_twist:
             self.coast_arrays = (None,) * self.m
         self.Vc = np.ascontiguousarray(np.array([np.zeros(n) if c.v_c is None else c.v_c for c in self.meshes],
@@ -377,9 +383,11 @@ class LumpedSystem:
         if self.twisted:
             sides = [(c.table, ta) for c, ta in zip(self.meshes, self.table_arrays)]
             if self.coast_twist:
-                sides += [(c.coast_table, ca) for c, ca in zip(self.meshes, self.coast_arrays)]
+                sides += [(c.coast_table, ca) if ca is not None else (None, c.backlash_m)
+                          for c, ca in zip(self.meshes, self.coast_arrays)]
             tab, tint, tflt = kernels.flatten_twist_tables(
-                [(t.twist.generalized_fdf, ta.x0, ta.inv_dx, float(t.twist.twist_rad[0]), 1.0 / t.twist.dg)
+                [(None, ta) if t is None else
+                 (t.twist.generalized_fdf, ta.x0, ta.inv_dx, float(t.twist.twist_rad[0]), 1.0 / t.twist.dg)
                  for t, ta in sides])
         else:
             tab, tint, tflt = kernels.flatten_tables(
@@ -454,7 +462,12 @@ class LumpedSystem:
         if self.coast_twist:
             h.update(self.Tc.tobytes())
             for c in self.meshes:
-                h.update(np.ascontiguousarray(c.coast_table.twist.generalized_fdf).tobytes())
+                if c.coast_table is not None:
+                    h.update(np.ascontiguousarray(c.coast_table.twist.generalized_fdf).tobytes())
+            if any(c.coast_table is None for c in self.meshes):
+                # drive-only tables: the coast approach and the backlash of the range guard
+                h.update(self.Vc.tobytes())
+                h.update(self.backlash_m.tobytes())
         if self.two_sided:
             h.update(self.Vc.tobytes())
             for ca in self.coast_arrays:
@@ -574,12 +587,12 @@ class LumpedSystem:
     def mesh_generalized(self, k: int, tau, x, g, coast: bool = False) -> np.ndarray:
         """Helical mesh ``k``: mesh force W [N] and twist moment M [N m] → (..., 2) at ``tau`` [cycles], ``x`` [m],
         ``g`` [rad] (broadcast arrays), by the kernel's rule (the table's trilinear lookup; both 0 where W <= 0).
-        ``coast``: the coast side (coast approach ``x``, coast twist ``g``; zeros for a one-sided mesh)."""
+        ``coast``: the coast side (coast approach ``x``, coast twist ``g``; zeros for a drive-only table)."""
         c = self.meshes[k]
         if c.t is None:
             raise ModelError(f"{self.name}: mesh '{c.name}' is not a helical mesh (no twist axis)")
         table = c.coast_table if coast else c.table
-        if coast and not self.coast_twist:
+        if table is None:
             return np.zeros(np.broadcast(np.asarray(tau), np.asarray(x), np.asarray(g)).shape + (2,))
         wm = np.asarray(table.twist_quantity(table.twist.generalized_fdf, tau, x, g))
         return np.where((wm[..., :1] > 0), wm, 0.0)

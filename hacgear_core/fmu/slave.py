@@ -349,7 +349,8 @@ class FmuInstance:
                 self.log(WARNING, f"{self._fn('DoStep')} at t = {self.time:g} s: mesh {mn} has left its tables' "
                                   "deflection range (torque or vibration beyond the statics grid): forces, pressures "
                                   f"and strains there are extrapolated (output {mn}.out_of_range = true); extend the "
-                                  "tables: raise [statics] max_torque_factor and run `hacgear statics MODEL`")
+                                  "tables: raise [statics] max_torque_factor and run `hacgear statics MODEL` (which "
+                                  "also builds a missing coast side: without it a state past the backlash counts)")
             return OK
         except Exception as exc:
             return self._error(f"{self._fn('DoStep')} at t = {current_time!r} s failed: {type(exc).__name__}: {exc}")

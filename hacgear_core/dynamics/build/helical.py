@@ -10,7 +10,10 @@ dissertation's Eq. 5.4 with its slips fixed, docs/helical.md); the mesh puts ``W
 (W, M from one trilinear lookup over (position, deflection, twist) in the compiled kernel).  With the coast side
 in the table (``table.coast`` with its twist axis) the coast flanks do the same with the coast table's vectors:
 coast approach ``xc = r_mesh_c . q``, coast twist ``gamma_c = r_twist_c . q``, ``Wc r_mesh_c + Mc r_twist_c``, so
-either torque sign is carried (a negative torque loads the coast flanks).
+either torque sign is carried (a negative torque loads the coast flanks).  A drive-only table (an older file, or
+one computed without its coast side) gets the coast flanks' vectors from the geometry (:func:`coast_vectors`)
+and a force-free coast side that ends at the backlash: the range guard counts every step whose coast approach
+passes it (the teeth would pass through each other), and a negative torque is refused.
 
 Masses and polar inertias from :func:`hacgear_core.geometry.gear_geometry` (as ``hacgear info``); the tilting
 inertia about a diameter through ``O_g`` is ``I_p / 2 + m b^2 / 12`` (exact for a body of uniform section over
@@ -29,9 +32,9 @@ import numpy as np
 from hacgear_core.dynamics.build.train import mesh_table
 from hacgear_core.dynamics.system import GearBody, LumpedSystem, MeshCoupling
 from hacgear_core.errors import ModelError
-from hacgear_core.geometry import gear_geometry
+from hacgear_core.geometry import gear_geometry, mesh_geometry
 
-__all__ = ["helical_from_model", "DOF_LABELS", "tilting_inertia_kgm2"]
+__all__ = ["helical_from_model", "DOF_LABELS", "tilting_inertia_kgm2", "coast_vectors"]
 
 #: labels of a gear's six DOFs, in order
 DOF_LABELS = ("x", "y", "z", "theta_x", "theta_y", "theta_z")
@@ -40,6 +43,42 @@ DOF_LABELS = ("x", "y", "z", "theta_x", "theta_y", "theta_z")
 def tilting_inertia_kgm2(mass_kg: float, polar_inertia_kgm2: float, face_width_m: float) -> float:
     """Moment of inertia [kg m^2] of a gear about a diameter through its centre: ``I_p / 2 + m b^2 / 12``."""
     return 0.5 * polar_inertia_kgm2 + mass_kg * face_width_m ** 2 / 12.0
+
+
+def coast_vectors(frame: dict, coast_pressure_angle_rad: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """The coast flanks' mesh vectors of a helical mesh from its drive flanks' frame (docs/helical.md, "The coast
+    side"): ``(r_mesh_c (12,), r_twist_c (12,), base_helix_angle_c [rad])``.
+
+    At the pitch point the coast line of action is the drive one mirrored about the line of centres (the global
+    ``x`` axis) at the coast flanks' operating pressure angle ``alpha_c``: transverse normal
+    ``(sign(n_x) sin alpha_c, -sign(n_y) cos alpha_c)``.  Both flanks of a gear lie on helicoids of one lead, so
+    the normal's axial component over its transverse length is proportional to the transverse normal's ``y``
+    component (the moment arm about gear_a's axis): ``n_z,c / |n_t,c| = (n_z / |n_t|) n_y,c / n_y``.  The vectors
+    follow as for the drive side: ``r_mesh = [n, (P_ref - O_a) x n, -n, -(P_ref - O_b) x n]``, ``r_twist = [0, e1,
+    0, -e1]`` with ``e1 = e2 x e3``, ``e2`` the transverse line of action; ``xc = r_mesh_c . q`` is the coast
+    approach from the drive kinematic position (positive closing the backlash).
+
+    Parameters
+    ----------
+    frame : dict
+        The drive table's ``twist.frame``: ``n_ref`` (3,), ``P_ref`` (3,) [m], ``O_a``, ``O_b`` (3,) [m], ``e3``.
+    coast_pressure_angle_rad : float
+        Operating transverse pressure angle of the coast flanks [rad] (``mesh_geometry``), in (0, pi/2).
+    """
+    if not (0.0 < coast_pressure_angle_rad < 0.5 * math.pi):
+        raise ModelError(f"coast operating pressure angle [rad] must be in (0, pi/2), got {coast_pressure_angle_rad!r}")
+    n = np.asarray(frame["n_ref"], float)
+    nt = math.hypot(n[0], n[1])
+    sin_c, cos_c = math.sin(coast_pressure_angle_rad), math.cos(coast_pressure_angle_rad)
+    t_c = np.array([math.copysign(sin_c, n[0]), -math.copysign(cos_c, n[1])])
+    n_c = np.array([t_c[0], t_c[1], (n[2] / nt) * t_c[1] / (n[1] / nt)])
+    n_c /= np.linalg.norm(n_c)
+    p = np.asarray(frame["P_ref"], float)
+    e1 = np.cross(np.array([t_c[0], t_c[1], 0.0]), np.asarray(frame["e3"], float))
+    r_mesh = np.concatenate([n_c, np.cross(p - np.asarray(frame["O_a"], float), n_c), -n_c,
+                             -np.cross(p - np.asarray(frame["O_b"], float), n_c)])
+    r_twist = np.concatenate([np.zeros(3), e1, np.zeros(3), -e1])
+    return r_mesh, r_twist, math.asin(float(np.clip(n_c[2], -1.0, 1.0)))
 
 
 def helical_from_model(model: Any, tables: Any, *, force_law: str = "hac", torque_Nm: float | None = None,
@@ -146,6 +185,12 @@ def helical_from_model(model: Any, tables: Any, *, force_law: str = "hac", torqu
         coast = dict(v_c=np.asarray(ctw.r_mesh, float).copy(), t_c=np.asarray(ctw.r_twist, float).copy(),
                      nominal_coast_force_N=abs(torque) / float(np.asarray(ctw.lever_arm_m, float)[names.index(tgear)]),
                      backlash_m=float(table.coast.backlash_normal_m) * cb)
+    else:
+        # drive-only table: the coast flanks' vectors from the geometry, a force-free coast side up to the backlash
+        mg = mesh_geometry(model, mesh.name, strict=False)
+        if math.isfinite(mg.backlash_normal_m) and mg.backlash_normal_m >= 0:
+            vc, tc, bc = coast_vectors(tw.frame, float(mg.operating_pressure_angle_coast_rad))
+            coast = dict(v_c=vc, t_c=tc, backlash_m=float(mg.backlash_normal_m) * math.cos(bc))
     w = np.zeros(n)
     w[5] = sense[0] * tz[0] / (2 * math.pi)
     v_rot = np.zeros(n)

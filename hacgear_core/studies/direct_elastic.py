@@ -39,7 +39,7 @@ from typing import Any, Sequence
 import numpy as np
 import scipy.linalg
 
-from hacgear_core.studies.direct import DirectEquations, DirectTrace, StageLoad, integrate_direct
+from hacgear_core.studies.direct import DirectEquations, Level1Result, StageLoad, integrate_direct
 from hacgear_core.dynamics.steady import trace_metrics
 from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import ModelError, SolverError
@@ -262,26 +262,13 @@ class Level2Options:
 
 
 @dataclass
-class Level2Result:
-    """Outcome of :func:`run_level2`: ``success`` (converged below ``rtol``), ``message``, ``cycles`` run before the
-    recorded one, ``changes`` per cycle, ``n_modes`` (per gear), ``load_calls``, ``wall_s_per_cycle`` [s],
-    ``state`` (2N,) at the end, ``trace`` (recorded cycle), ``metrics``
-    (:func:`~hacgear_core.dynamics.steady.trace_metrics`), ``root_strain`` {gauge: (nr,) largest over the window},
-    ``modal`` (nr, n_total) modal coordinates along the recorded cycle, ``steps_per_cycle`` used."""
+class Level2Result(Level1Result):
+    """Outcome of :func:`run_level2`: the fields of :class:`~hacgear_core.studies.direct.Level1Result` (``state``
+    (2N,) with the modal coordinates, ``root_strain`` {gauge: (nr,) largest over the window}), ``n_modes`` (per
+    gear) and ``modal`` (nr, n_total) modal coordinates along the recorded cycle."""
 
-    success: bool
-    message: str
-    cycles: int
-    changes: list
     n_modes: tuple
-    load_calls: int
-    wall_s_per_cycle: float
-    state: np.ndarray
-    trace: DirectTrace
-    metrics: dict
-    root_strain: dict
     modal: np.ndarray
-    steps_per_cycle: int = 0
 
 
 def _load(eqs: DirectEquations, emesh: ElasticMesh, n0: int, cycle_offset: list):

@@ -3,7 +3,7 @@
 For each spur pair (28-tooth at 300 N m, 50-tooth ICR 1.37 at 170 N m) and each of three mesh frequencies (an
 off-resonance speed, the resonance with contact loss, the 1/2 super-harmonic resonance; f_m / f_n from the HAC
 sweeps in docs/hac_vs_direct.md) it runs the HAC steady state on the committed tables, then the level-1 model
-(:mod:`hacgear_core.dynamics.direct`: the same equations, the static contact solver at every RK4 stage) from that
+(:mod:`hacgear_core.studies.direct`: the same equations, the static contact solver at every RK4 stage) from that
 orbit until its own Poincaré change per cycle is below ``--rtol``, and prints RMS DTE, peak mesh force, maximum
 root strain (loaded-flank gauge, all teeth in mesh), contact-loss fraction, the relative errors HAC - level 1,
 the wall time per mesh cycle of both and their ratio.  Criteria of issue #18: |error| <= 1 % (RMS DTE) and 2 %
@@ -28,8 +28,8 @@ from pathlib import Path
 import numpy as np
 
 from hacgear_core.dynamics.build import build_system
-from hacgear_core.dynamics.direct import Level1Options, level1_mesh_forces
-from hacgear_core.dynamics.direct_compare import compare_at_speed, hac_at_speed, loaded_gauge
+from hacgear_core.studies.direct import Level1Options, level1_mesh_forces
+from hacgear_core.studies.direct_compare import compare_at_speed, hac_at_speed, loaded_gauge
 from hacgear_core.model import load_model
 from hacgear_core.statics.grid import compute_statics
 from hacgear_core.tables import load_system_tables, read_tables

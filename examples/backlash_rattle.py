@@ -27,6 +27,7 @@ import numpy as np
 from hacgear_core.cli._help import plain_text
 from hacgear_core.dynamics.build import build_system
 from hacgear_core.dynamics.simulator import Simulator
+from hacgear_core.encodings import ContactState
 from hacgear_core.model import load_model
 from hacgear_core.tables import load_system_tables
 
@@ -143,7 +144,7 @@ def _plot(a, b, system, path, out) -> None:
         if col == 0:
             ax[1, col].legend(loc="upper left", fontsize=8)
         ax[2, col].step(t, res["state"][:, 0], where="post", color="k")
-        ax[2, col].set_yticks([-1, 0, 1], ["coast", "apart", "drive"])
+        ax[2, col].set_yticks([int(c) for c in ContactState], [c.name.lower() for c in ContactState])
         ax[2, col].set_ylabel("contact")
         ax[2, col].set_xlabel("time [ms]")
     fig.tight_layout()

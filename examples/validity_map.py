@@ -36,7 +36,6 @@ import io
 import json
 import re
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
@@ -55,33 +54,17 @@ def _json_update(path: Path, key: str, value) -> None:
     path.write_text(json.dumps(data, indent=1, default=float))
 
 
-def _run(system, model, fm, n_modes, *, steps, cycles, rtol, max_frequency_Hz=40e3, gauge=GAUGE, mesh="m12",
-         traces=None):
-    """One level-2 run (``n_modes`` body modes per gear; 0 = level 1) from the HAC steady state at ``fm``; with
-    ``traces`` (a dict) the recorded cycle's DTE, mesh force and root strain at ``gauge`` are put into it."""
-    from hacgear_core.dynamics import steady_state
-    from hacgear_core.dynamics.direct_elastic import Level2Options, elastic_mesh, run_level2
+def _run(system, model, fm, n_modes, *, steps, cycles, rtol, gauge=GAUGE, mesh="m12", traces=None):
+    """One level-2 run (``n_modes`` body modes per gear; 0 = level 1) from the HAC steady state at ``fm``
+    (:func:`hacgear_core.studies.validity.level2_run`)."""
+    from hacgear_core.studies.validity import level2_run
 
-    ss = steady_state(system, fm)
-    em = elastic_mesh(model, mesh, damping_ratio=system.modal_damping_ratio, max_frequency_Hz=max_frequency_Hz,
-                      n_modes=(n_modes, n_modes))
-    t0 = time.perf_counter()
-    r = run_level2(system, em, fm, ss.state, gauges=(gauge,),
-                   options=Level2Options(rtol=rtol, min_cycles=2, max_cycles=cycles, steps_per_cycle=steps))
-    if traces is not None:
-        traces.update(dte_m=r.trace.dynamic_transmission_error_m[:, 0], force_N=r.trace.mesh_force_N[:, 0],
-                      root_strain_max=r.root_strain[gauge], time_s=r.trace.time_s)
-    return dict(n_modes=int(em.n_modes[0]), highest_mode_Hz=float(em.modes[0].frequency_Hz[-1]) if em.n_total else 0.0,
-                success=bool(r.success), message=r.message, cycles=r.cycles, changes=r.changes,
-                dte_rms_m=float(r.metrics["dte_rms_m"][0]), peak_force_N=float(r.metrics["peak_force_N"][0]),
-                contact_loss_fraction=float(r.metrics["contact_loss_fraction"][0]),
-                max_root_strain=float(np.max(r.root_strain[gauge])), wall_s_per_cycle=r.wall_s_per_cycle,
-                wall_s=time.perf_counter() - t0, steps_per_cycle=r.steps_per_cycle,
-                hac=dict(dte_rms_m=float(ss.metrics["dte_rms_m"][0]), peak_force_N=float(ss.metrics["peak_force_N"][0])))
+    return level2_run(system, model, fm, n_modes, steps=steps, cycles=cycles, rtol=rtol, gauge=gauge, mesh=mesh,
+                      traces=traces)
 
 
 def convergence(args) -> None:
-    from hacgear_core.dynamics.inputs import load_inputs
+    from hacgear_core.cli.inputs import load_inputs
 
     inp = load_inputs(str(MODEL))
     rows = []
@@ -98,7 +81,7 @@ def convergence(args) -> None:
 
 def modes(args) -> None:
     """Body-mode facts of the 28-tooth gear: mass and inertia against the geometry, frequencies, participation."""
-    from hacgear_core.dynamics.direct_elastic import elastic_mesh
+    from hacgear_core.studies.direct_elastic import elastic_mesh
     from hacgear_core.geometry import gear_geometry
     from hacgear_core.model import load_model
 
@@ -150,8 +133,9 @@ def _cli(argv):
 
 
 def map_(args) -> None:
-    from hacgear_core.dynamics.direct_elastic import elastic_mesh
-    from hacgear_core.dynamics.inputs import load_inputs
+    from hacgear_core.studies.direct_elastic import elastic_mesh
+    from hacgear_core.studies.validity import modes_to_keep
+    from hacgear_core.cli.inputs import load_inputs
 
     out = Path(args.out)
     rows = []
@@ -170,8 +154,7 @@ def map_(args) -> None:
             f1 = float(bm.frequency_Hz[0])
             for fac in [float(v) for v in args.speeds.split(",")]:
                 fm = fac * f_n
-                # modes up to mode_factor x the highest frequency of interest, at least the first complete set
-                n_keep = max(bm.count_below(args.mode_factor * max(fm, f_n)), int(bm.complete_counts()[1]))
+                n_keep = modes_to_keep(bm, fm, f_n, args.mode_factor)
                 l2 = _run(inp.system, inp.model, fm, n_keep, steps=args.steps, cycles=args.cycles, rtol=args.rtol)
                 # the quasi-static run takes level 2's step: only the body modes differ
                 l1 = _run(inp.system, inp.model, fm, 0, steps=l2["steps_per_cycle"], cycles=args.cycles,
@@ -199,8 +182,9 @@ def compare(args) -> None:
     against level 2 (body modes up to ``--mode-factor`` x max(f_m, f_n), at least the first complete set) for
     each ``pair@f_m/f_n`` of ``--runs``; rows into ``<out>/hac_vs_direct_level2.json``, level-2 traces of the
     recorded cycle into ``--traces``."""
-    from hacgear_core.dynamics.direct_elastic import elastic_mesh
-    from hacgear_core.dynamics.inputs import load_inputs
+    from hacgear_core.cli.inputs import load_inputs
+    from hacgear_core.studies.direct_elastic import elastic_mesh
+    from hacgear_core.studies.validity import modes_to_keep
 
     bench = json.loads(Path(args.bench_json).read_text())["rows"]
     out = Path(args.out) / "hac_vs_direct_level2.json"
@@ -218,7 +202,7 @@ def compare(args) -> None:
         fm = float(ref["mesh_frequency_Hz"])  # the benchmark's speed (fac x its f_n)
         em = elastic_mesh(inp.model, mesh, damping_ratio=inp.system.modal_damping_ratio)
         f1 = [float(bm.frequency_Hz[0]) for bm in em.modes]
-        n_keep = max(em.modes[0].count_below(args.mode_factor * max(fm, f_n)), int(em.modes[0].complete_counts()[1]))
+        n_keep = modes_to_keep(em.modes[0], fm, f_n, args.mode_factor)
         tr = {}
         l2 = _run(inp.system, inp.model, fm, n_keep, steps=args.steps, cycles=args.cycles, rtol=args.rtol,
                   gauge=ref["gauge"], mesh=mesh, traces=tr)

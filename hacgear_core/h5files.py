@@ -3,8 +3,8 @@ of another kind (sweep rows into a tables file, a table over sweep results).
 
 Kinds: ``"tables"`` (``format = "hacgear-tables"``, written by ``hacgear statics``), ``"sweep"`` (``format =
 "hacgear-sweep"``, or the group ``sweeps`` of files written before the attribute; ``hacgear sweep --out``),
-``"empty"`` (an HDF5 file without objects or attributes), ``"hdf5"`` (any other HDF5 file) and ``"other"`` (not an
-HDF5 file)."""
+``"study"`` (``format = "hacgear-study"``, ``hacgear study``), ``"empty"`` (an HDF5 file without objects or
+attributes), ``"hdf5"`` (any other HDF5 file) and ``"other"`` (not an HDF5 file)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -13,14 +13,16 @@ import h5py
 
 from hacgear_core.errors import TableError
 
-__all__ = ["TABLES_FORMAT", "SWEEP_FORMAT", "file_kind", "check_writable_kind"]
+__all__ = ["TABLES_FORMAT", "SWEEP_FORMAT", "STUDY_FORMAT", "file_kind", "check_writable_kind"]
 
 TABLES_FORMAT = "hacgear-tables"
 SWEEP_FORMAT = "hacgear-sweep"
+STUDY_FORMAT = "hacgear-study"
 
 _WHAT = {
     "tables": "a hacgear tables file (root attribute format = 'hacgear-tables', from `hacgear statics`)",
     "sweep": "a hacgear sweep results file (from `hacgear sweep --out`)",
+    "study": "a hacgear study results file (from `hacgear study`)",
     "hdf5": "an HDF5 file that hacgear did not write",
     "other": "not an HDF5 file",
 }
@@ -34,6 +36,8 @@ def file_kind(path: str | Path) -> str:
             fmt = fmt.decode() if isinstance(fmt, bytes) else fmt
             if fmt == TABLES_FORMAT:
                 return "tables"
+            if fmt == STUDY_FORMAT:
+                return "study"
             if fmt == SWEEP_FORMAT or (fmt is None and "sweeps" in f):
                 return "sweep"
             if fmt is None and len(f) == 0 and len(f.attrs) == 0:

@@ -37,3 +37,23 @@ def wait_for_no_orphans(sid: int, timeout_s: float = 10.0) -> list[tuple[int, st
         except ProcessLookupError:
             pass
     return left
+
+
+def kill_when(proc, ready, timeout_s: float = 240.0, period_s: float = 0.02) -> list[tuple[int, str]]:
+    """SIGKILL the main process of ``proc`` (a ``subprocess.Popen`` started with ``start_new_session=True``) as soon
+    as ``ready()`` returns True (``OSError``/``KeyError`` while it reads a file being written count as not ready),
+    or at ``timeout_s``; wait for it and return the processes of its session left behind (killed)."""
+    t0 = time.monotonic()
+    try:
+        while time.monotonic() - t0 < timeout_s and proc.poll() is None:
+            time.sleep(period_s)
+            try:
+                if ready():
+                    break
+            except (OSError, KeyError):
+                continue
+    finally:
+        if proc.poll() is None:
+            os.kill(proc.pid, signal.SIGKILL)
+        proc.wait(timeout=30)
+    return wait_for_no_orphans(proc.pid)

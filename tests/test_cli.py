@@ -1,4 +1,4 @@
-"""The command-line interface as a whole (hacgear_core.cli, cli/_paths.py): help texts that match behaviour,
+"""The command-line interface as a whole (hacgear_core.cli, hacgear_core/outpaths.py): help texts that match behaviour,
 output paths checked before any work."""
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from hacgear_core.cli import build_parser, main
-from hacgear_core.cli._paths import check_out_dir, check_out_path
+from hacgear_core.outpaths import check_out_dir, check_out_path
 from hacgear_core.errors import HacgearError
 
 

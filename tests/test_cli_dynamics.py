@@ -192,11 +192,11 @@ def test_simulate_with_the_coast_flanks_loaded_reports_them(capsys):
     assert main(["simulate", "spur_28t_asym", "--torque", "-300", "--fm", "1000", "--cycles", "12", "--json"]) == 0
     s = json.loads(capsys.readouterr().out)["meshes"]["m12"]
     assert s["loaded_flank"] == "coast" and s["contact_loss_fraction"] == 0.0
-    assert s["peak_force_N"] == 0.0 and s["coast_contact_fraction"] == 1.0
+    assert s["peak_back_side_force_N"] == 0.0 and s["back_side_contact_fraction"] == 0.0 and s["min_force_N"] > 0
     assert 0.5e9 < s["max_peak_pressure_Pa"] < 3e9
     assert main(["simulate", "spur_28t_asym", "--torque", "300", "--fm", "1000", "--cycles", "12", "--json"]) == 0
     d = json.loads(capsys.readouterr().out)["meshes"]["m12"]
-    assert d["loaded_flank"] == "drive" and d["contact_loss_fraction"] == 0.0 and d["peak_coast_force_N"] == 0.0
+    assert d["loaded_flank"] == "drive" and d["contact_loss_fraction"] == 0.0 and d["peak_back_side_force_N"] == 0.0
 
 
 def test_sweep_stability_column_and_json(capsys):
@@ -282,12 +282,12 @@ def test_simulate_reversed_torque_on_every_kind(system, capsys, tmp_path):
     nominal = dict(zip(sy.mesh_names, sy.nominal_coast_forces_N()))
     for k, c in enumerate(sy.meshes):
         s = d["meshes"][c.name]
-        assert s["loaded_flank"] == "coast" and s["peak_force_N"] == 0.0 and s["coast_contact_fraction"] == 1.0
+        assert s["loaded_flank"] == "coast" and s["peak_back_side_force_N"] == 0.0 and s["contact_loss_fraction"] == 0.0
         assert s["steps_beyond_tables"] == 0
         assert -(c.backlash_m + np.ptp(c.coast_table.deflection_m)) <= s["mean_deflection_m"] < 0.0, c.name
         fc = tr[f"{c.name}.coast_force_N"]
         assert np.mean(fc) == pytest.approx(nominal[c.name], rel=0.03), c.name
-        assert s["peak_coast_force_N"] == pytest.approx(fc.max(), rel=1e-6)
+        assert s["peak_force_N"] == pytest.approx(fc.max(), rel=1e-6)
         assert fc.max() >= 0.97 * nominal[c.name]
 
 
@@ -390,7 +390,7 @@ def test_simulate_drive_only_helical_table_flags_the_backlash_crossing(capsys, t
             "--record-cycles", "8", "--json"]
     assert main(argv) == 0
     m = json.loads(capsys.readouterr().out)["meshes"]["m12"]
-    assert m["steps_beyond_tables"] > 100 and m["contact_loss_fraction"] == 1.0 and m["peak_coast_force_N"] == 0.0
+    assert m["steps_beyond_tables"] > 100 and m["contact_loss_fraction"] == 1.0 and m["peak_back_side_force_N"] == 0.0
     assert 390e-6 < m["backlash_m"] < 400e-6     # j_n cos(beta_bc) = 406.9 um x cos 14.13 deg = 394.5 um
     assert main(argv[:-1]) == 0
     err = capsys.readouterr().err

@@ -226,7 +226,7 @@ def test_statics_with_other_grid_options_keeps_a_finished_table(tmp_path, capsys
      "--max-torque-factor [-] = 2.0 is out of range; allowed: [3, 20]"),
     (["simulate", "spur_28t_asym", "--fm", "1e9"], "--fm [Hz] = 1000000000.0 is out of range; allowed: (0, 100000]"),
     (["simulate", "spur_28t_asym", "--fm", "1000", "--fm-end", "2e5"], "--fm-end [Hz] = 200000.0 is out of range"),
-    (["modes", "spur_28t_asym", "--damping-ratio", "2"], "--damping-ratio [-] = 2.0 is out of range; allowed: [0, 1]"),
+    (["modes", "spur_28t_asym", "--damping-ratio", "2"], "--damping-ratio [-] = 2.0 is out of range; allowed: [0, 1)"),
     (["modes", "spur_28t_asym", "--bearing-stiffness", "-1"],
      "--bearing-stiffness [N/m] = -1.0 is out of range; allowed: [0, 1e+15] or inf"),
     (["modes", "planetary_65_55_175", "--planets", "13"], "--planets [-] = 13 is out of range; allowed: integer in [1, 12]"),

@@ -1,4 +1,4 @@
-"""Level-1 direct model (hacgear_core.dynamics.direct): its integrator is the HAC equations, its force law is the
+"""Level-1 direct model (hacgear_core.studies.direct): its integrator is the HAC equations, its force law is the
 static solver (= the tables at their nodes), and a short dynamic run agrees with HAC; the long comparison is slow."""
 from __future__ import annotations
 
@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hacgear_core.dynamics import direct as D
+from hacgear_core.studies import direct as D
 from hacgear_core.dynamics.build import build_system
-from hacgear_core.dynamics.direct_compare import compare_at_speed, hac_root_strain, loaded_gauge
+from hacgear_core.studies.direct_compare import compare_at_speed, hac_root_strain, loaded_gauge
 from hacgear_core.dynamics.steady import steady_state
 from hacgear_core.errors import ModelError
 from hacgear_core.model import load_model
@@ -196,7 +196,7 @@ def test_64_positions_miss_1_percent_at_the_superharmonic(superharmonic50, tmp_p
     """Why the committed grid has 256 positions: on 64 positions x 64 deflections (drive side, generated here with
     the statics grid) the position interpolation misses the second mesh harmonic that drives the 1/2 super-harmonic
     resonance, and RMS DTE is off by more than 1 % (grid study: -3.2 %)."""
-    from hacgear_core.dynamics.direct_compare import hac_at_speed
+    from hacgear_core.studies.direct_compare import hac_at_speed
     from hacgear_core.statics.grid import compute_statics
     from hacgear_core.tables import read_tables
     model, _, fm, c = superharmonic50

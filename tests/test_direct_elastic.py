@@ -1,13 +1,13 @@
-"""Tests of the level-2 direct model (hacgear_core.dynamics.direct_elastic): its static limit is the static solver,
+"""Tests of the level-2 direct model (hacgear_core.studies.direct_elastic): its static limit is the static solver,
 without body modes it is level 1, and at a low mesh frequency the elastic bodies stay quasi-static."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from hacgear_core.dynamics.direct import DirectEquations, SolverMeshForce, contact_load, integrate_direct
-from hacgear_core.dynamics.direct_elastic import (ElasticMesh, _load, elastic_equations, initial_state)
-from hacgear_core.dynamics.inputs import load_inputs
+from hacgear_core.studies.direct import DirectEquations, SolverMeshForce, contact_load, integrate_direct
+from hacgear_core.studies.direct_elastic import (ElasticMesh, _load, elastic_equations, initial_state)
+from hacgear_core.cli.inputs import load_inputs
 from hacgear_core.errors import ModelError
 from hacgear_core.geometry import gear_geometry
 from hacgear_core.statics.bodymodes import BodyModeOptions, gear_body_modes
@@ -59,7 +59,7 @@ def test_static_limit_is_the_static_solver(setup):
 
 
 def test_without_modes_level2_is_level1(setup):
-    """No body modes: the same solver calls and RK4 as level 1 (dynamics/direct.py), to round-off."""
+    """No body modes: the same solver calls and RK4 as level 1 (studies/direct.py), to round-off."""
     system, solver, modes = setup
     em = ElasticMesh(solver, tuple(m.truncated(0) for m in modes), 0.02)
     eqs2, _ = elastic_equations(system, em)
@@ -121,7 +121,7 @@ def test_free_hub_frequency_closed_form_and_step_rule(setup):
     coupled mass [[J, L], [L, 1]] against diag(0, omega^2)); run_level2's step keeps omega h <= max_omega_h."""
     import math
 
-    from hacgear_core.dynamics.direct_elastic import Level2Options, highest_frequency_Hz
+    from hacgear_core.studies.direct_elastic import Level2Options, highest_frequency_Hz
 
     system, solver, modes = setup
     em = ElasticMesh(solver, tuple(m.truncated(1) for m in modes), 0.02)

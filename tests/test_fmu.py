@@ -431,9 +431,9 @@ def _adapter_and_library(system, mode, h_int, **inputs):
     values = {v.name: v.start for v in ad.variables if v.causality != "output"}
     values.update(mode=mode, internal_step=h_int, **inputs)
     ad.configure(values)
-    sim = _library(system, h_int, shafts=mode == hf.MODE_SPEED)
+    sim = _library(system, h_int, shafts=mode == hf.Experiment.SPEED)
     ref = ad.ref
-    if mode == hf.MODE_SPEED:
+    if mode == hf.Experiment.SPEED:
         sim.reset(speed_rad_s=values[f"{ref}.speed_in"])
         sim.set_speed_input(speed_rad_s=values[f"{ref}.speed_in"])
     else:
@@ -504,7 +504,7 @@ def test_bad_parameters_fail_initialization_with_a_message(built, version):
         assert low.set(modal_damping_ratio=2.0, internal_step=-1.0, **{"pinion.bearing_stiffness": float("nan")}) == OK
         assert low.exit() == ERROR
         text = low.text()
-        assert "modal_damping_ratio' [1] = 2.0" in text and "[0, 1]" in text
+        assert "modal_damping_ratio' [1] = 2.0" in text and "[0, 1)" in text
         assert "internal_step' [s] = -1.0" in text and "pinion.bearing_stiffness' [N/m] = nan" in text
         assert low.step(0.0, 1e-4) == ERROR and "not allowed" in low.messages[-1][1]
     finally:
@@ -952,7 +952,7 @@ def assert_contact_code_under_libcosim_and_ecos(fmu, h=5e-5, n=300):
     """Run the FMI 2.0 FMU ``fmu`` (spur_28t_asym's variables) ``n`` steps of ``h`` [s] under libcosim, then under
     Ecos (skipped, naming what is missing, where ecospy or its libtbb12 is not installed), checking
     ``m12.contact_code`` against contact_state(force, coast_force) at every step."""
-    from hacgear_core.fmu.adapter import contact_state
+    from hacgear_core.encodings import contact_state_of as contact_state
 
     lc = pytest.importorskip("libcosimpy.CosimExecution")
     from libcosimpy.CosimEnums import CosimVariableType

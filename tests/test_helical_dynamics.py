@@ -22,6 +22,7 @@ from hacgear_core.dynamics.build.train import SpurPairParameters, spur_pair_syst
 from hacgear_core.dynamics.equilibrium import static_equilibrium
 from hacgear_core.dynamics.simulator import Simulator, strain_of_tooth
 from hacgear_core.dynamics.sweep import SweepSpec, run_sweep
+from hacgear_core.encodings import ContactState
 from hacgear_core.errors import ModelError
 from hacgear_core.geometry import gear_geometry, mesh_geometry
 from hacgear_core.model import load_model
@@ -104,7 +105,7 @@ def test_constant_speed_run_carries_the_nominal_force(system):
     assert out["mesh_twist_rad"][-1, 0] == pytest.approx(system.T[0] @ q, rel=1e-12, abs=1e-18)
     wm = system.mesh_generalized(0, out["mesh_position"][-1, 0], system.V[0] @ q, system.T[0] @ q)
     assert out["twist_moment_Nm"][-1, 0] == pytest.approx(float(wm[1]), rel=1e-9)
-    assert np.all(out["contact_state"] == 1) and np.all(out["coast_force_N"] == 0)
+    assert np.all(out["contact_state"] == ContactState.DRIVE_FLANK) and np.all(out["coast_force_N"] == 0)
 
 
 def _helix_zero(helical, table, k_twist=3400.0):
@@ -269,7 +270,7 @@ def test_reversed_torque_run_stays_on_the_coast_flanks_within_the_tables(reverse
     sim.set_speed_input(mesh_frequency_Hz=1200.0)
     out = sim.run(30 / 1200.0, 1 / 1200.0 / 16)
     ct = sy.meshes[0].coast_table
-    assert np.all(out["contact_state"] == -1) and np.all(out["mesh_force_N"] == 0)
+    assert np.all(out["contact_state"] == ContactState.COAST_FLANK) and np.all(out["mesh_force_N"] == 0)
     assert out["coast_force_N"][-160:, 0].mean() == pytest.approx(sy.nominal_coast_forces_N()[0], rel=0.01)
     xc = out["coast_approach_m"][:, 0]
     assert ct.deflection_m[0] < xc.min() and xc.max() < ct.deflection_m[-1]
@@ -299,7 +300,7 @@ def test_reversed_drive_torques_and_the_range_guard(helical, table):
     n_impact = sim.out_of_range_steps[0]
     out = sim.run(0.02, 1e-4)
     assert sim.out_of_range_steps[0] == n_impact
-    assert np.all(out["contact_state"][:, 0] == -1) and np.all(out["coast_force_N"][:, 0] > 0)
+    assert np.all(out["contact_state"][:, 0] == ContactState.COAST_FLANK) and np.all(out["coast_force_N"][:, 0] > 0)
     # rigid rotations: x = -xc (drive lever arm / coast lever arm); the tilts and translations add little
     ratio = float(table.twist.lever_arm_m[0]) / float(ct.twist.lever_arm_m[0])
     assert np.all(out["mesh_deflection_m"][:, 0] > -1.2 * ratio * ct.deflection_m[-1])
@@ -351,7 +352,7 @@ def test_drive_only_table_runs_the_drive_flanks_as_the_two_sided_one(helical, ta
         assert np.array_equal(a[k], b[k]), k
     # the coast vectors from the geometry equal the table's within 1e-15: the coast approach within rounding
     np.testing.assert_allclose(b["coast_approach_m"], a["coast_approach_m"], rtol=1e-12)
-    assert np.all(b["coast_force_N"] == 0) and np.all(b["contact_state"] == 1)
+    assert np.all(b["coast_force_N"] == 0) and np.all(b["contact_state"] == ContactState.DRIVE_FLANK)
 
 
 def test_drive_only_table_flags_the_teeth_crossing_the_backlash(helical, table, drive_only):
@@ -376,7 +377,7 @@ def test_drive_only_table_flags_the_teeth_crossing_the_backlash(helical, table, 
             assert np.array_equal(two["state"], one["state"])
         if n_cross is not None:
             # every recorded sample beyond the backlash: each is the start of a counted step
-            assert np.all(xc > b) and np.all(one["contact_state"][:, 0] == 0)
+            assert np.all(xc > b) and np.all(one["contact_state"][:, 0] == ContactState.SEPARATED)
             assert sims[1].out_of_range_steps[0] >= n_cross + xc.size
             break
         if xc.max() <= b:

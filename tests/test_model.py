@@ -112,7 +112,10 @@ MALFORMED = [
      r"key 'system\.kind': unknown value 'worm_pair'; allowed: spur_pair \| idler_chain \| planetary \| helical_pair"),
     ("negative damping ratio",
      lambda t: _replace_once(t, "modal_damping_ratio = 0.02", "modal_damping_ratio = -0.1"),
-     r"key 'damping\.modal_damping_ratio' \[-\]: value -0\.1 out of range; allowed: \[0, 1\]"),
+     r"key 'damping\.modal_damping_ratio' \[-\]: value -0\.1 out of range; allowed: \[0, 1\)"),
+    ("critical damping ratio: refused at load, not at build",
+     lambda t: _replace_once(t, "modal_damping_ratio = 0.02", "modal_damping_ratio = 1.0"),
+     r"key 'damping\.modal_damping_ratio' \[-\]: value 1 out of range; allowed: \[0, 1\)"),
     ("zero torque",
      lambda t: _replace_once(t, "torque_Nm = 300.0", "torque_Nm = 0.0"),
      r"key 'operating\.torque_Nm' \[N\*m\]: value 0 out of range; allowed: \(0, 1e\+06\]"),
@@ -493,3 +496,28 @@ def test_fuzz_extreme_values_through_the_geometry(data):
 @given(st.data())
 def test_fuzz_extreme_values_through_the_geometry_long(data):
     _geometry_case(data, "model files through the geometry (slow)")
+
+
+LUMPED = Path(__file__).resolve().parent.parent / "examples" / "planetary_lumped.toml"
+
+
+def test_shipped_lumped_planetary_reaches_its_carrier_radius():
+    """The example's carrier radius 96.54 mm is what its base radii need: (50.2743 + 42.5398) / cos 15.97 deg =
+    135.3539 - 42.5398 ... = 92.8141 / 0.96140 = 96.540 mm (within 1e-4 relative); it loads."""
+    m = load_model(LUMPED)
+    need = (50.2743 + 42.5398) / math.cos(math.radians(15.97)) * 1e-3
+    assert abs(m.planetary.carrier_radius_m - need) < 1e-4 * need
+
+
+def test_unreachable_carrier_radius_is_refused_at_load(tmp_path):
+    """A carrier radius the sun and planet base radii cannot reach (150 mm instead of 96.54 mm) is refused when the
+    file loads, with the file, the key, its unit, the value, the radius the base radii need and the tolerance."""
+    bad = tmp_path / "model.toml"
+    bad.write_text(LUMPED.read_text().replace("carrier_radius_mm = 96.54", "carrier_radius_mm = 150"))
+    with pytest.raises(ModelError) as info:
+        load_model(bad)
+    msg = str(info.value)
+    assert msg.startswith(str(bad)) and "key 'planetary.carrier_radius_mm' [mm]" in msg
+    assert "value 150" in msg and "mesh 'sun_planet'" in msg
+    need = (50.2743 + 42.5398) / math.cos(math.radians(15.97))
+    assert f"{need:.4f} mm within 0.0001 relative" in msg

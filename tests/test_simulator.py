@@ -10,6 +10,7 @@ from hacgear_core.dynamics.equilibrium import static_equilibrium
 from hacgear_core.dynamics.simulator import (Simulator, gauge_passage, passage_cycles, passage_window,
                                              static_gauge_passage, strain_of_tooth, system_gauges)
 from hacgear_core.dynamics.synthetic import linear_fdf_table, spur_fdf_table, synthetic_28t_parameters
+from hacgear_core.encodings import Experiment
 from hacgear_core.errors import ModelError
 from hacgear_core.model import load_model
 from hacgear_core.tables import load_system_tables
@@ -107,7 +108,7 @@ def test_simulator_state_snapshot_restores_exactly():
     sim.set_torque_inputs({"pinion": 500.0, "wheel": -100.0})
     sim.advance(1e-3)
     sim.set_state(snap)
-    assert sim.mode == "speed"
+    assert sim.mode == Experiment.SPEED
     sim.advance(2e-3)
     assert sim.mesh_deflection_m[0] == x1 and sim.angle_rad[0] == a1
 

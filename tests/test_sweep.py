@@ -154,7 +154,7 @@ def test_fine_and_coarse_speed_grids_find_the_same_jumps():
 def test_fine_and_coarse_grids_find_the_same_jumps_on_the_fe_tables():
     """The issue's case on the committed FE tables of spur_28t_asym at 300 N*m: 21 speeds over 2200-3200 Hz and
     ~2 Hz steps (a 15 % jump-up only) give the same confirmed jumps, within the coarse grid's 50 Hz."""
-    from hacgear_core.dynamics.inputs import load_inputs
+    from hacgear_core.cli.inputs import load_inputs
 
     sy = load_inputs("spur_28t_asym").system
     found = {}

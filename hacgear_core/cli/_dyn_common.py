@@ -4,8 +4,8 @@ from __future__ import annotations
 import argparse
 
 from hacgear_core.cli._options import check_option
+from hacgear_core.cli.inputs import DynamicsInputs, load_inputs
 from hacgear_core.dynamics.force_laws import FORCE_LAWS
-from hacgear_core.dynamics.inputs import DynamicsInputs, load_inputs
 
 __all__ = ["add_model_options", "inputs_from_args"]
 

@@ -25,11 +25,12 @@ from pathlib import Path
 import numpy as np
 
 from hacgear_core.cli._help import plain_text
-from hacgear_core.cli._paths import check_out_dir
 from hacgear_core.dynamics.kernels import COMPILE_CPU_S
+from hacgear_core.encodings import ContactState
 from hacgear_core.fmu import build_fmu
 from hacgear_core.fmu.bench import BenchConfig, plot_bench, run_drivetrain_bench
 from hacgear_core.model import load_model
+from hacgear_core.outpaths import check_out_dir
 
 __all__ = ["register", "run"]
 
@@ -107,7 +108,7 @@ def run(args) -> int:
         f = res[f"{mn}.force"]
         k = int(np.argmax(f))
         print(f"  drivetrain bench, mesh {mn}: peak mesh force {f[k] / fs:.2f} x static at mesh frequency "
-              f"{res['mesh_frequency_Hz'][k]:.0f} Hz; contact lost in {np.count_nonzero(res[f'{mn}.contact'] < 0.5)} "
+              f"{res['mesh_frequency_Hz'][k]:.0f} Hz; contact lost in {np.count_nonzero(res[f'{mn}.contact'] == int(ContactState.SEPARATED))} "
               f"of {len(f)} samples")
     plot_bench(res, out / "drivetrain.png", f"{model.name} FMU in a drivetrain (fmpy low-level API)")
     print(f"  drivetrain bench plot: {out / 'drivetrain.png'}")

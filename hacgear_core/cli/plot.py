@@ -5,7 +5,11 @@
   function of that gauge (Fig. 4.6), written to ``<out>`` and ``<out stem>_sdf.png``; a helical mesh table
   (twist axis) adds ``<out stem>_helical_{gfdf,twist,pattern,sdf}.png`` (Figs. 5.3, 5.4, 5.6);
 * a sweep results file (from ``hacgear sweep --out``): RMS and mean of the mesh deflection over the mesh
-  frequency, up and down branches, confirmed jumps marked (Figs. 3.5, 3.10).
+  frequency, up and down branches, confirmed jumps marked (Figs. 3.5, 3.10);
+* a study results file (from ``hacgear study``): the Harris map (static transmission error peak-to-peak over
+  torque, one curve per variant) to ``<out>``, the dynamic map (force dynamic factor and peak root strain over mesh
+  frequency x variant, jumps marked) to ``<out stem>_dynamic.png`` and the best variant per criterion over the
+  study's load spectrum to ``<out stem>_best.png``.
 
 Axes are labelled with their units (µm, kN, Hz, µε).
 """
@@ -16,10 +20,11 @@ from pathlib import Path
 from typing import Any
 
 from hacgear_core.cli._help import plain_text
-from hacgear_core.cli._paths import check_out_path
 from hacgear_core.errors import TableError
 from hacgear_core.h5files import file_kind
+from hacgear_core.outpaths import check_out_path
 from hacgear_core.plots.helical import write_helical_figures
+from hacgear_core.plots.study import plot_study_file
 from hacgear_core.plots.sweep import plot_sweep_file
 from hacgear_core.plots.tables import plot_fdf, plot_sdf
 from hacgear_core.tables import read_tables
@@ -30,9 +35,9 @@ _SUFFIXES = (".png", ".pdf", ".svg")
 
 
 def register(subparsers: Any) -> None:
-    p = subparsers.add_parser("plot", help="plot a tables.h5 (FDF, strain) or a sweep results file",
+    p = subparsers.add_parser("plot", help="plot a tables.h5 (FDF, strain), a sweep or a study results file",
                               description=plain_text(__doc__), formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("file", help="tables.h5 or sweep results .h5")
+    p.add_argument("file", help="tables.h5, sweep results .h5 or study results .h5")
     p.add_argument("--out", required=True, help="image file to write (.png, .pdf or .svg; its folder must exist)")
     p.add_argument("--mesh", default=None, help="mesh of a tables file (default: the first)")
     p.add_argument("--gauge", default=None, help="gauge '<gear>/<gauge>' for the strain-deflection plot")
@@ -72,5 +77,9 @@ def run(args) -> int:
         for j in jumps:
             print(f"  {j['kind']} of mesh {j['mesh']} at {j['frequency_Hz']:.0f} Hz ({j['branch']} sweep)")
         return 0
-    raise TableError(f"{path} is neither a hacgear tables file (attribute format='hacgear-tables') nor a sweep "
-                     "results file (group 'sweeps')")
+    if kind == "study":
+        for p in plot_study_file(path, out):
+            print(f"study figure: {p}")
+        return 0
+    raise TableError(f"{path} is neither a hacgear tables file (attribute format='hacgear-tables'), a sweep "
+                     "results file (group 'sweeps') nor a study results file (format='hacgear-study')")

@@ -7,9 +7,9 @@ import argparse
 import math
 from typing import Any
 
-from hacgear_core.cli._paths import check_out_path
 from hacgear_core.errors import ModelError
 from hacgear_core.model import load_model
+from hacgear_core.outpaths import check_out_path
 from hacgear_core.plots.geometry import plot_mesh_geometry
 
 __all__ = ["register", "run"]

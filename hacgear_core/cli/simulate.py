@@ -10,14 +10,20 @@ import numpy as np
 
 from hacgear_core.cli._dyn_common import add_model_options, inputs_from_args
 from hacgear_core.cli._options import check_option
-from hacgear_core.cli._paths import check_out_path
 from hacgear_core.dynamics.simulator import (Simulator, gauge_passage, passage_cycles, static_gauge_passage,
                                              strain_of_tooth, system_gauges)
+from hacgear_core.dynamics.steady import trace_metrics
 from hacgear_core.errors import ModelError
 from hacgear_core.jsonio import dumps
+from hacgear_core.outpaths import check_out_path
 from hacgear_core.response import dynamic_contact_pressure, dynamic_mesh_stiffness
 
-__all__ = ["register", "run"]
+__all__ = ["register", "run", "SIMULATE_METRICS"]
+
+#: the response metrics (:func:`hacgear_core.dynamics.steady.trace_metrics`) a simulation reports per mesh over its
+#: recorded cycles, on the loaded flanks (``loaded_flank``) and the back side across the backlash
+SIMULATE_METRICS = ("mean_deflection_m", "rms_deflection_m", "peak_force_N", "min_force_N", "contact_loss_fraction",
+                    "back_side_contact_fraction", "peak_back_side_force_N", "back_side_impacts_per_cycle")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -150,19 +156,17 @@ def run(args: argparse.Namespace) -> int:
         tooth = passages[g].tooth if passages[g] is not None else 0
         tr[f"strain[{g}]"] = strain_of_tooth(sy, g, tau, x, xc, raw.get("mesh_twist_rad"), tooth=tooth)
     per_mesh = {}
-    coast_loaded = sy.torque_Nm < 0 and drive is None  # the operating torque loads the coast flanks
+    if drive is None:   # the operating torque's sign picks the loaded flanks
+        coast = np.full(sy.m, sy.torque_Nm < 0)
+    else:               # torque inputs: the flanks that carry the load on average
+        coast = fc.mean(axis=0) > f.mean(axis=0)
+    metrics = trace_metrics(sy, x, f, raw["dynamic_transmission_error_m"], fc=fc, xc=xc,
+                            cycles=args.record_cycles, coast_loaded=coast, periodic=False)
     for k, c in enumerate(sy.meshes):
-        xk = x[:, k]
-        # torque inputs: the flanks that carry the load on average
-        coast_k = coast_loaded or (drive is not None and float(fc[:, k].mean()) > float(f[:, k].mean()))
-        loaded = fc[:, k] if coast_k else f[:, k]
         per_mesh[c.name] = {
-            "loaded_flank": "coast" if coast_k else "drive",
-            "mean_deflection_m": float(xk.mean()), "rms_deflection_m": float(np.sqrt(np.mean((xk - xk.mean()) ** 2))),
-            "peak_force_N": float(f[:, k].max()), "contact_loss_fraction": float(np.mean(loaded <= 0)),
+            "loaded_flank": "coast" if coast[k] else "drive",
+            **{name: float(metrics[name][k]) for name in SIMULATE_METRICS},
             "max_peak_pressure_Pa": float(tr[f"{c.name}.peak_pressure_Pa"].max()),
-            "coast_contact_fraction": float(np.mean(fc[:, k] > 0)), "peak_coast_force_N": float(fc[:, k].max()),
-            "back_side_impacts": int(np.sum((fc[1:, k] > 0) & (fc[:-1, k] <= 0))),
             "steps_beyond_tables": sim.out_of_range_steps[k],
             "table_deflection_range_m": [float(c.table.deflection_m[0]), float(c.table.deflection_m[-1])],
         }
@@ -206,12 +210,13 @@ def run(args: argparse.Namespace) -> int:
               + ": final speeds " + ", ".join(f"{g} {w:.3f} rad/s" for g, w in zip(sim.gear_names, sim.speed_rad_s)))
     for m, s in per_mesh.items():
         print(f"  {m}, last {args.record_cycles} cycles: mean x {s['mean_deflection_m'] * 1e6:.3f} µm, rms "
-              f"{s['rms_deflection_m'] * 1e6:.3f} µm, F_max (drive flanks) {s['peak_force_N']:.1f} N, contact loss "
-              f"({s['loaded_flank']} flanks, the loaded ones) {s['contact_loss_fraction']:.3f}, max contact pressure "
+              f"{s['rms_deflection_m'] * 1e6:.3f} µm; {s['loaded_flank']} flanks (the loaded ones): F_max "
+              f"{s['peak_force_N']:.1f} N, contact loss {s['contact_loss_fraction']:.3f}; max contact pressure "
               f"{s['max_peak_pressure_Pa'] / 1e6:.1f} MPa")
         if sy.meshes[list(per_mesh).index(m)].coast_table is not None:
-            print(f"    coast flanks in contact {s['coast_contact_fraction']:.3f} of the time, peak coast force "
-                  f"{s['peak_coast_force_N']:.1f} N, {s['back_side_impacts']} back-side impact(s)")
+            print(f"    back side ({'drive' if s['loaded_flank'] == 'coast' else 'coast'} flanks) in contact "
+                  f"{s['back_side_contact_fraction']:.3f} of the time, peak force {s['peak_back_side_force_N']:.1f} "
+                  f"N, {s['back_side_impacts_per_cycle']:.3g} impact(s) per mesh cycle")
     beyond = {m: s["steps_beyond_tables"] for m, s in per_mesh.items() if s["steps_beyond_tables"]}
 
     def grid(m):

@@ -12,10 +12,10 @@ from pathlib import Path
 import numpy as np
 
 from hacgear_core.cli._options import check_option, given
-from hacgear_core.cli._paths import check_out_path
 from hacgear_core.errors import ModelError, TableError
 from hacgear_core.jsonio import dumps
 from hacgear_core.model import load_model, resolve_model_path
+from hacgear_core.outpaths import check_out_path
 from hacgear_core.statics import DEFAULT_DEFLECTION_MARGIN, compute_statics, nominal_mesh_forces
 from hacgear_core.tables import file_integrity, read_tables
 from hacgear_core.tables.check import resolution_notes, sanity_problems

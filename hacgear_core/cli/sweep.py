@@ -6,12 +6,12 @@ import argparse
 
 from hacgear_core.cli._dyn_common import add_model_options, inputs_from_args
 from hacgear_core.cli._options import check_option
-from hacgear_core.cli._paths import check_out_path
 from hacgear_core.dynamics.steady import SteadyStateOptions
 from hacgear_core.dynamics.sweep import SweepSpec, parse_fm, run_sweeps
 from hacgear_core.errors import ModelError
 from hacgear_core.h5files import check_writable_kind
 from hacgear_core.jsonio import dumps
+from hacgear_core.outpaths import check_out_path
 from hacgear_core.workers import process_pool
 
 __all__ = ["register", "run"]

@@ -4,9 +4,11 @@ gear system.
 :mod:`.system` (bodies, supports, mesh couplings → matrices), :mod:`.build` (model → system, one builder per
 kind), :mod:`.force_laws` (HAC and conventional laws), :mod:`.kernels` (the compiled RK4 loop shared with the
 FMUs), :mod:`.simulator` (time stepping, both experiments), :mod:`.equilibrium` (static equilibrium),
-:mod:`.steady` (steady-state detection), :mod:`.floquet` (stability of periodic orbits), :mod:`.sweep` (speed
-sweeps, jumps, resumable output), :mod:`.modes` (modal analysis, impulse test), :mod:`.inputs` (the CLI's MODEL
-argument), :mod:`.synthetic` (synthetic tables for tests and demonstrations).
+:mod:`.steady` (steady-state detection and response metrics), :mod:`.floquet` (stability of periodic orbits),
+:mod:`.sweep` (speed sweeps, jumps, resumable output), :mod:`.modes` (modal analysis, impulse test),
+:mod:`.synthetic` (synthetic tables for tests and demonstrations).  The command line's MODEL argument is resolved
+in :mod:`hacgear_core.cli.inputs`; the direct contact models HAC is checked against live in
+:mod:`hacgear_core.studies`.
 """
 from __future__ import annotations
 

@@ -67,6 +67,7 @@ import numpy as np
 from numba import njit, typeof
 from numba.core import event
 
+from hacgear_core.encodings import Experiment
 from hacgear_core.tables.interp import periodic_cell, deflection_cell, trilinear_flat
 
 __all__ = [
@@ -94,15 +95,15 @@ __all__ = [
     "table_onset",
     "record_width",
     "record_fields",
-    "contact_state",
     "flatten_linear",
 ]
 
 LAW_TABLE = 0
 LAW_LINEAR = 1
 LAW_TWIST = 2
-MODE_SPEED = 0
-MODE_TORQUE = 1
+#: the experiment as the kernel reads it (plain ints of :class:`~hacgear_core.encodings.Experiment`)
+MODE_SPEED = int(Experiment.SPEED)
+MODE_TORQUE = int(Experiment.TORQUE)
 VARIANT_SPARSE = 2
 VARIANT_TWO_SIDED = 4
 VARIANT_TWIST = 8
@@ -836,12 +837,6 @@ def record_fields(rec_out: np.ndarray, m: int, twist: bool = False, coast_twist:
         out["coast_twist_rad"] = rec_out[..., w + REC_COAST_APPROACH:wk:REC]
         out["coast_twist_moment_Nm"] = rec_out[..., w + REC_COAST_FORCE:wk:REC]
     return out
-
-
-def contact_state(mesh_force_N, coast_force_N) -> np.ndarray:
-    """Contact state of each mesh: +1 drive flanks in contact, -1 coast flanks in contact, 0 teeth apart."""
-    f, fc = np.asarray(mesh_force_N), np.asarray(coast_force_N)
-    return np.where(f > 0, 1, np.where(fc > 0, -1, 0)).astype(np.int8)
 
 
 def table_onset(force: np.ndarray, x0: float, dx: float) -> float:

@@ -1,11 +1,11 @@
 """Time-stepping simulator of any lumped gear system: the object the library, the CLI and every FMU step.
 
-Two operating modes:
+Two experiments (:class:`~hacgear_core.encodings.Experiment`, attribute ``mode``):
 
-* ``"speed"`` (constant-speed experiment): :meth:`Simulator.set_speed_input` sets the reference gear's speed,
+* ``Experiment.SPEED`` (constant-speed experiment): :meth:`Simulator.set_speed_input` sets the reference gear's speed,
   :meth:`Simulator.set_torque_set_point` the torque on the input gear; the deviations are integrated around
   the imposed rotation (dissertation Eqs. 3.1, 4.1);
-* ``"torque"`` (drivetrain coupling): :meth:`Simulator.set_torque_inputs` sets shaft torques on the port gears
+* ``Experiment.TORQUE`` (drivetrain coupling): :meth:`Simulator.set_torque_inputs` sets shaft torques on the port gears
   (the gears that carry external torque: input and output gears); absolute angles and speeds follow from the
   dynamics.  Needs a train that turns freely (no rotational supports: the drivetrain model owns the shafts).
 
@@ -24,6 +24,7 @@ import numpy as np
 from hacgear_core.dynamics import kernels
 from hacgear_core.dynamics.equilibrium import static_equilibrium
 from hacgear_core.dynamics.system import LumpedSystem
+from hacgear_core.encodings import Experiment, contact_state, contact_state_of
 from hacgear_core.errors import ModelError, SolverError
 from hacgear_core.response import dynamic_contact_pressure
 
@@ -309,7 +310,7 @@ class Simulator:
     def reset(self, speed_rad_s: float = 0.0) -> None:
         """Static equilibrium at the nominal torque, first mesh at position 0, speed mode at ``speed_rad_s``."""
         sy = self.system
-        self.mode = "speed"
+        self.mode = Experiment.SPEED
         self.torque_Nm = sy.torque_Nm
         self.fext = sy.fext_speed(self.torque_Nm)
         self.port_torques_Nm = {g: sy.gears[g].sense * self.fext[sy.gears[g].rotation] for g in self.ports}
@@ -329,8 +330,8 @@ class Simulator:
         speed_rad_s = float(speed_rad_s)
         if not math.isfinite(speed_rad_s):
             raise ModelError(f"speed [rad/s] must be finite, got {speed_rad_s!r}")
-        if self.mode != "speed":
-            self.mode = "speed"
+        if self.mode != Experiment.SPEED:
+            self.mode = Experiment.SPEED
             self.fext = self.system.fext_speed(self.torque_Nm)
         self.kin[2] = speed_rad_s
 
@@ -344,7 +345,7 @@ class Simulator:
             raise ModelError(f"torque {torque_Nm} N*m loads the coast flanks, but the tables of {self.system.name} "
                              "are drive-only (regenerate them: hacgear statics)")
         self.torque_Nm = torque_Nm
-        if self.mode == "speed":
+        if self.mode == Experiment.SPEED:
             self.fext = self.system.fext_speed(torque_Nm)
 
     def set_torque_inputs(self, torques_Nm: Mapping[str, float]) -> None:
@@ -363,8 +364,8 @@ class Simulator:
             if not math.isfinite(t):
                 raise ModelError(f"shaft torque on {g!r} [N*m] must be finite, got {t!r}")
             tq[g] = t
-        if self.mode != "torque":
-            self.mode = "torque"
+        if self.mode != Experiment.TORQUE:
+            self.mode = Experiment.TORQUE
             # move any rigid-body deviation into the reference: the reference gear's deviation -> 0
             n = sy.n
             a, b = self.s[sy.iref], self.s[n + sy.iref]
@@ -397,9 +398,6 @@ class Simulator:
             h = min(h, self.internal_step_s)
         return h
 
-    def _mode_code(self) -> int:
-        return kernels.MODE_SPEED if self.mode == "speed" else kernels.MODE_TORQUE
-
     def advance(self, dt: float) -> StepResult:
         """Advance by ``dt`` [s] (any size > 0) with equal RK4 sub-steps no larger than the internal step.  On
         failure (non-finite state) the state is left unchanged and ``success`` is False."""
@@ -412,7 +410,7 @@ class Simulator:
         nsub = max(1, int(math.ceil(dt / self._internal_step() - 1e-9)))
         s, kin = self.s, self.kin
         s0, k0 = s.copy(), kin.copy()
-        self.system.integrate(s, kin, nsub, dt / nsub, self.fext, mode=self._mode_code(), rec_every=nsub,
+        self.system.integrate(s, kin, nsub, dt / nsub, self.fext, mode=int(self.mode), rec_every=nsub,
                               rec_state=self._rec_s, rec_out=self._rec_o)
         st, kt = s.tolist(), kin.tolist()
         isf = math.isfinite
@@ -432,7 +430,8 @@ class Simulator:
         dict
             ``time_s`` (nr,); per mesh (nr, m): ``mesh_position`` (unwrapped) [cycles], ``mesh_deflection_m``,
             ``mesh_force_N`` (drive flanks), ``dynamic_transmission_error_m``, ``coast_approach_m``,
-            ``coast_force_N`` (coast flanks), ``contact_state`` (+1 drive, 0 apart, -1 coast); ``state`` (nr, 2n).
+            ``coast_force_N`` (coast flanks), ``contact_state`` (:class:`~hacgear_core.encodings.ContactState`);
+            ``state`` (nr, 2n).
         """
         nrec = int(round(duration_s / record_dt_s))
         if nrec < 1:
@@ -443,7 +442,7 @@ class Simulator:
         sy = self.system
         rs, ro = np.zeros((nrec, 2 * sy.n)), np.zeros((nrec, sy.record_width))
         t0 = self.time_s
-        sy.integrate(self.s, self.kin, nrec * per, h, self.fext, mode=self._mode_code(), rec_every=per,
+        sy.integrate(self.s, self.kin, nrec * per, h, self.fext, mode=int(self.mode), rec_every=per,
                      rec_state=rs, rec_out=ro)
         if not np.all(np.isfinite(rs)):
             raise SolverError("integration diverged (state not finite)")
@@ -451,7 +450,7 @@ class Simulator:
         self._update_outputs()
         out = sy.record_fields(ro)
         out["time_s"] = t0 + out["time_s"]
-        out["contact_state"] = kernels.contact_state(out["mesh_force_N"], out["coast_force_N"])
+        out["contact_state"] = contact_state(out["mesh_force_N"], out["coast_force_N"])
         out["state"] = rs
         return out
 
@@ -470,7 +469,7 @@ class Simulator:
         self.s[:] = snap["s"]
         self.kin[:] = snap["kin"]
         self.fext = snap["fext"].copy()
-        self.time_s, self.mode = snap["time_s"], snap["mode"]
+        self.time_s, self.mode = snap["time_s"], Experiment(snap["mode"])
         self.torque_Nm, self.port_torques_Nm = snap["torque_Nm"], dict(snap["port_torques_Nm"])
         if "outputs" in snap:
             self._set_outputs(*(list(v) for v in snap["outputs"]))
@@ -542,8 +541,9 @@ class Simulator:
                 self.coast_twist_moment_Nm = rec[w + kernels.REC_COAST_FORCE:2 * w:R]
         self.in_contact = [f > 0.0 for f in self.mesh_force_N]
         self.coast_contact = [f > 0.0 for f in self.coast_force_N]
-        #: per mesh: +1 drive flanks in contact, -1 coast flanks, 0 teeth apart (in the backlash)
-        self.contact_state = [1 if a else (-1 if b else 0) for a, b in zip(self.in_contact, self.coast_contact)]
+        #: per mesh: :class:`~hacgear_core.encodings.ContactState` (drive flanks, coast flanks, in the
+        #: backlash)
+        self.contact_state = [contact_state_of(f, fc) for f, fc in zip(self.mesh_force_N, self.coast_force_N)]
         #: per mesh: where the teeth are in the backlash, 0 at the drive flanks' kinematic contact, 1 where the
         #: coast flanks of ideal teeth touch (the coast approach over the normal backlash)
         self.backlash_position = [xc / b if b > 0 else 0.0 for xc, b in zip(self.coast_approach_m, self._backlash)]

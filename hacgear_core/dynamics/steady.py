@@ -41,6 +41,7 @@ from hacgear_core.dynamics import kernels
 from hacgear_core.dynamics.equilibrium import static_equilibrium
 from hacgear_core.dynamics.floquet import floquet
 from hacgear_core.dynamics.system import LumpedSystem
+from hacgear_core.encodings import contact_state
 from hacgear_core.errors import ModelError
 from hacgear_core.response import skipped_tooth_fraction, static_strain_max, strain_dynamic_factor
 
@@ -155,14 +156,22 @@ def _static_strain(system: LumpedSystem, forces: np.ndarray, tables) -> list[dic
     return c[key]
 
 
+def _ratio(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a / b`` where ``b > 0``, NaN elsewhere (a flank pair without static force has no dynamic factor)."""
+    return np.divide(a, b, out=np.full(np.shape(a), math.nan), where=np.asarray(b) > 0)
+
+
 def trace_metrics(system: LumpedSystem, x, f, dte, tau=None, static_forces_N=None, fc=None, cycles: int = 1,
-                  coast_static_forces_N=None, xc=None) -> dict:
-    """Steady-state metrics (:data:`METRIC_NAMES`, each an (m,) array) of one recorded period of ``cycles`` mesh
-    cycles: ``x``, ``f``, ``dte``, ``tau``, coast force ``fc`` and coast approach ``xc`` (nr, m).
+                  coast_static_forces_N=None, xc=None, coast_loaded=None, periodic: bool = True) -> dict:
+    """Response metrics (:data:`METRIC_NAMES`, each an (m,) array) of a record of ``cycles`` mesh cycles: ``x``,
+    ``f``, ``dte``, ``tau``, coast force ``fc`` and coast approach ``xc`` (nr, m).
     ``static_forces_N`` (m,) the drive-flank and ``coast_static_forces_N`` the coast-flank static forces (default:
-    the system's nominal ones).  The dynamic factors are taken on the flanks that carry the static force (for a
-    negative torque the coast side: its table at the coast approach); the other flank pair loads the far side of
-    a tooth's root and only compresses the loaded side's gauges, so it cannot raise their maximum."""
+    the system's nominal ones).  The loaded flanks are the coast flanks when the static forces load them (a
+    negative torque), else the drive flanks; ``coast_loaded`` (bool, or (m,) bools) overrides that per mesh (a
+    record driven by shaft torques).  The dynamic factors are taken on the loaded flanks (for the coast side: its
+    table at the coast approach); the other flank pair loads the far side of a tooth's root and only compresses the
+    loaded side's gauges, so it cannot raise their maximum.  ``periodic``: the record is one period (a back-side
+    impact may begin at its first sample); else impacts are counted from the second sample on."""
     x, f, dte = (np.atleast_2d(np.asarray(a, float)) for a in (x, f, dte))
     if x.shape[0] == 1 and x.shape[1] != system.m:
         x, f, dte = x.T, f.T, dte.T
@@ -170,10 +179,14 @@ def trace_metrics(system: LumpedSystem, x, f, dte, tau=None, static_forces_N=Non
     fs = system.nominal_forces_N() if static_forces_N is None else np.asarray(static_forces_N, float)
     fsc = system.nominal_coast_forces_N() if coast_static_forces_N is None else np.asarray(coast_static_forces_N,
                                                                                              float)
-    coast_loaded = np.all(fs <= 0) and np.any(fsc > 0)
-    fl, fb = (fc, f) if coast_loaded else (f, fc)   # the loaded flanks' force, the back side's
+    if coast_loaded is None:
+        coast_loaded = np.all(fs <= 0) and np.any(fsc > 0)
+    coast = np.broadcast_to(np.asarray(coast_loaded, bool), (f.shape[1],))
+    fl, fb = np.where(coast, fc, f), np.where(coast, f, fc)   # the loaded flanks' force, the back side's
     on = fb > 0.0
-    starts = on & ~np.roll(on, 1, axis=0)  # the record is one period: periodic
+    starts = on & ~np.roll(on, 1, axis=0)
+    if not periodic:
+        starts[0] = False
     xm = np.mean(x, axis=0)
     dm = np.mean(dte, axis=0)
     m = {
@@ -189,19 +202,17 @@ def trace_metrics(system: LumpedSystem, x, f, dte, tau=None, static_forces_N=Non
         "back_side_contact_fraction": np.mean(on, axis=0),
         "peak_back_side_force_N": np.max(fb, axis=0),
         "back_side_impacts_per_cycle": np.sum(starts, axis=0) / max(int(cycles), 1),
-        "dynamic_factor_force": np.max(fl, axis=0) / (fsc if coast_loaded else fs),
+        "dynamic_factor_force": _ratio(np.max(fl, axis=0), np.where(coast, fsc, fs)),
         "dynamic_factor_strain": np.full(system.m, math.nan),
     }
     if tau is not None:
         tau = np.atleast_2d(np.asarray(tau, float))
         if tau.shape[0] == 1 and tau.shape[1] != system.m:
             tau = tau.T
-        if coast_loaded and xc is not None:
-            tabs = [c.coast_table for c in system.meshes]
-            fl_s, xl = fsc, np.atleast_2d(np.asarray(xc, float)).reshape(x.shape)
-        else:
-            tabs = [c.table for c in system.meshes]
-            fl_s, xl = fs, x
+        xc = x if xc is None else np.atleast_2d(np.asarray(xc, float)).reshape(x.shape)
+        side = coast & (xc is not x)   # the coast side where it is loaded and its approach is given
+        tabs = [c.coast_table if side[k] else c.table for k, c in enumerate(system.meshes)]
+        fl_s, xl = np.where(side, fsc, fs), np.where(side, xc, x)
         smax = _static_strain(system, fl_s, tabs)
         for k, t in enumerate(tabs):
             if getattr(t, "tooth_load_N", None) is not None:
@@ -314,7 +325,7 @@ def steady_state(system: LumpedSystem, mesh_frequency_Hz: float, state0: np.ndar
     trace = {}
     if keep_trace:
         trace = dict(rf)
-        trace["contact_state"] = kernels.contact_state(rf["mesh_force_N"], rf["coast_force_N"])
+        trace["contact_state"] = contact_state(rf["mesh_force_N"], rf["coast_force_N"])
         trace["state"] = rs
     status = f"period-{period}" if converged else "cap"
     return SteadyStateResult(fm, converged, status, period if converged else 0, cycles + nrec_cyc, nsp, s.copy(),

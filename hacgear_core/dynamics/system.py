@@ -39,6 +39,7 @@ from hacgear_core.dynamics import kernels
 from hacgear_core.tables.fdf import TableArrays, generalized_stiffness, static_stiffness, table_arrays
 from hacgear_core.dynamics.force_laws import FORCE_LAWS, ForceLaw, make_force_law
 from hacgear_core.errors import ModelError
+from hacgear_core.model.schema import RANGES
 from hacgear_core.tables.interp import bilinear_many, slope_many
 
 __all__ = ["GearBody", "MeshCoupling", "LumpedSystem", "KernelArrays"]
@@ -169,7 +170,8 @@ class LumpedSystem:
     torque_Nm : float
         Nominal torque on the input gear [N m] (> 0) at which ``nominal_force_N`` of the meshes hold.
     input_gear : str
-    modal_damping_ratio : float in [0, 1)
+    modal_damping_ratio : float
+        In ``RANGES["modal_damping_ratio"]`` (:data:`~hacgear_core.model.schema.RANGES`: [0, 1)).
     force_law : str
         ``hac`` or a conventional law (:data:`~hacgear_core.dynamics.force_laws.FORCE_LAWS`).
     reference_gear : str
@@ -232,8 +234,7 @@ class LumpedSystem:
         if input_gear not in self.gears:
             raise ModelError(f"input gear {input_gear!r} is not a gear of {name}: {sorted(self.gears)}")
         self.input_gear = input_gear
-        if not (0.0 <= modal_damping_ratio < 1.0):
-            raise ModelError(f"modal_damping_ratio [-] must be in [0, 1), got {modal_damping_ratio!r}")
+        RANGES["modal_damping_ratio"].check("modal_damping_ratio", modal_damping_ratio)
         self.modal_damping_ratio = float(modal_damping_ratio)
         ref = reference_gear or self.meshes[0].gear_a
         self.reference_gear = ref

@@ -12,7 +12,8 @@ Only the run-time modules are imported here; the build-time names (``build_fmu``
 """
 from __future__ import annotations
 
-from hacgear_core.fmu.adapter import MODE_SPEED, MODE_TORQUE, Adapter, make_adapter, variables_for
+from hacgear_core.encodings import Experiment
+from hacgear_core.fmu.adapter import Adapter, make_adapter, variables_for
 from hacgear_core.fmu.slave import FMU_INFO_FILE, FmuInstance, fmu_info, value_references
 from hacgear_core.fmu.spec import DISPLAY_UNITS, ENUMERATIONS, UNITS, FmuVariable
 
@@ -24,8 +25,7 @@ __all__ = [
     "FmuVariable",
     "Adapter",
     "FmuInstance",
-    "MODE_SPEED",
-    "MODE_TORQUE",
+    "Experiment",
     "make_adapter",
     "variables_for",
     "fmu_info",

@@ -4,7 +4,8 @@ The variables come from the system itself (its gears, meshes, ports and gauges),
 and every later kind share this adapter and the generic slave; only the builder of the lumped system is
 kind-specific.  Names are structured (``<gear>.speed``, ``<mesh>.force``, ``<gear>.<gauge>.root_strain``).
 
-Two experiments, chosen by the parameter ``mode`` (fixed after initialization):
+Two experiments, chosen by the parameter ``mode`` (fixed after initialization;
+:class:`~hacgear_core.encodings.Experiment`):
 
 * ``mode = 0`` (constant speed): input ``<reference gear>.speed_in``; the torque set-point is the parameter
   ``torque`` on the input gear; the gear deviations are integrated around the imposed rotation, with the model's
@@ -36,21 +37,17 @@ import numpy as np
 
 from hacgear_core.dynamics.build import build_system, structural_parameters
 from hacgear_core.dynamics.simulator import Simulator, strain_of_tooth, system_gauges
+from hacgear_core.encodings import ContactState, Experiment
 from hacgear_core.errors import HacgearError, ModelError
-from hacgear_core.fmu.spec import FmuVariable, ident
+from hacgear_core.fmu.spec import FmuVariable, Reading, ident, output_expressions, output_getters, ranged
 from hacgear_core.model.schema import RANGES
 from hacgear_core.model import load_model
 from hacgear_core.tables import read_tables
 
-__all__ = ["MODE_SPEED", "MODE_TORQUE", "MODEL_FILE", "TABLES_FILE", "Adapter", "contact_state", "make_adapter",
-           "variables_for"]
+__all__ = ["MODEL_FILE", "TABLES_FILE", "Adapter", "make_adapter", "variables_for"]
 
 MODEL_FILE = "model.toml"
 TABLES_FILE = "tables.h5"
-MODE_SPEED = 0
-MODE_TORQUE = 1
-#: ContactState items (spec.ENUMERATIONS)
-CONTACT_SEPARATED, CONTACT_DRIVE, CONTACT_COAST = 0, 1, 2
 
 
 #: builder field names (in error messages) -> the FMU parameters that set them
@@ -58,12 +55,6 @@ _FMU_NAME_OF = {"torque_Nm [N*m]": "parameter 'torque' [N.m]", "torque_Nm": "tor
                 "modal_damping_ratio [-]": "parameter 'modal_damping_ratio' [1]",
                 "translational_stiffness_N_per_m [N/m]": "bearing_stiffness [N/m]"}
 _FMU_NAMES = re.compile("|".join(re.escape(k) for k in sorted(_FMU_NAME_OF, key=len, reverse=True)))
-
-
-def contact_state(force_N: float, coast_force_N: float = 0.0) -> int:
-    """ContactState of a mesh from its drive-flank and coast-flank forces [N] (both >= 0): drive flanks in contact,
-    coast flanks in contact, or separated (in the backlash)."""
-    return CONTACT_DRIVE if force_N > 0.0 else (CONTACT_COAST if coast_force_N > 0.0 else CONTACT_SEPARATED)
 
 
 def _nice_floor(x: float) -> float:
@@ -134,12 +125,12 @@ class Adapter:
         self.variables = self._spec()
         self.by_name = {v.name: v for v in self.variables}
         #: outputs computed by table post-processing (guarded by the slave: NaN and a log line on failure)
-        self.fallible = {v.name for v in self.variables if v.name.endswith((".peak_pressure", ".root_strain"))}
+        self.fallible = {v.name for v in self.variables if v.read is not None and v.read.fallible}
         self._last_inputs: tuple | None = None
         self._systems: dict = {self._built_key[:3] + self._built_key[4:]: base}
         #: per mesh: the integration steps beyond its tables so far (the slave warns once per mesh)
         self.out_of_range_reported: set = set()
-        self.mode = MODE_SPEED
+        self.mode = Experiment.SPEED
         self.input_checks: tuple = ()
         self.step_floor_s = 0.0
 
@@ -180,6 +171,15 @@ class Adapter:
         self._mslot = [mi.get(mn, -1) for mn in self.mesh_names]
         self._gslot = [gi.get(g, -1) for g in self.gear_names]
         self._gauge_on = {g: g.partition("/")[0] in sy.gears for g in self.gauges}
+
+    def slot(self, part: str, index) -> int:
+        """Slot of mesh or gear ``index`` of the largest structure (``part`` ``"mesh"`` or ``"gear"``) in the
+        current simulator, 0 for a gauge ``index`` whose gear it has; -1 where it has none."""
+        if part == "mesh":
+            return self._mslot[index]
+        if part == "gear":
+            return self._gslot[index]
+        return 0 if self._gauge_on[index] else -1
 
     # ------------------------------------------------------------------ the spec (declared once)
     def _nominals(self) -> dict:
@@ -241,13 +241,12 @@ class Adapter:
         nom = self.nominal
         w_res = nom["resonance_speed_rad_s"]
         t_max = RANGES["torque_Nm"].hi
-        k_range = RANGES["translational_stiffness_N_per_m"]
-        w_range = RANGES["speed_rad_s"]
         spec = [
             V("mode", "Integer", "parameter", "fixed", "",
-              f"experiment: 0 = constant speed (the reference gear {ref} turns at {ref}.speed_in, torque set-point "
-              f"= parameter torque); 1 = drivetrain (inputs <port>.torque_in on {', '.join(self.ports)}, outputs "
-              "angles and speeds)", MODE_SPEED, 0, 1),
+              f"experiment: {int(Experiment.SPEED)} = constant speed (the reference gear {ref} turns at "
+              f"{ref}.speed_in, torque set-point = parameter torque); {int(Experiment.TORQUE)} = drivetrain (inputs "
+              f"<port>.torque_in on {', '.join(self.ports)}, outputs angles and speeds)", int(Experiment.SPEED),
+              int(min(Experiment)), int(max(Experiment))),
         ]
         for p in self.structural:
             spec.append(V(p.name, "Integer", "parameter", "fixed", "", p.description, p.start, p.min, p.max))
@@ -255,10 +254,11 @@ class Adapter:
             V("torque", "Real", "parameter", "fixed", "N.m",
               f"nominal torque on the input gear {inp}: torque set-point of the constant-speed experiment; in both "
               "modes it sets the linearisation used for the modal damping; negative loads the coast flanks "
-              "(not 0)", sy.torque_Nm, -t_max if sy.two_sided else 1e-3, t_max, nominal=abs(sy.torque_Nm)),
+              "(not 0)", sy.torque_Nm, nominal=abs(sy.torque_Nm),
+              **(dict(min=-t_max, max=t_max) if sy.two_sided else ranged("torque_Nm"))),
             V("modal_damping_ratio", "Real", "parameter", "fixed", "1",
               "modal damping ratio of every elastic mode of the linearised system", sy.modal_damping_ratio,
-              RANGES["modal_damping_ratio"].lo, RANGES["modal_damping_ratio"].hi),
+              **ranged("modal_damping_ratio")),
         ]
         planets = {a for c in sy.meshes for gi, a in c.gear_alias.items() if gi != a}
         for g, k in zip(self.bearing_gears, self._model_bearings(self.model)):
@@ -266,7 +266,7 @@ class Adapter:
             spec.append(V(f"{ident(g)}.bearing_stiffness", "Real", "parameter", "fixed", "N/m",
                           f"translational bearing stiffness of {what}; inf = rigid (no translation DOF), as in model "
                           "files and on the command line; 0 = no bearing (a floating member)",
-                          k, k_range.lo, k_range.hi, display_unit="N/um", allow_inf=k_range.allow_inf))
+                          k, display_unit="N/um", **ranged("translational_stiffness_N_per_m")))
         spec += [
             V("internal_step", "Real", "parameter", "fixed", "s",
               "largest internal RK4 step; 0 = automatic (mesh period / 128 at the current speed and 1/32 of the "
@@ -274,107 +274,131 @@ class Adapter:
               "no larger than this", 0.0, 0.0, 1e-3),
             V(f"{ident(ref)}.speed_start", "Real", "parameter", "fixed", "rad/s",
               f"drivetrain mode: initial speed of gear {ref} in its sense of rotation (constant-speed mode starts at "
-              f"{ref}.speed_in); default: the mesh resonance", w_res, w_range.lo, w_range.hi, display_unit="rpm",
-              nominal=w_res),
+              f"{ref}.speed_in); default: the mesh resonance", w_res, display_unit="rpm", nominal=w_res,
+              **ranged("speed_rad_s")),
             V(f"{ident(ref)}.speed_in", "Real", "input", "continuous", "rad/s",
               f"constant-speed mode: imposed speed of gear {ref}, positive in its sense of rotation (ignored in "
-              "drivetrain mode); default: the mesh resonance", w_res, w_range.lo, w_range.hi, display_unit="rpm",
-              nominal=w_res),
+              "drivetrain mode); default: the mesh resonance", w_res, display_unit="rpm", nominal=w_res,
+              **ranged("speed_rad_s")),
         ]
         for g in self.ports:
             role = "driving (positive)" if g == inp else "a braking load is negative"
             spec.append(V(f"{ident(g)}.torque_in", "Real", "input", "continuous", "N.m",
                           f"drivetrain mode: shaft torque on gear {g}, positive in its sense of rotation ({role})",
-                          port_t[g], -1e6, 1e6, nominal=abs(port_t[g]) or None))
+                          port_t[g], -t_max, t_max, nominal=abs(port_t[g]) or None))
         pressure = nom["pressure"]
         for k, mn in enumerate(self.mesh_names):
             c = sy.meshes[k]
             m_ = ident(mn)
             f_nom, x_nom = nom["force"][k], nom["deflection"][k]
+
+            def at(attr, k=k):   # a per-mesh attribute of the simulator
+                return Reading(attr=attr, part="mesh", index=k)
+
+            def by(call, k=k, absent=0.0, fallible=False):   # a per-mesh value computed by the simulator
+                return Reading(call=call, part="mesh", index=k, absent=absent, fallible=fallible)
+
             spec += [
                 V(f"{m_}.force", "Real", "output", "continuous", "N",
                   f"dynamic mesh force of mesh {mn} ({c.gear_a}-{c.gear_b}) along its line of action "
-                  "(0 = contact loss)", display_unit="kN", nominal=f_nom),
+                  "(0 = contact loss)", display_unit="kN", nominal=f_nom, read=at("mesh_force_N")),
                 V(f"{m_}.deflection", "Real", "output", "continuous", "m",
                   f"mesh deflection of mesh {mn}: approach of the loaded flanks along the line of action "
-                  "(dissertation Eqs. 3.4, 4.4)", display_unit="um", nominal=x_nom),
+                  "(dissertation Eqs. 3.4, 4.4)", display_unit="um", nominal=x_nom, read=at("mesh_deflection_m")),
                 V(f"{m_}.dte", "Real", "output", "continuous", "m",
                   f"dynamic transmission error of mesh {mn}: rotational part of its mesh deflection",
-                  display_unit="um", nominal=x_nom),
+                  display_unit="um", nominal=x_nom, read=at("dynamic_transmission_error_m")),
                 V(f"{m_}.position", "Real", "output", "continuous", "1",
                   f"mesh position of mesh {mn} in mesh cycles (integer = pitch-point contact of a tooth pair), "
-                  "unwrapped", nominal=1.0),
+                  "unwrapped", nominal=1.0, read=at("mesh_position")),
                 V(f"{m_}.contact", "Enumeration", "output", "discrete", "",
                   f"contact state of mesh {mn} at the end of the step: drive flanks, coast flanks (across the "
-                  "backlash), or separated (in the backlash)", declared_type="ContactState"),
+                  "backlash), or separated (in the backlash)", declared_type="ContactState",
+                  read=by(lambda s, j: int(s.contact_state[j]), absent=int(ContactState.SEPARATED))),
                 V(f"{m_}.contact_code", "Integer", "output", "discrete", "",
                   f"{m_}.contact as an Integer, for masters that read no Enumeration: 0 = separated (in the "
-                  "backlash), 1 = drive flanks, 2 = coast flanks (across the backlash)"),
+                  "backlash), 1 = drive flanks, 2 = coast flanks (across the backlash)",
+                  read=by(lambda s, j: int(s.contact_state[j]), absent=int(ContactState.SEPARATED))),
                 V(f"{m_}.peak_pressure", "Real", "output", "continuous", "Pa",
                   f"maximum contact pressure over all teeth of mesh {mn} on the flanks in contact, drive or coast "
                   "(table lookup)", display_unit="MPa",
-                  nominal=pressure[k]),
+                  nominal=pressure[k], read=by(lambda s, j: s.peak_pressure_Pa(j), fallible=True)),
                 V(f"{m_}.out_of_range", "Boolean", "output", "discrete", "",
                   f"true once the state of mesh {mn} has left its tables' deflection range (forces, pressures and "
-                  "strains there are extrapolated; logged once as a warning)"),
+                  "strains there are extrapolated; logged once as a warning)",
+                  read=by(lambda s, j: s.out_of_range_steps[j] > 0, absent=False)),
             ]
             if c.v_c is not None:
                 spec += [
                     V(f"{m_}.coast_force", "Real", "output", "continuous", "N",
                       f"dynamic force on the coast flanks of mesh {mn} along the coast line of action (after the "
                       "torque reverses or the teeth cross the backlash; 0 otherwise)", display_unit="kN",
-                      nominal=f_nom),
+                      nominal=f_nom, read=at("coast_force_N")),
                     V(f"{m_}.backlash_position", "Real", "output", "continuous", "1",
                       f"where the teeth of mesh {mn} are in the backlash: 0 at the drive flanks' kinematic contact, "
                       f"1 where ideal coast flanks touch (coast approach over the normal backlash "
-                      f"{c.backlash_m * 1e6:.4g} µm)", nominal=1.0),
+                      f"{c.backlash_m * 1e6:.4g} µm)", nominal=1.0, read=at("backlash_position")),
                 ]
             if c.t is not None:   # helical mesh (docs/helical.md): twist and twist moment
                 spec += [
                     V(f"{m_}.twist_moment", "Real", "output", "continuous", "N.m",
                       f"twist moment M of mesh {mn}: generalized force on the mesh twist (f_d = W r_mesh + M r_twist; "
-                      "table lookup over position, deflection and twist)", nominal=nom.get("twist_moment", [None])[k]),
+                      "table lookup over position, deflection and twist)", nominal=nom.get("twist_moment", [None])[k],
+                      read=at("twist_moment_Nm")),
                     V(f"{m_}.twist", "Real", "output", "continuous", "rad",
                       f"mesh twist of mesh {mn}: relative rotation of the gears about the normal to the plane of "
-                      "action (gamma = r_twist . q)", nominal=nom.get("twist", [None])[k]),
+                      "action (gamma = r_twist . q)", nominal=nom.get("twist", [None])[k],
+                      read=at("mesh_twist_rad")),
                 ]
             if mn in self.shared_meshes:
                 spec.append(V(f"{m_}.load_share", "Real", "output", "continuous", "1",
                               f"load-sharing factor of mesh {mn}: its force over the mean force of the meshes of "
-                              f"kind {c.group} (1 = equal sharing)", nominal=1.0))
+                              f"kind {c.group} (1 = equal sharing)", nominal=1.0,
+                              read=by(lambda s, j: s.load_share(j))))
         f_max = max((f for f in nom["force"] if f), default=None)
         for i, g in enumerate(self.gear_names):
             g_ = ident(g)
             w_nom = abs(sy.gears[g].speed_ratio) * w_res or None
+
+            def on(attr=None, call=None, i=i):   # a per-gear attribute or value of the simulator
+                return Reading(attr=attr or "", call=call, part="gear", index=i)
+
+            def reaction(dof):   # support reaction of the gear's DOF ``dof`` (x, y, z, theta_x, ...)
+                return on(call=lambda s, j: s.support_reaction(f"{s.gear_names[j]}.{dof}"))
+
             spec += [
                 V(f"{g_}.angle", "Real", "output", "continuous", "rad",
-                  f"rotation angle of gear {g} in its sense of rotation", display_unit="deg"),
+                  f"rotation angle of gear {g} in its sense of rotation", display_unit="deg", read=on("angle_rad")),
                 V(f"{g_}.speed", "Real", "output", "continuous", "rad/s", f"speed of gear {g} in its sense of rotation",
-                  display_unit="rpm", nominal=w_nom),
+                  display_unit="rpm", nominal=w_nom, read=on("speed_rad_s")),
                 V(f"{g_}.bearing_force_x", "Real", "output", "continuous", "N",
                   f"force of gear {g} on its bearing, x component (fixed frame of the model's gear placement)",
-                  display_unit="kN", nominal=f_max),
+                  display_unit="kN", nominal=f_max,
+                  read=on(call=lambda s, j: float(s.bearing_force_N(s.gear_names[j])[0]))),
                 V(f"{g_}.bearing_force_y", "Real", "output", "continuous", "N",
-                  f"force of gear {g} on its bearing, y component (fixed frame)", display_unit="kN", nominal=f_max),
+                  f"force of gear {g} on its bearing, y component (fixed frame)", display_unit="kN", nominal=f_max,
+                  read=on(call=lambda s, j: float(s.bearing_force_N(s.gear_names[j])[1]))),
             ]
             if sy.twisted:   # 12-DOF helical pairs: axial force and tilting moments on the bearing
                 spec += [
                     V(f"{g_}.bearing_force_z", "Real", "output", "continuous", "N",
                       f"axial force of gear {g} on its bearing (z along the axes; axial support spring)",
-                      display_unit="kN", nominal=f_max),
+                      display_unit="kN", nominal=f_max, read=reaction("z")),
                     V(f"{g_}.bearing_moment_x", "Real", "output", "continuous", "N.m",
                       f"tilting moment of gear {g} on its bearing about x (line of centres; tilting support spring)",
-                      nominal=nom.get("tilting_moment")),
+                      nominal=nom.get("tilting_moment"), read=reaction("theta_x")),
                     V(f"{g_}.bearing_moment_y", "Real", "output", "continuous", "N.m",
                       f"tilting moment of gear {g} on its bearing about y (tilting support spring)",
-                      nominal=nom.get("tilting_moment")),
+                      nominal=nom.get("tilting_moment"), read=reaction("theta_y")),
                 ]
         for gauge in self.gauges:
             gear, _, gname = gauge.partition("/")
             z = sy.gears[gear].teeth if gear in sy.gears else 0
             spec.append(V(f"{ident(gear)}.{ident(gname or gear)}.root_strain", "Real", "output", "continuous", "1",
                           f"root strain at gauge '{gauge}' of tooth 0 of {gear} (in mesh every {z} mesh cycles, "
-                          "all its meshes superposed; table lookup)", display_unit="um/m", nominal=nom["strain"][gauge]))
+                          "all its meshes superposed; table lookup)", display_unit="um/m", nominal=nom["strain"][gauge],
+                          read=Reading(call=lambda s, _, key=gauge: s.strain(key), part="gauge", index=gauge,
+                                       fallible=True)))
         names = [v.name for v in spec]
         if len(set(names)) != len(names):
             raise ModelError(f"FMU variable names are not unique: {names}")
@@ -394,79 +418,15 @@ class Adapter:
 
     # ------------------------------------------------------------------ outputs
     def output_expressions(self) -> dict[str, str]:
-        """Output name -> Python expression of its value in terms of ``s`` (the simulator), for the outputs that
-        are plain attributes of the simulator (the per-step fast path of the slave's getReal; the others have
-        only :meth:`getters`); meshes and gears absent in the current structure read ``0.0``."""
-        out = {}
-        for j, mn in enumerate(self.mesh_names):
-            m_, k = ident(mn), self._mslot[j]
-            if k < 0:
-                out.update({f"{m_}.{q}": "0.0" for q in ("force", "deflection", "dte", "position")})
-                continue
-            out.update({f"{m_}.force": f"s.mesh_force_N[{k}]", f"{m_}.deflection": f"s.mesh_deflection_m[{k}]",
-                        f"{m_}.dte": f"s.dynamic_transmission_error_m[{k}]",
-                        f"{m_}.position": f"s.mesh_position[{k}]"})
-        for j, g in enumerate(self.gear_names):
-            i = self._gslot[j]
-            out.update({f"{ident(g)}.angle": f"s.angle_rad[{i}]" if i >= 0 else "0.0",
-                        f"{ident(g)}.speed": f"s.speed_rad_s[{i}]" if i >= 0 else "0.0"})
-        return out
+        """Output name -> Python expression of its value in terms of ``s`` (the simulator) for the outputs read
+        from a simulator attribute (:func:`~hacgear_core.fmu.spec.output_expressions` of the declarations)."""
+        return output_expressions(self.variables, self)
 
     def getters(self) -> dict[str, Callable[[], float | int | bool]]:
-        """Output name -> zero-argument getter of its current value: a Python float (Real), int (Enumeration) or
-        bool (Boolean) from the simulator's own outputs, kept current by its ``advance``, and the table
-        post-processing.  Outputs of meshes and gears that the current structure does not have (planets beyond
-        ``planet_count``) read 0."""
-        a = self
-        out: dict[str, Callable[[], float | int | bool]] = {}
-
-        def mesh(j, fn, absent=0.0):
-            def get():
-                k = a._mslot[j]
-                return fn(k) if k >= 0 else absent
-            return get
-
-        def gear(j, fn):
-            def get():
-                i = a._gslot[j]
-                return fn(i) if i >= 0 else 0.0
-            return get
-
-        for j, mn in enumerate(self.mesh_names):
-            m_ = ident(mn)
-            out[f"{m_}.force"] = mesh(j, lambda k: a.sim.mesh_force_N[k])
-            out[f"{m_}.deflection"] = mesh(j, lambda k: a.sim.mesh_deflection_m[k])
-            out[f"{m_}.dte"] = mesh(j, lambda k: a.sim.dynamic_transmission_error_m[k])
-            out[f"{m_}.position"] = mesh(j, lambda k: a.sim.mesh_position[k])
-            out[f"{m_}.contact"] = mesh(j, lambda k: contact_state(a.sim.mesh_force_N[k], a.sim.coast_force_N[k]),
-                                        CONTACT_SEPARATED)
-            out[f"{m_}.contact_code"] = out[f"{m_}.contact"]
-            out[f"{m_}.peak_pressure"] = mesh(j, lambda k: a.sim.peak_pressure_Pa(k))
-            out[f"{m_}.out_of_range"] = mesh(j, lambda k: a.sim.out_of_range_steps[k] > 0, False)
-            if f"{m_}.coast_force" in self.by_name:
-                out[f"{m_}.coast_force"] = mesh(j, lambda k: a.sim.coast_force_N[k])
-                out[f"{m_}.backlash_position"] = mesh(j, lambda k: a.sim.backlash_position[k])
-            if f"{m_}.twist" in self.by_name:
-                out[f"{m_}.twist_moment"] = mesh(j, lambda k: a.sim.twist_moment_Nm[k])
-                out[f"{m_}.twist"] = mesh(j, lambda k: a.sim.mesh_twist_rad[k])
-            if mn in self.shared_meshes:
-                out[f"{m_}.load_share"] = mesh(j, lambda k: a.sim.load_share(k))
-        for j, g in enumerate(self.gear_names):
-            g_ = ident(g)
-            out[f"{g_}.angle"] = gear(j, lambda i: a.sim.angle_rad[i])
-            out[f"{g_}.speed"] = gear(j, lambda i: a.sim.speed_rad_s[i])
-            out[f"{g_}.bearing_force_x"] = gear(j, lambda i: float(a.sim.bearing_force_N(a.sim.gear_names[i])[0]))
-            out[f"{g_}.bearing_force_y"] = gear(j, lambda i: float(a.sim.bearing_force_N(a.sim.gear_names[i])[1]))
-            if f"{g_}.bearing_force_z" in self.by_name:
-                for q, dof in (("bearing_force_z", "z"), ("bearing_moment_x", "theta_x"),
-                               ("bearing_moment_y", "theta_y")):
-                    out[f"{g_}.{q}"] = (lambda d: gear(j, lambda i: a.sim.support_reaction(
-                        f"{a.sim.gear_names[i]}.{d}")))(dof)
-        for gauge in self.gauges:
-            gear_, _, gname = gauge.partition("/")
-            out[f"{ident(gear_)}.{ident(gname or gear_)}.root_strain"] = (
-                lambda key: lambda: a.sim.strain(key) if a._gauge_on[key] else 0.0)(gauge)
-        return out
+        """Output name -> zero-argument getter of its current value (:func:`~hacgear_core.fmu.spec.output_getters`
+        of the declarations); outputs of meshes, gears and gauges the current structure does not have (planets
+        beyond ``planet_count``) read their ``absent`` value."""
+        return output_getters(self.variables, self)
 
     def out_of_range_meshes(self) -> list[str]:
         """Meshes whose state has left their tables' deflection range and that were not reported yet (the slave
@@ -486,8 +446,8 @@ class Adapter:
         ModelError
             Parameters that the model cannot take (message names field, unit, range).
         """
-        mode = int(values["mode"])
-        shafts = mode == MODE_SPEED
+        mode = Experiment(int(values["mode"]))
+        shafts = mode == Experiment.SPEED
         bearings = tuple(float(values[f"{ident(g)}.bearing_stiffness"]) for g in self.bearing_gears)
         h = float(values["internal_step"]) or None
         structure = tuple((p.name, int(values[p.name])) for p in self.structural)
@@ -515,14 +475,14 @@ class Adapter:
         self.out_of_range_reported = set()
         self.mode = mode
         ref = ident(self.ref)
-        if self.mode == MODE_SPEED:
+        if self.mode == Experiment.SPEED:
             self.sim.reset(speed_rad_s=float(values[f"{ref}.speed_in"]))
         else:
             self.sim.reset(speed_rad_s=float(values[f"{ref}.speed_start"]))
             self.sim.set_torque_inputs({g: float(values[f"{ident(g)}.torque_in"]) for g in self.ports})
         self._last_inputs = None
         self.apply_inputs(values)
-        names = ((f"{ref}.speed_in",) if self.mode == MODE_SPEED
+        names = ((f"{ref}.speed_in",) if self.mode == Experiment.SPEED
                  else tuple(f"{ident(g)}.torque_in" for g in self.ports))
         self.input_checks = tuple((n, self.by_name[n].min, self.by_name[n].max) for n in names)
         self._input_names = names
@@ -535,7 +495,7 @@ class Adapter:
 
     def active_inputs(self, values: dict) -> tuple[str, ...]:
         """The inputs the experiment chosen in ``values`` reads (checked when initialization ends)."""
-        if int(values["mode"]) == MODE_SPEED:
+        if int(values["mode"]) == Experiment.SPEED:
             return (f"{self.ref_ident}.speed_in",)
         return tuple(f"{p}.torque_in" for p in self.port_idents)
 
@@ -545,7 +505,7 @@ class Adapter:
 
     def apply_inputs(self, values: dict) -> None:
         """Hand the current inputs to the simulator (only when they changed)."""
-        if self.mode == MODE_SPEED:
+        if self.mode == Experiment.SPEED:
             cur = (values[f"{ident(self.ref)}.speed_in"],)
             if cur != self._last_inputs:
                 self.sim.set_speed_input(speed_rad_s=cur[0])
@@ -575,7 +535,7 @@ class Adapter:
     def set_state(self, snap: dict) -> None:
         """Restore a :meth:`get_state` snapshot taken with the same parameters (the caller configures first)."""
         self.sim.set_state(snap["sim"])
-        self.mode = snap["mode"]
+        self.mode = Experiment(snap["mode"])
         li = snap["last_inputs"]
         self._last_inputs = None if li is None else tuple(li)
 

@@ -26,6 +26,7 @@ import numpy as np
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 
+from hacgear_core.encodings import ContactState, Experiment
 from hacgear_core.fmu.components import COMPONENTS
 from hacgear_core.fmu.slave import FMU_INFO_FILE
 
@@ -152,7 +153,7 @@ def drivetrain_layout(stage_fmus, cfg: BenchConfig = BenchConfig()) -> Layout:
     stages = {}
     for k, (name, info, path) in enumerate(zip(names, infos, paths)):
         r_in = abs(info["ports"][info["input"]]["speed_ratio"])
-        stages[name] = (path, {"mode": 1, f"{info['reference_gear']}.speed_start": w_in[k] / r_in, "torque": t_in[k],
+        stages[name] = (path, {"mode": int(Experiment.TORQUE), f"{info['reference_gear']}.speed_start": w_in[k] / r_in, "torque": t_in[k],
                                "internal_step": cfg.internal_step_s, f"{info['input']}.torque_in": t_in[k],
                                f"{info['output']}.torque_in": t_out[k]})
     con = [("motor", "speed", "shaft0", "speed_a"), (names[0], f"{infos[0]['input']}.speed", "shaft0", "speed_b"),
@@ -180,9 +181,10 @@ class PythonComponent:
     """A component of :mod:`~hacgear_core.fmu.components` as a Python object (get, set, step)."""
 
     def __init__(self, kind: str, params: dict) -> None:
-        cls, variables, self._inputs, self._outputs, _ = COMPONENTS[kind]
+        cls, variables, self._inputs, _ = COMPONENTS[kind]
         defaults = {v.name: v.start for v in variables if v.causality == "parameter"}
         self.obj = cls(**{**defaults, **params})
+        self._outputs = {v.name: v.read.attr for v in variables if v.causality == "output"}
 
     def get(self, name):
         return getattr(self.obj, self._outputs[name])
@@ -369,9 +371,9 @@ def plot_bench(res: dict, path: str | Path, title: str = "") -> Path:
     ax[1].legend(fontsize=8, loc="upper left")
     for mn in meshes:
         _, dmax, dmin = _envelope(t, res[f"{mn}.dte"], w)
-        _, cmin, _ = _envelope(t, -res[f"{mn}.contact"], w)
+        _, apart, _ = _envelope(t, (res[f"{mn}.contact"] == int(ContactState.SEPARATED)).astype(float), w)
         ax[2].fill_between(fmid, dmin * 1e6, dmax * 1e6, alpha=0.4, label=f"{mn}: DTE range per 5 ms")
-        loss = cmin > -0.5
+        loss = apart > 0.5
         if np.any(loss):
             ax[2].plot(fmid[loss], np.full(loss.sum(), np.nanmin(dmin) * 1e6), "|", ms=8,
                        label=f"{mn}: contact loss in window")

@@ -19,7 +19,7 @@ import math
 
 from hacgear_core.dynamics.simulator import StepResult
 from hacgear_core.errors import ModelError
-from hacgear_core.fmu.spec import FmuVariable
+from hacgear_core.fmu.spec import FmuVariable, Reading, output_expressions, output_getters
 
 __all__ = ["Motor", "Shaft", "Load", "COMPONENTS", "ComponentAdapter"]
 
@@ -118,11 +118,14 @@ class Load:
 
 
 def _v(name, causality, unit, description, start=None, lo=None, hi=None, display=""):
+    """A Real variable; an output is read from the component's attribute of its own name."""
     variability = {"parameter": "fixed", "input": "continuous", "output": "continuous"}[causality]
-    return FmuVariable(name, "Real", causality, variability, unit, description, start, lo, hi, display_unit=display)
+    return FmuVariable(name, "Real", causality, variability, unit, description, start, lo, hi, display_unit=display,
+                       read=Reading(attr=name) if causality == "output" else None)
 
 
-#: component kind -> (class, variables, inputs -> attribute, outputs -> attribute, one-line description)
+#: component kind -> (class, variables, inputs -> attribute, one-line description); outputs are read from the
+#: attribute of their name
 COMPONENTS = {
     "motor": (Motor, (
         _v("inertia", "parameter", "kg.m2", "rotor inertia", 0.05, 1e-9, 1e6),
@@ -141,8 +144,7 @@ COMPONENTS = {
         _v("speed", "output", "rad/s", "rotor speed", display="rpm"),
         _v("torque", "output", "N.m", "drive torque of the last step"),
         _v("speed_reference", "output", "rad/s", "reference speed of the last step", display="rpm"),
-    ), {"shaft_torque": "shaft_torque"}, {"angle": "angle", "speed": "speed", "torque": "torque",
-                                          "speed_reference": "speed_reference"},
+    ), {"shaft_torque": "shaft_torque"},
         "speed-controlled motor (PI on a ramped reference speed)"),
     "shaft": (Shaft, (
         _v("stiffness", "parameter", "N.m/rad", "torsional stiffness", 2.0e4, 0.0, 1e12),
@@ -153,7 +155,7 @@ COMPONENTS = {
         _v("torque", "output", "N.m", "torque of the shaft on side b"),
         _v("torque_a", "output", "N.m", "torque of the shaft on side a (= -torque)"),
         _v("twist", "output", "rad", "twist, side a minus side b"),
-    ), {"speed_a": "speed_a", "speed_b": "speed_b"}, {"torque": "torque", "torque_a": "torque_a", "twist": "twist"},
+    ), {"speed_a": "speed_a", "speed_b": "speed_b"},
         "torsion spring-damper shaft"),
     "load": (Load, (
         _v("inertia", "parameter", "kg.m2", "load inertia", 0.2, 1e-9, 1e6),
@@ -163,7 +165,7 @@ COMPONENTS = {
         _v("shaft_torque", "input", "N.m", "torque of the shaft on whose side a the load sits", 0.0, -1e7, 1e7),
         _v("angle", "output", "rad", "load angle"),
         _v("speed", "output", "rad/s", "load speed", display="rpm"),
-    ), {"shaft_torque": "shaft_torque"}, {"angle": "angle", "speed": "speed"}, "braked load inertia"),
+    ), {"shaft_torque": "shaft_torque"}, "braked load inertia"),
 }
 
 
@@ -177,7 +179,7 @@ class ComponentAdapter:
         if kind not in COMPONENTS:
             raise ModelError(f"unknown drivetrain component {kind!r}; known: {sorted(COMPONENTS)}")
         self.kind = kind
-        self.cls, self.variables, self._inputs, self._outputs, self.description = COMPONENTS[kind]
+        self.cls, self.variables, self._inputs, self.description = COMPONENTS[kind]
         self.by_name = {v.name: v for v in self.variables}
         self.fallible: set = set()
         self.inputs = tuple(v.name for v in self.variables if v.causality == "input")
@@ -192,10 +194,10 @@ class ComponentAdapter:
         return {"startTime": 0.0, "stopTime": 1.0, "stepSize": 1e-4}
 
     def output_expressions(self) -> dict[str, str]:
-        return {name: f"s.{attr}" for name, attr in self._outputs.items()}
+        return output_expressions(self.variables, self)
 
     def getters(self) -> dict:
-        return {name: (lambda attr: lambda: getattr(self.sim, attr))(attr) for name, attr in self._outputs.items()}
+        return output_getters(self.variables, self)
 
     def active_inputs(self, values: dict) -> tuple[str, ...]:
         return self.inputs

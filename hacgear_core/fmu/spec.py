@@ -1,13 +1,20 @@
 """FMU variables declared once: :class:`FmuVariable` (name, type, causality, unit, display unit, nominal value,
-bounds), the unit definitions (SI units and their display units) and the enumeration types; the same spec drives
-the slave at run time and both modelDescription.xml writers (FMI 2.0 and FMI 3.0) at build time."""
+bounds, and for outputs the :class:`Reading` that says how the value is read from the running simulator), the unit
+definitions (SI units and their display units) and the enumeration types; the same spec drives the slave at run
+time (:func:`output_getters`, :func:`output_expressions`) and both modelDescription.xml writers (FMI 2.0 and FMI
+3.0) at build time."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Any, Callable
 
-__all__ = ["UNITS", "DISPLAY_UNITS", "ENUMERATIONS", "TYPES", "TIME", "FmuVariable", "ident", "variables_table",
-           "README_BEGIN", "README_END", "readme_with_variables"]
+from hacgear_core.encodings import CONTACT_STATE_DESCRIPTIONS, ContactState
+from hacgear_core.model.schema import RANGES
+
+__all__ = ["UNITS", "DISPLAY_UNITS", "ENUMERATIONS", "TYPES", "TIME", "FmuVariable", "Reading", "ident",
+           "ranged", "output_getters", "output_expressions", "variables_table", "README_BEGIN", "README_END",
+           "readme_with_variables"]
 
 #: SI units used by hacgear FMUs: name -> exponents of the SI base units (FMI ``BaseUnit`` attributes).
 UNITS: dict[str, dict[str, int]] = {
@@ -40,12 +47,10 @@ DISPLAY_UNITS: dict[str, dict[str, float]] = {
 }
 
 #: Enumeration types: name -> (description, ((item name, value, description), ...)).
+#: ``ContactState`` is :class:`~hacgear_core.encodings.ContactState` (item names in lower case).
 ENUMERATIONS: dict[str, tuple[str, tuple[tuple[str, int, str], ...]]] = {
-    "ContactState": ("state of a gear mesh's tooth contact", (
-        ("separated", 0, "no tooth in contact: the teeth are in the backlash (drive and coast forces zero)"),
-        ("drive_flank", 1, "contact on the drive flanks (mesh force > 0)"),
-        ("coast_flank", 2, "contact on the coast flanks, across the backlash (coast force > 0)"),
-    )),
+    "ContactState": ("state of a gear mesh's tooth contact", tuple(
+        (c.name.lower(), int(c), CONTACT_STATE_DESCRIPTIONS[c]) for c in ContactState)),
 }
 
 #: Variable types and the Python type of their values.
@@ -53,6 +58,54 @@ TYPES = {"Real": float, "Integer": int, "Boolean": bool, "Enumeration": int}
 
 _CAUSALITIES = ("parameter", "input", "output", "independent")
 _VARIABILITIES = ("fixed", "tunable", "continuous", "discrete")
+#: what :attr:`Reading.index` numbers: a mesh or gear of the largest structure, a gauge ("<gear>/<gauge>"), or
+#: nothing (a scalar of the simulator)
+_PARTS = ("", "mesh", "gear", "gauge")
+
+
+@dataclass(frozen=True)
+class Reading:
+    """How an output is read from the running simulator ``s``: the attribute ``s.<attr>`` (``part`` empty) or
+    ``s.<attr>[k]``, or ``call(s, k)`` for derived values, with ``k`` the slot of ``part`` ``index`` (a mesh or
+    gear of the largest structure, a gauge) in the current structure.  Where the current structure does not have
+    it the output reads ``absent``.
+
+    Attributes
+    ----------
+    attr : str
+        Simulator attribute (a scalar, or a per-mesh / per-gear list): the slave's fast path reads it directly.
+    call : callable or None
+        ``call(s, k) -> value`` when the value is computed (table post-processing, bearing forces); exactly one of
+        ``attr`` and ``call`` is given.
+    part : str
+        ``""``, ``"mesh"``, ``"gear"`` or ``"gauge"``.
+    index : int or str
+        Mesh or gear number in the largest structure, or the gauge key.
+    absent : float or int or bool
+        Value where the current structure has no such part.
+    fallible : bool
+        A table post-processing that may fail for a state (the slave then returns NaN and logs it).
+    """
+
+    attr: str = ""
+    call: Callable[[Any, int], Any] | None = None
+    part: str = ""
+    index: int | str = -1
+    absent: float | int | bool = 0.0
+    fallible: bool = False
+
+    def __post_init__(self) -> None:
+        if bool(self.attr) == (self.call is not None):
+            raise ValueError("Reading: give exactly one of attr and call")
+        if self.part not in _PARTS:
+            raise ValueError(f"Reading: part must be one of {_PARTS}, got {self.part!r}")
+
+
+def ranged(quantity: str) -> dict:
+    """``min``, ``max`` and their openness and ``allow_inf`` of an :class:`FmuVariable` from the model's range of
+    ``quantity`` (:data:`hacgear_core.model.schema.RANGES`, the one table of ranges)."""
+    r = RANGES[quantity]
+    return {"min": r.lo, "max": r.hi, "min_open": r.lo_open, "max_open": r.hi_open, "allow_inf": r.allow_inf}
 
 
 @dataclass(frozen=True)
@@ -91,6 +144,10 @@ class FmuVariable:
         Typical magnitude (> 0) of a Real, for scaling in the master.
     declared_type : str
         Enumeration type name (``type == "Enumeration"`` only).
+    min_open, max_open : bool
+        That bound is excluded (modelDescription.xml states the bound; :meth:`check` refuses it).
+    read : Reading or None
+        Outputs: how the value is read from the running simulator.
     """
 
     name: str
@@ -106,6 +163,9 @@ class FmuVariable:
     nominal: float | None = None
     declared_type: str = ""
     allow_inf: bool = False
+    min_open: bool = False
+    max_open: bool = False
+    read: Reading | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         if self.type not in TYPES:
@@ -140,6 +200,8 @@ class FmuVariable:
                 raise ValueError(f"FmuVariable {self.name}: min/max must be finite (XML xs:double)")
         if self.allow_inf and self.type != "Real":
             raise ValueError(f"FmuVariable {self.name}: only Real variables can allow inf")
+        if self.read is not None and self.causality != "output":
+            raise ValueError(f"FmuVariable {self.name}: only outputs are read from the simulator")
         if self.start is not None and self.check(self.start):
             raise ValueError(f"FmuVariable {self.name}: start value {self.start!r} outside its own range")
 
@@ -171,10 +233,11 @@ class FmuVariable:
         hi = math.inf if self.max is None else self.max
         if self.allow_inf and v == math.inf:
             return ""
-        if not math.isfinite(v) or not lo <= v <= hi:
+        if (not math.isfinite(v) or not lo <= v <= hi or (self.min_open and v == lo)
+                or (self.max_open and v == hi)):
             inf_txt = " or inf" if self.allow_inf else ""
             return (f"{self.causality} '{self.name}'{unit} = {v!r} is outside the allowed range "
-                    f"[{lo:g}, {hi:g}]{inf_txt}"
+                    f"{'(' if self.min_open else '['}{lo:g}, {hi:g}{')' if self.max_open else ']'}{inf_txt}"
                     f"{' (NaN/inf are not allowed)' if not math.isfinite(v) and not self.allow_inf else ''}")
         if self.type == "Integer" and v != int(v):
             return f"{self.causality} '{self.name}' must be an integer, got {value!r}"
@@ -183,6 +246,51 @@ class FmuVariable:
 
 #: The independent variable of FMI 3.0 FMUs (value reference 0).
 TIME = FmuVariable("time", "Real", "independent", "continuous", "s", "simulation time")
+
+
+def _slot_of(adapter, r: Reading) -> int:
+    return adapter.slot(r.part, r.index) if r.part else 0
+
+
+def output_getters(variables, adapter) -> dict[str, Callable[[], Any]]:
+    """Output name -> zero-argument getter of its current value, generated from each output's :class:`Reading`:
+    ``adapter.sim`` is the running simulator (replaced when the adapter reconfigures), ``adapter.slot(part,
+    index)`` the slot of a mesh, gear or gauge in its current structure (-1: absent)."""
+    out: dict[str, Callable[[], Any]] = {}
+    for v in variables:
+        if v.causality != "output":
+            continue
+        r = v.read
+        if r is None:
+            raise ValueError(f"output {v.name} has no Reading: it cannot be read from the simulator")
+        if not r.part:
+            out[v.name] = ((lambda a: lambda: getattr(adapter.sim, a))(r.attr) if r.attr
+                           else (lambda c: lambda: c(adapter.sim, 0))(r.call))
+        elif r.attr:
+            def get(r=r):
+                k = adapter.slot(r.part, r.index)
+                return getattr(adapter.sim, r.attr)[k] if k >= 0 else r.absent
+            out[v.name] = get
+        else:
+            def get(r=r):
+                k = adapter.slot(r.part, r.index)
+                return r.call(adapter.sim, k) if k >= 0 else r.absent
+            out[v.name] = get
+    return out
+
+
+def output_expressions(variables, adapter) -> dict[str, str]:
+    """Output name -> Python expression of its value in terms of ``s`` (the simulator) for the outputs read from a
+    simulator attribute (the slave's fast path; the others have only :func:`output_getters`), with the slots of
+    the adapter's current structure; absent parts read their ``absent`` value."""
+    out = {}
+    for v in variables:
+        r = v.read
+        if v.causality != "output" or r is None or not r.attr:
+            continue
+        k = _slot_of(adapter, r)
+        out[v.name] = f"s.{r.attr}" if not r.part else (f"s.{r.attr}[{k}]" if k >= 0 else repr(r.absent))
+    return out
 
 
 def ident(text: str) -> str:
@@ -214,7 +322,8 @@ def variables_table(variables) -> str:
         if v.declared_type:
             rng = ", ".join(f"{n} = {k}" for n, k, _ in ENUMERATIONS[v.declared_type][1])
         elif v.min is not None or v.max is not None:
-            rng = f"[{_num(v.min) if v.min is not None else '-inf'}, {_num(v.max) if v.max is not None else 'inf'}]"
+            rng = (f"{'(' if v.min_open else '['}{_num(v.min) if v.min is not None else '-inf'}, "
+                   f"{_num(v.max) if v.max is not None else 'inf'}{')' if v.max_open else ']'}")
             rng += " or inf" if v.allow_inf else ""
         else:
             rng = ""

@@ -429,6 +429,15 @@ def gear_geometry(gear: Any, *, shaper_teeth: int | None = None) -> GearGeometry
         raise GeometryError(f"gear '{gear.name}': pointed tooth, thickness at the tip circle {s_tip * 1e3:.4f} mm "
                             f"<= 0 (tip_diameter_mm {gear.tip_diameter_m * 1e3:g} too large for tooth_thickness_mm "
                             f"{s_ref * 1e3:g})")
+    # material removed from the tip corners at the face ends, normal to each flank: tip relief plus lead crowning
+    removed = sum(gear.flanks[s].tip_relief_m for s in SIDES) + 2.0 * float(getattr(gear, "lead_crowning_m", 0.0))
+    if removed >= s_tip:
+        raise GeometryError(
+            f"gear '{gear.name}': tip relief drive {gear.flanks['drive'].tip_relief_m * 1e6:g} um + coast "
+            f"{gear.flanks['coast'].tip_relief_m * 1e6:g} um + 2 x lead crowning "
+            f"{getattr(gear, 'lead_crowning_m', 0.0) * 1e6:g} um = {removed * 1e6:.1f} um remove more than the "
+            f"tooth thickness at the tip circle, {s_tip * 1e6:.1f} um: no tooth is left at the tip corners of the "
+            f"face ends; allowed: a sum below {s_tip * 1e6:.1f} um")
     if s_tip < 0.2 * m:
         warnings.append(f"gear '{gear.name}': thin tip, tooth thickness at the tip circle {s_tip * 1e3:.3f} mm < "
                         f"0.2 m = {0.2 * m * 1e3:.3f} mm")

@@ -1,5 +1,6 @@
 """Model files → validated SI dataclasses: :mod:`.schema` (the dataclasses and their ranges), :mod:`.toml`
-(the TOML reader with unit-suffixed keys, file/key/unit/range errors)."""
+(the TOML reader with unit-suffixed keys, file/key/unit/range errors), :mod:`.toml_writer` (TOML text of a parsed
+document: variant model files)."""
 from __future__ import annotations
 
 from hacgear_core.model.schema import (

@@ -126,7 +126,8 @@ class Range:
 RANGES: dict[str, Range] = {
     # magnitude: a negative torque (command line, FMU) loads the coast flanks; a model file's operating torque is > 0
     "torque_Nm": Range("N*m", 0.0, 1e6, lo_open=True),
-    "modal_damping_ratio": Range("-", 0.0, 1.0),
+    # an underdamped modal damping ratio: every elastic mode keeps an oscillating part
+    "modal_damping_ratio": Range("-", 0.0, 1.0, hi_open=True),
     # a rigid bearing is inf (no translation DOF) everywhere: model files, --bearing-stiffness, the FMU; 0 is no
     # bearing (a floating member of a planetary set; fixed-axis trains need > 0)
     "translational_stiffness_N_per_m": Range("N/m", 0.0, 1e15, allow_inf=True),

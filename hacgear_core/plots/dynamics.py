@@ -10,9 +10,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from hacgear_core.cli._paths import check_out_dir  # noqa: E402
 from hacgear_core.dynamics.build import spur_pair_system  # noqa: E402
 from hacgear_core.errors import HacgearError  # noqa: E402
+from hacgear_core.outpaths import check_out_dir  # noqa: E402
 from hacgear_core.plots.sweep import mark_jump  # noqa: E402
 from hacgear_core.dynamics.steady import steady_state  # noqa: E402
 from hacgear_core.dynamics.sweep import SweepSpec, run_sweep  # noqa: E402

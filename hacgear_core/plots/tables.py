@@ -15,8 +15,8 @@ from typing import Any
 import matplotlib
 import numpy as np
 
-from hacgear_core.cli._paths import check_out_dir
 from hacgear_core.errors import HacgearError
+from hacgear_core.outpaths import check_out_dir
 from hacgear_core.statics import AnalyticFactory, load_grid, run_statics
 from hacgear_core.tables import MeshTable, read_tables
 

@@ -14,7 +14,7 @@ For a body of face width ``b`` the physical modes are ``phi / sqrt(b)``.  Read o
 * ``flank_normal[k, t, i]``: displacement of mode ``k`` along the inward normal at sample ``i`` (the flank point
   itself, ``FlankCompliance.xy_m``) of tooth ``t``, so that ``sum_k phi phi^T / omega^2`` over all modes is the
   compliance of flank loads at flank points (the contact solver's far field reads it ``depth_m`` below the
-  surface; the difference stays in the residual compliance of :mod:`hacgear_core.dynamics.direct_elastic`);
+  surface; the difference stays in the residual compliance of :mod:`hacgear_core.studies.direct_elastic`);
 * ``gauge_strain[k, g, t]``: surface strain of mode ``k`` at gauge ``g`` of tooth ``t`` (the compliance's gauge
   read points);
 * ``rotation_participation[k] = phi_k^T M rho`` with ``rho`` the rigid rotation of the body about its axis in

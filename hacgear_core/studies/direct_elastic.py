@@ -1,6 +1,6 @@
 """Direct dynamic contact model, level 2: elastic gear bodies in motion (fixed-hub modes + residual flexibility).
 
-Level 1 (:mod:`hacgear_core.dynamics.direct`) solves the static contact at every RK4 stage: the bodies are
+Level 1 (:mod:`hacgear_core.studies.direct`) solves the static contact at every RK4 stage: the bodies are
 quasi-static.  Level 2 keeps the ``n`` lowest fixed-hub modes of each gear body
 (:func:`hacgear_core.statics.bodymodes.gear_body_modes`, the finite-element model the contact solver's compliance
 comes from, plus its consistent mass) as dynamic coordinates and the rest quasi-static (mode-acceleration /
@@ -20,8 +20,8 @@ compliance offset ``-sum phi phi^T / omega^2`` and the gap offset ``sum phi q``
     J_g theta_g'' + sum_k L_gk q_gk'' + ...  = (the lumped equation of gear g)
 
 ``L_gk = phi^T M rho`` the participation of the hub rotation ``theta_g`` (closing sense).  The lumped part is
-:class:`~hacgear_core.dynamics.direct.DirectEquations` of the system (its mass, damping, loads, mesh vectors),
-extended by the modal DOFs; :func:`~hacgear_core.dynamics.direct.integrate_direct` integrates it.  With
+:class:`~hacgear_core.studies.direct.DirectEquations` of the system (its mass, damping, loads, mesh vectors),
+extended by the modal DOFs; :func:`~hacgear_core.studies.direct.integrate_direct` integrates it.  With
 ``q_gk = phi_gk^T F / omega_gk^2`` (zero speed) ``u = C F`` exactly: the static solver.  With no modes it *is*
 level 1 (same solver calls, same RK4).
 
@@ -39,7 +39,7 @@ from typing import Any, Sequence
 import numpy as np
 import scipy.linalg
 
-from hacgear_core.dynamics.direct import DirectEquations, DirectTrace, StageLoad, integrate_direct
+from hacgear_core.studies.direct import DirectEquations, Level1Result, StageLoad, integrate_direct
 from hacgear_core.dynamics.steady import trace_metrics
 from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import ModelError, SolverError
@@ -231,7 +231,7 @@ class Level2Options:
     Attributes
     ----------
     rtol : float
-        Poincaré change per mesh cycle that ends the run (as :class:`~hacgear_core.dynamics.direct.Level1Options`).
+        Poincaré change per mesh cycle that ends the run (as :class:`~hacgear_core.studies.direct.Level1Options`).
     min_cycles, max_cycles : int
         Mesh cycles integrated before the recorded one (at least / at most).
     steps_per_cycle : int
@@ -262,26 +262,13 @@ class Level2Options:
 
 
 @dataclass
-class Level2Result:
-    """Outcome of :func:`run_level2`: ``success`` (converged below ``rtol``), ``message``, ``cycles`` run before the
-    recorded one, ``changes`` per cycle, ``n_modes`` (per gear), ``load_calls``, ``wall_s_per_cycle`` [s],
-    ``state`` (2N,) at the end, ``trace`` (recorded cycle), ``metrics``
-    (:func:`~hacgear_core.dynamics.steady.trace_metrics`), ``root_strain`` {gauge: (nr,) largest over the window},
-    ``modal`` (nr, n_total) modal coordinates along the recorded cycle, ``steps_per_cycle`` used."""
+class Level2Result(Level1Result):
+    """Outcome of :func:`run_level2`: the fields of :class:`~hacgear_core.studies.direct.Level1Result` (``state``
+    (2N,) with the modal coordinates, ``root_strain`` {gauge: (nr,) largest over the window}), ``n_modes`` (per
+    gear) and ``modal`` (nr, n_total) modal coordinates along the recorded cycle."""
 
-    success: bool
-    message: str
-    cycles: int
-    changes: list
     n_modes: tuple
-    load_calls: int
-    wall_s_per_cycle: float
-    state: np.ndarray
-    trace: DirectTrace
-    metrics: dict
-    root_strain: dict
     modal: np.ndarray
-    steps_per_cycle: int = 0
 
 
 def _load(eqs: DirectEquations, emesh: ElasticMesh, n0: int, cycle_offset: list):

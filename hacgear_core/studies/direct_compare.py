@@ -8,7 +8,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from hacgear_core.dynamics.direct import Level1Options, level1_mesh_forces, run_level1
+from hacgear_core.studies.direct import Level1Options, level1_mesh_forces, run_level1
 from hacgear_core.dynamics.steady import SteadyStateOptions, steady_state
 from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import ModelError
@@ -98,9 +98,9 @@ def compare_at_speed(model: Any, system: LumpedSystem, mesh_frequency_Hz: float,
                      coast: Sequence[Any] | None = None, options: Level1Options | None = None,
                      hac_cycles: int = 2000) -> SpeedComparison:
     """HAC (``system``'s tables) against level 1 (the static solvers of ``model``; ``drive``/``coast`` force
-    callables of :func:`~hacgear_core.dynamics.direct.level1_mesh_forces` may be passed to reuse them) at
+    callables of :func:`~hacgear_core.studies.direct.level1_mesh_forces` may be passed to reuse them) at
     ``mesh_frequency_Hz`` [Hz]: the HAC steady state, then level 1 started from it at the same step
-    (:func:`~hacgear_core.dynamics.direct.run_level1`), the metrics of both over the final period, and the wall
+    (:func:`~hacgear_core.studies.direct.run_level1`), the metrics of both over the final period, and the wall
     time per mesh cycle of each (HAC: :func:`hac_wall_per_cycle` over ``hac_cycles`` cycles)."""
     fm = float(mesh_frequency_Hz)
     fn = float(system.natural_frequencies_Hz()[0])

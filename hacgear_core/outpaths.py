@@ -1,4 +1,5 @@
-"""Output paths checked before a command starts its work, so that a long run never ends in a traceback."""
+"""Output paths checked before a command or a figure script starts its work, so that a long run never ends in a
+traceback (shared by the command line and the plots)."""
 from __future__ import annotations
 
 import os

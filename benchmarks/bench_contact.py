@@ -38,7 +38,7 @@ def main() -> int:
         return hob_radius_figure(args.hob_figure)
 
     from hacgear_core.statics import make_mesh_solver
-    from hacgear_core.model import load_model
+    from hacgear_core.kinds import load_model
 
     model = load_model("spur_28t_asym")
     t0 = time.perf_counter()
@@ -93,7 +93,7 @@ def figures(out_dir: str) -> int:
 
     from hacgear_core.statics import ContactOptions, make_mesh_solver, mesh_stiffness_curve, model_variant
     from hacgear_core.geometry import mesh_geometry
-    from hacgear_core.model import load_model
+    from hacgear_core.kinds import load_model
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -208,7 +208,7 @@ def hob_radius_figure(out_dir: str) -> int:
     from hacgear_core.statics import make_mesh_solver, model_variant, root_strain_scan
     from hacgear_core.statics.fe import MeshOptions
     from hacgear_core.geometry import gear_geometry
-    from hacgear_core.model import load_model
+    from hacgear_core.kinds import load_model
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -317,7 +317,7 @@ def face_slices_figure(out_dir: str, slices=(1, 3, 5, 9, 11, 15, 21, 25, 31, 41,
     import matplotlib.pyplot as plt
 
     from hacgear_core.statics import ContactOptions, make_mesh_solver, mesh_stiffness_curve
-    from hacgear_core.model import load_model
+    from hacgear_core.kinds import load_model
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

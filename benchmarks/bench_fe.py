@@ -30,7 +30,7 @@ TORQUE_NM = 300.0
 
 def _gear():
     from hacgear_core.geometry import gear_geometry
-    from hacgear_core.model import load_model
+    from hacgear_core.kinds import load_model
 
     model = load_model(ROOT / "models" / "spur_28t_asym" / "model.toml")
     g = model.gears[0]

@@ -178,10 +178,11 @@ def main(argv=None) -> int:
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import FMU2Slave
 
-    from hacgear_core.dynamics.build import build_system
+    from hacgear_core.kinds import build_system
     from hacgear_core.dynamics.simulator import Simulator
     from hacgear_core.fmu import bootstrap, build_fmu
-    from hacgear_core.model import load_model, resolve_model_path
+    from hacgear_core.model import resolve_model_path
+    from hacgear_core.kinds import load_model
     from hacgear_core.tables import read_tables
 
     work = Path(tempfile.mkdtemp(prefix="hacgear_bench_fmu_"))

@@ -11,7 +11,7 @@ import time
 import numpy as np
 
 from hacgear_core.geometry import gear_geometry, mesh_geometry
-from hacgear_core.model import load_model
+from hacgear_core.kinds import load_model
 
 SYSTEMS = ("spur_28t_asym", "spur_50t_icr137", "spur_50t_icr18", "idler_28_33_39", "planetary_65_55_175",
            "helical_28_33")

@@ -27,10 +27,10 @@ from pathlib import Path
 
 import numpy as np
 
-from hacgear_core.dynamics.build import build_system
+from hacgear_core.kinds import build_system
 from hacgear_core.studies.direct import Level1Options, level1_mesh_forces
 from hacgear_core.studies.direct_compare import compare_at_speed, hac_at_speed, loaded_gauge
-from hacgear_core.model import load_model
+from hacgear_core.kinds import load_model
 from hacgear_core.statics.grid import compute_statics
 from hacgear_core.tables import load_system_tables, read_tables
 

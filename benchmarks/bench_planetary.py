@@ -19,11 +19,11 @@ import time
 
 import numpy as np
 
-from hacgear_core.dynamics.build import build_system
+from hacgear_core.kinds import build_system
 from hacgear_core.dynamics.equilibrium import static_state
 from hacgear_core.dynamics.modes import gyroscopic_modes
 from hacgear_core.dynamics.steady import steady_state
-from hacgear_core.model import load_model
+from hacgear_core.kinds import load_model
 from hacgear_core.tables import load_system_tables
 
 FM = 1600.0  # mesh frequency of the timing runs [Hz]

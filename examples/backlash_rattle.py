@@ -25,10 +25,10 @@ import math
 import numpy as np
 
 from hacgear_core.cli._help import plain_text
-from hacgear_core.dynamics.build import build_system
+from hacgear_core.kinds import build_system
 from hacgear_core.dynamics.simulator import Simulator
 from hacgear_core.encodings import ContactState
-from hacgear_core.model import load_model
+from hacgear_core.kinds import load_model
 from hacgear_core.tables import load_system_tables
 
 

@@ -19,7 +19,7 @@ import time
 
 from hacgear_core.cli._help import plain_text
 from hacgear_core.geometry import gear_geometry
-from hacgear_core.model import load_model
+from hacgear_core.kinds import load_model
 from hacgear_core.statics import fe3d
 
 

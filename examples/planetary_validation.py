@@ -34,14 +34,14 @@ from pathlib import Path
 import numpy as np
 
 from hacgear_core.cli._help import plain_text
-from hacgear_core.dynamics.build import build_system
+from hacgear_core.kinds import build_system
 from hacgear_core.dynamics.equilibrium import load_sharing
 from hacgear_core.dynamics.floquet import floquet
 from hacgear_core.dynamics.modes import gyroscopic_modes
 from hacgear_core.dynamics.simulator import strain_of_tooth
 from hacgear_core.dynamics.steady import SteadyStateOptions, steady_state
 from hacgear_core.dynamics.sweep import SweepSpec, run_sweep
-from hacgear_core.model import load_model
+from hacgear_core.kinds import load_model
 from hacgear_core.statics.chain import PlanetChain
 from hacgear_core.tables import load_system_tables
 

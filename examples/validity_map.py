@@ -83,7 +83,7 @@ def modes(args) -> None:
     """Body-mode facts of the 28-tooth gear: mass and inertia against the geometry, frequencies, participation."""
     from hacgear_core.studies.direct_elastic import elastic_mesh
     from hacgear_core.geometry import gear_geometry
-    from hacgear_core.model import load_model
+    from hacgear_core.kinds import load_model
 
     model = load_model(str(MODEL))
     em = elastic_mesh(model, "m12", damping_ratio=0.02)

@@ -27,8 +27,8 @@ def assert_reversed_torque_run(fmpy, path, system, speed_rad_s: float = 300.0, p
     (``contact`` = 2, ``force`` = 0, ``coast_force`` > 0), its deflection within [-(backlash + coast table range),
     0), no ``out_of_range``, and its mean coast force is the library's static coast force of the torque flow within
     3 % (the planets' instantaneous load sharing: 2.4 %)."""
-    from hacgear_core.dynamics.build import build_system
-    from hacgear_core.model import load_model
+    from hacgear_core.kinds import build_system
+    from hacgear_core.kinds import load_model
     from hacgear_core.tables import load_system_tables
 
     model = load_model(system)

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hacgear_core.dynamics.build import SpurPairParameters, spur_pair_system
+from hacgear_core.kinds import SpurPairParameters, spur_pair_system
 from hacgear_core.dynamics.simulator import Simulator
 from hacgear_core.dynamics.synthetic import linear_fdf_table
 from hacgear_core.model import resolve_model_path

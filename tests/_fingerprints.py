@@ -14,13 +14,13 @@ from pathlib import Path
 import numpy as np
 
 from hacgear_core.dynamics.synthetic import linear_fdf_table
-from hacgear_core.model import load_model
 from hacgear_core.tables import load_system_tables
 
 try:
-    from hacgear_core.kinds import SpurPairParameters, build_system, spur_pair_system
+    from hacgear_core.kinds import SpurPairParameters, build_system, load_model, spur_pair_system
 except ImportError:   # the layout before the kinds registry (the baseline was recorded with it)
     from hacgear_core.dynamics.build import SpurPairParameters, build_system, spur_pair_system
+    from hacgear_core.model import load_model
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "tests" / "data" / "assembly_fingerprints.json"
@@ -36,6 +36,8 @@ def _digest(arrays) -> str:
             h.update(b"None")
             continue
         a = np.ascontiguousarray(a)
+        if a.dtype.kind == "f":
+            a = a + 0.0   # -0.0 -> 0.0: a table's vector copied entry by entry into the DOFs keeps its values
         h.update(repr((a.dtype.str, a.shape)).encode())
         h.update(a.tobytes())
     return h.hexdigest()[:32]
@@ -67,7 +69,8 @@ def cases():
                     load_model(mp), load_system_tables(mp), force_law=law, bearing_stiffness_N_per_m=kt)))
         out.append((f"{name}/free", lambda mp=mp: build_system(load_model(mp), load_system_tables(mp), shafts=False)))
     mp = ROOT / "models" / "spur_28t_asym"
-    out.append(("spur_28t_asym/coast", lambda: build_system(load_model(mp), load_system_tables(mp), torque_Nm=-100.0)))
+    out.append(("spur_28t_asym/coast", lambda mp=mp: build_system(load_model(mp), load_system_tables(mp),
+                                                                  torque_Nm=-100.0)))
     for name in PLANETARY:
         mp = ROOT / "models" / name
         for law in FORCE_LAWS:
@@ -84,12 +87,13 @@ def cases():
         out.append((f"planetary_lumped/N={n}", lambda n=n: build_system(load_model(ex), None, planet_count=n)))
     mp = ROOT / "models" / "helical_28_33"
     for kt in (None, math.inf):
-        out.append((f"helical_28_33/k={kt}", lambda kt=kt: build_system(load_model(mp), load_system_tables(mp),
-                                                                         bearing_stiffness_N_per_m=kt)))
-    out.append(("helical_28_33/free", lambda: build_system(load_model(mp), load_system_tables(mp), shafts=False)))
-    out.append(("helical_28_33/coast", lambda: build_system(load_model(mp), load_system_tables(mp), torque_Nm=-200.0)))
+        out.append((f"helical_28_33/k={kt}", lambda kt=kt, mp=mp: build_system(
+            load_model(mp), load_system_tables(mp), bearing_stiffness_N_per_m=kt)))
+    out.append(("helical_28_33/free", lambda mp=mp: build_system(load_model(mp), load_system_tables(mp), shafts=False)))
+    out.append(("helical_28_33/coast", lambda mp=mp: build_system(load_model(mp), load_system_tables(mp),
+                                                                  torque_Nm=-200.0)))
 
-    def drive_only():
+    def drive_only(mp=mp):
         tabs = load_system_tables(mp)
         return build_system(load_model(mp), {k: replace(t, coast=None) for k, t in tabs.meshes.items()})
     out.append(("helical_28_33/drive_only", drive_only))

@@ -35,7 +35,7 @@ def _signature(pkg: str):
     import numpy as np
 
     synthetic = importlib.import_module(f"{pkg}.dynamics.synthetic")
-    build = importlib.import_module(f"{pkg}.dynamics.build")
+    build = importlib.import_module(f"{pkg}.kinds")
     tab = synthetic.spur_fdf_table()
     sy = build.spur_pair_system(synthetic.synthetic_28t_parameters(tab), tab)
     got = []

@@ -252,8 +252,8 @@ REVERSED_KINDS = ["spur_28t_asym", "idler_28_33_39", "planetary_65_55_175", "hel
 
 def _reversed_system(system):
     """(model, two-sided tables or None, the library's system at the reversed model torque)."""
-    from hacgear_core.dynamics.build import build_system
-    from hacgear_core.model import load_model
+    from hacgear_core.kinds import build_system
+    from hacgear_core.kinds import load_model
     from hacgear_core.tables import load_system_tables
 
     model = load_model(system)

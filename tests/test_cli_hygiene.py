@@ -18,11 +18,11 @@ import h5py
 import pytest
 
 from hacgear_core.cli import build_parser, main
-from hacgear_core.dynamics.build import structural_parameters
+from hacgear_core.kinds import structural_parameters
 from hacgear_core.errors import ModelError
 from hacgear_core.fmu.adapter import make_adapter
 from hacgear_core.fmu.build import _fmt
-from hacgear_core.model import load_model, parse_model
+from hacgear_core.kinds import load_model, parse_model
 from hacgear_core.model.schema import RANGES, Support
 
 ROOT = Path(__file__).resolve().parent.parent

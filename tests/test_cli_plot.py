@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 
 from hacgear_core.cli import main
-from hacgear_core.dynamics.build import spur_pair_system
+from hacgear_core.kinds import spur_pair_system
 from hacgear_core.dynamics.sweep import SweepSpec, run_sweep
 from hacgear_core.dynamics.synthetic import softening_example
 
@@ -112,7 +112,7 @@ def test_table_figures_read_well():
 
 
 def test_geometry_figure_reads_well_and_equal_gears_stay_visible():
-    from hacgear_core.model import load_model
+    from hacgear_core.kinds import load_model
     from hacgear_core.plots.geometry import mesh_geometry_figure
 
     fig = mesh_geometry_figure(load_model("spur_28t_asym"), None)

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from hacgear_core.geometry import mesh_geometry
-from hacgear_core.model import load_model
+from hacgear_core.kinds import load_model
 from hacgear_core.statics import (
     ContactOptions,
     MeshStaticSolver,

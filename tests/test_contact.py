@@ -26,7 +26,7 @@ from hacgear_core.statics import (
 )
 from hacgear_core.errors import ModelError, SolverError
 from hacgear_core.geometry import mesh_geometry
-from hacgear_core.model import load_model
+from hacgear_core.kinds import load_model
 from hacgear_core.statics.nearfield import hertz_line_contact
 
 TORQUE = 300.0

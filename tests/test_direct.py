@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from hacgear_core.studies import direct as D
-from hacgear_core.dynamics.build import build_system
+from hacgear_core.kinds import build_system
 from hacgear_core.studies.direct_compare import compare_at_speed, hac_root_strain, loaded_gauge
 from hacgear_core.dynamics.steady import steady_state
 from hacgear_core.errors import ModelError
-from hacgear_core.model import load_model
+from hacgear_core.kinds import load_model
 from hacgear_core.tables import load_system_tables
 
 MODELS = Path(__file__).resolve().parent.parent / "models"

@@ -5,11 +5,11 @@ import numpy as np
 import pytest
 
 from _dyn import K, params, system
-from hacgear_core.dynamics.build import build_system
+from hacgear_core.kinds import build_system
 from hacgear_core.dynamics.equilibrium import load_sharing, static_equilibrium, static_state
 from hacgear_core.dynamics.synthetic import linear_fdf_table
 from hacgear_core.errors import ModelError
-from hacgear_core.model import load_model
+from hacgear_core.kinds import load_model
 from hacgear_core.tables import load_system_tables
 
 

@@ -429,7 +429,7 @@ def test_reciprocity_between_teeth(flank):
 
 def _real_gear(system="spur_28t_asym", index=0):
     geometry = pytest.importorskip("hacgear_core.geometry")
-    from hacgear_core.model import load_model
+    from hacgear_core.kinds import load_model
 
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     model = load_model(os.path.join(root, "models", system, "model.toml"))
@@ -657,7 +657,7 @@ def test_web_at_full_thickness_equals_solid_blank():
 def _model_with_web(thickness_mm, inner_mm=60.0, outer_mm=110.0):
     from pathlib import Path
 
-    from hacgear_core.model import parse_model
+    from hacgear_core.kinds import parse_model
 
     root = Path(__file__).resolve().parent.parent
     text = (root / "models" / "spur_28t_asym" / "model.toml").read_text()

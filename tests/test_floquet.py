@@ -12,12 +12,12 @@ import scipy.linalg as sl
 from scipy.integrate import solve_ivp
 
 from _dyn import K, fn_rot, params, system
-from hacgear_core.dynamics.build import build_system
+from hacgear_core.kinds import build_system
 from hacgear_core.dynamics.floquet import floquet
 from hacgear_core.dynamics.steady import SteadyStateOptions, steady_state
 from hacgear_core.dynamics.synthetic import linear_fdf_table
 from hacgear_core.errors import ModelError
-from hacgear_core.model import load_model
+from hacgear_core.kinds import load_model
 
 ROOT = Path(__file__).resolve().parent.parent
 ZETA = 0.02

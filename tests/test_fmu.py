@@ -26,7 +26,7 @@ from fmpy.fmi3 import FMU3Slave  # noqa: E402
 
 import hacgear_core.fmu as hf  # noqa: E402
 from _bench import assert_final_hold, assert_reversed_torque_run  # noqa: E402
-from hacgear_core.dynamics.build import build_system  # noqa: E402
+from hacgear_core.kinds import build_system  # noqa: E402
 from hacgear_core.dynamics.simulator import Simulator  # noqa: E402
 from hacgear_core.errors import HacgearError  # noqa: E402
 from hacgear_core.fmu import bootstrap  # noqa: E402
@@ -34,7 +34,7 @@ from hacgear_core.fmu.adapter import variables_for  # noqa: E402
 from hacgear_core.fmu.bench import BenchConfig, run_drivetrain_bench  # noqa: E402
 from hacgear_core.fmu.slave import DISCARD, ERROR, OK, FmuInstance  # noqa: E402
 from hacgear_core.fmu.spec import readme_with_variables, variables_table  # noqa: E402
-from hacgear_core.model import load_model  # noqa: E402
+from hacgear_core.kinds import load_model  # noqa: E402
 from hacgear_core.model.toml import shipped_systems_dir  # noqa: E402
 from hacgear_core.tables import read_tables  # noqa: E402
 

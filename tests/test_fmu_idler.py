@@ -10,11 +10,12 @@ import pytest
 fmpy = pytest.importorskip("fmpy")
 
 from _bench import assert_final_hold  # noqa: E402
-from hacgear_core.dynamics.build import build_system  # noqa: E402
+from hacgear_core.kinds import build_system  # noqa: E402
 from hacgear_core.dynamics.simulator import Simulator  # noqa: E402
 from hacgear_core.fmu import build_fmu, variables_for  # noqa: E402
 from hacgear_core.fmu.bench import BenchConfig, run_drivetrain_bench  # noqa: E402
-from hacgear_core.model import load_model, resolve_model_path  # noqa: E402
+from hacgear_core.model import resolve_model_path  # noqa: E402
+from hacgear_core.kinds import load_model  # noqa: E402
 from hacgear_core.tables import load_system_tables  # noqa: E402
 
 SYSTEM = "idler_28_33_39"

@@ -13,10 +13,10 @@ fmpy = pytest.importorskip("fmpy")
 
 import hacgear_core.fmu as hf  # noqa: E402
 from _bench import assert_final_hold, assert_reversed_torque_run  # noqa: E402
-from hacgear_core.dynamics.build import build_system  # noqa: E402
+from hacgear_core.kinds import build_system  # noqa: E402
 from hacgear_core.dynamics.simulator import Simulator  # noqa: E402
 from hacgear_core.fmu.bench import BenchConfig, run_drivetrain_bench  # noqa: E402
-from hacgear_core.model import load_model  # noqa: E402
+from hacgear_core.kinds import load_model  # noqa: E402
 from hacgear_core.tables import read_tables  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent

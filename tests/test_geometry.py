@@ -14,7 +14,8 @@ from hacgear_core.geometry import (
     model_geometry,
     zero_backlash_center_distance,
 )
-from hacgear_core.model import Flank, Gear, Material, load_model
+from hacgear_core.model import Flank, Gear, Material
+from hacgear_core.kinds import load_model
 
 STEEL = Material("steel", 7850.0, 2.0e11, 0.3)
 

@@ -19,7 +19,7 @@ import pytest
 
 from hacgear_core.errors import ModelError
 from hacgear_core.geometry import gear_geometry, mesh_geometry
-from hacgear_core.model import load_model
+from hacgear_core.kinds import load_model
 from hacgear_core.statics import ContactOptions, make_mesh_solver, mesh_stiffness_curve, model_variant
 from hacgear_core.statics.helical import make_helical_solver
 

@@ -1,4 +1,4 @@
-"""Tests of the 12-DOF helical pair dynamics (hacgear_core.dynamics.build.helical, the kernel's LAW_TWIST loop).
+"""Tests of the 12-DOF helical pair dynamics (hacgear_core.kinds.helical_pair, the kernel's LAW_TWIST loop).
 
 Physics asserted: with helix angle 0 and stiff tilting supports the 12-DOF model has the spur pair's natural
 frequencies (0.5 %); the compiled kernel's generalized mesh force W r_mesh + M r_twist (trilinear lookup) settles
@@ -16,16 +16,16 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from hacgear_core.dynamics.build import build_system, helical_from_model
-from hacgear_core.dynamics.build.helical import coast_vectors, tilting_inertia_kgm2
-from hacgear_core.dynamics.build.train import SpurPairParameters, spur_pair_system
+from hacgear_core.kinds import build_system, helical_from_model
+from hacgear_core.kinds.helical_pair import coast_vectors, tilting_inertia_kgm2
+from hacgear_core.kinds import SpurPairParameters, spur_pair_system
 from hacgear_core.dynamics.equilibrium import static_equilibrium
 from hacgear_core.dynamics.simulator import Simulator, strain_of_tooth
 from hacgear_core.dynamics.sweep import SweepSpec, run_sweep
 from hacgear_core.encodings import ContactState
 from hacgear_core.errors import ModelError
 from hacgear_core.geometry import gear_geometry, mesh_geometry
-from hacgear_core.model import load_model
+from hacgear_core.kinds import load_model
 from hacgear_core.statics import ContactOptions
 from hacgear_core.statics.helical import make_helical_solver
 from hacgear_core.tables import load_system_tables

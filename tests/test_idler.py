@@ -7,14 +7,14 @@ import numpy as np
 import pytest
 
 from _dyn import params
-from hacgear_core.dynamics.build import TrainGear, TrainMesh, assemble_train, build_system, spur_pair_system
+from hacgear_core.kinds import TrainGear, TrainMesh, assemble, build_system, fixed_axis_train, spur_pair_system
 from hacgear_core.dynamics.equilibrium import static_state
 from hacgear_core.dynamics.modes import modal_analysis
 from hacgear_core.dynamics.simulator import Simulator, strain_of_tooth
 from hacgear_core.dynamics.steady import steady_state
 from hacgear_core.dynamics.sweep import SweepSpec, run_sweep
 from hacgear_core.dynamics.synthetic import linear_fdf_table, spur_fdf_table
-from hacgear_core.model import load_model
+from hacgear_core.kinds import load_model
 from hacgear_core.tables import load_system_tables
 
 
@@ -77,8 +77,8 @@ def test_chain_with_a_decoupled_third_gear_reproduces_the_spur_pair():
              TrainGear("gear3", 28, 1.0, 0.01)]
     meshes = [TrainMesh("m12", "gear1", "gear2", tab, (0.0, 1.0), (rb1, -rb2), 0.0, f2, {}),
               TrainMesh("m23", "gear2", "gear3", weak, (0.0, -1.0), (-rb2, rb2), 0.3, f2, {})]
-    chain = assemble_train("chain", "idler_chain", gears, meshes, torque_Nm=p.torque_Nm, input_gear="gear1",
-                           modal_damping_ratio=p.modal_damping_ratio)
+    chain = assemble(fixed_axis_train("chain", "idler_chain", gears, meshes, torque_Nm=p.torque_Nm,
+                                      input_gear="gear1", modal_damping_ratio=p.modal_damping_ratio))
     assert chain.natural_frequencies_Hz()[-1] == pytest.approx(pair.natural_frequencies_Hz()[0], rel=1e-6)
     for fm in (1500.0, 2600.0):
         a = steady_state(pair, fm)

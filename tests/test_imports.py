@@ -57,8 +57,8 @@ def _graph() -> dict[str, set[str]]:
 
 
 def _room(module: str) -> str:
-    """The subpackage (or top-level module) a module belongs to: ``hacgear_core.dynamics.build.train`` ->
-    ``dynamics``."""
+    """The subpackage (or top-level module) a module belongs to: ``hacgear_core.kinds.planetary`` ->
+    ``kinds``."""
     parts = module.split(".")
     return parts[1] if len(parts) > 1 else PKG
 

@@ -9,7 +9,8 @@ from pathlib import Path
 import pytest
 
 from hacgear_core.errors import ModelError
-from hacgear_core.model import SYSTEM_KINDS, load_model, model_sha256, parse_model
+from hacgear_core.model import SYSTEM_KINDS, model_sha256
+from hacgear_core.kinds import load_model, parse_model
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
 SYSTEMS = ["spur_50t_icr137", "spur_50t_icr18", "spur_28t_asym", "idler_28_33_39", "planetary_65_55_175",

@@ -57,8 +57,8 @@ def test_synthetic_28t_impulse_test_brackets_and_weights():
 def _planetary(n, lumped=False):
     from pathlib import Path
 
-    from hacgear_core.dynamics.build import build_system
-    from hacgear_core.model import load_model
+    from hacgear_core.kinds import build_system
+    from hacgear_core.kinds import load_model
     from hacgear_core.tables import read_tables
 
     if lumped:

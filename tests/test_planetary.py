@@ -1,5 +1,5 @@
 """Planetary sets: placement and phasing in the carrier frame (hacgear_core.geometry.planetary) and the lumped
-system of the builder (hacgear_core.dynamics.build.planetary): kinematics, torque flow, load sharing, pin errors,
+system of the builder (hacgear_core.kinds.planetary): kinematics, torque flow, load sharing, pin errors,
 planet phasing suppression, the lumped (table-free) mode, clear errors."""
 from __future__ import annotations
 
@@ -10,13 +10,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hacgear_core.dynamics.build import build_system, planetary_from_model
+from hacgear_core.kinds import build_system, planetary_from_model
 from hacgear_core.dynamics.equilibrium import load_sharing, static_equilibrium
 from hacgear_core.dynamics.simulator import Simulator, system_gauges
 from hacgear_core.dynamics.steady import SteadyStateOptions, steady_state
 from hacgear_core.errors import GeometryError, ModelError
 from hacgear_core.geometry.planetary import planet_positions, planetary_geometry, planetary_torques
-from hacgear_core.model import load_model, parse_model
+from hacgear_core.kinds import load_model, parse_model
 from hacgear_core.tables import read_tables
 
 ROOT = Path(__file__).resolve().parent.parent

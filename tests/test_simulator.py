@@ -5,14 +5,14 @@ import numpy as np
 import pytest
 
 from _dyn import K, params, simulator
-from hacgear_core.dynamics.build import build_system
+from hacgear_core.kinds import build_system
 from hacgear_core.dynamics.equilibrium import static_equilibrium
 from hacgear_core.dynamics.simulator import (Simulator, gauge_passage, passage_cycles, passage_window,
                                              static_gauge_passage, strain_of_tooth, system_gauges)
 from hacgear_core.dynamics.synthetic import linear_fdf_table, spur_fdf_table, synthetic_28t_parameters
 from hacgear_core.encodings import Experiment
 from hacgear_core.errors import ModelError
-from hacgear_core.model import load_model
+from hacgear_core.kinds import load_model
 from hacgear_core.tables import load_system_tables
 
 

@@ -144,7 +144,7 @@ def test_bad_parameters_name_the_field():
 
 
 def test_from_model_matches_preset():
-    from hacgear_core.model import load_model
+    from hacgear_core.kinds import load_model
 
     a = AnalyticPairSolver.from_model(load_model(MODEL), "m12")
     b = AnalyticPairSolver.spur_28t()
@@ -494,7 +494,7 @@ def test_committed_tables_agree_with_a_coarse_regeneration(tmp_path, system):
     static deflection per (position, load) and NLMD exactly at shared positions (same loads), the FDF at the
     committed (position, deflection) nodes by interpolation of the coarse deflection grid."""
     pytest.importorskip("hacgear_core.statics.contact")
-    from hacgear_core.model import load_model
+    from hacgear_core.kinds import load_model
     from hacgear_core.tables import load_system_tables, read_tables
 
     root = Path(__file__).resolve().parent.parent / "models" / system

@@ -16,7 +16,8 @@ import pytest
 
 from hacgear_core.errors import GeometryError, ModelError
 from hacgear_core.geometry.gear import gear_geometry
-from hacgear_core.model import load_model, shipped_systems, resolve_model_path
+from hacgear_core.model import shipped_systems, resolve_model_path
+from hacgear_core.kinds import load_model
 from hacgear_core.model.toml_writer import dumps as dump_toml
 from hacgear_core.studies import apply_key, load_study, parse_study, read_study, run_study
 from hacgear_core.studies.design import variant_model_text

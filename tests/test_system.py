@@ -8,12 +8,13 @@ import numpy as np
 import pytest
 
 from _dyn import K, RB, params, system
-from hacgear_core.dynamics.build import build_system
+from hacgear_core.kinds import build_system
 from hacgear_core.dynamics.modes import modal_analysis
 from hacgear_core.dynamics.synthetic import linear_fdf_table, spur_fdf_table, synthetic_28t_parameters
 from hacgear_core.errors import ModelError
 from hacgear_core.geometry import gear_geometry
-from hacgear_core.model import Web, load_model
+from hacgear_core.model import Web
+from hacgear_core.kinds import load_model
 from hacgear_core.tables import load_system_tables
 
 
@@ -103,7 +104,7 @@ def test_torque_change_scales_the_nominal_forces():
 def test_shafts_do_not_load_the_bearings_twice():
     """Constant-speed experiment with a shaft on the driven gear and elastic bearings: the static bearing deflection
     is the mesh force over the bearing stiffness (the shaft preload acts on the rotations only)."""
-    from hacgear_core.dynamics.build import spur_pair_system
+    from hacgear_core.kinds import spur_pair_system
     from hacgear_core.dynamics.equilibrium import static_equilibrium
     from hacgear_core.dynamics.synthetic import linear_fdf_table, synthetic_28t_parameters
 

@@ -14,7 +14,7 @@ import pytest
 
 from hacgear_core.errors import TableError
 from hacgear_core.statics import AnalyticFactory, compute_statics, load_grid, run_statics
-from hacgear_core.model import load_model
+from hacgear_core.kinds import load_model
 from hacgear_core.statics.helical import make_helical_solver
 from hacgear_core.tables.fdf import generalized_stiffness
 from hacgear_core.tables.interp import bilinear_many
@@ -461,7 +461,7 @@ def test_meshtable_validation_names_the_field(table):
 # ----------------------------------------------------------------------------------------------
 def test_coast_subgroup_layout_and_attributes(model_run):
     from hacgear_core.geometry import mesh_geometry
-    from hacgear_core.model import load_model
+    from hacgear_core.kinds import load_model
 
     model, tables = model_run
     mg = mesh_geometry(load_model(model), "m12")

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from hacgear_core.geometry import gear_geometry, mesh_geometry, nominal_mesh_forces, train_geometry
-from hacgear_core.model import load_model
+from hacgear_core.kinds import load_model
 
 
 def _distance_to_polyline(p: np.ndarray, poly: np.ndarray) -> float:

@@ -63,7 +63,7 @@ def test_28t_blank_bore_trend_stiffness_mass_and_frequency():
 
     from hacgear_core.statics.studies import mesh_stiffness_report
     from hacgear_core.geometry import gear_geometry
-    from hacgear_core.model import load_model
+    from hacgear_core.kinds import load_model
 
     base = load_model("spur_28t_asym")
     out = {}

@@ -29,7 +29,7 @@ from hacgear_core.dynamics.kernels import COMPILE_CPU_S
 from hacgear_core.encodings import ContactState
 from hacgear_core.fmu import build_fmu
 from hacgear_core.fmu.bench import BenchConfig, plot_bench, run_drivetrain_bench
-from hacgear_core.model import load_model
+from hacgear_core.kinds import load_model
 from hacgear_core.outpaths import check_out_dir
 
 __all__ = ["register", "run"]

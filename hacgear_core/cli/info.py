@@ -21,7 +21,7 @@ from typing import Any
 from hacgear_core.errors import GeometryError, ModelError
 from hacgear_core.geometry import SIDES, model_geometry, nominal_mesh_forces, train_geometry
 from hacgear_core.jsonio import json_safe
-from hacgear_core.model import load_model
+from hacgear_core.kinds import load_model
 
 __all__ = ["register", "run", "info_dict"]
 

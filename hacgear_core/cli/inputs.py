@@ -3,7 +3,7 @@
 Accepted forms:
 
 ``models/<system>/model.toml``, its folder, or a shipped system name
-    the model file and its ``tables.h5`` (hash-checked), built by :func:`~hacgear_core.dynamics.build.build_system`;
+    the model file and its ``tables.h5`` (hash-checked), built by :func:`~hacgear_core.kinds.build_system`;
 ``path/to/tables.h5``
     a tables file; the model file recorded in it (``model_file`` attribute, looked up next to the tables file);
 ``synthetic:28t[,key=value...]``
@@ -17,11 +17,11 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from hacgear_core.dynamics.build import build_system, spur_pair_system
+from hacgear_core.kinds import build_system, spur_pair_system
 from hacgear_core.dynamics.synthetic import spur_fdf_table, synthetic_28t_parameters
 from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import ModelError
-from hacgear_core.model import load_model
+from hacgear_core.kinds import load_model
 from hacgear_core.tables import load_system_tables, read_tables
 
 __all__ = ["DynamicsInputs", "load_inputs"]

@@ -8,7 +8,7 @@ import math
 from typing import Any
 
 from hacgear_core.errors import ModelError
-from hacgear_core.model import load_model
+from hacgear_core.kinds import load_model
 from hacgear_core.outpaths import check_out_path
 from hacgear_core.plots.geometry import plot_mesh_geometry
 

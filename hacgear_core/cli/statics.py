@@ -14,7 +14,8 @@ import numpy as np
 from hacgear_core.cli._options import check_option, given
 from hacgear_core.errors import ModelError, TableError
 from hacgear_core.jsonio import dumps
-from hacgear_core.model import load_model, resolve_model_path
+from hacgear_core.model import resolve_model_path
+from hacgear_core.kinds import load_model
 from hacgear_core.outpaths import check_out_path
 from hacgear_core.statics import DEFAULT_DEFLECTION_MARGIN, compute_statics, nominal_mesh_forces
 from hacgear_core.tables import file_integrity, read_tables

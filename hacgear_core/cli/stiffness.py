@@ -18,7 +18,7 @@ from tqdm import tqdm
 
 from hacgear_core.cli._options import check_option
 from hacgear_core.jsonio import dumps
-from hacgear_core.model import load_model
+from hacgear_core.kinds import load_model
 from hacgear_core.statics.studies import mesh_stiffness_report, model_variant
 
 __all__ = ["register", "run"]

@@ -1,8 +1,8 @@
 """Lumped-parameter gear dynamics with mesh forces from force-deflection tables (HAC method), one core for every
 gear system.
 
-:mod:`.system` (bodies, supports, mesh couplings → matrices), :mod:`.build` (model → system, one builder per
-kind), :mod:`.force_laws` (HAC and conventional laws), :mod:`.kernels` (the compiled RK4 loop shared with the
+:mod:`.system` (the assembled arrays of a lumped system; :mod:`hacgear_core.kinds` builds them from a model, one
+kind each), :mod:`.parameters` (lumped spur-pair parameters), :mod:`.force_laws` (HAC and conventional laws), :mod:`.kernels` (the compiled RK4 loop shared with the
 FMUs), :mod:`.simulator` (time stepping, both experiments), :mod:`.equilibrium` (static equilibrium),
 :mod:`.steady` (steady-state detection and response metrics), :mod:`.floquet` (stability of periodic orbits),
 :mod:`.sweep` (speed sweeps, jumps, resumable output), :mod:`.modes` (modal analysis, impulse test),
@@ -12,7 +12,6 @@ in :mod:`hacgear_core.cli.inputs`; the direct contact models HAC is checked agai
 """
 from __future__ import annotations
 
-from hacgear_core.dynamics.build import SpurPairParameters, build_system, spur_pair_system
 from hacgear_core.dynamics.equilibrium import EquilibriumResult, static_equilibrium, static_state
 from hacgear_core.dynamics.floquet import FloquetResult, floquet
 from hacgear_core.dynamics.force_laws import FORCE_LAWS, ForceLaw, make_force_law
@@ -23,6 +22,7 @@ from hacgear_core.dynamics.modes import (
     impulse_test,
     modal_analysis,
 )
+from hacgear_core.dynamics.parameters import SpurPairParameters
 from hacgear_core.dynamics.simulator import (GaugePassage, Simulator, StepResult, gauge_passage,
                                              static_gauge_passage, strain_of_tooth)
 from hacgear_core.dynamics.steady import SteadyStateOptions, SteadyStateResult, steady_state
@@ -35,9 +35,7 @@ __all__ = [
     "LumpedSystem",
     "GearBody",
     "MeshCoupling",
-    "build_system",
     "SpurPairParameters",
-    "spur_pair_system",
     "FORCE_LAWS",
     "ForceLaw",
     "make_force_law",

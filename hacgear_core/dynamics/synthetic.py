@@ -25,7 +25,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from hacgear_core.dynamics.build import SpurPairParameters
+from hacgear_core.dynamics.parameters import SpurPairParameters
 from hacgear_core.tables import MeshTable
 from hacgear_core.tables.interp import deflection_at_force
 
@@ -236,7 +236,7 @@ def disk_mass_inertia(density_kg_per_m3: float, face_width_m: float, tip_diamete
 
 def synthetic_28t_parameters(table, *, bearing_stiffness_N_per_m: float = math.inf,
                              modal_damping_ratio: float = 0.02, torque_Nm: float = 300.0):
-    """:class:`~hacgear_core.dynamics.build.SpurPairParameters` of the dissertation's 28-tooth pair
+    """:class:`~hacgear_core.dynamics.parameters.SpurPairParameters` of the dissertation's 28-tooth pair
     (steel 7850 kg/m^3, face 15 mm, tip 149.9 mm, root 126.4 mm, bore 40 mm) on ``table``."""
     m, j = disk_mass_inertia(7850.0, 15e-3, 149.9e-3, 126.4e-3, 40e-3)
     return SpurPairParameters(

@@ -157,7 +157,7 @@ def _sym_eig(k: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 class LumpedSystem:
-    """An assembled lumped gear system (any kind).  Built by the builders of :mod:`hacgear_core.dynamics.build`.
+    """An assembled lumped gear system (any kind).  Assembled from a kind's train description by :func:`hacgear_core.kinds.assembly.assemble`.
 
     Parameters
     ----------

@@ -19,7 +19,7 @@ Angles, speeds and shaft torques are positive in each gear's operating sense of 
 is negative.  Either sign of torque and any motion are allowed: every mesh has its drive and coast flanks, with the
 backlash between them (``<mesh>.contact``, ``<mesh>.coast_force``, ``<mesh>.backlash_position``).
 
-Structural parameters (the planet count of a planetary set, :func:`~hacgear_core.dynamics.build.
+Structural parameters (the planet count of a planetary set, :func:`~hacgear_core.kinds.
 structural_parameters`) are fixed Integer parameters; the outputs are declared for the largest structure and the
 meshes and gears the chosen one does not have read 0.
 """
@@ -35,13 +35,13 @@ from typing import Callable
 
 import numpy as np
 
-from hacgear_core.dynamics.build import build_system, structural_parameters
+from hacgear_core.kinds import build_system, structural_parameters
 from hacgear_core.dynamics.simulator import Simulator, strain_of_tooth, system_gauges
 from hacgear_core.encodings import ContactState, Experiment
 from hacgear_core.errors import HacgearError, ModelError
 from hacgear_core.fmu.spec import FmuVariable, Reading, ident, output_expressions, output_getters, ranged
 from hacgear_core.model.schema import RANGES
-from hacgear_core.model import load_model
+from hacgear_core.kinds import load_model
 from hacgear_core.tables import read_tables
 
 __all__ = ["MODEL_FILE", "TABLES_FILE", "Adapter", "make_adapter", "variables_for"]

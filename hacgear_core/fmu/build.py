@@ -50,7 +50,8 @@ from hacgear_core.fmu.numba_cache import MANIFEST_FILE, SHIPPED_DIR, machine
 from hacgear_core.fmu.pythonfmu_backend import BACKENDS, build_pythonfmu
 from hacgear_core.fmu.slave import FMU_INFO_FILE, value_references
 from hacgear_core.fmu.spec import DISPLAY_UNITS, ENUMERATIONS, TIME, UNITS
-from hacgear_core.model import load_model, model_sha256
+from hacgear_core.model import model_sha256
+from hacgear_core.kinds import load_model
 from hacgear_core.tables import SystemTables, write_tables
 
 __all__ = ["build_fmu", "build_component_fmu", "model_description", "bundle_package", "compile_binary", "synthetic_system_folder",

@@ -232,6 +232,8 @@ class Kind:
     def check(self, model: Any) -> None:
         """Refuse a model of this kind that the kind cannot build (mesh count, helix, section, members); raises
         ModelError naming the key."""
+        if model.planetary is not None and self.section != "planetary":
+            raise ModelError(f"[planetary] is only allowed for kind 'planetary', not '{self.name}'")
         if self.mesh_count is not None and len(model.meshes) != self.mesh_count:
             raise ModelError(f"system.kind = '{self.name}' needs exactly {self.mesh_count} [[meshes]], found "
                              f"{len(model.meshes)}")
@@ -253,8 +255,9 @@ class Kind:
         """The pairs that mesh, one table each (default: the model's meshes)."""
         return tuple(MeshPair(m.name, m.gear_a, m.gear_b) for m in model.meshes)
 
-    def nominal_mesh_forces(self, model: Any, torque_Nm: float) -> dict[str, float]:
-        """{table mesh: nominal force per contact [N]} at ``torque_Nm`` on the torque gear."""
+    def nominal_mesh_forces(self, model: Any, base_radii: Mapping[str, tuple[float, float]]) -> dict[str, float]:
+        """{table mesh: nominal force per contact [N]} at the model's operating torque, ``base_radii[mesh]`` the
+        loaded flanks' base radii (r_b of gear_a, r_b of gear_b) [m]."""
         raise NotImplementedError
 
     # ------------------------------------------------------------------ dynamics

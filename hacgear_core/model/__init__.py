@@ -6,7 +6,6 @@ from __future__ import annotations
 from hacgear_core.model.schema import (
     FLANKS,
     RELIEF_SHAPES,
-    SYSTEM_KINDS,
     WEB_MIN_RIM_M,
     Damping,
     Flank,
@@ -22,7 +21,7 @@ from hacgear_core.model.schema import (
     Web,
 )
 from hacgear_core.model.toml import (
-    load_model,
+    read_model,
     model_sha256,
     parse_model,
     resolve_model_path,
@@ -31,7 +30,6 @@ from hacgear_core.model.toml import (
 )
 
 __all__ = [
-    "SYSTEM_KINDS",
     "FLANKS",
     "RELIEF_SHAPES",
     "WEB_MIN_RIM_M",
@@ -47,7 +45,7 @@ __all__ = [
     "StaticsGrid",
     "Planetary",
     "Model",
-    "load_model",
+    "read_model",
     "parse_model",
     "model_sha256",
     "resolve_model_path",

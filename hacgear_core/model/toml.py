@@ -100,11 +100,11 @@ from typing import Any, Callable
 
 from hacgear_core.errors import ModelError
 from hacgear_core.model.schema import (
-    FLANKS, PLANETARY_MEMBERS, RELIEF_SHAPES, SYSTEM_KINDS, WEB_MIN_RIM_M, Damping, Flank, Gauge, Gear, LumpedGear,
+    FLANKS, PLANETARY_MEMBERS, RELIEF_SHAPES, WEB_MIN_RIM_M, Damping, Flank, Gauge, Gear, LumpedGear,
     RANGES, Material, Mesh, Model, Operating, PinError, Planetary, StaticsGrid, Support, Web,
 )
 
-__all__ = ["load_model", "parse_model", "model_sha256", "resolve_model_path", "shipped_systems", "shipped_systems_dir",
+__all__ = ["read_model", "parse_model", "model_sha256", "resolve_model_path", "shipped_systems", "shipped_systems_dir",
            "DEFAULT_MEANINGS"]
 
 _INF = math.inf
@@ -488,7 +488,7 @@ def parse_model(text: str, *, file: str = "<model>", path: Path | None = None, s
 
     sys_sec = top.table("system")
     name = sys_sec.string("name")
-    kind = sys_sec.string("kind", SYSTEM_KINDS)
+    kind = sys_sec.string("kind")   # the kinds registry checks the name (hacgear_core.kinds.load_model)
     title = sys_sec.string("title", required=False, default="")
     source = sys_sec.string("source", required=False, default="")
     lumped = sys_sec.boolean("lumped", default=False)
@@ -562,7 +562,7 @@ def parse_model(text: str, *, file: str = "<model>", path: Path | None = None, s
     planetary = None
     if psec is not None:
         planetary = _read_planetary(psec)
-        if kind == "planetary" and planetary.fixed_member in no_support:
+        if planetary.fixed_member in no_support:
             gears = tuple(replace(g, support=Support(_INF, _INF)) if g.name == planetary.fixed_member else g
                           for g in gears)
 
@@ -679,8 +679,9 @@ def resolve_model_path(model: str | Path) -> Path:
                      f"shipped systems: {', '.join(shipped_systems())})")
 
 
-def load_model(model: str | Path) -> Model:
-    """Read and validate a model file (path, folder or system name) → :class:`Model`."""
+def read_model(model: str | Path) -> Model:
+    """Read a model file (path, folder or system name) → :class:`Model`, every section validated but the rules of
+    its kind (:func:`hacgear_core.kinds.load_model` adds them)."""
     path = resolve_model_path(model)
     try:
         data = path.read_bytes()

@@ -10,7 +10,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from hacgear_core.dynamics.build import spur_pair_system  # noqa: E402
+from hacgear_core.kinds import spur_pair_system  # noqa: E402
 from hacgear_core.errors import HacgearError  # noqa: E402
 from hacgear_core.outpaths import check_out_dir  # noqa: E402
 from hacgear_core.plots.sweep import mark_jump  # noqa: E402

@@ -29,7 +29,8 @@ import numpy as np
 from hacgear_core.errors import SolverError
 from hacgear_core.geometry import gear_geometry
 from hacgear_core.geometry.planetary import planetary_geometry
-from hacgear_core.model import Model, load_model
+from hacgear_core.model import Model
+from hacgear_core.kinds import load_model
 from hacgear_core.statics import fe as fe_mod
 from hacgear_core.statics.contact import make_mesh_solver
 

@@ -47,7 +47,8 @@ import numpy as np
 
 from hacgear_core.errors import SolverError
 from hacgear_core.geometry import mesh_geometry
-from hacgear_core.model import Model, load_model
+from hacgear_core.model import Model
+from hacgear_core.kinds import load_model
 from hacgear_core.statics.contact import ContactOptions
 from hacgear_core.statics.contract import MeshStaticSolver, StaticSolution
 from hacgear_core.statics.helical import make_solver, needs_face_resolving_solver

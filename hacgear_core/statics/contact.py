@@ -62,7 +62,8 @@ import numpy as np
 
 from hacgear_core.errors import GeometryError, ModelError, SolverError
 from hacgear_core.geometry import gear_geometry, mesh_geometry
-from hacgear_core.model import Model, load_model
+from hacgear_core.model import Model
+from hacgear_core.kinds import load_model
 from hacgear_core.statics import fe as fe_mod
 from hacgear_core.statics.contract import StaticSolution
 from hacgear_core.statics.lcp import LCPResult, solve_contact_lcp

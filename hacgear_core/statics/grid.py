@@ -54,7 +54,7 @@ from hacgear_core.errors import ModelError, SolverError, TableError
 from hacgear_core.geometry.planetary import planetary_geometry, planetary_torques
 from hacgear_core.geometry.train import nominal_mesh_forces as train_mesh_forces
 from hacgear_core.h5files import check_writable_kind
-from hacgear_core.model import load_model
+from hacgear_core.kinds import load_model
 from hacgear_core.model.provenance import model_values_json, model_values_sha256
 from hacgear_core.statics.coast import CoastSideSolver, coast_mapping, make_coast_solver
 from hacgear_core.statics.contract import MeshInfo, MeshStaticSolver, SolverFactory, StaticSolution, describe_solver

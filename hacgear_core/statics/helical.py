@@ -53,7 +53,8 @@ from typing import Any, Sequence
 import numpy as np
 
 from hacgear_core.errors import ModelError, SolverError
-from hacgear_core.model import Model, load_model
+from hacgear_core.model import Model
+from hacgear_core.kinds import load_model
 from hacgear_core.statics import fe3d
 from hacgear_core.statics.contact import (ContactOptions, ContactState, MeshContactSolver, make_mesh_solver,
                                           mesh_solver_inputs)

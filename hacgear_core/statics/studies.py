@@ -11,7 +11,8 @@ import numpy as np
 
 from hacgear_core.errors import GeometryError, ModelError, SolverError
 from hacgear_core.geometry import gear_geometry, mesh_geometry, nominal_mesh_forces
-from hacgear_core.model import Flank, Gauge, Model, load_model
+from hacgear_core.model import Flank, Gauge, Model
+from hacgear_core.kinds import load_model
 from hacgear_core.statics.contact import ContactOptions, MeshContactSolver, make_mesh_solver
 from hacgear_core.statics.helical import HelicalMeshContactSolver, make_solver
 

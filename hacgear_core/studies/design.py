@@ -52,13 +52,14 @@ import h5py
 import numpy as np
 
 from hacgear_core import __version__
-from hacgear_core.dynamics.build import build_system
+from hacgear_core.kinds import build_system
 from hacgear_core.dynamics.steady import SteadyStateOptions
 from hacgear_core.dynamics.sweep import SweepSpec, run_sweeps
 from hacgear_core.errors import HacgearError, ModelError, TableError
 from hacgear_core.geometry.gear import gear_geometry
 from hacgear_core.h5files import STUDY_FORMAT, check_writable_kind, file_kind
-from hacgear_core.model import load_model, parse_model, resolve_model_path
+from hacgear_core.model import resolve_model_path
+from hacgear_core.kinds import load_model, parse_model
 from hacgear_core.model.provenance import model_values_sha256
 from hacgear_core.response import static_strain_max
 from hacgear_core.statics import compute_statics

@@ -44,7 +44,8 @@ from hacgear_core.dynamics.steady import trace_metrics
 from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import ModelError, SolverError
 from hacgear_core.geometry import gear_geometry
-from hacgear_core.model import Model, load_model
+from hacgear_core.model import Model
+from hacgear_core.kinds import load_model
 from hacgear_core.statics.bodymodes import BodyModeOptions, BodyModes, gear_body_modes
 from hacgear_core.statics.helical import make_solver
 

@@ -26,7 +26,7 @@ import numpy as np
 from hacgear_core import __version__
 from hacgear_core.errors import TableError
 from hacgear_core.h5files import TABLES_FORMAT
-from hacgear_core.model import load_model, model_sha256, resolve_model_path
+from hacgear_core.model import model_sha256, read_model, resolve_model_path
 from hacgear_core.model.provenance import model_values_json, model_values_sha256, values_diff
 from hacgear_core.tables.check import hard_problems
 from hacgear_core.tables.table import MeshTable, SystemTables, TwistTable
@@ -507,7 +507,7 @@ def _provenance_problem(path: Path, attrs: Any, mp: Path) -> str | None:
              "--ignore-model-hash to use it anyway).")
     stored = _attr_str(attrs.get("model_values_sha256", ""))
     if stored:
-        model = load_model(mp)
+        model = read_model(mp)
         if model_values_sha256(model) == stored:
             return None
         diff = values_diff(_attr_str(attrs.get("model_values", "")) or "{}", model_values_json(model))

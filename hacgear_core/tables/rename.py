@@ -17,7 +17,7 @@ from typing import Any, Mapping
 import h5py
 import numpy as np
 
-from hacgear_core.model import load_model, model_sha256
+from hacgear_core.model import model_sha256, read_model
 from hacgear_core.model.provenance import model_values, model_values_json, model_values_sha256, values_diff
 from hacgear_core.errors import TableError
 from hacgear_core.tables.format import seal_file
@@ -88,7 +88,7 @@ def rename_gears(path: str | Path, renames: Mapping[str, str], model: str | Path
         from ``model``'s in anything but the names (each difference named): then nothing is written.
     """
     path, mp = Path(path), Path(model)
-    new_model = load_model(mp)
+    new_model = read_model(mp)
     with h5py.File(path, "r+") as f:
         stored_text = f.attrs.get("model_values", "")
         stored_text = stored_text.decode() if isinstance(stored_text, bytes) else str(stored_text)

@@ -1,4 +1,4 @@
-"""Builder of planetary sets: model (or lumped model) → :class:`LumpedSystem` in the rotating carrier frame.
+"""Planetary sets (kind ``planetary``): model (or lumped model) -> train description in the rotating carrier frame.
 
 Coordinates (dissertation Eq. 4.5b, in the frame rotating with the nominal carrier motion at ``W_c``)::
 
@@ -45,14 +45,15 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from hacgear_core.dynamics.build.train import mesh_table
-from hacgear_core.dynamics.system import GearBody, LumpedSystem, MeshCoupling
-from hacgear_core.errors import ModelError
+from hacgear_core.errors import GeometryError, ModelError
 from hacgear_core.geometry import gear_geometry
 from hacgear_core.geometry.planetary import PlanetaryGeometry, planetary_geometry, planetary_torques
+from hacgear_core.kinds.base import Body, Coupling, Dof, Kind, MeshPair, Spring, StructuralParameter, Support, Train
+from hacgear_core.kinds.fixed_axis import mesh_table
+from hacgear_core.model.schema import RANGES
 from hacgear_core.tables import MeshTable
 
-__all__ = ["planetary_from_model", "constant_stiffness_table", "PLANETARY_DOF_ORDER"]
+__all__ = ["PlanetaryKind", "planetary_from_model", "constant_stiffness_table", "PLANETARY_DOF_ORDER"]
 
 #: order of the central members in q (dissertation Eq. 4.5b)
 PLANETARY_DOF_ORDER = ("carrier", "ring", "sun")
@@ -111,8 +112,8 @@ def _member_properties(model: Any, geo: PlanetaryGeometry, bearing_override: flo
 def planetary_from_model(model: Any, tables: Any = None, *, force_law: str = "hac", torque_Nm: float | None = None,
                          bearing_stiffness_N_per_m: float | None = None, modal_damping_ratio: float | None = None,
                          shafts: bool = True, planet_count: int | None = None,
-                         pin_errors_m: Mapping[int, tuple[float, float]] | None = None) -> LumpedSystem:
-    """The lumped system of a planetary model in the carrier frame (module docstring).
+                         pin_errors_m: Mapping[int, tuple[float, float]] | None = None) -> Train:
+    """The train description of a planetary model in the carrier frame (module docstring).
 
     Parameters
     ----------
@@ -138,8 +139,6 @@ def planetary_from_model(model: Any, tables: Any = None, *, force_law: str = "ha
         Inconsistent model, tables of another model, a member without mass where it has a DOF, a planet with a
         rotational bearing stiffness, loads beyond the tables.
     """
-    if model.kind != "planetary":
-        raise ModelError(f"planetary builder: model kind must be 'planetary', got {model.kind!r}")
     geo = planetary_geometry(model, planet_count)
     mem = geo.members
     n_pl = geo.planet_count
@@ -157,38 +156,33 @@ def planetary_from_model(model: Any, tables: Any = None, *, force_law: str = "ha
                          "allowed: finite > 0 (the planets sit on the carrier through their bearings)")
 
     # ---------------------------------------------------------------- DOFs
-    dofs: list[str] = []
-    trans: dict[str, list[tuple[int, np.ndarray]]] = {}
-    rot: dict[str, int] = {}
-    krot: dict[str, float] = {}
     central = {"carrier": "carrier", "ring": mem.ring, "sun": mem.sun}
+    dofs: dict[str, tuple[Dof, ...]] = {}
+    trans: dict[str, list[tuple[str, np.ndarray]]] = {}
+    krot: dict[str, float] = {}
     for role in PLANETARY_DOF_ORDER:
         name = central[role]
         m, j, kt, kr, _ = props[name]
-        trans[name] = []
         if not (kt >= 0):
             raise ModelError(f"'{name}': translational_stiffness_N_per_m [N/m] must be >= 0 (0 floating, inf rigid), "
                              f"got {kt!r}")
-        if math.isfinite(kt):
-            for lab, d in (("x", (1.0, 0.0)), ("y", (0.0, 1.0))):
-                trans[name].append((len(dofs), np.array(d)))
-                dofs.append(f"{name}.{lab}")
         if not shafts and name != fixed:
             kr = 0.0   # drivetrain coupling: the shafts of the turning members belong to the drivetrain model
-        if not math.isinf(kr):
-            rot[name] = len(dofs)
-            krot[name] = kr
-            dofs.append(f"{name}.theta")
+        tr = [] if math.isinf(kt) else [("x", np.array((1.0, 0.0))), ("y", np.array((0.0, 1.0)))]
+        trans[name] = tr
+        krot[name] = kr
+        dofs[name] = tuple(Dof(lab, m, Support(kt), (float(d[0]), float(d[1]))) for lab, d in tr) \
+            + (Dof("theta", j, Support(kr)),)
     for i, p in enumerate(geo.planets):
         psi = geo.positions_rad[i]
         er = np.array([math.cos(psi), math.sin(psi)])
         et = np.array([-math.sin(psi), math.cos(psi)])
-        trans[p] = [(len(dofs), er), (len(dofs) + 1, et)]
-        dofs += [f"{p}.zeta", f"{p}.eta"]
-        rot[p] = len(dofs)
+        m, j = props[mem.planet][:2]
+        trans[p] = [("zeta", er), ("eta", et)]
         krot[p] = 0.0
-        dofs.append(f"{p}.theta")
-    n = len(dofs)
+        dofs[p] = (Dof("zeta", m, Support(0.0), (float(er[0]), float(er[1]))),
+                   Dof("eta", m, Support(0.0), (float(et[0]), float(et[1]))), Dof("theta", j, Support(0.0)))
+    rot = {b: "theta" for b in dofs if not math.isinf(krot[b])}
     if inp not in rot:
         raise ModelError(f"the input member '{inp}' has no rotation DOF (rotational_stiffness inf: held or "
                          "prescribed); the input member must turn (rotational stiffness 0 or finite)")
@@ -196,71 +190,37 @@ def planetary_from_model(model: Any, tables: Any = None, *, force_law: str = "ha
     def props_of(body):
         return props[mem.planet] if body in geo.planets else props[body]
 
-    # ---------------------------------------------------------------- M, K, G, K_W
-    M = np.zeros((n, n))
-    K = np.zeros((n, n))
-    G = np.zeros((n, n))
-    KW = np.zeros((n, n))
+    # ---------------------------------------------------------------- G, K_W, planet bearings
+    gyro, centri = [], []
     for body in list(central.values()) + list(geo.planets):
-        m, j, kt, _, _ = props_of(body)
-        tr = trans.get(body, [])
-        for i_, _d in tr:
-            M[i_, i_] = m
-            KW[i_, i_] = m
-            if body not in geo.planets:
-                K[i_, i_] += kt
+        m = props_of(body)[0]
+        tr = trans[body]
+        for lab, _d in tr:
+            centri.append(((body, lab), (body, lab), m))
         if len(tr) == 2:
-            (ix, _), (iy, _) = tr
-            G[ix, iy] = -2.0 * m
-            G[iy, ix] = 2.0 * m
-        if body in rot:
-            M[rot[body], rot[body]] = j
-            K[rot[body], rot[body]] += krot[body]
+            (lx, _), (ly, _) = tr
+            gyro += [((body, lx), (body, ly), -2.0 * m), ((body, ly), (body, lx), 2.0 * m)]
     rc = geo.carrier_radius_m
     if "carrier" in rot:
-        KW[rot["carrier"], rot["carrier"]] -= n_pl * props[mem.planet][0] * rc * rc
-    bad = [dofs[i] for i in range(n) if not M[i, i] > 0]
-    if bad:
-        raise ModelError(f"{model.name}: masses and inertias must be > 0 (kg, kg*m^2) where a member has DOFs; zero "
-                         f"for {bad} (give mass_kg / inertia_kgm2, or carrier_mass_kg / carrier_inertia_kgm2)")
+        centri.append((("carrier", "theta"), ("carrier", "theta"), -(n_pl * props[mem.planet][0] * rc * rc)))
     errors = {e.planet: (e.radial_m, e.tangential_m) for e in model.planetary.pin_errors} \
         if pin_errors_m is None else {int(k): tuple(v) for k, v in pin_errors_m.items()}
     for k in errors:
         if not 1 <= k <= n_pl:
             raise ModelError(f"pin error of planet {k}: allowed planets 1..{n_pl}")
-    fstat = np.zeros(n)
-    bmaps: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-    carrier_a = np.zeros((2, n))
-    carrier_b = np.zeros(2)
+    springs = []
     for i, p in enumerate(geo.planets):
-        (iz, er), (ie, et) = trans[p]
-        B = np.zeros((2, n))
-        B[0, iz] = 1.0
-        B[1, ie] = 1.0
-        for ic, d in trans["carrier"]:
-            B[0, ic] -= float(d @ er)
-            B[1, ic] -= float(d @ et)
-        if "carrier" in rot:
-            B[1, rot["carrier"]] -= rc
-        K += kp * B.T @ B
-        e = np.asarray(errors.get(i + 1, (0.0, 0.0)), float)
-        fstat += kp * B.T @ e
-        # the planet's force on its pin, in the carrier frame's (x, y)
-        R = np.column_stack([er, et])
-        a_p, b_p = kp * R @ B, -kp * R @ e
-        cf = props[mem.planet][0] * rc * er        # centrifugal load per unit W_c^2
-        bmaps[p] = (a_p, b_p, cf)
-        carrier_a += a_p
-        carrier_b += b_p
-    for body in central.values():
-        m, j, kt, _, _ = props_of(body)
-        if trans[body]:
-            a = np.zeros((2, n))
-            for i_, d in trans[body]:
-                a[:, i_] += kt * d
-            bmaps[body] = (a, np.zeros(2), np.zeros(2))
-    if not trans["carrier"]:
-        bmaps["carrier"] = (carrier_a, carrier_b, np.zeros(2))   # the planets' centrifugal loads cancel
+        (lz, er), (le, et) = trans[p]
+        rows = [[((p, lz), 1.0)], [((p, le), 1.0)]]
+        for lab, d in trans["carrier"]:
+            rows[0].append((("carrier", lab), -float(d @ er)))
+            rows[1].append((("carrier", lab), -float(d @ et)))
+        rows[1].append((("carrier", "theta"), -rc))
+        e = tuple(float(x) for x in errors.get(i + 1, (0.0, 0.0)))
+        # the planet's force on its pin, in the carrier frame's (x, y); its centrifugal load per unit W_c^2
+        cf = props[mem.planet][0] * rc * er
+        springs.append(Spring(kp, rows=(tuple(rows[0]), tuple(rows[1])), preload=e, reports=p,
+                              frame=np.column_stack([er, et]), centrifugal=(float(cf[0]), float(cf[1]))))
 
     # ---------------------------------------------------------------- meshes
     tabs = {}
@@ -304,24 +264,21 @@ def planetary_from_model(model: Any, tables: Any = None, *, force_law: str = "ha
     couplings = []
     for mn, pm in geo.meshes.items():
         nvec = np.asarray(pm.line_of_action, float)
-        v = np.zeros(n)
-        w = np.zeros(n)
-        vr = np.zeros(n)
+        v, vr = [], []
         for g_, sgn in ((pm.gear_a, 1.0), (pm.gear_b, -1.0)):
-            for i_, d in trans.get(g_, []):
-                v[i_] += sgn * float(d @ nvec)
+            v += [((g_, lab), sgn * float(d @ nvec)) for lab, d in trans.get(g_, [])]
             if g_ in rot:
-                v[rot[g_]] += sgn * pm.moment_arm_m[g_]
-                vr[rot[g_]] += sgn * pm.moment_arm_m[g_]
+                v.append(((g_, "theta"), sgn * pm.moment_arm_m[g_]))
+                vr.append(((g_, "theta"), sgn * pm.moment_arm_m[g_]))
         # coast side (opposite flanks): the same form along the coast line of action with the coast arms
         vc, fc = None, 0.0
         if pm.coast_line_of_action is not None and getattr(tabs[pm.kind], "coast", None) is not None:
-            vc = np.zeros(n)
+            vc = []
             for g_, sgn in ((pm.gear_a, 1.0), (pm.gear_b, -1.0)):
-                for i_, d in trans.get(g_, []):
-                    vc[i_] += sgn * float(d @ pm.coast_line_of_action)
+                vc += [((g_, lab), sgn * float(d @ pm.coast_line_of_action)) for lab, d in trans.get(g_, [])]
                 if g_ in rot:
-                    vc[rot[g_]] += sgn * pm.coast_moment_arm_m[g_]
+                    vc.append(((g_, "theta"), sgn * pm.coast_moment_arm_m[g_]))
+            vc = tuple(vc)
             # the reversed torque through gear_a's coast flank (exact where each mesh's gears share their pressure
             # angles)
             fc = float(flow["force_N"][mn]) * pm.base_radius_m[0] / pm.coast_base_radius_m[0]
@@ -330,14 +287,12 @@ def planetary_from_model(model: Any, tables: Any = None, *, force_law: str = "ha
         za = geo.teeth[pm.gear_a]
         sa = geo.relative_sense[pm.gear_a]
         cyc = sa * za / (2 * math.pi)
-        if pm.gear_a in rot:
-            w[rot[pm.gear_a]] += cyc
-        ie = trans[p_name][1][0]
-        w[ie] -= cyc / rc
+        w = [((pm.gear_a, "theta"), cyc)] if pm.gear_a in rot else []
+        w.append(((p_name, "eta"), -(cyc / rc)))
         alias = {g: (mem.planet if g in geo.planets else g) for g in (pm.gear_a, pm.gear_b)}
-        couplings.append(MeshCoupling(
-            name=mn, gear_a=pm.gear_a, gear_b=pm.gear_b, table=tabs[pm.kind], v=v, w=w, v_rot=vr, phase=pm.phase,
-            nominal_force_N=float(flow["force_N"][mn]), teeth=tuple(pm.teeth),
+        couplings.append(Coupling(
+            name=mn, gear_a=pm.gear_a, gear_b=pm.gear_b, table=tabs[pm.kind], v=tuple(v), w=tuple(w), v_rot=tuple(vr),
+            phase=pm.phase, nominal_force_N=float(flow["force_N"][mn]), teeth=tuple(pm.teeth),
             base_radius_m=(abs(pm.moment_arm_m[pm.gear_a]), abs(pm.moment_arm_m[pm.gear_b])),
             tooth_passage=dict(pm.tooth_passage), line_of_action=tuple(nvec), group=pm.kind, gear_alias=alias,
             v_c=vc, nominal_coast_force_N=fc, backlash_m=float(pm.backlash_normal_m)))
@@ -346,37 +301,82 @@ def planetary_from_model(model: Any, tables: Any = None, *, force_law: str = "ha
     ab = geo.absolute_ratio
     w_ref = ab[inp]
     bodies = []
-    u = np.zeros(n)
+    u = []
     for body in list(central.values()) + list(geo.planets):
         m, j, kt, kr, radius = props_of(body)
-        idx = tuple(i_ for i_, _ in trans.get(body, []))
-        dd = np.array([d for _, d in trans.get(body, [])]).reshape(-1, 2)
         ratio = ab[body] / abs(w_ref)
         sense = math.copysign(1.0, ab[body]) if abs(ab[body]) > 1e-12 else geo.relative_sense.get(body, 1.0)
         z = geo.teeth.get(body, 0)
         kr_eff = krot.get(body, math.inf)
-        bodies.append(GearBody(name=body, teeth=int(z), sense=float(sense), speed_ratio=float(ratio),
-                               rotation=rot.get(body, -1), translations=idx, directions=dd, radius_m=float(radius),
-                               mass_kg=m, inertia_kgm2=j, support=(kt if body not in geo.planets else kp, kr_eff)))
+        bodies.append(Body(name=body, dofs=dofs[body], teeth=int(z), sense=float(sense), speed_ratio=float(ratio),
+                           radius_m=float(radius), mass_kg=m, inertia_kgm2=j,
+                           support=(kt if body not in geo.planets else kp, kr_eff)))
         if body in rot:
-            u[rot[body]] = ab[body] / w_ref
+            u.append(((body, "theta"), ab[body] / w_ref))
     for p in geo.planets:
-        u[trans[p][1][0]] = rc * ab["carrier"] / w_ref
+        u.append(((p, "eta"), rc * ab["carrier"] / w_ref))
     cycles_per_rad = geo.mesh_cycles_per_relative_rad / abs(w_ref)
     for pm in geo.meshes.values():  # every mesh advances z_s / 2 pi cycles per radian of the sun relative to the carrier
         rate = geo.relative_sense[pm.gear_a] * geo.teeth[pm.gear_a] * (ab[pm.gear_a] - ab["carrier"]) / (2 * math.pi)
         if abs(rate - geo.mesh_cycles_per_relative_rad) > 1e-9 * rate:
             raise ModelError(f"{model.name}: mesh '{pm.name}' does not advance with the kinematics (internal error)")
-    held = bool(np.any(np.abs(K @ u) > 1e-9 * max(1.0, float(np.max(np.abs(K))))))
     torques = {}
     for body, t_ccw in flow["torque_ccw_Nm"].items():
         if body in rot:
             gb = next(b for b in bodies if b.name == body)
             torques[body] = gb.sense * t_ccw / torque
     zeta = model.damping.modal_damping_ratio if modal_damping_ratio is None else float(modal_damping_ratio)
-    return LumpedSystem(
-        name=model.name, kind="planetary", dof_names=dofs, mass=M, stiffness=K, gears=bodies, meshes=couplings,
-        torque_Nm=torque, input_gear=inp, modal_damping_ratio=zeta, force_law=force_law, reference_gear=inp,
-        gyroscopic=G, centripetal=KW, carrier_ratio=ab["carrier"] / abs(w_ref), rigid_mode=None if held else u,
-        mesh_cycles_per_rad=cycles_per_rad, nominal_torques_per_Nm=torques, static_forces=fstat,
-        bearing_maps=bmaps)
+    return Train(
+        name=model.name, kind=PlanetaryKind.name, bodies=tuple(bodies), couplings=tuple(couplings), torque_Nm=torque,
+        input_gear=inp, reference_gear=inp, modal_damping_ratio=zeta, force_law=force_law, springs=tuple(springs),
+        gyroscopic=tuple(gyro), centripetal=tuple(centri), carrier_ratio=ab["carrier"] / abs(w_ref),
+        rigid_mode=tuple(u), held_tolerance=1e-9, mesh_cycles_per_rad=cycles_per_rad, nominal_torques_per_Nm=torques,
+        support_reports=tuple(b for b in central.values() if trans[b]),
+        bearing_reports=() if trans["carrier"] else ("carrier",))
+
+
+def _planets_fit(model: Any, count: int) -> bool:
+    """Whether ``count`` equally spaced planets can be assembled in ``model``'s set without overlapping."""
+    try:
+        planetary_geometry(model, count)
+    except (ModelError, GeometryError):
+        return False
+    return True
+
+
+class PlanetaryKind(Kind):
+    """Planetary sets: sun, ring, carrier and equally spaced planets (two table meshes, one per mesh kind)."""
+
+    name = "planetary"
+    section = "planetary"
+    lumped = True
+    mesh_count = 2
+
+    def members(self, model: Any) -> tuple[str, ...]:
+        return tuple(g.name for g in model.gears) + ("carrier",)
+
+    def check(self, model: Any) -> None:
+        if model.planetary is None:
+            raise ModelError(f"system.kind = '{self.name}' needs a [planetary] table (planet_count)")
+        super().check(model)
+
+    def nominal_mesh_forces(self, model: Any, base_radii: Mapping[str, tuple[float, float]]) -> dict[str, float]:
+        # per-planet forces of the planetary torque flow (any input member; tables are per mesh kind)
+        flow = planetary_torques(model, planetary_geometry(model))
+        return {m.name: flow["force_N"][f"{m.name}_1"] for m in model.meshes}
+
+    def train(self, model: Any, tables: Any, **options) -> Train:
+        return planetary_from_model(model, tables, **options)
+
+    def structural_parameters(self, model: Any) -> tuple[StructuralParameter, ...]:
+        """``planet_count``: every count of :data:`~hacgear_core.model.schema.RANGES` ``planet_count`` up to the
+        largest whose equally spaced planets the set can assemble without overlapping (the range the command
+        line's ``--planets`` has too)."""
+        n = model.planetary.planet_count
+        r = RANGES["planet_count"]
+        n_max = max([k for k in range(int(r.lo), int(r.hi) + 1) if _planets_fit(model, k)] + [n])
+        return (StructuralParameter(
+            "planet_count", n, int(r.lo), n_max,
+            f"number of equally spaced planets (1 to {n_max}"
+            + (": more do not fit this set" if n_max < r.hi else "") + "); outputs of planets beyond it "
+            "read 0 (the tables are per mesh kind: one FMU serves every count its tables' load range allows)"),)

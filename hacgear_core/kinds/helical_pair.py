@@ -1,4 +1,4 @@
-"""Builder of helical pairs: model + generalized tables → the 12-DOF :class:`LumpedSystem` (dissertation Eq. 5.1).
+"""Helical pairs (kind ``helical_pair``): model + generalized tables -> the 12-DOF train (dissertation Eq. 5.1).
 
 DOFs (global frame of docs/helical.md: x along the line of centres, z along the axes)::
 
@@ -29,15 +29,19 @@ from typing import Any
 
 import numpy as np
 
-from hacgear_core.dynamics.build.train import mesh_table
-from hacgear_core.dynamics.system import GearBody, LumpedSystem, MeshCoupling
 from hacgear_core.errors import ModelError
-from hacgear_core.geometry import gear_geometry, mesh_geometry
+from hacgear_core.geometry import gear_geometry, mesh_geometry, nominal_mesh_forces
+from hacgear_core.kinds.base import Body, Coupling, Dof, Kind, KeyVector, Support, Train
+from hacgear_core.kinds.fixed_axis import mesh_table
 
-__all__ = ["helical_from_model", "DOF_LABELS", "tilting_inertia_kgm2", "coast_vectors"]
+__all__ = ["HelicalPair", "helical_from_model", "DOF_LABELS", "RIGID_SUPPORT_STIFFNESS", "tilting_inertia_kgm2",
+           "coast_vectors"]
 
 #: labels of a gear's six DOFs, in order
 DOF_LABELS = ("x", "y", "z", "theta_x", "theta_y", "theta_z")
+#: a rigid support of a helical gear is a spring of this stiffness [N/m or N m/rad]: every gear keeps its six
+#: DOFs (the table's 12-vectors are over all of them)
+RIGID_SUPPORT_STIFFNESS = 1e15
 
 
 def tilting_inertia_kgm2(mass_kg: float, polar_inertia_kgm2: float, face_width_m: float) -> float:
@@ -83,8 +87,8 @@ def coast_vectors(frame: dict, coast_pressure_angle_rad: float) -> tuple[np.ndar
 
 def helical_from_model(model: Any, tables: Any, *, force_law: str = "hac", torque_Nm: float | None = None,
                        bearing_stiffness_N_per_m: float | None = None, modal_damping_ratio: float | None = None,
-                       shafts: bool = True, tilting_stiffness_Nm_per_rad: float | None = None) -> LumpedSystem:
-    """The 12-DOF lumped system of a helical pair model on its generalized mesh table.
+                       shafts: bool = True, tilting_stiffness_Nm_per_rad: float | None = None) -> Train:
+    """The 12-DOF train description of a helical pair model on its generalized mesh table.
 
     Parameters
     ----------
@@ -110,12 +114,9 @@ def helical_from_model(model: Any, tables: Any, *, force_law: str = "hac", torqu
 
     Returns
     -------
-    LumpedSystem
-        ``kind = "helical_pair"``, n = 12, one mesh with its twist vector.
+    Train
+        12 DOFs, one coupling with its twist vector (mesh law ``twist``).
     """
-    if model.kind not in ("helical_pair", "spur_pair"):
-        raise ModelError(f"helical builder: model kind must be helical_pair (or a spur_pair with a generalized "
-                         f"table), got {model.kind!r}")
     if len(model.gears) != 2 or len(model.meshes) != 1:
         raise ModelError(f"helical builder: a pair of two gears and one mesh, got {len(model.gears)} gears, "
                          f"{len(model.meshes)} meshes")
@@ -148,15 +149,10 @@ def helical_from_model(model: Any, tables: Any, *, force_law: str = "hac", torqu
     r_mesh = np.asarray(tw.r_mesh, float)
     r_twist = np.asarray(tw.r_twist, float)
     lever = np.asarray(tw.lever_arm_m, float)
-    n = 12
-    dofs = [f"{g}.{lab}" for g in names for lab in DOF_LABELS]
-    M = np.zeros((n, n))
-    K = np.zeros((n, n))
+    keys = [(g, lab) for g in names for lab in DOF_LABELS]
     bodies = []
     sense = (math.copysign(1.0, r_mesh[5]), math.copysign(1.0, -r_mesh[11]))
-    u = np.zeros(n)
-    u[5] = 1.0
-    u[11] = -r_mesh[5] / r_mesh[11]
+    u = (1.0, -r_mesh[5] / r_mesh[11])
     for gi, name in enumerate(names):
         g = gears[name]
         gg = gear_geometry(g)
@@ -168,21 +164,20 @@ def helical_from_model(model: Any, tables: Any, *, force_law: str = "hac", torqu
             else tilting_stiffness_Nm_per_rad
         krot = sup.rotational_stiffness_Nm_per_rad if shafts else 0.0
         kdiag = [kt, kt, sup.axial_stiffness_N_per_m, ktilt, ktilt, krot]
-        kdiag = [min(float(k), 1e15) for k in kdiag]   # rigid supports: a stiff spring keeps the DOF
+        kdiag = [min(float(k), RIGID_SUPPORT_STIFFNESS) for k in kdiag]
         o = 6 * gi
-        M[o:o + 6, o:o + 6] = np.diag([m, m, m, it, it, ip])
-        K[o:o + 6, o:o + 6] = np.diag(kdiag)
-        bodies.append(GearBody(name=name, teeth=g.teeth, sense=sense[gi],
-                               speed_ratio=float(u[o + 5] * sense[0]), rotation=o + 5, translations=(o, o + 1),
-                               directions=np.eye(2), radius_m=float(abs(r_mesh[o + 5])), mass_kg=m, inertia_kgm2=ip,
-                               support=(kdiag[0], krot)))
+        bodies.append(Body(name=name, dofs=tuple(Dof(lab, mi, Support(k), d) for lab, mi, k, d in zip(
+                               DOF_LABELS, (m, m, m, it, it, ip), kdiag, ((1.0, 0.0), (0.0, 1.0), None, None, None,
+                                                                           None))),
+                           teeth=g.teeth, sense=sense[gi], speed_ratio=float(u[gi] * sense[0]), rotation="theta_z",
+                           radius_m=float(abs(r_mesh[o + 5])), mass_kg=m, inertia_kgm2=ip, support=(kdiag[0], krot)))
     # nominal mesh force: the torque on its gear over that gear's lever arm (r_b cos beta_b); the nominal forces
     # are magnitudes, the torque's sign picks the flanks
     w_nom = abs(torque) / float(lever[names.index(tgear)])
     coast = {}
     if ctw is not None:
         cb = math.cos(float(ctw.base_helix_angle_rad))
-        coast = dict(v_c=np.asarray(ctw.r_mesh, float).copy(), t_c=np.asarray(ctw.r_twist, float).copy(),
+        coast = dict(v_c=_over(keys, ctw.r_mesh), t_c=_over(keys, ctw.r_twist),
                      nominal_coast_force_N=abs(torque) / float(np.asarray(ctw.lever_arm_m, float)[names.index(tgear)]),
                      backlash_m=float(table.coast.backlash_normal_m) * cb)
     else:
@@ -190,18 +185,33 @@ def helical_from_model(model: Any, tables: Any, *, force_law: str = "hac", torqu
         mg = mesh_geometry(model, mesh.name, strict=False)
         if math.isfinite(mg.backlash_normal_m) and mg.backlash_normal_m >= 0:
             vc, tc, bc = coast_vectors(tw.frame, float(mg.operating_pressure_angle_coast_rad))
-            coast = dict(v_c=vc, t_c=tc, backlash_m=float(mg.backlash_normal_m) * math.cos(bc))
-    w = np.zeros(n)
-    w[5] = sense[0] * tz[0] / (2 * math.pi)
-    v_rot = np.zeros(n)
-    v_rot[5], v_rot[11] = r_mesh[5], r_mesh[11]
-    coupling = MeshCoupling(name=mesh.name, gear_a=names[0], gear_b=names[1], table=table, v=r_mesh.copy(), w=w,
-                            v_rot=v_rot, phase=0.0, nominal_force_N=float(w_nom), teeth=tz,
-                            base_radius_m=tuple(float(r) for r in table.base_radius_m),
-                            tooth_passage={names[0]: 0, names[1]: 0},
-                            line_of_action=tuple(float(c) for c in np.asarray(tw.frame["e2"], float)[:2]),
-                            t=r_twist.copy(), **coast)
-    held = bool(np.any(np.abs(K @ u) > 0))
-    return LumpedSystem(name=model.name, kind="helical_pair", dof_names=dofs, mass=M, stiffness=K, gears=bodies,
-                        meshes=[coupling], torque_Nm=torque, input_gear=tgear, modal_damping_ratio=zeta,
-                        force_law=force_law, reference_gear=names[0], rigid_mode=None if held else u)
+            coast = dict(v_c=_over(keys, vc), t_c=_over(keys, tc), backlash_m=float(mg.backlash_normal_m) * math.cos(bc))
+    coupling = Coupling(name=mesh.name, gear_a=names[0], gear_b=names[1], table=table, v=_over(keys, r_mesh),
+                        w=((keys[5], sense[0] * tz[0] / (2 * math.pi)),),
+                        v_rot=((keys[5], r_mesh[5]), (keys[11], r_mesh[11])), phase=0.0, nominal_force_N=float(w_nom),
+                        teeth=tz, base_radius_m=tuple(float(r) for r in table.base_radius_m), law="twist",
+                        tooth_passage={names[0]: 0, names[1]: 0},
+                        line_of_action=tuple(float(c) for c in np.asarray(tw.frame["e2"], float)[:2]),
+                        t=_over(keys, r_twist), **coast)
+    return Train(name=model.name, kind=HelicalPair.name, bodies=tuple(bodies), couplings=(coupling,),
+                 torque_Nm=torque, input_gear=tgear, reference_gear=names[0], modal_damping_ratio=zeta,
+                 force_law=force_law, rigid_mode=((keys[5], u[0]), (keys[11], u[1])))
+
+
+def _over(keys, values) -> KeyVector:
+    """The KeyVector of a (12,) vector over the pair's DOF keys."""
+    return tuple(zip(keys, (float(x) for x in np.asarray(values, float))))
+
+
+class HelicalPair(Kind):
+    """Helical pairs: two gears on six-DOF supports, one mesh on its generalized table."""
+
+    name = "helical_pair"
+    helical = True
+    mesh_count = 1
+
+    def nominal_mesh_forces(self, model: Any, base_radii) -> dict[str, float]:
+        return nominal_mesh_forces(model, base_radii)
+
+    def train(self, model: Any, tables: Any, **options) -> Train:
+        return helical_from_model(model, tables, **options)

@@ -1,0 +1,73 @@
+"""Gear kinds as plug-ins: the registry (the only place a kind name is matched), the train description each kind
+hands to the one assembly, and the model loader and system builder that dispatch on a model's kind."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from hacgear_core.dynamics.system import LumpedSystem
+from hacgear_core.errors import ModelError
+from hacgear_core.kinds.assembly import assemble
+from hacgear_core.kinds.base import Kind, StructuralParameter, Train
+from hacgear_core.kinds.fixed_axis import SpurPairParameters, TrainGear, TrainMesh, fixed_axis_train, spur_pair_system
+from hacgear_core.kinds.helical_pair import helical_from_model
+from hacgear_core.kinds.planetary import constant_stiffness_table, planetary_from_model
+from hacgear_core.kinds.registry import KINDS, kind_of
+from hacgear_core.model import Model, read_model
+from hacgear_core.model import parse_model as read_model_text
+
+__all__ = [
+    "KINDS",
+    "Kind",
+    "Train",
+    "kind_of",
+    "load_model",
+    "parse_model",
+    "check_model",
+    "build_system",
+    "StructuralParameter",
+    "structural_parameters",
+    "assemble",
+    "SpurPairParameters",
+    "spur_pair_system",
+    "TrainGear",
+    "TrainMesh",
+    "fixed_axis_train",
+    "planetary_from_model",
+    "constant_stiffness_table",
+    "helical_from_model",
+]
+
+
+def check_model(model: Model) -> Model:
+    """``model`` after its kind's checks (:meth:`Kind.check`); raises ModelError naming the file and key."""
+    try:
+        kind_of(model).check(model)
+    except ModelError as exc:
+        if model.path is None:
+            raise
+        raise ModelError(f"{model.path}: {exc}") from None
+    return model
+
+
+def load_model(model: str | Path) -> Model:
+    """Read and validate a model file (path, folder or system name), its kind's rules included."""
+    return check_model(read_model(model))
+
+
+def parse_model(text: str, **options) -> Model:
+    """Parse model TOML text (:func:`hacgear_core.model.parse_model` options), its kind's rules included."""
+    return check_model(read_model_text(text, **options))
+
+
+def build_system(model: Any, tables: Any, **options) -> LumpedSystem:
+    """The lumped system of ``model`` on its mesh ``tables`` (a :class:`~hacgear_core.tables.SystemTables` or
+    {mesh name: MeshTable}; None for a lumped model): its kind's train, assembled.  ``options``: ``force_law``,
+    ``torque_Nm``, ``bearing_stiffness_N_per_m``, ``modal_damping_ratio``, ``shafts`` and the kind's structural
+    parameters (planetary sets: ``planet_count``, ``pin_errors_m``)."""
+    return assemble(kind_of(model).train(model, tables, **options))
+
+
+def structural_parameters(model: Any) -> tuple[StructuralParameter, ...]:
+    """The structural options of ``model``'s kind (:meth:`Kind.structural_parameters`)."""
+    return kind_of(model).structural_parameters(model)

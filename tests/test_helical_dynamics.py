@@ -16,7 +16,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from hacgear_core.kinds import build_system, helical_from_model
+from hacgear_core.kinds import assemble, build_system, helical_from_model
 from hacgear_core.kinds.helical_pair import coast_vectors, tilting_inertia_kgm2
 from hacgear_core.kinds import SpurPairParameters, spur_pair_system
 from hacgear_core.dynamics.equilibrium import static_equilibrium
@@ -132,7 +132,7 @@ def test_helix_zero_with_stiff_tilting_reproduces_the_spur_pair_frequencies(heli
     and shaft stiffnesses, the same FDF) within 0.5 %; the other eight are the decoupled bearing modes.
     (Measured: equal within 1e-4 relative.)"""
     model0, table0 = _helix_zero(helical, table)
-    sy12 = helical_from_model(model0, {"m12": table0}, tilting_stiffness_Nm_per_rad=1e12)
+    sy12 = assemble(helical_from_model(model0, {"m12": table0}, tilting_stiffness_Nm_per_rad=1e12))
     ga, gb = (gear_geometry(g) for g in model0.gears)
     p = SpurPairParameters(mass_kg=(ga.mass_kg, gb.mass_kg), inertia_kg_m2=(ga.inertia_kgm2, gb.inertia_kgm2),
                            base_radius_m=tuple(table.base_radius_m), teeth=(28, 33),

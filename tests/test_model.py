@@ -9,7 +9,8 @@ from pathlib import Path
 import pytest
 
 from hacgear_core.errors import ModelError
-from hacgear_core.model import SYSTEM_KINDS, model_sha256
+from hacgear_core.kinds import KINDS
+from hacgear_core.model import model_sha256
 from hacgear_core.kinds import load_model, parse_model
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
@@ -22,7 +23,7 @@ BASE = (MODELS / "spur_28t_asym" / "model.toml").read_text()
 def test_shipped_models_parse(system):
     m = load_model(MODELS / system / "model.toml")
     assert m.name == system
-    assert m.kind in SYSTEM_KINDS
+    assert m.kind in KINDS
     assert m.sha256 == model_sha256(MODELS / system / "model.toml")
     assert (MODELS / system / "readme.md").exists(), "each model folder documents its sources and choices"
     for g in m.gears:  # SI inside

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hacgear_core.kinds import build_system, planetary_from_model
+from hacgear_core.kinds import build_system
 from hacgear_core.dynamics.equilibrium import load_sharing, static_equilibrium
 from hacgear_core.dynamics.simulator import Simulator, system_gauges
 from hacgear_core.dynamics.steady import SteadyStateOptions, steady_state
@@ -188,7 +188,7 @@ def test_pin_error_load_sharing_lumped_equals_closed_form(lumped):
     ring = dataclasses.replace(ring, support=dataclasses.replace(ring.support, translational_stiffness_N_per_m=math.inf,
                                                                  rotational_stiffness_Nm_per_rad=math.inf))
     m = dataclasses.replace(lumped, planetary=pl, gears=tuple(ring if g.name == "ring" else g for g in lumped.gears))
-    sy = planetary_from_model(m, pin_errors_m={1: (0.0, 30e-6)})
+    sy = build_system(m, None, pin_errors_m={1: (0.0, 30e-6)})
     f = static_equilibrium(sy, 0.0).mesh_forces_N[::2]
     est = _pin_error_estimate(1e8, 1e8, 1e8, 1e8, 1e8, math.radians(15.97), 3, 1, 30e-6, 200.0, 50.2743e-3)
     np.testing.assert_allclose(f, est, rtol=1e-9)

@@ -17,7 +17,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from hacgear_core.kinds import build_system, spur_pair_system
+from hacgear_core.kinds import build_system, spur_pair_system, structural_parameters
 from hacgear_core.dynamics.synthetic import spur_fdf_table, synthetic_28t_parameters
 from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import ModelError
@@ -110,7 +110,7 @@ def load_inputs(model: str, *, torque_Nm: float | None = None, bearing_stiffness
             tabs = None
         else:
             tabs = load_system_tables(model, tables, allow_hash_mismatch=allow_hash_mismatch)
-    if extra and mdl.kind != "planetary":
+    if extra and not set(extra) <= {p.name for p in structural_parameters(mdl)}:
         raise ModelError(f"--planets applies to planetary models only; {mdl.name} is a {mdl.kind}")
     system = build_system(mdl, tabs, force_law=force_law, torque_Nm=torque_Nm,
                           bearing_stiffness_N_per_m=bearing_stiffness_N_per_m, modal_damping_ratio=damping_ratio,

@@ -8,6 +8,7 @@ from hacgear_core.cli._dyn_common import add_model_options, inputs_from_args
 from hacgear_core.cli._options import check_option
 from hacgear_core.dynamics.modes import gyroscopic_modes, impulse_test, modal_analysis
 from hacgear_core.errors import ModelError
+from hacgear_core.kinds import kind_of
 from hacgear_core.jsonio import dumps
 
 __all__ = ["register", "run"]
@@ -69,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
     check_option("--fm", args.fm, "mesh_frequency_Hz")
     inp = inputs_from_args(args)
     sy = inp.system
-    if sy.kind == "planetary":
+    if kind_of(sy).rotating_carrier:
         return _run_planetary(args, inp)
     if args.carrier_speed is not None or args.fm is not None:
         raise ModelError("--carrier-speed / --fm apply to planetary sets only")

@@ -35,7 +35,7 @@ from typing import Callable
 
 import numpy as np
 
-from hacgear_core.kinds import build_system, structural_parameters
+from hacgear_core.kinds import build_system, kind_of, structural_parameters
 from hacgear_core.dynamics.simulator import Simulator, strain_of_tooth, system_gauges
 from hacgear_core.encodings import ContactState, Experiment
 from hacgear_core.errors import HacgearError, ModelError
@@ -105,7 +105,7 @@ class Adapter:
         self.spec_system = spec_system
         self._drive_system = drive_system
         self.sim = Simulator(base)
-        self.bearing_gears = tuple(g.name for g in model.gears) + (("carrier",) if model.kind == "planetary" else ())
+        self.bearing_gears = kind_of(model).members(model)
         self._built_key = self._key(base.torque_Nm, base.modal_damping_ratio, self._model_bearings(model), None, True,
                                     tuple((p.name, p.start) for p in self.structural))
         self.ref = base.reference_gear

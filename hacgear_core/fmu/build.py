@@ -51,7 +51,7 @@ from hacgear_core.fmu.pythonfmu_backend import BACKENDS, build_pythonfmu
 from hacgear_core.fmu.slave import FMU_INFO_FILE, value_references
 from hacgear_core.fmu.spec import DISPLAY_UNITS, ENUMERATIONS, TIME, UNITS
 from hacgear_core.model import model_sha256
-from hacgear_core.kinds import load_model
+from hacgear_core.kinds import KINDS, kind_of, load_model
 from hacgear_core.tables import SystemTables, write_tables
 
 __all__ = ["build_fmu", "build_component_fmu", "model_description", "bundle_package", "compile_binary", "synthetic_system_folder",
@@ -502,8 +502,9 @@ def synthetic_system_folder(model: str | Path, dest: str | Path) -> Path:
     pressure angle and tip relief (not from the contact solver; results are labelled synthetic).
     """
     m = load_model(model)
-    if m.kind != "spur_pair":
-        raise HacgearError(f"synthetic tables exist for spur pairs only, not {m.kind!r}")
+    if not kind_of(m).synthetic_tables:
+        raise HacgearError(f"synthetic tables exist for kinds {[k for k, v in KINDS.items() if v.synthetic_tables]} "
+                           f"only, not {m.kind!r}")
     mesh = m.mesh()
     ga, gb = m.gear(mesh.gear_a), m.gear(mesh.gear_b)
     fl = ga.flanks[mesh.flank_a]

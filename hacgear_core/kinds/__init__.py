@@ -39,14 +39,16 @@ __all__ = [
 ]
 
 
-def check_model(model: Model) -> Model:
-    """``model`` after its kind's checks (:meth:`Kind.check`); raises ModelError naming the file and key."""
+def check_model(model: Model, file: str | None = None) -> Model:
+    """``model`` after its kind's checks (:meth:`Kind.check`); raises ModelError naming the file (``file``, default
+    the model's path) and the key."""
     try:
         kind_of(model).check(model)
     except ModelError as exc:
-        if model.path is None:
+        where = file or model.path
+        if where is None:
             raise
-        raise ModelError(f"{model.path}: {exc}") from None
+        raise ModelError(f"{where}: {exc}") from None
     return model
 
 
@@ -57,7 +59,7 @@ def load_model(model: str | Path) -> Model:
 
 def parse_model(text: str, **options) -> Model:
     """Parse model TOML text (:func:`hacgear_core.model.parse_model` options), its kind's rules included."""
-    return check_model(read_model_text(text, **options))
+    return check_model(read_model_text(text, **options), options.get("file"))
 
 
 def build_system(model: Any, tables: Any, **options) -> LumpedSystem:

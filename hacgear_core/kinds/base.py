@@ -209,6 +209,10 @@ class Kind:
         True: the gears must be helical; False: spur; None: either.
     mesh_count : int or None
         The number of ``[[meshes]]`` a model needs (None: one or more).
+    synthetic_tables : bool
+        Whether ``hacgear`` can make synthetic tables for it (a spur pair's analytic FDF, before the statics).
+    rotating_carrier : bool
+        Whether its system turns in a rotating carrier frame (modal analysis over the carrier speed).
     """
 
     name: str = ""
@@ -216,6 +220,8 @@ class Kind:
     lumped: bool = False
     helical: bool | None = False
     mesh_count: int | None = None
+    synthetic_tables: bool = False
+    rotating_carrier: bool = False
 
     # ------------------------------------------------------------------ the model file
     def parse_section(self, reader: Any) -> Any:

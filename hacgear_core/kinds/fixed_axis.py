@@ -284,6 +284,7 @@ class FixedAxis(Kind):
     def __init__(self, name: str, mesh_count: int | None) -> None:
         self.name = name
         self.mesh_count = mesh_count
+        self.synthetic_tables = mesh_count == 1
 
     def nominal_mesh_forces(self, model: Any, base_radii: Mapping[str, tuple[float, float]]) -> dict[str, float]:
         return nominal_mesh_forces(model, base_radii)

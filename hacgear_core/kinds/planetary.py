@@ -350,6 +350,7 @@ class PlanetaryKind(Kind):
     name = "planetary"
     section = "planetary"
     lumped = True
+    rotating_carrier = True
     mesh_count = 2
 
     def members(self, model: Any) -> tuple[str, ...]:

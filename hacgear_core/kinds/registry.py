@@ -25,5 +25,5 @@ def kind_of(model: Any) -> Kind:
     name = model if isinstance(model, str) else model.kind
     kind = KINDS.get(name)
     if kind is None:
-        raise ModelError(f"key 'system.kind': got {name!r}; allowed: {' | '.join(KINDS)}")
+        raise ModelError(f"key 'system.kind': unknown value {name!r}; allowed: {' | '.join(KINDS)}")
     return kind

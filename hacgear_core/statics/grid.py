@@ -51,10 +51,8 @@ import numpy as np
 
 from hacgear_core import tables as tb
 from hacgear_core.errors import ModelError, SolverError, TableError
-from hacgear_core.geometry.planetary import planetary_geometry, planetary_torques
-from hacgear_core.geometry.train import nominal_mesh_forces as train_mesh_forces
 from hacgear_core.h5files import check_writable_kind
-from hacgear_core.kinds import load_model
+from hacgear_core.kinds import kind_of, load_model
 from hacgear_core.model.provenance import model_values_json, model_values_sha256
 from hacgear_core.statics.coast import CoastSideSolver, coast_mapping, make_coast_solver
 from hacgear_core.statics.contract import MeshInfo, MeshStaticSolver, SolverFactory, StaticSolution, describe_solver
@@ -137,15 +135,10 @@ class ModelSolverFactory:
 # ---------------------------------------------------------------------------------------------
 def nominal_mesh_forces(model: Any, base_radii: Mapping[str, tuple[float, float]]) -> dict[str, float]:
     """Nominal mesh force of every mesh [N] from the operating torque ``model.operating``: the torque flow
-    through the train (:func:`hacgear_core.geometry.train.nominal_mesh_forces`) or, for planetary sets, the
-    per-planet forces of the planetary torque flow (any input member).  ``base_radii[mesh]`` are the
+    per contact as the model's kind gives them (:meth:`hacgear_core.kinds.base.Kind.nominal_mesh_forces`).  ``base_radii[mesh]`` are the
     loaded-flank base radii ``(r_b of gear_a, r_b of gear_b)`` [m].
     """
-    if getattr(model, "kind", "") == "planetary":
-        # per-planet forces of the planetary torque flow (any input member; tables are per mesh kind)
-        flow = planetary_torques(model, planetary_geometry(model))
-        return {m.name: flow["force_N"][f"{m.name}_1"] for m in model.meshes}
-    return train_mesh_forces(model, base_radii)
+    return kind_of(model).nominal_mesh_forces(model, base_radii)
 
 
 def load_grid(max_force_N: float, n_loads: int) -> np.ndarray:

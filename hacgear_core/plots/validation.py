@@ -19,13 +19,12 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from hacgear_core.dynamics import build_system  # noqa: E402
 from hacgear_core.errors import HacgearError  # noqa: E402
 from hacgear_core.outpaths import check_out_dir  # noqa: E402
 from hacgear_core.dynamics.modes import impulse_test, modal_analysis  # noqa: E402
 from hacgear_core.dynamics.steady import steady_state  # noqa: E402
 from hacgear_core.dynamics.sweep import SweepSpec, run_sweep  # noqa: E402
-from hacgear_core.kinds import load_model  # noqa: E402
+from hacgear_core.kinds import build_system, load_model  # noqa: E402
 from hacgear_core.plots.sweep import mark_jump  # noqa: E402
 from hacgear_core.response import dynamic_contact_pressure, dynamic_mesh_stiffness, dynamic_root_strain  # noqa: E402
 from hacgear_core.response import static_mesh_stiffness  # noqa: E402

@@ -1,6 +1,7 @@
 """Model files → validated SI dataclasses: :mod:`.schema` (the dataclasses and their ranges), :mod:`.toml`
 (the TOML reader with unit-suffixed keys, file/key/unit/range errors), :mod:`.toml_writer` (TOML text of a parsed
-document: variant model files)."""
+document: variant model files).  ``read_model`` validates every generic section; the rules of the model's kind are
+added by :func:`hacgear_core.kinds.load_model`."""
 from __future__ import annotations
 
 from hacgear_core.model.schema import (

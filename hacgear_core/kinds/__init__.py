@@ -2,6 +2,7 @@
 hands to the one assembly, and the model loader and system builder that dispatch on a model's kind."""
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -14,6 +15,7 @@ from hacgear_core.kinds.helical_pair import helical_from_model
 from hacgear_core.kinds.planetary import constant_stiffness_table, planetary_from_model
 from hacgear_core.kinds.registry import KINDS, kind_of
 from hacgear_core.model import Model, read_model
+from hacgear_core.model.toml import SectionReader
 from hacgear_core.model import parse_model as read_model_text
 
 __all__ = [
@@ -40,13 +42,22 @@ __all__ = [
 
 
 def check_model(model: Model, file: str | None = None) -> Model:
-    """``model`` after its kind's checks (:meth:`Kind.check`); raises ModelError naming the file (``file``, default
-    the model's path) and the key."""
+    """``model`` with its kind's own section parsed (:meth:`Kind.parse_section` of ``model.sections``, stored as
+    ``model.section``) after its kind's checks (:meth:`Kind.check`); raises ModelError naming the file (``file``,
+    default the model's path) and the key."""
+    where = str(file or model.path or "<model>")
     try:
-        kind_of(model).check(model)
+        kind = kind_of(model)
+        extra = sorted(set(model.sections) - {kind.section})
+        if extra:
+            allowed = f"[{kind.section}]" if kind.section else "none"
+            raise ModelError(f"unknown table [{extra[0]}] for kind '{kind.name}'; its own tables: {allowed}")
+        raw = model.sections.get(kind.section) if kind.section else None
+        reader = None if raw is None else SectionReader(raw, kind.section, where)
+        model = replace(model, section=kind.parse_section(reader))
+        kind.check(model)
     except ModelError as exc:
-        where = file or model.path
-        if where is None:
+        if str(exc).startswith(where):
             raise
         raise ModelError(f"{where}: {exc}") from None
     return model

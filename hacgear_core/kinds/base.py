@@ -201,8 +201,9 @@ class Kind:
     name : str
         The ``[system] kind`` value.
     section : str or None
-        The kind's own top-level model table (e.g. ``"planetary"``): given to :meth:`parse_section`; None: the kind
-        has none (the table is then refused).
+        The kind's own top-level model table: given raw to :meth:`parse_section` (None: the kind has none; any
+        table no generic section reads is then refused).  ``[planetary]`` is read by the model layer itself (the
+        planetary geometry and the tables' provenance depend on it): the planetary kind only names it.
     lumped : bool
         Whether ``[system] lumped = true`` models (no tooth geometry) are allowed.
     helical : bool or None
@@ -226,9 +227,10 @@ class Kind:
     # ------------------------------------------------------------------ the model file
     def parse_section(self, reader: Any) -> Any:
         """The kind's section (a :class:`hacgear_core.model.toml.SectionReader` over ``[<section>]``, None when the
-        file has none) -> a frozen dataclass stored as ``Model.section``; errors name file, key, unit and range."""
-        if reader is not None:
-            raise reader.error(reader.path, "", f"no [{reader.path}] table for kind '{self.name}'", "a table")
+        file has none) -> a frozen dataclass stored as ``Model.section``; errors name file, key, unit and range
+        (``reader.number(key, unit, lo, hi)``, ``reader.string``, ``reader.array_of_tables``, ``reader.done``).
+        The tables' provenance does not cover it: a kind's section holds dynamics parameters, not what the tables
+        depend on.  Default: no section (None)."""
         return None
 
     def members(self, model: Any) -> tuple[str, ...]:

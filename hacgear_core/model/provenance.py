@@ -36,7 +36,9 @@ CANONICAL_VERSION = "hacgear-model-values/1"
 
 #: dataclass -> fields left out of the canonical form (the tables do not depend on them)
 EXCLUDED: dict[type, frozenset[str]] = {
-    Model: frozenset({"name", "title", "source", "damping", "operating", "path", "sha256", "defaults_applied"}),
+    # a kind's own section holds dynamics parameters (shafts, supports), not what the tables depend on
+    Model: frozenset({"name", "title", "source", "damping", "operating", "path", "sha256", "defaults_applied",
+                      "sections", "section"}),
     Gear: frozenset({"support", "mass_kg", "inertia_kgm2"}),
     Material: frozenset({"name", "density_kg_per_m3"}),
     Planetary: frozenset({"planet_count", "carrier_mass_kg", "carrier_inertia_kgm2", "carrier_support"}),

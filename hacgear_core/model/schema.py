@@ -617,7 +617,9 @@ class LumpedGear:
 @dataclass(frozen=True)
 class Model:
     """A whole gear system (SI).  ``path``/``sha256`` identify the model file it came from;
-    ``defaults_applied`` lists ``(key, value, meaning)`` of every default the model file left to the reader."""
+    ``defaults_applied`` lists ``(key, value, meaning)`` of every default the model file left to the reader;
+    ``sections`` the top-level tables no generic section reads, raw ({name: table}), and ``section`` the model's
+    kind's own section as its kind parsed it (:func:`hacgear_core.kinds.load_model`; None without one)."""
 
     name: str
     kind: str
@@ -633,6 +635,8 @@ class Model:
     sha256: str = ""
     lumped: bool = False
     defaults_applied: tuple[tuple[str, str, str], ...] = ()
+    sections: Mapping[str, Any] = field(default_factory=dict, hash=False, compare=False)
+    section: Any = None
 
     def __post_init__(self) -> None:
         if not (isinstance(self.kind, str) and self.kind):

@@ -104,7 +104,7 @@ from hacgear_core.model.schema import (
     RANGES, Material, Mesh, Model, Operating, PinError, Planetary, StaticsGrid, Support, Web,
 )
 
-__all__ = ["read_model", "parse_model", "model_sha256", "resolve_model_path", "shipped_systems", "shipped_systems_dir",
+__all__ = ["read_model", "parse_model", "SectionReader", "model_sha256", "resolve_model_path", "shipped_systems", "shipped_systems_dir",
            "DEFAULT_MEANINGS"]
 
 _INF = math.inf
@@ -260,6 +260,17 @@ _SYSTEM_KEYS = ("name", "kind", "title", "source", "lumped")
 _KNOWN_KEYS = frozenset(_MATERIAL_KEYS + _FLANK_KEYS + _GAUGE_KEYS + _SUPPORT_KEYS + _GEAR_KEYS + _WEB_KEYS + _MESH_KEYS
                         + _LUMPED_GEAR_KEYS + _LUMPED_MESH_KEYS + _PLANETARY_KEYS + _PIN_ERROR_KEYS + _TOP_KEYS
                         + _STATICS_KEYS + _SYSTEM_KEYS + ("torque_Nm", "torque_gear", "modal_damping_ratio"))
+
+
+#: the reader a kind parses its own model section with (:meth:`hacgear_core.kinds.base.Kind.parse_section`)
+SectionReader = _Section
+
+
+def _kind_sections(top: _Section) -> dict[str, dict]:
+    """The top-level tables no generic section reads, raw (popped from ``top``): a kind's own section, parsed by
+    its :meth:`~hacgear_core.kinds.base.Kind.parse_section` (:func:`hacgear_core.kinds.load_model` refuses the
+    tables the model's kind does not take)."""
+    return {k: top.data.pop(k) for k in [k for k, v in top.data.items() if k not in _TOP_KEYS and isinstance(v, dict)]}
 
 
 def _wrap(sec: _Section, key: str, fn: Callable[[], Any]) -> Any:
@@ -566,12 +577,13 @@ def parse_model(text: str, *, file: str = "<model>", path: Path | None = None, s
             gears = tuple(replace(g, support=Support(_INF, _INF)) if g.name == planetary.fixed_member else g
                           for g in gears)
 
+    sections = _kind_sections(top)
     top.done(_TOP_KEYS)
     try:
         return Model(
             name=name, kind=kind, title=title, source=source, gears=gears, meshes=tuple(meshes), damping=damping,
             operating=operating, statics=statics, planetary=planetary, path=path, sha256=sha256,
-            defaults_applied=_describe_defaults(top.defaults, gears),
+            defaults_applied=_describe_defaults(top.defaults, gears), sections=sections,
         )
     except ModelError as exc:
         raise ModelError(f"{file}: {exc}") from None

@@ -121,13 +121,17 @@ class MeshLaw:
         kbar, vl = self._loaded_stiffness(system)
         return system.K + (vl.T * kbar) @ vl, kbar, None
 
-    def _loaded_stiffness(self, system) -> tuple[np.ndarray, np.ndarray]:
-        if system.torque_Nm > 0:
-            return np.array([lw.mean_stiffness_N_per_m for lw in self.force_laws]), system.V
-        if any(ca is None for ca in self.coast_arrays):
+    def check_torque(self, torque_Nm: float) -> None:
+        """Refuse a torque whose loaded flanks have no tables (a negative torque needs every coast table)."""
+        if torque_Nm < 0 and any(ca is None for ca in self.coast_arrays):
             raise ModelError(f"{self.system_name}: a negative torque loads the coast flanks; meshes "
                              f"{[c.name for c in self.meshes if c.coast_table is None]} have no coast tables "
                              "(regenerate them: hacgear statics)")
+
+    def _loaded_stiffness(self, system) -> tuple[np.ndarray, np.ndarray]:
+        if system.torque_Nm > 0:
+            return np.array([lw.mean_stiffness_N_per_m for lw in self.force_laws]), system.V
+        self.check_torque(system.torque_Nm)
         return np.array([static_stiffness(c.coast_table, c.nominal_coast_force_N).mean_local_slope_N_per_m
                          for c in self.meshes]), system.Vc
 

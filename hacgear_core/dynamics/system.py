@@ -266,6 +266,7 @@ class LumpedSystem:
         self.backlash_m = np.array([c.backlash_m for c in self.meshes], dtype=float)
         #: the meshes' law (:mod:`~hacgear_core.dynamics.laws`): kernel variant, record fields, numpy twin
         self.mesh_law: MeshLaw = mesh_law(name, self.meshes, force_law)
+        self.mesh_law.check_torque(self.torque_Nm)
         self.table_arrays = self.mesh_law.table_arrays
         self.coast_arrays = self.mesh_law.coast_arrays
         self.laws = self.mesh_law.force_laws

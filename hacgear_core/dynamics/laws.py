@@ -157,51 +157,29 @@ class MeshLaw:
     # ------------------------------------------------------------------ numpy twin
     def mesh_force(self, k: int, tau, x, g=0.0) -> np.ndarray:
         """Force [N] of mesh ``k``'s law at ``tau`` [cycles], ``x`` [m] (broadcast arrays)."""
-        tau, x = np.broadcast_arrays(np.asarray(tau, float), np.asarray(x, float))
-        tf, xf = np.ascontiguousarray(tau.ravel()), np.ascontiguousarray(x.ravel())
-        lw, ta = self.force_laws[k], self.table_arrays[k]
+        lw = self.force_laws[k]
         if lw.law == kernels.LAW_TABLE:
-            out = np.empty(tf.size)
-            bilinear_many(ta.ftab, ta.x0, ta.inv_dx, tf, xf, out)
-        else:
-            kk, e, f0 = _linear_law_at(lw.lin, tf)
-            out = kk * (xf - e) + f0
-        return np.maximum(out, 0.0).reshape(tau.shape)
+            return np.maximum(_on_table(bilinear_many, self.table_arrays[k], tau, x), 0.0)
+        tau, x = np.broadcast_arrays(np.asarray(tau, float), np.asarray(x, float))
+        kk, e, f0 = _linear_law_at(lw.lin, tau)
+        return np.maximum(kk * (x - e) + f0, 0.0)
 
     def mesh_slope(self, k: int, tau, x) -> np.ndarray:
         """Local slope dF/dx [N/m] of mesh ``k``'s law at ``tau``, ``x`` (0 where F = 0)."""
-        tau, x = np.broadcast_arrays(np.asarray(tau, float), np.asarray(x, float))
-        tf, xf = np.ascontiguousarray(tau.ravel()), np.ascontiguousarray(x.ravel())
-        lw, ta = self.force_laws[k], self.table_arrays[k]
+        lw = self.force_laws[k]
         if lw.law == kernels.LAW_TABLE:
-            out = np.empty(tf.size)
-            slope_many(ta.ftab, ta.x0, ta.inv_dx, tf, xf, out)
-        else:
-            out = np.where(self.mesh_force(k, tf, xf) > 0, _linear_law_at(lw.lin, tf)[0], 0.0)
-        return out.reshape(tau.shape)
+            return _on_table(slope_many, self.table_arrays[k], tau, x)
+        tau, x = np.broadcast_arrays(np.asarray(tau, float), np.asarray(x, float))
+        return np.where(self.mesh_force(k, tau, x) > 0, _linear_law_at(lw.lin, tau)[0], 0.0)
 
     def coast_force(self, k: int, tau, xc) -> np.ndarray:
         """Coast-flank force [N] of mesh ``k`` at ``tau`` [cycles], coast approach ``xc`` [m] (0 without a coast
         table), by the kernels' rule."""
-        tau, xc = np.broadcast_arrays(np.asarray(tau, float), np.asarray(xc, float))
-        ca = self.coast_arrays[k]
-        if ca is None:
-            return np.zeros(tau.shape)
-        out = np.empty(tau.size)
-        bilinear_many(ca.ftab, ca.x0, ca.inv_dx, np.ascontiguousarray(tau.ravel()),
-                      np.ascontiguousarray(xc.ravel()), out)
-        return np.maximum(out, 0.0).reshape(tau.shape)
+        return np.maximum(_on_table(bilinear_many, self.coast_arrays[k], tau, xc), 0.0)
 
     def coast_slope(self, k: int, tau, xc) -> np.ndarray:
         """Local slope dFc/dxc [N/m] of mesh ``k``'s coast table (0 without one)."""
-        tau, xc = np.broadcast_arrays(np.asarray(tau, float), np.asarray(xc, float))
-        ca = self.coast_arrays[k]
-        if ca is None:
-            return np.zeros(tau.shape)
-        out = np.empty(tau.size)
-        slope_many(ca.ftab, ca.x0, ca.inv_dx, np.ascontiguousarray(tau.ravel()), np.ascontiguousarray(xc.ravel()),
-                   out)
-        return out.reshape(tau.shape)
+        return _on_table(slope_many, self.coast_arrays[k], tau, xc)
 
     def state_fields(self, system, q: np.ndarray, tau: np.ndarray, offset: float, rec: np.ndarray) -> None:
         """Fill the record ``rec`` (record width,) as the kernel would at state ``q`` and mesh positions ``tau``
@@ -469,6 +447,17 @@ def mesh_law(system_name: str, meshes: Sequence[Any], force_law: str) -> MeshLaw
         return LinearLaw(system_name, meshes, force_law)
     law = TableLaw(system_name, meshes, force_law)
     return TwoSidedTableLaw(system_name, meshes, force_law) if law.two_sided else law
+
+
+def _on_table(rule, ta: TableArrays | None, tau, x) -> np.ndarray:
+    """``rule`` (the interpolation's ``bilinear_many`` or ``slope_many``) on the table arrays ``ta`` at broadcast
+    ``tau`` [cycles], ``x`` [m] (zeros without a table)."""
+    tau, x = np.broadcast_arrays(np.asarray(tau, float), np.asarray(x, float))
+    if ta is None:
+        return np.zeros(tau.shape)
+    out = np.empty(tau.size)
+    rule(ta.ftab, ta.x0, ta.inv_dx, np.ascontiguousarray(tau.ravel()), np.ascontiguousarray(x.ravel()), out)
+    return out.reshape(tau.shape)
 
 
 def _linear_law_at(lin: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -162,3 +162,19 @@ def test_kind_names_are_matched_only_in_kinds():
 def test_no_package_folder_is_named_build():
     """Code-structure tools skip folders named ``build``: the package has none."""
     assert [p for p in ROOT.rglob("build") if p.is_dir() and "__pycache__" not in p.parts] == []
+
+
+def test_every_subpackage_is_installed_by_pyproject():
+    """An installed wheel carries exactly the subpackages of the source tree: pyproject's ``packages`` lists every
+    folder with an ``__init__.py`` (a missing one installs a package that fails at import; a stale one fails the
+    install)."""
+    import tomllib
+
+    pyproject = ROOT.parent / "pyproject.toml"
+    if not pyproject.is_file():  # an installed wheel: nothing to compare
+        return
+    listed = set(tomllib.loads(pyproject.read_text())["tool"]["setuptools"]["packages"])
+    mapped = {"hacgear_core.systems", "hacgear_core.fmu.slaves"}  # data folders mapped in package-dir
+    tree = {".".join((PKG, *p.parent.relative_to(ROOT).parts)) for p in ROOT.rglob("__init__.py")
+            if "__pycache__" not in p.parts and p.parent.relative_to(ROOT).parts[:1] != ("systems",)}
+    assert listed - mapped == tree

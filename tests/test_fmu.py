@@ -4,7 +4,9 @@ process and in fresh, isolated ones."""
 from __future__ import annotations
 
 import importlib.metadata as md_
+import importlib.util
 import json
+import marshal
 import math
 import os
 import re
@@ -15,6 +17,7 @@ import zipfile
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
+import h5py
 import numpy as np
 import pytest
 
@@ -29,6 +32,7 @@ from _bench import assert_final_hold, assert_reversed_torque_run  # noqa: E402
 from hacgear_core.dynamics.build import build_system  # noqa: E402
 from hacgear_core.dynamics.simulator import Simulator  # noqa: E402
 from hacgear_core.errors import HacgearError  # noqa: E402
+from hacgear_core.fmu import adapter as fmu_adapter  # noqa: E402
 from hacgear_core.fmu import bootstrap  # noqa: E402
 from hacgear_core.fmu.adapter import variables_for  # noqa: E402
 from hacgear_core.fmu.bench import BenchConfig, run_drivetrain_bench  # noqa: E402
@@ -392,6 +396,63 @@ def test_bootstrap_cache_and_requirements(tmp_path, monkeypatch):
     root, notes = bootstrap.stable_copy(src, "pkg_x", digest)
     assert root == src.parent and "could not be cached" in notes[0] and "HACGEAR_FMU_CACHE" in notes[0]
     assert bootstrap.resources_folder("file:///tmp/a%20b/resources") == Path("/tmp/a b/resources")
+
+
+def test_bootstrap_compiles_the_copy_where_the_importer_writes_no_bytecode(tmp_path, monkeypatch):
+    """With PYTHONDONTWRITEBYTECODE (``sys.dont_write_bytecode``) the cached copy of the bundled code is compiled
+    to bytecode as it is made (valid for the copy's sources, naming them), so later processes do not compile the
+    sources; otherwise the copy has no bytecode until Python writes it on import."""
+    src = tmp_path / "res" / "pkg_y"
+    (src / "sub").mkdir(parents=True)
+    (src / "__init__.py").write_text("A = 1\n")
+    (src / "sub" / "mod.py").write_text("def f():\n    return 2\n")
+    digest = bootstrap.tree_digest(src)
+    monkeypatch.setattr(sys, "dont_write_bytecode", False)
+    monkeypatch.setenv("HACGEAR_FMU_CACHE", str(tmp_path / "writes"))
+    root, _ = bootstrap.stable_copy(src, "pkg_y", digest)
+    assert not list((root / "pkg_y").rglob("*.pyc"))
+    monkeypatch.setattr(sys, "dont_write_bytecode", True)
+    monkeypatch.setenv("HACGEAR_FMU_CACHE", str(tmp_path / "no_bytecode"))
+    root, notes = bootstrap.stable_copy(src, "pkg_y", digest)
+    assert notes == [] and bootstrap.tree_digest(root / "pkg_y") == digest
+    for rel in ("__init__.py", "sub/mod.py"):
+        source = root / "pkg_y" / rel
+        data = Path(importlib.util.cache_from_source(str(source))).read_bytes()
+        st = source.stat()
+        # header: magic, flags 0 (checked by source time stamp), source mtime and size
+        assert data[:4] == importlib.util.MAGIC_NUMBER and int.from_bytes(data[4:8], "little") == 0
+        assert int.from_bytes(data[8:12], "little") == int(st.st_mtime) & 0xFFFFFFFF
+        assert int.from_bytes(data[12:16], "little") == st.st_size & 0xFFFFFFFF
+        assert marshal.loads(data[16:]).co_filename == str(source)
+
+
+def test_cached_adapter_reads_tables_only_when_the_files_changed(tmp_path, monkeypatch):
+    """make_adapter with a cache file takes the tables from it (tables.h5 is not read: the same variables and
+    arrays) while the model and tables files hold the bytes they were read from; after an edit they are read and
+    checked again: a comment added to the model file is accepted, an edited tables file is refused."""
+    res = tmp_path / "res"
+    res.mkdir()
+    for name in (fmu_adapter.MODEL_FILE, fmu_adapter.TABLES_FILE):
+        shutil.copyfile(ROOT / "models" / "spur_28t_asym" / name, res / name)
+    cache = tmp_path / "systems" / "guid.pickle"
+    first = hf.make_adapter(res, cache)
+    assert cache.is_file()
+    reads = []
+    monkeypatch.setattr(fmu_adapter, "read_tables", lambda *a, **k: reads.append(a) or read_tables(*a, **k))
+    names = [v.name for v in first.variables]
+    second = hf.make_adapter(res, cache)
+    assert reads == [] and [v.name for v in second.variables] == names
+    assert second.tables.path == res / fmu_adapter.TABLES_FILE
+    np.testing.assert_array_equal(second.tables.mesh("m12").force_N, first.tables.mesh("m12").force_N)
+    with open(res / fmu_adapter.MODEL_FILE, "a", encoding="utf-8") as f:
+        f.write("\n# edited\n")
+    third = hf.make_adapter(res, cache)
+    assert len(reads) == 1 and [v.name for v in third.variables] == names
+    with h5py.File(res / fmu_adapter.TABLES_FILE, "r+") as f:
+        f.attrs["hacgear_version"] = "edited"
+    with pytest.raises(HacgearError, match="do not match their checksum"):
+        hf.make_adapter(res, cache)
+    assert len(reads) == 2
 
 
 # ---------------------------------------------------------------------------------------------- runs

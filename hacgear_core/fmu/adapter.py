@@ -578,7 +578,8 @@ def make_adapter(resources: str | Path, cache_file: str | Path | None = None) ->
         path = Path(cache_file)
         try:
             digest = _resources_sha256(resources)
-            prepared = pickle.loads(path.read_bytes())
+            with open(path, "rb") as f:  # streamed: no copy of the whole file in memory
+                prepared = pickle.load(f)
             if prepared["resources_sha256"] == digest:
                 return Adapter(load_model(resources / MODEL_FILE), replace(prepared["tables"], path=resources /
                                                                            TABLES_FILE), prepared=prepared)
@@ -590,8 +591,9 @@ def make_adapter(resources: str | Path, cache_file: str | Path | None = None) ->
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
             tmp = path.with_name(f".{path.name}.{os.getpid()}")
-            tmp.write_bytes(pickle.dumps(adapter.prepared() | {"tables": tables, "resources_sha256": digest},
-                                         protocol=pickle.HIGHEST_PROTOCOL))
+            with open(tmp, "wb") as f:
+                pickle.dump(adapter.prepared() | {"tables": tables, "resources_sha256": digest}, f,
+                            protocol=pickle.HIGHEST_PROTOCOL)
             os.replace(tmp, path)
         except OSError:
             pass

@@ -6,7 +6,6 @@ from __future__ import annotations
 import importlib.metadata as md_
 import importlib.util
 import json
-import marshal
 import math
 import os
 import re
@@ -396,34 +395,6 @@ def test_bootstrap_cache_and_requirements(tmp_path, monkeypatch):
     root, notes = bootstrap.stable_copy(src, "pkg_x", digest)
     assert root == src.parent and "could not be cached" in notes[0] and "HACGEAR_FMU_CACHE" in notes[0]
     assert bootstrap.resources_folder("file:///tmp/a%20b/resources") == Path("/tmp/a b/resources")
-
-
-def test_bootstrap_compiles_the_copy_where_the_importer_writes_no_bytecode(tmp_path, monkeypatch):
-    """With PYTHONDONTWRITEBYTECODE (``sys.dont_write_bytecode``) the cached copy of the bundled code is compiled
-    to bytecode as it is made (valid for the copy's sources, naming them), so later processes do not compile the
-    sources; otherwise the copy has no bytecode until Python writes it on import."""
-    src = tmp_path / "res" / "pkg_y"
-    (src / "sub").mkdir(parents=True)
-    (src / "__init__.py").write_text("A = 1\n")
-    (src / "sub" / "mod.py").write_text("def f():\n    return 2\n")
-    digest = bootstrap.tree_digest(src)
-    monkeypatch.setattr(sys, "dont_write_bytecode", False)
-    monkeypatch.setenv("HACGEAR_FMU_CACHE", str(tmp_path / "writes"))
-    root, _ = bootstrap.stable_copy(src, "pkg_y", digest)
-    assert not list((root / "pkg_y").rglob("*.pyc"))
-    monkeypatch.setattr(sys, "dont_write_bytecode", True)
-    monkeypatch.setenv("HACGEAR_FMU_CACHE", str(tmp_path / "no_bytecode"))
-    root, notes = bootstrap.stable_copy(src, "pkg_y", digest)
-    assert notes == [] and bootstrap.tree_digest(root / "pkg_y") == digest
-    for rel in ("__init__.py", "sub/mod.py"):
-        source = root / "pkg_y" / rel
-        data = Path(importlib.util.cache_from_source(str(source))).read_bytes()
-        st = source.stat()
-        # header: magic, flags 0 (checked by source time stamp), source mtime and size
-        assert data[:4] == importlib.util.MAGIC_NUMBER and int.from_bytes(data[4:8], "little") == 0
-        assert int.from_bytes(data[8:12], "little") == int(st.st_mtime) & 0xFFFFFFFF
-        assert int.from_bytes(data[12:16], "little") == st.st_size & 0xFFFFFFFF
-        assert marshal.loads(data[16:]).co_filename == str(source)
 
 
 def test_cached_adapter_reads_tables_only_when_the_files_changed(tmp_path, monkeypatch):
@@ -823,6 +794,52 @@ misses = sum(sum(x.stats.cache_misses.values()) for x in vars(mod).values() if h
 print('RESULT', json.dumps({{'rows': rows, 'kernel_cache_misses': misses}}))
 f.terminate(); f.freeInstance()
 """
+
+
+_NO_COMPILE_RUN = r"""
+import json, sys
+compiled = []
+def hook(event, args):
+    if event == "compile" and isinstance(args[1], str) and args[1].startswith({cache!r}):
+        compiled.append(args[1])
+sys.addaudithook(hook)
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+md = read_model_description({fmu!r}); d = extract({fmu!r})
+vr = {{v.name: v.valueReference for v in md.modelVariables}}
+f = FMU2Slave(guid=md.guid, unzipDirectory=d, modelIdentifier=md.coSimulation.modelIdentifier, instanceName='x')
+f.instantiate(); f.setupExperiment(startTime=0.0); f.enterInitializationMode()
+f.setReal([vr['pinion.speed_in']], [314.0]); f.exitInitializationMode(); f.doStep(0.0, 1e-4)
+files = [m.__file__ for n, m in sys.modules.items() if n.startswith('hacgear_fmu_') and getattr(m, '__file__', None)]
+print(json.dumps({{"compiled": compiled, "files": files}}))
+f.terminate(); f.freeInstance()
+"""
+
+
+def test_fmu_ships_the_bytecode_of_its_bundled_code(built, tmp_path):
+    """The FMU carries the bytecode of its bundled code for the builder's Python (checked against the sources'
+    hashes: extraction changes the files' times), and no other bytecode; a fresh process that writes no bytecode
+    itself (PYTHONDONTWRITEBYTECODE) and has empty caches imports the bundled code from the per-user cache without
+    compiling any of its sources."""
+    fmu = built["fmu"]["spur_28t_asym"]
+    with zipfile.ZipFile(fmu) as z:
+        names = set(z.namelist())
+        package = json.loads(z.read("resources/hacgear_fmu.json"))["bundle"]["package"]
+        sources = [n for n in names if n.startswith(f"resources/{package}/") and n.endswith(".py")]
+        assert len(sources) > 50
+        for n in sources:
+            pyc = z.read(importlib.util.cache_from_source(n))
+            assert pyc[:4] == importlib.util.MAGIC_NUMBER and int.from_bytes(pyc[4:8], "little") == 0b11, n
+    assert not [n for n in names if "__pycache__" in n and not n.startswith(f"resources/{package}/")]
+    cache = tmp_path / "cache"
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env.update(HACGEAR_FMU_CACHE=str(cache), PYTHONDONTWRITEBYTECODE="1")
+    p = subprocess.run([sys.executable, "-c", _NO_COMPILE_RUN.format(fmu=str(fmu), cache=str(cache))],
+                       capture_output=True, text=True, timeout=900, env=env)
+    assert p.returncode == 0, p.stdout[-2000:] + p.stderr[-3000:]
+    out = json.loads(p.stdout.strip().splitlines()[-1])
+    assert len(out["files"]) > 20 and all(Path(f).is_relative_to(cache) for f in out["files"])
+    assert out["compiled"] == []
 
 
 def _shipped_run(fmu, cache):

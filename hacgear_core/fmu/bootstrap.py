@@ -12,8 +12,8 @@
    bytecode (compiled by the builder's Python, checked against the sources' hashes) is copied with it: an importer
    with the builder's Python version compiles no source, even where it writes no bytecode itself
    (``PYTHONDONTWRITEBYTECODE``).
-3. It returns the FMU instance (``<package>.fmu.slave.FmuInstance``), which keeps the assembled lumped system
-   in ``cache_root()/systems/<GUID>.pickle`` for the next process.
+3. It returns the FMU instance (``<package>.fmu.slave.FmuInstance``), which keeps the tables and the assembled
+   lumped system in ``cache_root()/systems/<GUID>.pickle`` for the next process.
 """
 from __future__ import annotations
 

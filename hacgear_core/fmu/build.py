@@ -482,8 +482,9 @@ def _package(adapter, info: dict, files: dict, dest: Path, fmi_version: int, bac
         with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
             z.writestr("modelDescription.xml", xml)
             z.write(binary, binary.relative_to(td).as_posix())
-            for p in sorted(res.rglob("*")):  # bytecode: the bundle's only (bundle_package)
-                if p.is_file() and ("__pycache__" not in p.parts or p.is_relative_to(res / package)):
+            for p in sorted(res.rglob("*")):  # of the caches, the bundle's bytecode only (bundle_package)
+                if p.is_file() and ("__pycache__" not in p.parts
+                                    or (p.is_relative_to(res / package) and p.suffix == ".pyc")):
                     z.write(p, p.relative_to(td).as_posix())
         os.replace(tmp, dest)
     return dest

@@ -4,6 +4,7 @@ process and in fresh, isolated ones."""
 from __future__ import annotations
 
 import importlib.metadata as md_
+import importlib.util
 import json
 import math
 import os
@@ -15,6 +16,7 @@ import zipfile
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
+import h5py
 import numpy as np
 import pytest
 
@@ -29,6 +31,7 @@ from _bench import assert_final_hold, assert_reversed_torque_run  # noqa: E402
 from hacgear_core.kinds import build_system  # noqa: E402
 from hacgear_core.dynamics.simulator import Simulator  # noqa: E402
 from hacgear_core.errors import HacgearError  # noqa: E402
+from hacgear_core.fmu import adapter as fmu_adapter  # noqa: E402
 from hacgear_core.fmu import bootstrap  # noqa: E402
 from hacgear_core.fmu.adapter import variables_for  # noqa: E402
 from hacgear_core.fmu.bench import BenchConfig, run_drivetrain_bench  # noqa: E402
@@ -392,6 +395,35 @@ def test_bootstrap_cache_and_requirements(tmp_path, monkeypatch):
     root, notes = bootstrap.stable_copy(src, "pkg_x", digest)
     assert root == src.parent and "could not be cached" in notes[0] and "HACGEAR_FMU_CACHE" in notes[0]
     assert bootstrap.resources_folder("file:///tmp/a%20b/resources") == Path("/tmp/a b/resources")
+
+
+def test_cached_adapter_reads_tables_only_when_the_files_changed(tmp_path, monkeypatch):
+    """make_adapter with a cache file takes the tables from it (tables.h5 is not read: the same variables and
+    arrays) while the model and tables files hold the bytes they were read from; after an edit they are read and
+    checked again: a comment added to the model file is accepted, an edited tables file is refused."""
+    res = tmp_path / "res"
+    res.mkdir()
+    for name in (fmu_adapter.MODEL_FILE, fmu_adapter.TABLES_FILE):
+        shutil.copyfile(ROOT / "models" / "spur_28t_asym" / name, res / name)
+    cache = tmp_path / "systems" / "guid.pickle"
+    first = hf.make_adapter(res, cache)
+    assert cache.is_file()
+    reads = []
+    monkeypatch.setattr(fmu_adapter, "read_tables", lambda *a, **k: reads.append(a) or read_tables(*a, **k))
+    names = [v.name for v in first.variables]
+    second = hf.make_adapter(res, cache)
+    assert reads == [] and [v.name for v in second.variables] == names
+    assert second.tables.path == res / fmu_adapter.TABLES_FILE
+    np.testing.assert_array_equal(second.tables.mesh("m12").force_N, first.tables.mesh("m12").force_N)
+    with open(res / fmu_adapter.MODEL_FILE, "a", encoding="utf-8") as f:
+        f.write("\n# edited\n")
+    third = hf.make_adapter(res, cache)
+    assert len(reads) == 1 and [v.name for v in third.variables] == names
+    with h5py.File(res / fmu_adapter.TABLES_FILE, "r+") as f:
+        f.attrs["hacgear_version"] = "edited"
+    with pytest.raises(HacgearError, match="do not match their checksum"):
+        hf.make_adapter(res, cache)
+    assert len(reads) == 2
 
 
 # ---------------------------------------------------------------------------------------------- runs
@@ -762,6 +794,52 @@ misses = sum(sum(x.stats.cache_misses.values()) for x in vars(mod).values() if h
 print('RESULT', json.dumps({{'rows': rows, 'kernel_cache_misses': misses}}))
 f.terminate(); f.freeInstance()
 """
+
+
+_NO_COMPILE_RUN = r"""
+import json, sys
+compiled = []
+def hook(event, args):
+    if event == "compile" and isinstance(args[1], str) and args[1].startswith({cache!r}):
+        compiled.append(args[1])
+sys.addaudithook(hook)
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+md = read_model_description({fmu!r}); d = extract({fmu!r})
+vr = {{v.name: v.valueReference for v in md.modelVariables}}
+f = FMU2Slave(guid=md.guid, unzipDirectory=d, modelIdentifier=md.coSimulation.modelIdentifier, instanceName='x')
+f.instantiate(); f.setupExperiment(startTime=0.0); f.enterInitializationMode()
+f.setReal([vr['pinion.speed_in']], [314.0]); f.exitInitializationMode(); f.doStep(0.0, 1e-4)
+files = [m.__file__ for n, m in sys.modules.items() if n.startswith('hacgear_fmu_') and getattr(m, '__file__', None)]
+print(json.dumps({{"compiled": compiled, "files": files}}))
+f.terminate(); f.freeInstance()
+"""
+
+
+def test_fmu_ships_the_bytecode_of_its_bundled_code(built, tmp_path):
+    """The FMU carries the bytecode of its bundled code for the builder's Python (checked against the sources'
+    hashes: extraction changes the files' times), and no other bytecode; a fresh process that writes no bytecode
+    itself (PYTHONDONTWRITEBYTECODE) and has empty caches imports the bundled code from the per-user cache without
+    compiling any of its sources."""
+    fmu = built["fmu"]["spur_28t_asym"]
+    with zipfile.ZipFile(fmu) as z:
+        names = set(z.namelist())
+        package = json.loads(z.read("resources/hacgear_fmu.json"))["bundle"]["package"]
+        sources = [n for n in names if n.startswith(f"resources/{package}/") and n.endswith(".py")]
+        assert len(sources) > 50
+        for n in sources:
+            pyc = z.read(importlib.util.cache_from_source(n))
+            assert pyc[:4] == importlib.util.MAGIC_NUMBER and int.from_bytes(pyc[4:8], "little") == 0b11, n
+    assert not [n for n in names if "__pycache__" in n and not n.startswith(f"resources/{package}/")]
+    cache = tmp_path / "cache"
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env.update(HACGEAR_FMU_CACHE=str(cache), PYTHONDONTWRITEBYTECODE="1")
+    p = subprocess.run([sys.executable, "-c", _NO_COMPILE_RUN.format(fmu=str(fmu), cache=str(cache))],
+                       capture_output=True, text=True, timeout=900, env=env)
+    assert p.returncode == 0, p.stdout[-2000:] + p.stderr[-3000:]
+    out = json.loads(p.stdout.strip().splitlines()[-1])
+    assert len(out["files"]) > 20 and all(Path(f).is_relative_to(cache) for f in out["files"])
+    assert out["compiled"] == []
 
 
 def _shipped_run(fmu, cache):

@@ -25,6 +25,7 @@ meshes and gears the chosen one does not have read 0.
 """
 from __future__ import annotations
 
+import hashlib
 import math
 import os
 import pickle
@@ -556,26 +557,47 @@ def load_resources(resources: str | Path):
     return model, tables
 
 
+def _resources_sha256(resources: str | Path) -> str:
+    """SHA-256 (hex) over the bytes of the model file and the tables file in ``resources``: what a cached adapter
+    (:func:`make_adapter`) was prepared from."""
+    h = hashlib.sha256()
+    for name in (MODEL_FILE, TABLES_FILE):
+        with open(Path(resources) / name, "rb") as f:
+            h.update(hashlib.file_digest(f, "sha256").digest())
+    return h.hexdigest()
+
+
 def make_adapter(resources: str | Path, cache_file: str | Path | None = None) -> Adapter:
     """The adapter of the system in ``resources`` (see :func:`load_resources`).
 
-    ``cache_file``: where the assembled lumped system and nominal values are kept between processes (pickle;
-    read when present, written when not; unreadable or unwritable files are ignored): the key must identify the
-    model, the tables and the code (an FMU's GUID does).
+    ``cache_file``: where the tables, the assembled lumped system and the nominal values are kept between
+    processes (pickle; read when present, written when not; unreadable or unwritable files are ignored): the key
+    must identify the model, the tables and the code (an FMU's GUID does).  The cached tables are used only
+    while the model and tables files hold the bytes they were read from (:func:`_resources_sha256`); otherwise
+    the files are read (and checked) again.
     """
-    model, tables = load_resources(resources)
+    resources = Path(resources)
+    digest = None
     if cache_file is not None:
         path = Path(cache_file)
         try:
-            return Adapter(model, tables, prepared=pickle.loads(path.read_bytes()))
-        except Exception:  # no cache yet, or one that does not fit: assemble
+            digest = _resources_sha256(resources)
+            with open(path, "rb") as f:  # streamed: no copy of the whole file in memory
+                prepared = pickle.load(f)
+            if prepared["resources_sha256"] == digest:
+                return Adapter(load_model(resources / MODEL_FILE), replace(prepared["tables"], path=resources /
+                                                                           TABLES_FILE), prepared=prepared)
+        except Exception:  # no cache yet, or one that does not fit: read and assemble
             pass
+    model, tables = load_resources(resources)
     adapter = Adapter(model, tables)
-    if cache_file is not None:
+    if cache_file is not None and digest is not None:
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
             tmp = path.with_name(f".{path.name}.{os.getpid()}")
-            tmp.write_bytes(pickle.dumps(adapter.prepared(), protocol=pickle.HIGHEST_PROTOCOL))
+            with open(tmp, "wb") as f:
+                pickle.dump(adapter.prepared() | {"tables": tables, "resources_sha256": digest}, f,
+                            protocol=pickle.HIGHEST_PROTOCOL)
             os.replace(tmp, path)
         except OSError:
             pass

@@ -8,9 +8,12 @@
 2. It copies the FMU's bundled hacgear code (``resources/<package>/``: hacgear_core under a name unique to its
    contents) once to a stable per-user folder, :func:`cache_root`, and imports it from there: numba caches the
    compiled kernels next to their source, so every later process loads them instead of compiling them.  FMUs of
-   different hacgear builds have different package names and run side by side in one process.
-3. It returns the FMU instance (``<package>.fmu.slave.FmuInstance``), which keeps the assembled lumped system
-   in ``cache_root()/systems/<GUID>.pickle`` for the next process.
+   different hacgear builds have different package names and run side by side in one process.  The bundle's
+   bytecode (compiled by the builder's Python, checked against the sources' hashes) is copied with it: an importer
+   with the builder's Python version compiles no source, even where it writes no bytecode itself
+   (``PYTHONDONTWRITEBYTECODE``).
+3. It returns the FMU instance (``<package>.fmu.slave.FmuInstance``), which keeps the tables and the assembled
+   lumped system in ``cache_root()/systems/<GUID>.pickle`` for the next process.
 """
 from __future__ import annotations
 
@@ -104,7 +107,7 @@ def stable_copy(src: Path, package: str, digest: str) -> tuple[Path, list[str]]:
         root.mkdir(parents=True, exist_ok=True)
         tmp = Path(tempfile.mkdtemp(prefix=f".{package}-", dir=root))
         try:
-            shutil.copytree(src, tmp / package, ignore=shutil.ignore_patterns("__pycache__"))
+            shutil.copytree(src, tmp / package)
             (tmp / package / _MARKER).write_text(digest + "\n")
             if tree_digest(tmp / package) != digest:
                 raise OSError(f"the FMU's bundled code {src} does not match its digest (corrupted FMU?)")

@@ -21,6 +21,7 @@ An FMU holds:
 """
 from __future__ import annotations
 
+import compileall
 import dataclasses
 import datetime as _dt
 import hashlib
@@ -29,6 +30,7 @@ import json
 import logging
 import math
 import os
+import py_compile
 import re
 import shutil
 import subprocess
@@ -92,7 +94,9 @@ def _sha256(path: Path) -> str:
 # ---------------------------------------------------------------------------------------------- the bundle
 def bundle_package(dest: str | Path) -> tuple[str, str]:
     """Copy this hacgear_core (its ``*.py`` files) into ``dest/<package>/`` under a name unique to its contents,
-    with every ``hacgear_core`` in the sources renamed; returns (package, digest of the copy)."""
+    with every ``hacgear_core`` in the sources renamed, and compile the copy to bytecode of this Python (checked
+    against the sources' hashes, not their times, which extracting the FMU changes: an importer with this Python
+    version imports it without compiling); returns (package, digest of the copy)."""
     src = Path(__file__).resolve().parents[1]
     name = f"hacgear_fmu_{re.sub(r'[^0-9A-Za-z]', '_', __version__)}_{bootstrap.tree_digest(src)[:12]}"
     out = Path(dest) / name
@@ -104,6 +108,8 @@ def bundle_package(dest: str | Path) -> tuple[str, str]:
         target = out / rel
         target.parent.mkdir(parents=True, exist_ok=True)
         target.write_text(pattern.sub(name, p.read_text(encoding="utf-8")), encoding="utf-8")
+    if not compileall.compile_dir(out, quiet=2, invalidation_mode=py_compile.PycInvalidationMode.CHECKED_HASH):
+        raise HacgearError(f"the bundled copy of hacgear_core in {out} does not compile")
     return name, bootstrap.tree_digest(out)
 
 
@@ -477,8 +483,9 @@ def _package(adapter, info: dict, files: dict, dest: Path, fmi_version: int, bac
         with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
             z.writestr("modelDescription.xml", xml)
             z.write(binary, binary.relative_to(td).as_posix())
-            for p in sorted(res.rglob("*")):
-                if p.is_file() and "__pycache__" not in p.parts:
+            for p in sorted(res.rglob("*")):  # of the caches, the bundle's bytecode only (bundle_package)
+                if p.is_file() and ("__pycache__" not in p.parts
+                                    or (p.is_relative_to(res / package) and p.suffix == ".pyc")):
                     z.write(p, p.relative_to(td).as_posix())
         os.replace(tmp, dest)
     return dest

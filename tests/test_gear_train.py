@@ -1,0 +1,141 @@
+"""The multi-stage parallel-axis gearbox (kind gear_train): model rules, placement, tables, modes against an
+independent eigen-solution of the lumped matrices written here, shaft torque, FMUs."""
+from __future__ import annotations
+
+import json
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.linalg
+
+from hacgear_core.cli import main
+from hacgear_core.errors import ModelError
+from hacgear_core.geometry import gear_geometry, train_geometry
+from hacgear_core.kinds import build_system, load_model, parse_model
+from hacgear_core.kinds.gear_train import place_gear_train
+from hacgear_core.model import resolve_model_path
+from hacgear_core.tables import load_system_tables
+
+SYSTEM = "gear_train_2stage"
+#: m34 (mirror-image gears) against spur_28t_asym: largest static-deflection difference over the largest deflection
+MIRROR_TOLERANCE = 2e-3  # measured 7.5e-4 (FE meshes of mirror-image gears are not mirror images)
+
+
+def _text(system: str = SYSTEM) -> str:
+    return resolve_model_path(system).read_text()
+
+
+@pytest.fixture(scope="module")
+def model():
+    return load_model(SYSTEM)
+
+
+@pytest.fixture(scope="module")
+def system(model):
+    return build_system(model, load_system_tables(SYSTEM))
+
+
+def _idler_as_gear_train(torsional: float = 1.0e6) -> str:
+    """idler_28_33_39 with its idler split into two identical gears on one shaft, the shafts to ground removed."""
+    txt = _text("idler_28_33_39").replace('kind = "idler_chain"', 'kind = "gear_train"')
+    txt = txt.replace("rotational_stiffness_Nm_per_rad = 5.0e4", "rotational_stiffness_Nm_per_rad = 0.0")
+    i = txt.index('[[gears]]\nname = "gear2"')
+    j = txt.index("[[gears]]", i + 5)
+    txt = txt[:j] + txt[i:j].replace('name = "gear2"', 'name = "gear2b"') + txt[j:]
+    txt = txt.replace('gear_a = "gear2"\ngear_b = "gear3"', 'gear_a = "gear2b"\ngear_b = "gear3"')
+    return txt.replace("[damping]", f'[[gear_train.shafts]]\nname = "s2"\ngear_a = "gear2"\ngear_b = "gear2b"\n'
+                                    f"torsional_stiffness_Nm_per_rad = {torsional!r}\n\n[damping]")
+
+
+def test_an_idler_split_on_a_shaft_is_placed_as_the_idler_chain():
+    """Two identical gears on one shaft, mounted without offset, are the idler of idler_28_33_39: same lines of
+    action, phases and tooth passage of the gear driving m23 (the placement joins two independently placed pairs)."""
+    idler = load_model("idler_28_33_39")
+    gt = parse_model(_idler_as_gear_train())
+    a, b = train_geometry(idler), place_gear_train(gt)
+    for m in ("m12", "m23"):
+        assert b.meshes[m].phase == pytest.approx(a.meshes[m].phase, abs=1e-12)
+        np.testing.assert_allclose(b.meshes[m].line_of_action, a.meshes[m].line_of_action, atol=1e-15)
+    assert a.meshes["m23"].phase == pytest.approx(0.98622, abs=1e-5)
+    assert b.tooth_passage["gear2b"]["m23"] == a.tooth_passage["gear2"]["m23"]
+    np.testing.assert_allclose(b.centre_m["gear2b"], b.centre_m["gear2"])
+    assert b.sense["gear2b"] == b.sense["gear2"] == -1.0
+
+
+def test_mounting_angle_moves_the_second_stage_phase():
+    """Turning pinion2 by d on the shaft (counter-clockwise) delays m34 by z d / 2 pi: pinion2 turns clockwise."""
+    base = _text()
+    ph = {}
+    for deg in (0.0, 1.0):
+        txt = re.sub(r"mounting_angle_deg = [0-9.eE+-]+", f"mounting_angle_deg = {deg}", base)
+        ph[deg] = place_gear_train(parse_model(txt)).meshes["m34"].phase
+    assert (ph[0.0] - ph[1.0]) == pytest.approx(28 / 360, abs=1e-12)
+
+
+def _hand_matrices(model, mesh_stiffness):
+    """M and K of the two-stage train on rigid bearings written out by hand (q = rotations of pinion1, wheel1,
+    pinion2, wheel2, counter-clockwise): J_i on M's diagonal; each external mesh x = r_b,a th_a + r_b,b th_b
+    (dissertation Eq. 3.4, the sense of rotation only flips the sign of x) with r_b = m z cos(25 deg) / 2; the
+    intermediate shaft k_s (th_wheel1 - th_pinion2)^2 / 2."""
+    rb = 5.0e-3 * 28 * math.cos(math.radians(25.0)) / 2
+    J = [gear_geometry(model.gear(g)).inertia_kgm2 for g in ("pinion1", "wheel1", "pinion2", "wheel2")]
+    ks = 1.0e4  # [[gear_train.shafts]] torsional_stiffness_Nm_per_rad of the model file
+    v1 = np.array([rb, rb, 0.0, 0.0])
+    v2 = np.array([0.0, 0.0, rb, rb])
+    s = np.array([0.0, 1.0, -1.0, 0.0])
+    K = mesh_stiffness[0] * np.outer(v1, v1) + mesh_stiffness[1] * np.outer(v2, v2) + ks * np.outer(s, s)
+    return np.diag(J), K, rb
+
+
+def test_modes_equal_an_independent_eigen_solution_of_the_hand_written_matrices(model, system, capsys):
+    """`hacgear modes` against scipy.linalg.eigh of M and K written here (the mesh stiffnesses are the tables'
+    cycle-mean slopes at the static force the modes report; everything else from the model file by hand)."""
+    assert main(["modes", SYSTEM, "--torque", "300", "--json", "--no-impulse"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    km = [rep["mesh_stiffness_N_per_m"][m] for m in ("m12", "m34")]
+    assert km[0] == pytest.approx(km[1], rel=1e-3)          # both stages: the 25 deg flanks of the same pair
+    assert km[0] == pytest.approx(164.29e6, rel=2e-3)       # spur_28t_asym's mesh stiffness (hacgear modes)
+    M, K, rb = _hand_matrices(model, km)
+    w2, phi = scipy.linalg.eigh(K, M)
+    assert abs(w2[0]) < 1e-6 * w2[1]                        # the free rotation of the train
+    f_hand = np.sqrt(w2[1:]) / (2 * math.pi)
+    np.testing.assert_allclose(rep["natural_frequencies_Hz"], f_hand, rtol=1e-9)
+    # the reference result of the readme: a shaft mode and two mesh modes either side of spur_28t_asym's 2786.4 Hz
+    np.testing.assert_allclose(f_hand, [241.38, 2786.37, 2796.97], atol=0.01)
+    assert rep["mode_shapes"]["dof_names"] == [f"{g}.theta" for g in ("pinion1", "wheel1", "pinion2", "wheel2")]
+    for shape, col in zip(rep["mode_shapes"]["shapes"], phi[:, 1:].T):
+        hand = col * rb
+        np.testing.assert_allclose(shape, hand / hand[np.argmax(np.abs(hand))], atol=1e-7)
+    assert rep["rigid_body_modes"] == 1
+    np.testing.assert_array_equal(system.M, M)
+
+
+def test_first_stage_table_is_spur_28t_asym_and_the_turned_over_stage_its_mirror_image():
+    """m12 is spur_28t_asym's pair (same gears, grid and centre distance): the same statics give the same table;
+    m34 loads the coast-side 25 deg flanks of the turned-over gears: the mirror image of the same contact problem."""
+    ours = load_system_tables(SYSTEM)
+    ref = load_system_tables("spur_28t_asym").mesh("m12")
+    np.testing.assert_array_equal(ours.mesh("m12").force_N, ref.force_N)
+    np.testing.assert_array_equal(ours.mesh("m12").deflection_m, ref.deflection_m)
+    t = ours.mesh("m34")
+    np.testing.assert_array_equal(t.load_N, ref.load_N)
+    np.testing.assert_allclose(t.base_radius_m, ref.base_radius_m, rtol=1e-12)
+    # load control: the static mesh deflection at every position and load of the grid
+    err = np.max(np.abs(t.static_deflection_m - ref.static_deflection_m)) / np.max(ref.static_deflection_m)
+    assert err < MIRROR_TOLERANCE, err
+
+
+def test_static_shaft_torque_is_the_torque_the_first_stage_delivers(system):
+    """Static equilibrium: pinion1 driven by 300 N m, wheel2 braked: the intermediate shaft carries F12 r_b2 =
+    300 N m (unit ratio), whatever the mesh position (the wheel1 moment balance)."""
+    from hacgear_core.dynamics.equilibrium import static_equilibrium
+
+    i2, i3 = system.dof_names.index("wheel1.theta"), system.dof_names.index("pinion2.theta")
+    s = system.gears["wheel1"].sense
+    for tau in (0.0, 0.3, 0.7):
+        eq = static_equilibrium(system, tau)
+        assert s * 1.0e4 * (eq.q[i2] - eq.q[i3]) == pytest.approx(300.0, rel=1e-9)
+    assert system.fext_speed()[i2] == 0.0 and system.fext_speed()[i3] == 0.0

@@ -139,3 +139,100 @@ def test_static_shaft_torque_is_the_torque_the_first_stage_delivers(system):
         eq = static_equilibrium(system, tau)
         assert s * 1.0e4 * (eq.q[i2] - eq.q[i3]) == pytest.approx(300.0, rel=1e-9)
     assert system.fext_speed()[i2] == 0.0 and system.fext_speed()[i3] == 0.0
+
+
+def test_unequal_tooth_counts_on_a_shaft_are_refused_naming_the_gears():
+    """28 -> 33 | 39 -> 39: the second stage would mesh at 33/39 of the first stage's frequency; the kernel
+    advances one mesh frequency, so the model is refused at load naming both gears and their teeth."""
+    txt = _idler_as_gear_train()
+    i = txt.index('[[gears]]\nname = "gear2b"')
+    j = txt.index("[[gears]]", i + 5)
+    k = txt.index('[[gears]]\nname = "gear3"')
+    gear3 = txt[k:txt.index("[[meshes]]")]
+    txt = txt[:i] + gear3.replace('name = "gear3"', 'name = "gear2b"') + txt[j:]
+    with pytest.raises(ModelError, match=r"gear2.*teeth = 33.*gear2b.*teeth = 39|gear2b.*teeth = 39.*gear2.*teeth = 33"):
+        parse_model(txt)
+
+
+@pytest.mark.parametrize("edit, match", [
+    (lambda t: t.replace("rotational_stiffness_Nm_per_rad = 0.0", "rotational_stiffness_Nm_per_rad = 5.0e4", 1),
+     r"rotational_stiffness_Nm_per_rad \[N\*m/rad\] must be 0"),
+    (lambda t: t.replace('gear_b = "pinion2"\ntorsional', 'gear_b = "pinion9"\ntorsional'),
+     r"gear_train.shafts 'shaft2'.gear_b = 'pinion9' names no gear"),
+    (lambda t: t.replace("torsional_stiffness_Nm_per_rad = 1.0e4", "torsional_stiffness_Nm_per_rad = 0.0"),
+     r"torsional_stiffness_Nm_per_rad' \[N\*m/rad\].*allowed: \(0, 1e\+12\]"),
+    (lambda t: t.replace("[damping]", '[[gear_train.shafts]]\nname = "s1"\ngear_a = "pinion1"\ngear_b = "wheel1"\n'
+                                      'torsional_stiffness_Nm_per_rad = 1.0\n\n[damping]'),
+     r"mesh 'm12': 'pinion1' and 'wheel1' are on one axis"),
+    (lambda t: t.replace("[[gear_train.shafts]]", "[[gear_train.shaft]]"), r"unknown key 'gear_train.shaft'"),
+    (lambda t: t.replace('torque_gear = "pinion1"', 'torque_gear = "wheel1"'),
+     r"torque_gear = 'wheel1' must be at an end of the chain"),
+])
+def test_bad_gear_train_models_are_refused_at_load_naming_the_key(edit, match):
+    with pytest.raises(ModelError, match=match):
+        parse_model(edit(_text()))
+
+
+def test_bending_spring_couples_the_translations_of_the_gears_on_a_shaft(model):
+    """Elastic bearings (1e8 N/m) and a bending spring k_b between wheel1 and pinion2: both get x and y DOFs with
+    K = [[k_t + k_b, -k_b], [-k_b, k_t + k_b]] per direction, each mesh's line-of-action vector n on them, and the
+    modes equal scipy.linalg.eigh of M and K written here."""
+    kt, kb = 1.0e8, 3.0e8
+    txt = _text().replace("translational_stiffness_N_per_m = inf", f"translational_stiffness_N_per_m = {kt!r}")
+    txt = txt.replace("torsional_stiffness_Nm_per_rad = 1.0e4",
+                      f"torsional_stiffness_Nm_per_rad = 1.0e4\nbending_stiffness_N_per_m = {kb!r}")
+    sy = build_system(parse_model(txt), load_system_tables(SYSTEM))
+    names = list(sy.dof_names)
+    assert names == ["pinion1.u_loa", "pinion1.theta", "wheel1.x", "wheel1.y", "wheel1.theta", "pinion2.x",
+                     "pinion2.y", "pinion2.theta", "wheel2.u_loa", "wheel2.theta"]
+    pl = place_gear_train(model)
+    n12, n34 = pl.meshes["m12"].line_of_action, pl.meshes["m34"].line_of_action
+    rb = 5.0e-3 * 28 * math.cos(math.radians(25.0)) / 2
+    s1, s3 = pl.sense["pinion1"], pl.sense["pinion2"]
+    # mesh deflection x = (u_a - u_b) . n + m_a th_a - m_b th_b with m_a = s_a r_b, m_b = -s_a r_b (external)
+    v1 = np.zeros(10)
+    v1[[0, 1, 2, 3, 4]] = [1.0, s1 * rb, -n12[0], -n12[1], s1 * rb]
+    v2 = np.zeros(10)
+    v2[[5, 6, 7, 8, 9]] = [n34[0], n34[1], s3 * rb, -1.0, s3 * rb]
+    np.testing.assert_allclose(sy.V, [v1, v2], atol=1e-15)
+    K = np.zeros((10, 10))
+    K[[0, 8], [0, 8]] = kt
+    for a, b in ((2, 5), (3, 6)):
+        K[np.ix_([a, b], [a, b])] = [[kt + kb, -kb], [-kb, kt + kb]]
+    K[np.ix_([4, 7], [4, 7])] = 1.0e4 * np.array([[1.0, -1.0], [-1.0, 1.0]])
+    np.testing.assert_allclose(sy.K, K, rtol=1e-15)
+    geo = {g: gear_geometry(model.gear(g)) for g in ("pinion1", "wheel1", "pinion2", "wheel2")}
+    m = [geo[name.split(".")[0]].inertia_kgm2 if name.endswith("theta") else geo[name.split(".")[0]].mass_kg
+         for name in names]
+    np.testing.assert_array_equal(np.diag(sy.M), m)
+    kl = K + sum(k * np.outer(v, v) for k, v in zip(sy.mesh_stiffness_N_per_m, (v1, v2)))
+    w2 = scipy.linalg.eigh(kl, np.diag(np.diag(sy.M)), eigvals_only=True)
+    from hacgear_core.dynamics.modes import modal_analysis
+    np.testing.assert_allclose(modal_analysis(sy).natural_frequencies_Hz, np.sqrt(w2[1:]) / (2 * math.pi),
+                               rtol=1e-9)
+
+
+def test_an_idler_split_on_a_stiff_shaft_has_the_idler_chains_dynamics():
+    """idler_28_33_39 (free shafts) against the same chain with its idler cut into two halves (half the inertia
+    each) on a 1e11 N m/rad shaft: the same nominal forces, the same static mesh forces and, below the shaft's own
+    mode, the same natural frequencies (to (f / f_shaft)^2 ~ 1e-5)."""
+    free = _text("idler_28_33_39").replace("rotational_stiffness_Nm_per_rad = 5.0e4", "rotational_stiffness_Nm_per_rad = 0.0")
+    idler_model = parse_model(free)
+    half = gear_geometry(idler_model.gear("gear2")).inertia_kgm2 / 2
+    txt = _idler_as_gear_train(1.0e11).replace('name = "gear2"\n', f'name = "gear2"\ninertia_kgm2 = {half!r}\n')
+    txt = txt.replace('name = "gear2b"\n', f'name = "gear2b"\ninertia_kgm2 = {half!r}\n')
+    tabs = load_system_tables("idler_28_33_39")
+    tables = {m: tabs.mesh(m) for m in ("m12", "m23")}
+    idler = build_system(idler_model, tables)
+    split = build_system(parse_model(txt), tables)
+    np.testing.assert_allclose(split.nominal_forces_N(), idler.nominal_forces_N(), rtol=1e-12)
+    np.testing.assert_allclose(split.phase, idler.phase, atol=1e-12)
+    from hacgear_core.dynamics.equilibrium import static_equilibrium
+    from hacgear_core.dynamics.modes import modal_analysis
+    for tau in (0.0, 0.4):
+        np.testing.assert_allclose(static_equilibrium(split, tau).mesh_forces_N,
+                                   static_equilibrium(idler, tau).mesh_forces_N, rtol=1e-6)
+    f_idler = modal_analysis(idler).natural_frequencies_Hz
+    f_split = modal_analysis(split).natural_frequencies_Hz
+    assert len(f_split) == len(f_idler) + 1 and f_split[-1] > 100 * f_idler[-1]
+    np.testing.assert_allclose(f_split[:-1], f_idler, rtol=1e-4)

@@ -52,7 +52,8 @@ def tooth_loads(table, tau, x) -> np.ndarray:
     return np.maximum(_per_offset(table, table.tooth_load_N, tau, x), 0.0)
 
 
-def _twisted(table, twist) -> bool:
+def _at_twist(table, twist) -> bool:
+    """Whether ``table`` is read at a mesh twist: the twist is given and the table has a twist axis."""
     return twist is not None and getattr(table, "twist", None) is not None
 
 
@@ -61,7 +62,7 @@ def dynamic_contact_pressure(table, tau, x, twist=None) -> np.ndarray:
     axis) at the mesh twist ``twist`` (n,) [rad] when given (trilinear lookup of the twist-resolved pressure)."""
     tau = np.asarray(tau, float).ravel()
     x = np.asarray(x, float).ravel()
-    if _twisted(table, twist):
+    if _at_twist(table, twist):
         g = np.asarray(twist, float).ravel()
         return np.maximum(table.twist_quantity(table.twist.peak_pressure_Pa, tau, x, g), 0.0)
     return table.pressure(tau, x)
@@ -91,7 +92,7 @@ def dynamic_mesh_stiffness(table, tau, x, twist=None) -> np.ndarray:
     (:func:`~hacgear_core.tables.fdf.generalized_slopes`: the slope of the deflection cell that holds x)."""
     tau = np.ascontiguousarray(np.asarray(tau, dtype=float).ravel())
     x = np.ascontiguousarray(np.asarray(x, dtype=float).ravel())
-    if _twisted(table, twist):
+    if _at_twist(table, twist):
         g = np.asarray(twist, float).ravel()
         w = table.twist_quantity(table.twist.generalized_fdf, tau, x, g)[:, 0]
         return np.where(w > 0.0, generalized_slopes(table, tau, x, g)[:, 0, 0], 0.0)

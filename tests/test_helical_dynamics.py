@@ -103,7 +103,7 @@ def test_constant_speed_run_carries_the_nominal_force(system):
     assert f.mean() == pytest.approx(system.nominal_forces_N()[0], rel=0.01)
     q = out["state"][-1, :12]
     assert out["mesh_twist_rad"][-1, 0] == pytest.approx(system.T[0] @ q, rel=1e-12, abs=1e-18)
-    wm = system.mesh_generalized(0, out["mesh_position"][-1, 0], system.V[0] @ q, system.T[0] @ q)
+    wm = system.mesh_law.generalized(0, out["mesh_position"][-1, 0], system.V[0] @ q, system.T[0] @ q)
     assert out["twist_moment_Nm"][-1, 0] == pytest.approx(float(wm[1]), rel=1e-9)
     assert np.all(out["contact_state"] == ContactState.DRIVE_FLANK) and np.all(out["coast_force_N"] == 0)
 
@@ -246,13 +246,13 @@ def test_reversed_torque_loads_the_coast_flanks_and_balances_the_torque(reversed
     nominal coast force (200 N*m over the coast lever arm r_bc cos(beta_bc), 2 %); the generalized coast force
     Wc r_mesh_c + Mc r_twist_c balances the loads (1e-6 of the force), the pinion torque included."""
     sy = reversed_system
-    assert sy.coast_twist and sy.m_kernel == 2
+    assert sy.mesh_law.coast and sy.m_kernel == 2
     eq = static_equilibrium(sy, 0.3)
     wc, mc = eq.coast_forces_N[0], None
     assert eq.mesh_forces_N[0] == 0.0
     assert wc == pytest.approx(sy.nominal_coast_forces_N()[0], rel=0.02)
     xc, gc = sy.Vc[0] @ eq.q, sy.Tc[0] @ eq.q
-    mc = float(sy.mesh_generalized(0, 0.3 + sy.W[0] @ eq.q, xc, gc, coast=True)[1])
+    mc = float(sy.mesh_law.generalized(0, 0.3 + sy.W[0] @ eq.q, xc, gc, coast=True)[1])
     res = sy.fext_speed() - sy.K @ eq.q - sy.Vc[0] * wc - sy.Tc[0] * mc
     assert np.max(np.abs(res)) < 1e-6 * wc
     # the pinion's torque: the coast force's moment about its axis is the applied -200 N*m
@@ -329,7 +329,7 @@ def test_coast_vectors_of_a_drive_only_table_are_the_coast_solvers(helical, tabl
     np.testing.assert_allclose(rt, ctw.r_twist, rtol=0, atol=1e-14)
     assert bc == pytest.approx(ctw.base_helix_angle_rad, abs=1e-14)
     sy = build_system(helical, {"m12": drive_only})
-    assert sy.coast_twist and not sy.two_sided and sy.m_kernel == 2
+    assert sy.mesh_law.coast and not sy.two_sided and sy.m_kernel == 2
     np.testing.assert_allclose(sy.Vc, system.Vc, rtol=0, atol=1e-14)
     np.testing.assert_allclose(sy.Tc, system.Tc, rtol=0, atol=1e-14)
     assert sy.backlash_m[0] == pytest.approx(system.backlash_m[0], rel=1e-12)

@@ -106,7 +106,7 @@ def test_scanner_sees_the_package_and_finds_a_planted_cycle():
     when one is planted (so an empty result means something)."""
     g = _graph()
     rooms = _room_graph(g)
-    for room in ("model", "geometry", "statics", "tables", "dynamics", "fmu", "cli", "plots", "studies"):
+    for room in ("model", "geometry", "statics", "tables", "dynamics", "kinds", "fmu", "cli", "plots", "studies"):
         assert room in rooms, room
     assert "hacgear_core.dynamics.steady" in g["hacgear_core.studies.direct"]
     assert "hacgear_core.model.schema" in g["hacgear_core.model.toml"]
@@ -134,3 +134,31 @@ def test_lower_stages_do_not_import_the_command_line_or_the_studies():
         if room not in ("cli", "plots", "studies"):
             assert "studies" not in deps, f"{room} imports studies"
             assert "plots" not in deps, f"{room} imports plots"
+
+
+def test_kinds_sit_on_the_dynamics_core():
+    """The kinds build on the model, the geometry, the tables and the dynamics core; none of those imports a kind
+    (a kind is added without touching them)."""
+    rooms = _room_graph(_graph())
+    assert {"model", "geometry", "tables", "dynamics"} <= rooms["kinds"]
+    for room in ("model", "geometry", "tables", "dynamics", "errors", "response"):
+        assert "kinds" not in rooms.get(room, set()), f"{room} imports kinds"
+
+
+def test_kind_names_are_matched_only_in_kinds():
+    """No module outside kinds/ tests a kind by name or branches on the helical law (``kind ==``, ``twisted``):
+    they ask the kind's registry entry or read the mesh law's fields by name."""
+    hits = []
+    for p in sorted(ROOT.rglob("*.py")):
+        rel = p.relative_to(ROOT)
+        if rel.parts[0] in ("kinds", "systems") or rel.parts[:2] == ("fmu", "slaves"):
+            continue
+        for i, line in enumerate(p.read_text(encoding="utf-8").splitlines(), 1):
+            if "kind ==" in line or "twisted" in line:
+                hits.append(f"{rel}:{i}: {line.strip()}")
+    assert hits == []
+
+
+def test_no_package_folder_is_named_build():
+    """Code-structure tools skip folders named ``build``: the package has none."""
+    assert [p for p in ROOT.rglob("build") if p.is_dir() and "__pycache__" not in p.parts] == []

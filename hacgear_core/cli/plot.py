@@ -50,10 +50,10 @@ def run(args) -> int:
     if not path.exists():
         raise TableError(f"no such file: {path}")
     out = check_out_path(args.out, "--out", suffixes=_SUFFIXES)
-    kind = file_kind(path)
-    if kind == "other":
+    what = file_kind(path)
+    if what == "other":
         raise TableError(f"{path} is not an HDF5 file")
-    if kind == "tables":
+    if what == "tables":
         tabs = read_tables(path)
         table = tabs.mesh(args.mesh)
         fig = plot_fdf(table)
@@ -71,13 +71,13 @@ def run(args) -> int:
                 p.replace(target)
                 print(f"helical mesh figure: {target}")
         return 0
-    if kind == "sweep":
+    if what == "sweep":
         jumps = plot_sweep_file(path, out, args.run)
         print(f"sweep response: {out}")
         for j in jumps:
             print(f"  {j['kind']} of mesh {j['mesh']} at {j['frequency_Hz']:.0f} Hz ({j['branch']} sweep)")
         return 0
-    if kind == "study":
+    if what == "study":
         for p in plot_study_file(path, out):
             print(f"study figure: {p}")
         return 0

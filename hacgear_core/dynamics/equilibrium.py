@@ -17,7 +17,6 @@ import numpy as np
 
 from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import SolverError
-from hacgear_core.tables.fdf import generalized_slopes
 from hacgear_core.tables.interp import deflection_at_force
 
 __all__ = ["EquilibriumResult", "static_equilibrium", "static_state", "LoadSharing", "load_sharing"]
@@ -69,63 +68,18 @@ def static_equilibrium(system: LumpedSystem, tau_ref: float = 0.0, fext: np.ndar
     coast_loaded = two and _presses_coast(system, fe)
     vl = system.Vc if coast_loaded else system.V
 
-    tw = system.twisted
-    twc = system.coast_twist
+    law = system.mesh_law
 
     def residual(q):
         tau = _positions(system, tau_ref, q)
-        if tw:
-            # helical meshes: the generalized force W v + M t (twist gamma = t . q), and with the coast side
-            # Wc v_c + Mc t_c (coast approach xc = v_c . q, coast twist gamma_c = t_c . q)
-            x, g = system.V @ q, system.T @ q
-            wm = np.array([system.mesh_generalized(k, tau[k], x[k], g[k]) for k in range(m)]).reshape(m, 2)
-            r = fe - keff @ q - system.V.T @ wm[:, 0] - system.T.T @ wm[:, 1]
-            xc, gc = system.Vc @ q, system.Tc @ q
-            wmc = np.zeros((m, 2))
-            if twc:
-                wmc = np.array([system.mesh_generalized(k, tau[k], xc[k], gc[k], coast=True)
-                                for k in range(m)]).reshape(m, 2)
-                r = r - system.Vc.T @ wmc[:, 0] - system.Tc.T @ wmc[:, 1]
-            return r, tau, (x, g, xc, gc), (wm[:, 0], wm[:, 1], wmc[:, 0], wmc[:, 1])
-        x = system.V @ q
-        f = np.array([float(system.mesh_force(k, tau[k], x[k])) for k in range(m)])
-        r = fe - keff @ q - system.V.T @ f
-        xc = system.Vc @ q
-        fc = np.zeros(m)
-        if two:
-            fc = np.array([float(system.coast_force(k, tau[k], xc[k])) for k in range(m)])
-            r = r - system.Vc.T @ fc
-        return r, tau, (x, xc), (f, fc)
+        terms, fields = law.static_forces(system, q, tau)
+        r = fe - keff @ q
+        for t in terms:
+            r = r - t
+        return r, tau, fields
 
-    def tangent(tau, xx, kbar_floor):
-        if tw:
-            # the generalized law's 2 x 2 slopes per mesh (the table's rule) on [v t] (and [v_c t_c]); the floor
-            # on the flanks the load presses
-            x, g, xc, gc = xx
-            a = keff.copy()
-            for k in range(m):
-                c = system.meshes[k]
-                sides = [(c.table, x[k], g[k], system.V[k], system.T[k], not coast_loaded)]
-                if twc and c.coast_table is not None:
-                    sides.append((c.coast_table, xc[k], gc[k], system.Vc[k], system.Tc[k], coast_loaded))
-                for table, xk, gk, v, t, floored in sides:
-                    jac = generalized_slopes(table, tau[k], xk, gk)[0]
-                    if table is c.coast_table and table.twist_quantity(table.twist.generalized_fdf, tau[k], xk,
-                                                                       gk)[..., 0] <= 0:
-                        jac = np.zeros((2, 2))
-                    if floored:
-                        jac[0, 0] = max(jac[0, 0], kbar_floor[k])
-                    b = np.vstack([v, t])
-                    a += b.T @ jac @ b
-            return a
-        x, xc = xx
-        ks = np.array([float(system.mesh_slope(k, tau[k], x[k])) for k in range(m)])
-        a = keff + (system.V.T * np.maximum(ks, 0.0 if coast_loaded else kbar_floor)) @ system.V
-        if two:
-            kc = np.array([float(system.coast_slope(k, tau[k], xc[k])) for k in range(m)])
-            kc = np.where(system.coast_forces(tau, xc) > 0, kc, 0.0)
-            a = a + (system.Vc.T * np.maximum(kc, kbar_floor if coast_loaded else 0.0)) @ system.Vc
-        return a
+    def tangent(tau, fields, kbar_floor):
+        return law.tangent(system, keff, tau, fields, kbar_floor, coast_loaded)
 
     def solve(a, r):
         if free:
@@ -151,33 +105,29 @@ def static_equilibrium(system: LumpedSystem, tau_ref: float = 0.0, fext: np.ndar
     xs = np.where(np.isfinite(xs), xs, 0.0)
     a_lin = keff + (vl.T * kbar) @ vl
     q = solve(a_lin, fe - vl.T @ (fn - kbar * xs))
-    r, tau, x, f = residual(q)
+    r, tau, fields = residual(q)
     norm = float(np.max(np.abs(r)))
     it = 0
     while norm > tol * scale and it < max_iter:
         it += 1
-        dq = solve(tangent(tau, x, floor), r)
+        dq = solve(tangent(tau, fields, floor), r)
         step = 1.0
         while True:
             qn = q + step * dq
-            rn, taun, xn, fn_ = residual(qn)
+            rn, taun, fieldsn = residual(qn)
             nn = float(np.max(np.abs(rn)))
             if nn < norm or step < 1e-6:
                 break
             step *= 0.5
-        q, r, tau, x, f, norm = qn, rn, taun, xn, fn_, nn
+        q, r, tau, fields, norm = qn, rn, taun, fieldsn, nn
     ok = norm <= tol * scale
     if not ok:
         raise SolverError(f"{system.name}: no static equilibrium at mesh position {tau_ref:g} (residual "
                           f"{norm:.3g} N after {it} Newton steps); is the load beyond the tables?")
-    if tw:
-        return EquilibriumResult(q=q, mesh_forces_N=f[0], mesh_deflections_m=x[0], success=True,
-                                 message=f"converged in {it} Newton steps", iterations=it,
-                                 coast_forces_N=f[2], coast_approach_m=x[2] if twc else np.zeros(m), twist_rad=x[1],
-                                 twist_moment_Nm=f[1])
-    return EquilibriumResult(q=q, mesh_forces_N=f[0], mesh_deflections_m=x[0], success=True,
-                             message=f"converged in {it} Newton steps", iterations=it, coast_forces_N=f[1],
-                             coast_approach_m=x[1])
+    return EquilibriumResult(q=q, mesh_forces_N=fields["mesh_force_N"], mesh_deflections_m=fields["mesh_deflection_m"],
+                             success=True, message=f"converged in {it} Newton steps", iterations=it,
+                             coast_forces_N=fields["coast_force_N"], coast_approach_m=fields["coast_approach_m"],
+                             twist_rad=fields.get("mesh_twist_rad"), twist_moment_Nm=fields.get("twist_moment_Nm"))
 
 
 def _presses_coast(system: LumpedSystem, fe: np.ndarray) -> bool:

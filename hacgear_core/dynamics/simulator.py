@@ -21,7 +21,6 @@ from typing import Mapping
 
 import numpy as np
 
-from hacgear_core.dynamics import kernels
 from hacgear_core.dynamics.equilibrium import static_equilibrium
 from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.encodings import Experiment, contact_state, contact_state_of
@@ -246,7 +245,7 @@ def gauge_passage(system: LumpedSystem, gauge: str, trace: Mapping[str, np.ndarr
     if np.count_nonzero(sel) < 2:
         return None
     tooth = int(n % z)
-    tw = trace.get("mesh_twist_rad") if system.twisted else None
+    tw = trace.get("mesh_twist_rad")
     xc = trace.get("coast_approach_m")
     eps = strain_of_tooth(system, gauge, tau[sel], np.atleast_2d(np.asarray(trace["mesh_deflection_m"], float))[sel],
                           None if xc is None else np.atleast_2d(np.asarray(xc, float))[sel],
@@ -273,7 +272,7 @@ def static_gauge_passage(system: LumpedSystem, gauge: str, samples_per_cycle: in
     x = np.array([eq[i].mesh_deflections_m for i in idx])
     xc = None if eq[0].coast_approach_m is None else np.array([eq[i].coast_approach_m for i in idx])
     tw = None if eq[0].twist_rad is None else np.array([eq[i].twist_rad for i in idx])
-    eps = strain_of_tooth(system, gauge, tau, x, None if system.twisted else xc, tw)
+    eps = strain_of_tooth(system, gauge, tau, x, xc if tw is None else None, tw)
     return GaugePassage(gauge, 0, (float(cs[0]), float(cs[-1])), None, eps)
 
 
@@ -482,35 +481,8 @@ class Simulator:
         sy = self.system
         q = self.s[:sy.n]
         tau = self.kin[0] + sy.phase + sy.W @ q
-        x = sy.V @ q
         rec = np.zeros(sy.record_width)
-        fields = kernels.record_fields(rec, sy.m_kernel)
-        mk = sy.m
-        fields["mesh_position"][:mk] = self.kin[1] + tau
-        fields["mesh_deflection_m"][:mk] = x
-        fields["dynamic_transmission_error_m"][:mk] = sy.V_rot @ q
-        if sy.twisted:
-            # the kernel's record layout: twist and twist moment in the coast columns; the coast sides of helical
-            # meshes as meshes m..2m-1
-            g = sy.T @ q
-            wm = np.array([sy.mesh_generalized(k, tau[k], x[k], g[k]) for k in range(mk)]).reshape(mk, 2)
-            fields["mesh_force_N"][:mk] = wm[:, 0]
-            fields["coast_approach_m"][:mk] = g
-            fields["coast_force_N"][:mk] = wm[:, 1]
-            if sy.coast_twist:
-                xc, gc = sy.Vc @ q, sy.Tc @ q
-                wmc = np.array([sy.mesh_generalized(k, tau[k], xc[k], gc[k], coast=True)
-                                for k in range(mk)]).reshape(mk, 2)
-                fields["mesh_position"][mk:] = self.kin[1] + tau
-                fields["mesh_deflection_m"][mk:] = xc
-                fields["mesh_force_N"][mk:] = wmc[:, 0]
-                fields["coast_approach_m"][mk:] = gc
-                fields["coast_force_N"][mk:] = wmc[:, 1]
-        else:
-            xc = sy.Vc @ q
-            fields["mesh_force_N"][:] = sy.mesh_forces(tau, x)
-            fields["coast_approach_m"][:] = xc
-            fields["coast_force_N"][:] = sy.coast_forces(tau, xc)
+        sy.mesh_law.state_fields(sy, q, tau, self.kin[1], rec)
         self._set_outputs(self.s.tolist(), self.kin.tolist(), rec.tolist())
 
     def _set_outputs(self, st: list, kt: list, rec: list) -> None:
@@ -519,26 +491,19 @@ class Simulator:
         sy = self.system
         n, m = sy.n, sy.m
         self._output_source = (st, kt, rec)
-        R = kernels.REC
-        self.mesh_position = rec[kernels.REC_POSITION:R * m:R]
-        self.mesh_deflection_m = rec[kernels.REC_DEFLECTION:R * m:R]
-        self.mesh_force_N = rec[kernels.REC_FORCE:R * m:R]
-        self.dynamic_transmission_error_m = rec[kernels.REC_DTE:R * m:R]
-        self.coast_approach_m = rec[kernels.REC_COAST_APPROACH:R * m:R]
-        self.coast_force_N = rec[kernels.REC_COAST_FORCE:R * m:R]
-        #: helical meshes: mesh twist [rad] and twist moment [N m] per mesh (empty for other systems)
-        self.mesh_twist_rad, self.twist_moment_Nm = [], []
-        #: helical meshes with their coast side: coast twist [rad] and coast twist moment [N m] per mesh
-        self.coast_twist_rad, self.coast_twist_moment_Nm = [], []
-        if sy.twisted:
-            self.mesh_twist_rad, self.twist_moment_Nm = self.coast_approach_m, self.coast_force_N
-            self.coast_approach_m, self.coast_force_N = [0.0] * m, [0.0] * m
-            if sy.coast_twist:
-                w = R * m
-                self.coast_approach_m = rec[w + kernels.REC_DEFLECTION:2 * w:R]
-                self.coast_force_N = rec[w + kernels.REC_FORCE:2 * w:R]
-                self.coast_twist_rad = rec[w + kernels.REC_COAST_APPROACH:2 * w:R]
-                self.coast_twist_moment_Nm = rec[w + kernels.REC_COAST_FORCE:2 * w:R]
+        f = sy.record_fields(np.asarray(rec, dtype=float))
+        self.mesh_position = f["mesh_position"].tolist()
+        self.mesh_deflection_m = f["mesh_deflection_m"].tolist()
+        self.mesh_force_N = f["mesh_force_N"].tolist()
+        self.dynamic_transmission_error_m = f["dynamic_transmission_error_m"].tolist()
+        self.coast_approach_m = f["coast_approach_m"].tolist()
+        self.coast_force_N = f["coast_force_N"].tolist()
+        #: twist law (helical meshes): mesh twist [rad] and twist moment [N m] per mesh (empty for other laws)
+        self.mesh_twist_rad = f["mesh_twist_rad"].tolist() if "mesh_twist_rad" in f else []
+        self.twist_moment_Nm = f["twist_moment_Nm"].tolist() if "twist_moment_Nm" in f else []
+        #: twist law with its coast side: coast twist [rad] and coast twist moment [N m] per mesh
+        self.coast_twist_rad = f["coast_twist_rad"].tolist() if "coast_twist_rad" in f else []
+        self.coast_twist_moment_Nm = f["coast_twist_moment_Nm"].tolist() if "coast_twist_moment_Nm" in f else []
         self.in_contact = [f > 0.0 for f in self.mesh_force_N]
         self.coast_contact = [f > 0.0 for f in self.coast_force_N]
         #: per mesh: :class:`~hacgear_core.encodings.ContactState` (drive flanks, coast flanks, in the
@@ -621,7 +586,7 @@ class Simulator:
         tooth's whole passage from a recorded run: :func:`gauge_passage`."""
         return float(strain_of_tooth(self.system, gauge, [self.mesh_position], [self.mesh_deflection_m],
                                      [self.coast_approach_m],
-                                     [self.mesh_twist_rad] if self.system.twisted else None, tooth=tooth)[0])
+                                     [self.mesh_twist_rad] if self.mesh_twist_rad else None, tooth=tooth)[0])
 
     def peak_pressure_Pa(self, mesh: int = 0) -> float:
         """Maximum contact pressure over all teeth of mesh ``mesh`` now [Pa] (table lookup), on the flanks in

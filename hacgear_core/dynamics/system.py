@@ -31,16 +31,18 @@ from __future__ import annotations
 import hashlib
 import math
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from typing import Mapping, Sequence
 
 import numpy as np
 
 from hacgear_core.dynamics import kernels
-from hacgear_core.tables.fdf import TableArrays, generalized_stiffness, static_stiffness, table_arrays
-from hacgear_core.dynamics.force_laws import FORCE_LAWS, ForceLaw, make_force_law
+from hacgear_core.dynamics.force_laws import FORCE_LAWS
+from hacgear_core.dynamics.laws import MeshLaw, mesh_law
+from hacgear_core.dynamics.linear import LinearDynamics, linear_dynamics
 from hacgear_core.errors import ModelError
 from hacgear_core.model.schema import RANGES
-from hacgear_core.tables.interp import bilinear_many, slope_many
+from hacgear_core.tables.fdf import static_stiffness
 
 __all__ = ["GearBody", "MeshCoupling", "LumpedSystem", "KernelArrays"]
 
@@ -146,18 +148,11 @@ class KernelArrays:
     nz: np.ndarray
 
 
-def _sym_eig(k: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Eigenpairs of K phi = w^2 M phi for symmetric K and SPD M: ascending w^2 and M-normalised shapes (numpy
-    only: FMUs start faster without scipy.linalg)."""
-    lo = np.linalg.cholesky(m)
-    li = np.linalg.inv(lo)
-    a = li @ k @ li.T
-    w2, psi = np.linalg.eigh(0.5 * (a + a.T))
-    return w2, li.T @ psi
-
-
 class LumpedSystem:
-    """An assembled lumped gear system (any kind).  Assembled from a kind's train description by :func:`hacgear_core.kinds.assembly.assemble`.
+    """An assembled lumped gear system (any kind): its arrays (M, K, G, K_W, the coupling vectors), its meshes'
+    law, and on first use its linearisation, modal damping C and step bound (:mod:`~hacgear_core.dynamics.linear`)
+    and the kernel's packed arrays.  Assembled from a kind's train description by
+    :func:`hacgear_core.kinds.assembly.assemble`.
 
     Parameters
     ----------
@@ -258,148 +253,95 @@ class LumpedSystem:
         self.bearing_maps = {} if bearing_maps is None else {
             g: tuple(np.ascontiguousarray(x, float) for x in (tuple(v) + (np.zeros(2),))[:3])
             for g, v in bearing_maps.items()}
-        # force laws and table arrays
-        self.table_arrays: tuple[TableArrays, ...] = tuple(table_arrays(c.table) for c in self.meshes)
-        self.laws: tuple[ForceLaw, ...] = tuple(make_force_law(c.table, force_law, c.nominal_force_N)
-                                                 for c in self.meshes)
-        self.law = self.laws[0].law
-        #: helical meshes: the force law is the generalized FDF over (position, deflection, twist)
-        self.twisted = any(c.t is not None for c in self.meshes)
-        if self.twisted:
-            bad = [c.name for c in self.meshes if c.t is None or getattr(c.table, "twist", None) is None]
-            if bad:
-                raise ModelError(f"{name}: meshes {bad} lack a twist vector or a table with a twist axis (a system "
-                                 "with helical meshes needs both on every mesh)")
-            if force_law != "hac":
-                raise ModelError(f"{name}: helical meshes take the HAC generalized force law only, got {force_law!r}")
-            self.law = kernels.LAW_TWIST
-        self.T = np.ascontiguousarray(np.array([np.zeros(n) if c.t is None else c.t for c in self.meshes],
-                                               dtype=float))
-        #: helical meshes with their coast side (coast vectors v_c, t_c and a coast table with a twist axis, or for
-        #: a drive-only table the zero table that ends at the backlash): the kernel runs 2 m meshes, the coast side
-        #: of mesh k as mesh m + k (kernels docstring)
-        self.coast_twist = self.twisted and any(c.t_c is not None for c in self.meshes)
-        if self.coast_twist:
-            bad = [c.name for c in self.meshes if c.t_c is None or c.v_c is None
-                   or (c.coast_table is not None and getattr(c.coast_table, "twist", None) is None)
-                   or (c.coast_table is None and not (math.isfinite(c.backlash_m) and c.backlash_m >= 0))]
-            if bad:
-                raise ModelError(f"{name}: helical meshes {bad} lack the coast side (coast vectors v_c, t_c and a "
-                                 "coast table with a twist axis, or for a drive-only table a finite backlash_m [m] "
-                                 ">= 0) that the others have")
-        self.Tc = np.ascontiguousarray(np.array([np.zeros(n) if c.t_c is None else c.t_c for c in self.meshes],
-                                                dtype=float))
-        #: meshes of the compiled loop: m, or 2 m for helical meshes with their coast side
-        self.m_kernel = 2 * self.m if self.coast_twist else self.m
-        self.coast_arrays: tuple[TableArrays | None, ...] = tuple(
-            None if c.coast_table is None else table_arrays(c.coast_table) for c in self.meshes)
-        for c in self.meshes:
-            if c.coast_table is not None and c.v_c is None and not (self.twisted and not self.coast_twist):
-                raise ModelError(f"{name}: mesh '{c.name}' has a coast table but no coast line-of-action vector v_c")
-        #: any mesh has coast-flank tables the dynamics use (the kernel then runs its two-sided loop, or for helical
-        #: meshes the coast sides as meshes m..2m-1)
-        self.two_sided = any(ca is not None for ca in self.coast_arrays) and (self.coast_twist or not self.twisted)
-        if self.twisted and not self.coast_twist:
-            self.coast_arrays = (None,) * self.m
-        self.Vc = np.ascontiguousarray(np.array([np.zeros(n) if c.v_c is None else c.v_c for c in self.meshes],
-                                                dtype=float))
-        self.backlash_m = np.array([c.backlash_m for c in self.meshes], dtype=float)
         self.V = np.ascontiguousarray(np.array([c.v for c in self.meshes], dtype=float))
         self.W = np.ascontiguousarray(np.array([c.w for c in self.meshes], dtype=float))
         self.V_rot = np.ascontiguousarray(np.array([c.v_rot for c in self.meshes], dtype=float))
         self.phase = np.array([c.phase for c in self.meshes], dtype=float)
-        # linearisation, modes, damping: about the flanks the nominal torque loads
-        if self.torque_Nm > 0:
-            kbar = np.array([lw.mean_stiffness_N_per_m for lw in self.laws])
-            vl = self.V
-        else:
-            if any(ca is None for ca in self.coast_arrays):
-                raise ModelError(f"{name}: a negative torque loads the coast flanks; meshes "
-                                 f"{[c.name for c in self.meshes if c.coast_table is None]} have no coast tables "
-                                 "(regenerate them: hacgear statics)")
-            kbar = np.array([static_stiffness(c.coast_table, c.nominal_coast_force_N).mean_local_slope_N_per_m
-                             for c in self.meshes])
-            vl = self.Vc
-        self.mesh_stiffness_N_per_m = kbar
-        self.k_lin = self.K + (vl.T * kbar) @ vl
-        if self.twisted:
-            # the generalized law linearised at zero twist (cycle means; coupling symmetrised: the table's two
-            # couplings agree within 1 %, a potential): K + [v t] [[k_xx, k_xg], [k_gx, k_gg]] [v t]^T, on the
-            # coast side's vectors and table for a negative torque
-            coast = self.torque_Nm < 0
-            gs = [generalized_stiffness(c.coast_table, c.nominal_coast_force_N).means() if coast
-                  else generalized_stiffness(c.table, c.nominal_force_N).means() for c in self.meshes]
-            #: per mesh (m, 2, 2): [[dW/dx, dW/dgamma], [dM/dx, dM/dgamma]] cycle means [N/m, N/rad, N m/m, N m/rad]
-            self.generalized_stiffness = np.array([[[g["k_xx_N_per_m"], g["k_xg_N_per_rad"]],
-                                                    [g["k_gx_Nm_per_m"], g["k_gg_Nm_per_rad"]]] for g in gs])
-            self.mesh_stiffness_N_per_m = kbar = self.generalized_stiffness[:, 0, 0].copy()
-            self.k_lin = self.K.copy()
-            for k in range(self.m):
-                b = np.vstack([self.Vc[k], self.Tc[k]]) if coast else np.vstack([self.V[k], self.T[k]])
-                kg = self.generalized_stiffness[k]
-                self.k_lin += b.T @ (0.5 * (kg + kg.T)) @ b
-        w2, phi = _sym_eig(self.k_lin, self.M)
-        w2 = np.clip(w2, 0.0, None)
-        omega = np.sqrt(w2)
-        rigid = omega < 1e-6 * max(omega.max(), 1.0)
-        self.modal_omega = omega
-        self.modal_shapes = phi
-        self.rigid_modes = rigid
-        d = np.where(rigid, 0.0, 2.0 * self.modal_damping_ratio * omega)
-        self.C = np.ascontiguousarray(self.M @ phi @ np.diag(d) @ phi.T @ self.M)
-        # highest frequency the integrator must resolve: linearisation at each mesh's stiffest slope
-        kmax = np.array([max(kb, float(np.max(np.diff(ta.ftab, axis=1))) * ta.inv_dx,
-                             float(np.max(lw.lin[0])) if lw.law == kernels.LAW_LINEAR else 0.0)
-                         for kb, ta, lw in zip(kbar, self.table_arrays, self.laws)])
-        # (the flanks the nominal torque loads: a coast contact across the backlash is as stiff as the loaded
-        # flanks, and the step resolves it as well)
-        if self.torque_Nm < 0:
-            kmax = np.array([max(kb, float(np.max(np.diff(ca.ftab, axis=1))) * ca.inv_dx)
-                             for kb, ca in zip(kbar, self.coast_arrays)])
-        kstiff = self.K.copy()
-        if self.twisted:
-            # stiffest slopes of each generalized table (any cell, any twist): dW/dx on v, dM/dgamma on t
-            # (of the flanks the nominal torque loads, as above)
-            for k, c in enumerate(self.meshes):
-                tw = (c.coast_table if self.torque_Nm < 0 else c.table).twist
-                ta = (self.coast_arrays if self.torque_Nm < 0 else self.table_arrays)[k]
-                kmax[k] = max(kmax[k], float(np.max(np.diff(tw.generalized_fdf[..., 0], axis=1))) * ta.inv_dx)
-                kgg = float(np.max(np.abs(np.diff(tw.generalized_fdf[..., 1], axis=2)))) / tw.dg
-                tv = self.Tc[k] if self.torque_Nm < 0 else self.T[k]
-                kstiff += kgg * np.outer(tv, tv)
-        kstiff += (vl.T * kmax) @ vl
-        w2max, _ = _sym_eig(kstiff, self.M)
-        self.max_frequency_Hz = float(np.sqrt(max(w2max.max(), 0.0)) / (2 * math.pi))
-        self.minv = np.ascontiguousarray(np.linalg.inv(self.M))
-        mq = self.m_kernel
-        self.kernel = kernels.select_kernel(self.law, n, mq, self.two_sided and not self.twisted)
-        mk, mkw = self.minv @ self.K, self.minv @ self.K_W
+        self.Vc = np.ascontiguousarray(np.array([np.zeros(n) if c.v_c is None else c.v_c for c in self.meshes],
+                                                dtype=float))
+        self.T = np.ascontiguousarray(np.array([np.zeros(n) if c.t is None else c.t for c in self.meshes],
+                                               dtype=float))
+        self.Tc = np.ascontiguousarray(np.array([np.zeros(n) if c.t_c is None else c.t_c for c in self.meshes],
+                                                dtype=float))
+        self.backlash_m = np.array([c.backlash_m for c in self.meshes], dtype=float)
+        #: the meshes' law (:mod:`~hacgear_core.dynamics.laws`): kernel variant, record fields, numpy twin
+        self.mesh_law: MeshLaw = mesh_law(name, self.meshes, force_law)
+        self.mesh_law.check_torque(self.torque_Nm)
+        self.table_arrays = self.mesh_law.table_arrays
+        self.coast_arrays = self.mesh_law.coast_arrays
+        self.laws = self.mesh_law.force_laws
+        #: any mesh has coast-flank tables the dynamics use (either torque sign is carried)
+        self.two_sided = self.mesh_law.two_sided
+        #: meshes of the compiled loop
+        self.m_kernel = self.mesh_law.m_kernel
+        self.kernel = self._select_kernel()
+        self._cache: dict = {}
+        self._kernel_ready = None  # the kernel prepare_kernel has made ready in this process
+
+    def _select_kernel(self):
+        law = self.mesh_law
+        return kernels.select_kernel(law.kernel_law, self.n, law.m_kernel, law.kernel_two_sided)
+
+    # ------------------------------------------------------------------ linearisation, damping, step bound
+    @cached_property
+    def linear(self) -> LinearDynamics:
+        """The linearisation at the nominal torque, its modes, the modal damping and the step bound
+        (:func:`~hacgear_core.dynamics.linear.linear_dynamics`), computed on first use."""
+        return linear_dynamics(self)
+
+    @property
+    def k_lin(self) -> np.ndarray:
+        return self.linear.k_lin
+
+    @property
+    def mesh_stiffness_N_per_m(self) -> np.ndarray:
+        return self.linear.mesh_stiffness_N_per_m
+
+    @property
+    def generalized_stiffness(self) -> np.ndarray | None:
+        """Per mesh (m, 2, 2) of the twist law: [[dW/dx, dW/dgamma], [dM/dx, dM/dgamma]] cycle means [N/m, N/rad,
+        N m/m, N m/rad] (None for the other laws)."""
+        return self.linear.generalized_stiffness
+
+    @property
+    def C(self) -> np.ndarray:
+        return self.linear.C
+
+    @property
+    def modal_omega(self) -> np.ndarray:
+        return self.linear.modal_omega
+
+    @property
+    def modal_shapes(self) -> np.ndarray:
+        return self.linear.modal_shapes
+
+    @property
+    def rigid_modes(self) -> np.ndarray:
+        return self.linear.rigid_modes
+
+    @property
+    def max_frequency_Hz(self) -> float:
+        return self.linear.max_frequency_Hz
+
+    @cached_property
+    def minv(self) -> np.ndarray:
+        return np.ascontiguousarray(np.linalg.inv(self.M))
+
+    # ------------------------------------------------------------------ kernel arrays
+    @cached_property
+    def arrays(self) -> KernelArrays:
+        """Everything the compiled kernel takes besides the state, packed (see :func:`kernels.select_kernel`)."""
+        n, mq = self.n, self.m_kernel
+        minv = self.minv
+        mk, mkw = minv @ self.K, minv @ self.K_W
         off = np.argwhere(((mk != 0) | (mkw != 0)) & ~np.eye(n, dtype=bool)).reshape(-1, 2)
         kidx = np.ascontiguousarray(np.vstack([np.repeat(np.arange(n), 2).reshape(n, 2), off]).astype(np.int64))
-        # the kernel's meshes: the system's, then (helical meshes with their coast side) the coast sides
-        kv, kw_, kvr, kph = self.V, self.W, self.V_rot, self.phase
-        if self.coast_twist:
-            kv, kw_ = np.vstack([self.V, self.Vc]), np.vstack([self.W, self.W])
-            kvr, kph = np.vstack([self.V_rot, np.zeros_like(self.V_rot)]), np.concatenate([self.phase, self.phase])
-        if self.twisted:
-            sides = [(c.table, ta) for c, ta in zip(self.meshes, self.table_arrays)]
-            if self.coast_twist:
-                sides += [(c.coast_table, ca) if ca is not None else (None, c.backlash_m)
-                          for c, ca in zip(self.meshes, self.coast_arrays)]
-            tab, tint, tflt = kernels.flatten_twist_tables(
-                [(None, ta) if t is None else
-                 (t.twist.generalized_fdf, ta.x0, ta.inv_dx, float(t.twist.twist_rad[0]), 1.0 / t.twist.dg)
-                 for t, ta in sides])
-        else:
-            tab, tint, tflt = kernels.flatten_tables(
-                [(ta.ftab, ta.x0, ta.inv_dx) for ta in self.table_arrays]
-                + [(None, c.backlash_m) if ca is None else (ca.ftab, ca.x0, ca.inv_dx)
-                   for c, ca in zip(self.meshes, self.coast_arrays)])
+        # the kernel's meshes and each one's second vector (the coast line of action, or a helical mesh's twist)
+        kv, kw_, kvr, vc2, kph = self.mesh_law.kernel_meshes(self)
+        tab, tint, tflt = self.mesh_law.kernel_tables(self)
         lin, lint = kernels.flatten_linear([lw.lin for lw in self.laws])
-        # the kernel's second vector per mesh: the coast line of action, or the twist vector of a helical mesh
-        vc2 = (np.vstack([self.T, self.Tc]) if self.coast_twist else self.T) if self.twisted else self.Vc
-        vmi = kv @ self.minv.T
-        vci = vc2 @ self.minv.T
+        vmi = kv @ minv.T
+        vci = vc2 @ minv.T
         pattern = (kv != 0) | (kw_ != 0) | (vmi != 0) | (vc2 != 0) | (vci != 0)
         width = max(1, int(pattern.sum(axis=1).max()))
         nz = np.zeros((mq, 1 + width), dtype=np.int64)
@@ -407,26 +349,26 @@ class LumpedSystem:
             idx = np.flatnonzero(pattern[k])
             nz[k, 0] = idx.size
             nz[k, 1:1 + idx.size] = idx
-        self.arrays = KernelArrays(
-            mats=np.ascontiguousarray(np.stack([self.minv, self.minv @ self.C, self.minv @ self.G])),
+        return KernelArrays(
+            mats=np.ascontiguousarray(np.stack([minv, minv @ self.C, minv @ self.G])),
             kidx=kidx, kval=np.ascontiguousarray(np.stack([mk[kidx[:, 0], kidx[:, 1]], mkw[kidx[:, 0], kidx[:, 1]],
                                                          np.zeros(len(kidx))])),
             vecs=np.ascontiguousarray(np.stack([kv, kw_, kvr, vmi, vc2, vci])),
-            mmat=np.ascontiguousarray(np.stack([kv @ self.minv @ kv.T, kw_ @ self.minv @ kv.T,
-                                                vc2 @ self.minv @ kv.T, kv @ self.minv @ vc2.T,
-                                                kw_ @ self.minv @ vc2.T, vc2 @ self.minv @ vc2.T])),
+            mmat=np.ascontiguousarray(np.stack([kv @ minv @ kv.T, kw_ @ minv @ kv.T, vc2 @ minv @ kv.T,
+                                                kv @ minv @ vc2.T, kw_ @ minv @ vc2.T, vc2 @ minv @ vc2.T])),
             phase=np.ascontiguousarray(kph, dtype=float),
             u=np.zeros(n) if self.rigid_mode is None else self.rigid_mode,
             scal=np.array([self.carrier_ratio, self.sref, self.zref_2pi]), iref=int(self.iref), tab=tab, tint=tint,
             tflt=tflt, lin=lin, lint=lint, nz=nz)
-        self._work = np.zeros(7 * n + 20 * mq)
-        self._eff = np.zeros((n, n))
+
+    @cached_property
+    def kernel_constants(self) -> tuple:
+        """The kernel's trailing arguments (everything but the state, step, mode, loads and records)."""
         a = self.arrays
-        #: the kernel's trailing arguments (everything but the state, step, mode, loads and records)
-        self.kernel_constants = (a.mats, a.vecs, a.mmat, a.phase, a.u, a.scal, a.iref, a.tab, a.tint, a.tflt, a.lin,
-                                 a.lint, self._work, self._eff, a.kidx, a.kval, a.nz)
-        self._cache: dict = {}
-        self._kernel_ready = None  # the kernel prepare_kernel has made ready in this process
+        work = np.zeros(7 * self.n + 20 * self.m_kernel)
+        eff = np.zeros((self.n, self.n))
+        return (a.mats, a.vecs, a.mmat, a.phase, a.u, a.scal, a.iref, a.tab, a.tint, a.tflt, a.lin, a.lint, work, eff,
+                a.kidx, a.kval, a.nz)
 
     def __getstate__(self) -> dict:
         # the compiled kernel travels by name (process pools): reselected on unpickling
@@ -438,7 +380,7 @@ class LumpedSystem:
 
     def __setstate__(self, st: dict) -> None:
         self.__dict__.update(st)
-        self.kernel = kernels.select_kernel(self.law, self.n, self.m_kernel, self.two_sided and not self.twisted)
+        self.kernel = self._select_kernel()
 
     def fingerprint(self) -> str:
         """SHA-256 (hex) of everything the dynamics depend on: matrices, mesh vectors, phases, tables, force law,
@@ -455,27 +397,7 @@ class LumpedSystem:
             h.update(repr(ta.ftab.shape).encode())
             h.update(ta.ftab.tobytes())
             h.update(np.array([ta.x0, ta.dx]).tobytes())
-        if self.twisted:
-            h.update(self.T.tobytes())
-            for c in self.meshes:
-                h.update(np.ascontiguousarray(c.table.twist.generalized_fdf).tobytes())
-                h.update(np.ascontiguousarray(c.table.twist.twist_rad).tobytes())
-        if self.coast_twist:
-            h.update(self.Tc.tobytes())
-            for c in self.meshes:
-                if c.coast_table is not None:
-                    h.update(np.ascontiguousarray(c.coast_table.twist.generalized_fdf).tobytes())
-            if any(c.coast_table is None for c in self.meshes):
-                # drive-only tables: the coast approach and the backlash of the range guard
-                h.update(self.Vc.tobytes())
-                h.update(self.backlash_m.tobytes())
-        if self.two_sided:
-            h.update(self.Vc.tobytes())
-            for ca in self.coast_arrays:
-                if ca is not None:
-                    h.update(repr(ca.ftab.shape).encode())
-                    h.update(ca.ftab.tobytes())
-                    h.update(np.array([ca.x0, ca.dx]).tobytes())
+        self.mesh_law.fingerprint(self, h)
         h.update(repr((self.force_law_name, self.torque_Nm, self.modal_damping_ratio, self.carrier_ratio,
                        self.dof_names, self.mesh_names, self.reference_gear)).encode())
         return h.hexdigest()
@@ -577,70 +499,31 @@ class LumpedSystem:
 
     # ------------------------------------------------------------------ force laws in Python
     def mesh_forces(self, tau: np.ndarray, x: np.ndarray, g: np.ndarray | float = 0.0) -> np.ndarray:
-        """Forces [N] of every mesh's force law at mesh positions ``tau`` (..., m) [cycles] and deflections
-        ``x`` (..., m) [m] (helical meshes: at twists ``g`` (..., m) [rad])."""
+        """Forces [N] of every mesh's law at mesh positions ``tau`` (..., m) [cycles] and deflections ``x`` (..., m)
+        [m] (a twist law's W at twists ``g`` (..., m) [rad])."""
         tau, x, g = np.broadcast_arrays(np.asarray(tau, float), np.asarray(x, float), np.asarray(g, float))
         out = np.empty(tau.shape)
         for k in range(self.m):
-            out[..., k] = self.mesh_force(k, tau[..., k], x[..., k], g[..., k])
+            out[..., k] = self.mesh_law.mesh_force(k, tau[..., k], x[..., k], g[..., k])
         return out
-
-    def mesh_generalized(self, k: int, tau, x, g, coast: bool = False) -> np.ndarray:
-        """Helical mesh ``k``: mesh force W [N] and twist moment M [N m] → (..., 2) at ``tau`` [cycles], ``x`` [m],
-        ``g`` [rad] (broadcast arrays), by the kernel's rule (the table's trilinear lookup; both 0 where W <= 0).
-        ``coast``: the coast side (coast approach ``x``, coast twist ``g``; zeros for a drive-only table)."""
-        c = self.meshes[k]
-        if c.t is None:
-            raise ModelError(f"{self.name}: mesh '{c.name}' is not a helical mesh (no twist axis)")
-        table = c.coast_table if coast else c.table
-        if table is None:
-            return np.zeros(np.broadcast(np.asarray(tau), np.asarray(x), np.asarray(g)).shape + (2,))
-        wm = np.asarray(table.twist_quantity(table.twist.generalized_fdf, tau, x, g))
-        return np.where((wm[..., :1] > 0), wm, 0.0)
 
     def mesh_twists(self, q: np.ndarray) -> np.ndarray:
         """Mesh twists (..., m) [rad] of states ``q`` (..., n) (0 for meshes without a twist axis)."""
         return np.asarray(q) @ self.T.T
 
     def mesh_force(self, k: int, tau, x, g=0.0) -> np.ndarray:
-        """Force [N] of mesh ``k``'s force law at ``tau`` [cycles], ``x`` [m] (broadcast arrays); a helical mesh's W
-        at twist ``g`` [rad]."""
-        if self.twisted:
-            return self.mesh_generalized(k, tau, x, g)[..., 0]
-        tau, x = np.broadcast_arrays(np.asarray(tau, float), np.asarray(x, float))
-        tf, xf = np.ascontiguousarray(tau.ravel()), np.ascontiguousarray(x.ravel())
-        lw, ta = self.laws[k], self.table_arrays[k]
-        if lw.law == kernels.LAW_TABLE:
-            out = np.empty(tf.size)
-            bilinear_many(ta.ftab, ta.x0, ta.inv_dx, tf, xf, out)
-        else:
-            kk, e, f0 = _linear_law_at(lw.lin, tf)
-            out = kk * (xf - e) + f0
-        return np.maximum(out, 0.0).reshape(tau.shape)
+        """Force [N] of mesh ``k``'s law at ``tau`` [cycles], ``x`` [m] (broadcast arrays; a twist law's W at twist
+        ``g`` [rad])."""
+        return self.mesh_law.mesh_force(k, tau, x, g)
 
     def mesh_slope(self, k: int, tau, x) -> np.ndarray:
-        """Local slope dF/dx [N/m] of mesh ``k``'s force law at ``tau``, ``x`` (0 where F = 0)."""
-        tau, x = np.broadcast_arrays(np.asarray(tau, float), np.asarray(x, float))
-        tf, xf = np.ascontiguousarray(tau.ravel()), np.ascontiguousarray(x.ravel())
-        lw, ta = self.laws[k], self.table_arrays[k]
-        if lw.law == kernels.LAW_TABLE:
-            out = np.empty(tf.size)
-            slope_many(ta.ftab, ta.x0, ta.inv_dx, tf, xf, out)
-        else:
-            out = np.where(self.mesh_force(k, tf, xf) > 0, _linear_law_at(lw.lin, tf)[0], 0.0)
-        return out.reshape(tau.shape)
+        """Local slope dF/dx [N/m] of mesh ``k``'s law at ``tau``, ``x`` (0 where F = 0)."""
+        return self.mesh_law.mesh_slope(k, tau, x)
 
     def coast_force(self, k: int, tau, xc) -> np.ndarray:
         """Coast-flank force [N] of mesh ``k`` at ``tau`` [cycles] and coast approach ``xc`` [m] (0 without a coast
         table), by the kernels' rule."""
-        tau, xc = np.broadcast_arrays(np.asarray(tau, float), np.asarray(xc, float))
-        ca = self.coast_arrays[k]
-        if ca is None:
-            return np.zeros(tau.shape)
-        out = np.empty(tau.size)
-        bilinear_many(ca.ftab, ca.x0, ca.inv_dx, np.ascontiguousarray(tau.ravel()),
-                      np.ascontiguousarray(xc.ravel()), out)
-        return np.maximum(out, 0.0).reshape(tau.shape)
+        return self.mesh_law.coast_force(k, tau, xc)
 
     def coast_forces(self, tau: np.ndarray, xc: np.ndarray) -> np.ndarray:
         """Coast-flank forces [N] of every mesh at ``tau`` (..., m), ``xc`` (..., m)."""
@@ -652,14 +535,7 @@ class LumpedSystem:
 
     def coast_slope(self, k: int, tau, xc) -> np.ndarray:
         """Local slope dFc/dxc [N/m] of mesh ``k``'s coast table (0 without one)."""
-        tau, xc = np.broadcast_arrays(np.asarray(tau, float), np.asarray(xc, float))
-        ca = self.coast_arrays[k]
-        if ca is None:
-            return np.zeros(tau.shape)
-        out = np.empty(tau.size)
-        slope_many(ca.ftab, ca.x0, ca.inv_dx, np.ascontiguousarray(tau.ravel()), np.ascontiguousarray(xc.ravel()),
-                   out)
-        return out.reshape(tau.shape)
+        return self.mesh_law.coast_slope(k, tau, xc)
 
     # ------------------------------------------------------------------ modal facts
     def natural_frequencies_Hz(self) -> np.ndarray:
@@ -687,8 +563,9 @@ class LumpedSystem:
         return kernels.record_width(self.m_kernel)
 
     def record_fields(self, rec_out: np.ndarray) -> dict[str, np.ndarray]:
-        """Named per-mesh views of this system's kernel records (:func:`kernels.record_fields`)."""
-        return kernels.record_fields(rec_out, self.m, self.twisted and not self.coast_twist, self.coast_twist)
+        """Named per-mesh views of this system's kernel records (its mesh law's fields,
+        :meth:`~hacgear_core.dynamics.laws.MeshLaw.record_fields`)."""
+        return self.mesh_law.record_fields(rec_out)
 
     def integrate(self, s: np.ndarray, kin: np.ndarray, n_steps: int, h: float, fext: np.ndarray, *,
                   mode: int = kernels.MODE_SPEED, rec_every: int = 0, rec_state: np.ndarray | None = None,
@@ -717,7 +594,8 @@ class LumpedSystem:
     @property
     def kernel_label(self) -> str:
         """This system's kernel specialisation in words (the compile notice's)."""
-        return kernels.kernel_label(self.law, self.n, self.m_kernel, self.two_sided and not self.twisted)
+        law = self.mesh_law
+        return kernels.kernel_label(law.kernel_law, self.n, law.m_kernel, law.kernel_two_sided)
 
     def with_changes(self, **changes) -> "LumpedSystem":
         """A copy rebuilt with some constructor arguments changed (torque, damping, force law...)."""
@@ -737,12 +615,3 @@ class LumpedSystem:
         return LumpedSystem(**kw)
 
 
-def _linear_law_at(lin: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Rows ``[k, e, f0]`` of a conventional law ``lin`` (3, Np), periodic and linear in position, at ``tau``
-    [cycles] (the kernel's rule)."""
-    npos = lin.shape[1]
-    t = (tau - np.floor(tau)) * npos
-    i = np.minimum(t.astype(int), npos - 1)
-    a = t - i
-    i1 = (i + 1) % npos
-    return tuple(lin[r, i] + a * (lin[r, i1] - lin[r, i]) for r in range(3))

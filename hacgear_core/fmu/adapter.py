@@ -199,7 +199,7 @@ class Adapter:
             if e_tot > 0 and e_mesh / e_tot > best:
                 best, fm = e_mesh / e_tot, float(w[j] / (2 * math.pi))
         out["pressure"] = self._static_pressures(sy)
-        if sy.twisted:
+        if "twist_moment_Nm" in sy.mesh_law.fields:
             # the static state at the nominal torque: twist moments and the largest tilting moment
             from_eq = Simulator(sy)
             out["twist_moment"] = [abs(float(v)) or None for v in from_eq.twist_moment_Nm]
@@ -379,7 +379,7 @@ class Adapter:
                   f"force of gear {g} on its bearing, y component (fixed frame)", display_unit="kN", nominal=f_max,
                   read=on(call=lambda s, j: float(s.bearing_force_N(s.gear_names[j])[1]))),
             ]
-            if sy.twisted:   # 12-DOF helical pairs: axial force and tilting moments on the bearing
+            if f"{g}.theta_x" in sy.dof_names:   # six-DOF gears: axial force and tilting moments on the bearing
                 spec += [
                     V(f"{g_}.bearing_force_z", "Real", "output", "continuous", "N",
                       f"axial force of gear {g} on its bearing (z along the axes; axial support spring)",

@@ -110,7 +110,7 @@ class Layout:
 
 def drivetrain_layout(stage_fmus, cfg: BenchConfig = BenchConfig()) -> Layout:
     """The bench of ``stage_fmus`` (one or more gear-stage FMU paths, first driven by the motor, last driving the
-    load): everything at the start speed, shafts pre-twisted to carry the static torques of the load torque."""
+    load): everything at the start speed, shafts preloaded (their static twist) to carry the static torques of the load torque."""
     paths = [Path(p) for p in ([stage_fmus] if isinstance(stage_fmus, (str, Path)) else stage_fmus)]
     if not paths:
         raise ValueError("the bench needs at least one gear stage")

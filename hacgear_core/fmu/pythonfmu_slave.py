@@ -160,18 +160,18 @@ class HacgearSlave(Fmi2Slave):  # FMI base
         return status == OK  # Error and Discard: Discard (fmi2Terminated true), the reason logged
 
     # ------------------------------------------------------------------ values (lists of the requested length)
-    def _get(self, kind, vrs, fill):
-        if kind == "real":
+    def _get(self, vtype, vrs, fill):
+        if vtype == "real":
             out = self._call(self._inst.get_real, tuple(vrs))
         else:
-            out = self._call(self._inst.get_values, kind, list(vrs))
+            out = self._call(self._inst.get_values, vtype, list(vrs))
         return [fill] * len(vrs) if out is None else list(out)
 
-    def _set(self, kind, vrs, values):
-        if kind == "real":
+    def _set(self, vtype, vrs, values):
+        if vtype == "real":
             self._call(self._inst.set_real, list(vrs), list(values))
         else:
-            self._call(self._inst.set_values, kind, list(vrs), list(values))
+            self._call(self._inst.set_values, vtype, list(vrs), list(values))
 
     def get_real(self, vrs):
         return self._get("real", vrs, math.nan)

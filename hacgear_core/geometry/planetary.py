@@ -387,9 +387,9 @@ def _lumped_geometry(model: Any, mem: PlanetaryMembers, pos: tuple[float, ...]) 
         pname = planets[i - 1]
         e = np.array([math.cos(psi), math.sin(psi)])
         perp = np.array([-e[1], e[0]])
-        for m, kind in ((msun, mem.sun_mesh), (mring, mem.ring_mesh)):
+        for m, mesh_name in ((msun, mem.sun_mesh), (mring, mem.ring_mesh)):
             a = float(m.pressure_angle_rad)
-            ring_mesh = kind == mem.ring_mesh
+            ring_mesh = mesh_name == mem.ring_mesh
             if not ring_mesh:
                 # sun (CCW) pushes the planet: velocity of the sun at the pitch point +perp, separation +e
                 ga, gb = (mem.sun, pname) if m.gear_a == mem.sun else (pname, mem.sun)
@@ -416,8 +416,8 @@ def _lumped_geometry(model: Any, mem: PlanetaryMembers, pos: tuple[float, ...]) 
                 ph = _snap(-zs * psi / (2 * math.pi))
             else:
                 ph = _snap(zr * psi / (2 * math.pi))
-            meshes[f"{kind}_{i}"] = dict(
-                name=f"{kind}_{i}", kind=kind, planet=i, gear_a=ga, gear_b=gb, internal=ring_mesh,
+            meshes[f"{mesh_name}_{i}"] = dict(
+                name=f"{mesh_name}_{i}", kind=mesh_name, planet=i, gear_a=ga, gear_b=gb, internal=ring_mesh,
                 line_of_action=nvec, moment_arm_m=arms, phase=ph, tooth_passage={ga: 0, gb: 0},
                 base_radius_m=(g[ga if ga in g else mem.planet].base_radius_m,
                                g[gb if gb in g else mem.planet].base_radius_m),

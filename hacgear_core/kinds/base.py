@@ -83,9 +83,11 @@ class Body:
 
 @dataclass(frozen=True)
 class Coupling:
-    """A mesh between two bodies: ``table`` (the mesh's force-deflection table), ``law`` the name of its mesh law
-    in :data:`hacgear_core.dynamics.laws.MESH_LAWS` (``"table"``: the force table or a conventional law, one- or
-    two-sided by its tables; ``"twist"``: the generalized table over (position, deflection, twist)), and its
+    """A mesh between two bodies: ``table`` (the mesh's force-deflection table), ``law`` its mesh law (every
+    coupling of a train shares one; :mod:`hacgear_core.dynamics.laws`): ``"table"`` the force table, or the
+    conventional law the system's ``force_law`` names, one- or two-sided by its coast tables (``TableLaw``,
+    ``TwoSidedTableLaw``, ``LinearLaw``); ``"twist"`` the generalized table over (position, deflection, twist)
+    (``TwistTableLaw``, needs ``t``), and its
     vectors over DOF keys: ``v`` mesh deflection, ``w`` mesh position [cycles per unit], ``v_rot`` the rotational
     part of ``v``, ``v_c`` the coast approach, ``t`` / ``t_c`` the twist vectors (twist law).  The remaining fields
     are those of :class:`hacgear_core.dynamics.system.MeshCoupling`."""

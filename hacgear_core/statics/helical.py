@@ -101,7 +101,7 @@ class HelicalSetup:
     twist_rad: float
     pairs: np.ndarray            # (Np,)
     g0: np.ndarray               # normal gap at x = 0 and this twist [m] (inf: cannot touch)
-    g0_untwisted: np.ndarray
+    g0_zero_twist: np.ndarray
     lam: np.ndarray              # normal closure per unit mesh deflection [-]
     mu: np.ndarray               # normal closure per unit mesh twist [m/rad]
     C_lin: np.ndarray            # (n, n) [m/N]
@@ -255,7 +255,7 @@ class HelicalMeshContactSolver(MeshContactSolver):
             self._setup_cache[key] = base
         if twist == 0.0:
             return base
-        return replace(base, twist_rad=twist, g0=base.g0_untwisted - base.mu * twist)
+        return replace(base, twist_rad=twist, g0=base.g0_zero_twist - base.mu * twist)
 
     def _build_setup(self, position: float) -> HelicalSetup:
         W = self.options.pair_window
@@ -297,7 +297,7 @@ class HelicalMeshContactSolver(MeshContactSolver):
         curv = 1.0 / R_a + 1.0 / R_b
         R_eff = 1.0 / np.maximum(curv, 1.0) / cos_phi
         setup = HelicalSetup(
-            position=position, twist_rad=0.0, pairs=pairs, g0=g0, g0_untwisted=g0, lam=lam, mu=mu, C_lin=C,
+            position=position, twist_rad=0.0, pairs=pairs, g0=g0, g0_zero_twist=g0, lam=lam, mu=mu, C_lin=C,
             pair_index=pair_index, slice_index=slice_index, slice_width_m=self.slice_width_m, s_a=s_a, s_b=s_b,
             roll_b_rad=get("roll_b", np.nan), cos_phi=cos_phi, R_eff=R_eff, point=point, normal=normal,
             tooth_a=tooth_a, tooth_b=tooth_b, tip_contact=np.array([bool(g["tip"]) if g else False for g in geo]),

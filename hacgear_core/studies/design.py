@@ -449,7 +449,7 @@ def read_study(path: str | Path) -> StudyResults:
             g = f[f"variables/{i}"]
             vals = g["values"][()]
             variables.append({"key": _s(g.attrs["key"]), "unit": _s(g.attrs["unit"]),
-                              "values": [float(v) for v in vals] if vals.dtype.kind == "f" else [_s(v) for v in vals]})
+                              "values": [float(v) for v in vals] if np.issubdtype(vals.dtype, np.floating) else [_s(v) for v in vals]})
         res = StudyResults(
             name=_s(f.attrs["study_name"]), spec=json.loads(_s(f.attrs["study_json"])), variables=variables,
             labels=[_s(v) for v in f["variant_label"][()]], status=f["status"][()].astype(int),

@@ -2,8 +2,9 @@
 gear system.
 
 :mod:`.system` (the assembled arrays of a lumped system; :mod:`hacgear_core.kinds` builds them from a model, one
-kind each), :mod:`.parameters` (lumped spur-pair parameters), :mod:`.force_laws` (HAC and conventional laws), :mod:`.kernels` (the compiled RK4 loop shared with the
-FMUs), :mod:`.simulator` (time stepping, both experiments), :mod:`.equilibrium` (static equilibrium),
+kind each), :mod:`.laws` (the mesh laws: kernel variant, record fields, numpy twin), :mod:`.linear` (linearisation,
+modal damping, step bound), :mod:`.parameters` (lumped spur-pair parameters), :mod:`.force_laws` (HAC and
+conventional laws), :mod:`.kernels` (the compiled RK4 loop shared with the FMUs), :mod:`.simulator` (time stepping, both experiments), :mod:`.equilibrium` (static equilibrium),
 :mod:`.steady` (steady-state detection and response metrics), :mod:`.floquet` (stability of periodic orbits),
 :mod:`.sweep` (speed sweeps, jumps, resumable output), :mod:`.modes` (modal analysis, impulse test),
 :mod:`.synthetic` (synthetic tables for tests and demonstrations).  The command line's MODEL argument is resolved

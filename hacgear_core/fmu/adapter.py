@@ -399,6 +399,10 @@ class Adapter:
                           "all its meshes superposed; table lookup)", display_unit="um/m", nominal=nom["strain"][gauge],
                           read=Reading(call=lambda s, _, key=gauge: s.strain(key), part="gauge", index=gauge,
                                        fallible=True)))
+        # the outputs the model's kind adds (:meth:`~hacgear_core.kinds.base.Kind.extra_outputs`)
+        for extra in kind_of(self.kind).extra_outputs(sy):
+            spec.append(V(extra.name, "Real", "output", "continuous", extra.unit, extra.description,
+                          read=Reading(call=lambda s, _, read=extra.read: float(read(s)))))
         names = [v.name for v in spec]
         if len(set(names)) != len(names):
             raise ModelError(f"FMU variable names are not unique: {names}")

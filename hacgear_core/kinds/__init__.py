@@ -2,6 +2,7 @@
 hands to the one assembly, and the model loader and system builder that dispatch on a model's kind."""
 from __future__ import annotations
 
+import difflib
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -15,7 +16,7 @@ from hacgear_core.kinds.helical_pair import helical_from_model
 from hacgear_core.kinds.planetary import constant_stiffness_table, planetary_from_model
 from hacgear_core.kinds.registry import KINDS, kind_of
 from hacgear_core.model import Model, read_model
-from hacgear_core.model.toml import SectionReader
+from hacgear_core.model.toml import TOP_LEVEL_KEYS, SectionReader
 from hacgear_core.model import parse_model as read_model_text
 
 __all__ = [
@@ -50,8 +51,11 @@ def check_model(model: Model, file: str | None = None) -> Model:
         kind = kind_of(model)
         extra = sorted(set(model.sections) - {kind.section})
         if extra:
-            allowed = f"[{kind.section}]" if kind.section else "none"
-            raise ModelError(f"unknown table [{extra[0]}] for kind '{kind.name}'; its own tables: {allowed}")
+            allowed = sorted(set(TOP_LEVEL_KEYS) | ({kind.section} if kind.section else set()))
+            near = difflib.get_close_matches(extra[0], allowed, n=1)
+            hint = f"did you mean '{near[0]}'? " if near else ""
+            raise ModelError(f"unknown key '{extra[0]}' in [top level]; {hint}allowed keys for kind '{kind.name}': "
+                             f"{', '.join(allowed)}")
         raw = model.sections.get(kind.section) if kind.section else None
         reader = None if raw is None else SectionReader(raw, kind.section, where)
         model = replace(model, section=kind.parse_section(reader))

@@ -176,8 +176,9 @@ class StructuralParameter:
 
 @dataclass(frozen=True)
 class ExtraOutput:
-    """An FMU output a kind adds to the common ones: ``name``, ``unit``, ``description`` and ``read(adapter)`` ->
-    float, evaluated on the FMU's adapter after each step."""
+    """An FMU output a kind adds after the common ones: ``name``, ``unit`` (FMI unit name: "N", "N.m", "rad", "1"),
+    ``description`` and ``read(simulator)`` -> float, evaluated on the FMU's
+    :class:`~hacgear_core.dynamics.simulator.Simulator` when the output is read."""
 
     name: str
     unit: str

@@ -104,7 +104,7 @@ from hacgear_core.model.schema import (
     RANGES, Material, Mesh, Model, Operating, PinError, Planetary, StaticsGrid, Support, Web,
 )
 
-__all__ = ["read_model", "parse_model", "SectionReader", "model_sha256", "resolve_model_path", "shipped_systems", "shipped_systems_dir",
+__all__ = ["read_model", "parse_model", "SectionReader", "TOP_LEVEL_KEYS", "model_sha256", "resolve_model_path", "shipped_systems", "shipped_systems_dir",
            "DEFAULT_MEANINGS"]
 
 _INF = math.inf
@@ -262,6 +262,8 @@ _KNOWN_KEYS = frozenset(_MATERIAL_KEYS + _FLANK_KEYS + _GAUGE_KEYS + _SUPPORT_KE
                         + _STATICS_KEYS + _SYSTEM_KEYS + ("torque_Nm", "torque_gear", "modal_damping_ratio"))
 
 
+#: the top-level tables every model file may have (a kind may add its own section)
+TOP_LEVEL_KEYS = _TOP_KEYS
 #: the reader a kind parses its own model section with (:meth:`hacgear_core.kinds.base.Kind.parse_section`)
 SectionReader = _Section
 

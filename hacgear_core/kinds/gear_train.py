@@ -438,11 +438,11 @@ class GearTrain(Kind):
 
 
 def _shaft_torque(shaft: Shaft):
-    """The reader of ``<shaft>.torque`` on an FMU adapter (its running simulator's gear angles)."""
+    """The reader of ``<shaft>.torque`` on a :class:`~hacgear_core.dynamics.simulator.Simulator` (its gears' angles,
+    each in its sense of rotation: the same sense for the gears of one shaft)."""
     k = shaft.torsional_stiffness_Nm_per_rad
 
-    def read(adapter: Any) -> float:
-        sim = adapter.sim
+    def read(sim: Any) -> float:
         return k * (sim.angle_rad[sim.gear_index(shaft.gear_a)] - sim.angle_rad[sim.gear_index(shaft.gear_b)])
     return read
 

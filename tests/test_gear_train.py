@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import math
 import re
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -152,7 +151,7 @@ def test_unequal_tooth_counts_on_a_shaft_are_refused_naming_the_gears():
     k = txt.index('[[gears]]\nname = "gear3"')
     gear3 = txt[k:txt.index("[[meshes]]")]
     txt = txt[:i] + gear3.replace('name = "gear3"', 'name = "gear2b"') + txt[j:]
-    with pytest.raises(ModelError, match=r"gear2.*teeth = 33.*gear2b.*teeth = 39|gear2b.*teeth = 39.*gear2.*teeth = 33"):
+    with pytest.raises(ModelError, match=r"'gear2', teeth = 33.*'gear2b', teeth = 39"):
         parse_model(txt)
 
 
@@ -218,7 +217,8 @@ def test_an_idler_split_on_a_stiff_shaft_has_the_idler_chains_dynamics():
     """idler_28_33_39 (free shafts) against the same chain with its idler cut into two halves (half the inertia
     each) on a 1e11 N m/rad shaft: the same nominal forces, the same static mesh forces and, below the shaft's own
     mode, the same natural frequencies (to (f / f_shaft)^2 ~ 1e-5)."""
-    free = _text("idler_28_33_39").replace("rotational_stiffness_Nm_per_rad = 5.0e4", "rotational_stiffness_Nm_per_rad = 0.0")
+    free = _text("idler_28_33_39").replace("rotational_stiffness_Nm_per_rad = 5.0e4",
+                                           "rotational_stiffness_Nm_per_rad = 0.0")
     idler_model = parse_model(free)
     half = gear_geometry(idler_model.gear("gear2")).inertia_kgm2 / 2
     txt = _idler_as_gear_train(1.0e11).replace('name = "gear2"\n', f'name = "gear2"\ninertia_kgm2 = {half!r}\n')

@@ -47,7 +47,7 @@ from hacgear_core.geometry.train import MeshPlacement, TrainGeometry
 from hacgear_core.kinds.base import Body, Coupling, Dof, ExtraOutput, Kind, Spring, Train
 from hacgear_core.kinds.fixed_axis import train_from_model
 
-__all__ = ["Shaft", "GearTrainSection", "GearTrain", "place_gear_train", "shaft_torques_per_Nm"]
+__all__ = ["Shaft", "GearTrainSection", "GearTrain", "place_gear_train", "mesh_forces"]
 
 _SHAFT_KEYS = ("name", "gear_a", "gear_b", "torsional_stiffness_Nm_per_rad", "bending_stiffness_N_per_m",
                "mounting_angle_deg")
@@ -92,9 +92,10 @@ class GearTrainSection:
 
 @dataclass(frozen=True)
 class _Chain:
-    """The topology of a gear train: ``axis`` {gear: axis index}, ``axes`` (tuple of gear names per axis, along
-    the chain from the torque gear's axis), ``meshes`` (mesh names along the chain), ``into`` / ``out_of`` {axis:
-    gear that receives / passes on the torque}, ``torque`` {axis: static torque per N m on the torque gear}."""
+    """The topology of a gear train: ``axes`` (tuple of gear names per axis, along the chain from the torque gear's
+    axis), ``axis`` {gear: index of its axis in ``axes``}, ``meshes`` (mesh names along the chain), ``into`` /
+    ``out_of`` {axis index: gear that receives / passes on the torque}, ``torque`` {axis index: static torque per
+    N m on the torque gear}."""
 
     axis: Mapping[str, int]
     axes: tuple[tuple[str, ...], ...]
@@ -183,7 +184,8 @@ def _chain(model: Any, base_radii: Mapping[str, tuple[float, float]] | None = No
     if missing:
         raise ModelError(f"meshes {missing} are not connected to operating.torque_gear = "
                          f"{model.operating.torque_gear!r} through meshes and gear_train.shafts")
-    return _Chain(axis=axis, axes=tuple(tuple(axis_list[i]) for i in axes), meshes=tuple(order),
+    return _Chain(axis={g: axes.index(i) for g, i in axis.items()}, axes=tuple(tuple(axis_list[i]) for i in axes),
+                  meshes=tuple(order),
                   into={axes.index(i): g for i, g in into.items()},
                   out_of={axes.index(i): g for i, g in out_of.items()},
                   torque={axes.index(i): t for i, t in torque.items()})
@@ -192,11 +194,9 @@ def _chain(model: Any, base_radii: Mapping[str, tuple[float, float]] | None = No
 def _check_mesh_frequencies(model: Any, chain: _Chain) -> None:
     """Refuse tooth counts that give the meshes different mesh frequencies (the kernel advances one)."""
     teeth = {g.name: g.teeth for g in model.gears}
-    mesh_by = {m.name: m for m in model.meshes}
     speed = {0: Fraction(1)}  # axis speed over the first axis's, magnitude
     freq = {}
     for k, name in enumerate(chain.meshes):
-        m = mesh_by[name]
         g_out, g_in = chain.out_of[k], chain.into[k + 1]
         freq[name] = speed[k] * teeth[g_out]
         speed[k + 1] = freq[name] / teeth[g_in]
@@ -275,46 +275,6 @@ def place_gear_train(model: Any, gears: Mapping | None = None, meshes: Mapping |
     return TrainGeometry(centre_m=centre, sense=sense, speed_ratio=ratio, assembly_angle_rad=angle,
                          meshes={m.name: placed[m.name] for m in model.meshes}, tooth_passage=passage,
                          reference_gear=ref)
-
-
-def shaft_torques_per_Nm(model: Any, base_radii: Mapping[str, tuple[float, float]] | None = None) -> dict[str, float]:
-    """Static torque of every shaft [N m per N m on the torque gear], positive when it drives gear_b (0 for a shaft
-    off the torque path)."""
-    chain = _chain(model, base_radii)
-    out = {}
-    for s in _section_of(model).shafts:
-        k = next(i for i, gs in enumerate(chain.axes) if s.gear_a in gs)
-        gs = chain.axes[k]
-        path = _axis_path(model, gs, chain.into.get(k, chain.out_of.get(k)), chain.out_of.get(k))
-        t = 0.0
-        for a, b in zip(path, path[1:]):
-            if {a, b} == {s.gear_a, s.gear_b}:
-                t = chain.torque[k] if a == s.gear_a else -chain.torque[k]
-        out[s.name] = t
-    return out
-
-
-def _axis_path(model: Any, gears: tuple[str, ...], start: str, end: str | None) -> list[str]:
-    """The gears along the shafts of one axis from ``start`` to ``end`` (just ``start`` when ``end`` is None)."""
-    if end is None or end == start:
-        return [start]
-    nb: dict[str, list[str]] = {g: [] for g in gears}
-    for s in _section_of(model).shafts:
-        if s.gear_a in nb:
-            nb[s.gear_a].append(s.gear_b)
-            nb[s.gear_b].append(s.gear_a)
-    prev = {start: ""}
-    todo = [start]
-    while todo:
-        g = todo.pop()
-        for h in nb[g]:
-            if h not in prev:
-                prev[h] = g
-                todo.append(h)
-    path = [end]
-    while path[-1] != start:
-        path.append(prev[path[-1]])
-    return path[::-1]
 
 
 def mesh_forces(model: Any, base_radii: Mapping[str, tuple[float, float]], torque_Nm: float) -> dict[str, float]:

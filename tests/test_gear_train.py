@@ -395,3 +395,53 @@ def test_readme_lists_the_fmu_variables_of_the_spec():
     assert "`shaft2.torque`" in text
     assert readme_with_variables(text, variables_table(variables_for(folder))) == text, \
         f"run `python build_fmu.py --system {SYSTEM} --readme`"
+
+
+def _three_stages() -> str:
+    """gear_train_2stage with a third stage behind wheel2 (pinion3 -> wheel3, the gears of stage 1: pinion3 turns
+    counter-clockwise with wheel2, so its drive flank is the 25 deg one) on a second shaft of 2e4 N m/rad."""
+    txt = _text()
+    i = txt.index('[[gears]]\nname = "pinion1"')
+    j = txt.index('[[gears]]\nname = "pinion2"')
+    stage1 = txt[i:j].replace('name = "pinion1"', 'name = "pinion3"').replace('name = "wheel1"', 'name = "wheel3"')
+    k = txt.index("[[meshes]]")
+    txt = txt[:k] + stage1 + txt[k:]
+    return txt.replace("[damping]", '[[meshes]]\nname = "m56"\ngear_a = "pinion3"\ngear_b = "wheel3"\n'
+                                    'center_distance_mm = 140.0\nline_of_centres_deg = 90.0\n\n'
+                                    '[[gear_train.shafts]]\nname = "shaft3"\ngear_a = "wheel2"\ngear_b = "pinion3"\n'
+                                    'torsional_stiffness_Nm_per_rad = 2.0e4\n\n[damping]')
+
+
+def test_three_stages_in_series_equal_the_hand_written_matrices(model):
+    """Any number of meshes in series: three stages (the third at right angles) on the two-stage model's tables;
+    the modes equal scipy.linalg.eigh of the 6 x 6 M and K written here, both shafts carry 300 N m statically,
+    the torque enters at pinion1 and leaves at wheel3 only."""
+    from hacgear_core.dynamics.equilibrium import static_equilibrium
+    from hacgear_core.dynamics.modes import modal_analysis
+
+    tabs = load_system_tables(SYSTEM)
+    tables = {"m12": tabs.mesh("m12"), "m34": tabs.mesh("m34"), "m56": tabs.mesh("m12")}
+    three = parse_model(_three_stages())
+    sy = build_system(three, tables)
+    gears = ("pinion1", "wheel1", "pinion2", "wheel2", "pinion3", "wheel3")
+    assert sy.dof_names == tuple(f"{g}.theta" for g in gears)
+    rb = 5.0e-3 * 28 * math.cos(math.radians(25.0)) / 2
+    K = np.zeros((6, 6))
+    for k, (a, ks) in enumerate(((0, None), (2, 1.0e4), (4, 2.0e4))):
+        v = np.zeros(6)
+        v[[a, a + 1]] = rb
+        K += sy.mesh_stiffness_N_per_m[k] * np.outer(v, v)
+        if ks:
+            s = np.zeros(6)
+            s[[a - 1, a]] = 1.0, -1.0
+            K += ks * np.outer(s, s)
+    M = np.diag([gear_geometry(three.gear(g)).inertia_kgm2 for g in gears])
+    w2 = scipy.linalg.eigh(K, M, eigvals_only=True)
+    np.testing.assert_allclose(modal_analysis(sy).natural_frequencies_Hz, np.sqrt(w2[1:]) / (2 * math.pi), rtol=1e-9)
+    fe = sy.fext_speed()
+    assert [g for g in gears if fe[sy.dof_names.index(f"{g}.theta")] != 0] == ["pinion1", "wheel3"]
+    q = static_equilibrium(sy, 0.25).q
+    for a, b, ks in (("wheel1", "pinion2", 1.0e4), ("wheel2", "pinion3", 2.0e4)):
+        ia, ib = sy.dof_names.index(f"{a}.theta"), sy.dof_names.index(f"{b}.theta")
+        assert sy.gears[a].sense * ks * (q[ia] - q[ib]) == pytest.approx(300.0, rel=1e-9)
+    np.testing.assert_allclose(sy.phase[:2], build_system(model, tabs).phase, atol=1e-15)

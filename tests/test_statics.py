@@ -206,12 +206,13 @@ def test_load_grid_and_nominal_forces():
     with pytest.raises(ModelError, match="loads"):
         load_grid(1.0, 1)
     M = SimpleNamespace
-    chain = M(operating=M(torque_Nm=100.0, torque_gear="a"), planetary=None,
+    chain = M(kind="idler_chain", operating=M(torque_Nm=100.0, torque_gear="a"), planetary=None,
               meshes=[M(name="m1", gear_a="a", gear_b="b"), M(name="m2", gear_a="b", gear_b="c")])
     f = nominal_mesh_forces(chain, {"m1": (0.02, 0.03), "m2": (0.025, 0.04)})
     assert f["m1"] == pytest.approx(100 / 0.02)
     assert f["m2"] == pytest.approx(f["m1"] * 0.03 / 0.025)  # torque balance of the idler b
-    planet = M(operating=M(torque_Nm=90.0, torque_gear="sun"), planetary=M(planet_count=3),
+    # the train's torque flow shares the torque among the planets of a [planetary] section
+    planet = M(kind="idler_chain", operating=M(torque_Nm=90.0, torque_gear="sun"), planetary=M(planet_count=3),
                meshes=[M(name="sp", gear_a="sun", gear_b="p"), M(name="rp", gear_a="ring", gear_b="p")])
     f = nominal_mesh_forces(planet, {"sp": (0.03, 0.02), "rp": (0.1, 0.02)})
     assert f["sp"] == pytest.approx(1000.0) and f["rp"] == pytest.approx(1000.0)

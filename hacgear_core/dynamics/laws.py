@@ -184,16 +184,23 @@ class MeshLaw:
     def state_fields(self, system, q: np.ndarray, tau: np.ndarray, offset: float, rec: np.ndarray) -> None:
         """Fill the record ``rec`` (record width,) as the kernel would at state ``q`` and mesh positions ``tau``
         (m,) (``offset``: the unwrapping added to the recorded positions)."""
+        f, x = self._kinematic_fields(system, q, tau, offset, rec)
+        m = self.m
+        xc = system.Vc @ q
+        f["mesh_force_N"][:] = [float(self.mesh_force(k, tau[k], x[k])) for k in range(m)]
+        f["coast_approach_m"][:] = xc
+        f["coast_force_N"][:] = [float(self.coast_force(k, tau[k], xc[k])) for k in range(m)]
+
+    def _kinematic_fields(self, system, q, tau, offset, rec) -> tuple[dict[str, np.ndarray], np.ndarray]:
+        """The raw record columns of ``rec`` by name with the system's meshes' positions, deflections and DTE at
+        ``q`` filled in; and the deflections ``x`` (m,)."""
         f = kernels.record_fields(rec, self.m_kernel)
         m = self.m
         x = system.V @ q
         f["mesh_position"][:m] = offset + tau
         f["mesh_deflection_m"][:m] = x
         f["dynamic_transmission_error_m"][:m] = system.V_rot @ q
-        xc = system.Vc @ q
-        f["mesh_force_N"][:] = [float(self.mesh_force(k, tau[k], x[k])) for k in range(m)]
-        f["coast_approach_m"][:] = xc
-        f["coast_force_N"][:] = [float(self.coast_force(k, tau[k], xc[k])) for k in range(m)]
+        return f, x
 
     def static_forces(self, system, q: np.ndarray, tau: np.ndarray) -> tuple[list[np.ndarray], dict[str, np.ndarray]]:
         """``(terms, fields)``: the generalized mesh forces at state ``q`` and positions ``tau`` as a list of (n,)
@@ -373,12 +380,8 @@ class TwistTableLaw(MeshLaw):
     def state_fields(self, system, q, tau, offset, rec) -> None:
         # the kernel's record layout: twist and twist moment in the coast columns; the coast sides as meshes
         # m..2m-1
-        f = kernels.record_fields(rec, self.m_kernel)
+        f, x = self._kinematic_fields(system, q, tau, offset, rec)
         m = self.m
-        x = system.V @ q
-        f["mesh_position"][:m] = offset + tau
-        f["mesh_deflection_m"][:m] = x
-        f["dynamic_transmission_error_m"][:m] = system.V_rot @ q
         g = system.T @ q
         wm = np.array([self.generalized(k, tau[k], x[k], g[k]) for k in range(m)]).reshape(m, 2)
         f["mesh_force_N"][:m] = wm[:, 0]

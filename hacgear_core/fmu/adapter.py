@@ -401,7 +401,7 @@ class Adapter:
                           read=Reading(call=lambda s, _, key=gauge: s.strain(key), part="gauge", index=gauge,
                                        fallible=True)))
         # the outputs the model's kind adds (:meth:`~hacgear_core.kinds.base.Kind.extra_outputs`)
-        for extra in kind_of(self.kind).extra_outputs(sy):
+        for extra in kind_of(self.kind).extra_outputs(self.model, sy):
             spec.append(V(extra.name, "Real", "output", "continuous", extra.unit, extra.description,
                           read=Reading(call=lambda s, _, read=extra.read: float(read(s)))))
         names = [v.name for v in spec]

@@ -281,6 +281,7 @@ class Kind:
         """The kind's structural options (none by default)."""
         return ()
 
-    def extra_outputs(self, system: Any) -> tuple[ExtraOutput, ...]:
-        """FMU outputs beyond the common ones (none by default)."""
+    def extra_outputs(self, model: Any, system: Any) -> tuple[ExtraOutput, ...]:
+        """FMU outputs beyond the common ones of ``model``'s lumped ``system`` (none by default; a kind's own
+        section, e.g. a gear train's shafts, lives in ``model``)."""
         return ()

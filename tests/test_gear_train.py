@@ -445,3 +445,22 @@ def test_three_stages_in_series_equal_the_hand_written_matrices(model):
         ia, ib = sy.dof_names.index(f"{a}.theta"), sy.dof_names.index(f"{b}.theta")
         assert sy.gears[a].sense * ks * (q[ia] - q[ib]) == pytest.approx(300.0, rel=1e-9)
     np.testing.assert_allclose(sy.phase[:2], build_system(model, tabs).phase, atol=1e-15)
+
+
+def test_info_and_stiffness_load_each_stage_with_the_torque_the_shafts_pass_on(capsys):
+    """``info`` and ``stiffness`` ask the kind for the torque flow: the second stage carries the force the
+    intermediate shaft passes on (1:1 stages: the first stage's T / r_b) and ``info`` prints the phases of the
+    placed gear train (the second stage's from the mounting angle)."""
+    model = load_model(resolve_model_path(SYSTEM))
+    rb = gear_geometry(model.gear("pinion1")).base_radius_m[model.mesh("m12").flank_a]
+    assert main(["info", SYSTEM, "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)["meshes"]
+    placed = place_gear_train(model)
+    for name in ("m12", "m34"):
+        assert info[name]["nominal_force_N"] == pytest.approx(model.operating.torque_Nm / rb, rel=1e-12)
+        assert info[name]["phase"] == pytest.approx(placed.meshes[name].phase, abs=1e-12)
+    assert main(["stiffness", SYSTEM, "--torque", "150", "--positions", "4", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)["meshes"]
+    assert report["m34"]["mesh_force_N"] == pytest.approx(150.0 / rb, rel=1e-12)
+    assert report["m34"]["mean_mesh_stiffness_N_per_m"] == pytest.approx(
+        report["m12"]["mean_mesh_stiffness_N_per_m"], rel=MIRROR_TOLERANCE)

@@ -19,9 +19,10 @@ import sys
 from typing import Any
 
 from hacgear_core.errors import GeometryError, ModelError
-from hacgear_core.geometry import SIDES, model_geometry, nominal_mesh_forces, train_geometry
+from hacgear_core.geometry import SIDES, model_geometry
 from hacgear_core.jsonio import json_safe
-from hacgear_core.kinds import load_model
+from hacgear_core.kinds import kind_of, load_model
+from hacgear_core.statics import nominal_mesh_forces
 
 __all__ = ["register", "run", "info_dict"]
 
@@ -42,7 +43,7 @@ def info_dict(model: Any, *, strict: bool = True) -> dict:
     """Everything ``hacgear info --json`` prints, as a dict (SI; NaN -> None)."""
     gears, meshes = model_geometry(model, strict=strict)
     try:
-        train = train_geometry(model, gears=gears, meshes=meshes)
+        train = kind_of(model).placement(model, gears, meshes)
     except (GeometryError, ModelError):
         train = None
     out: dict = {"model": model.name, "kind": model.kind, "gears": {}, "meshes": {}, "warnings": []}

@@ -21,6 +21,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from hacgear_core.errors import ModelError
+from hacgear_core.geometry import train_geometry
 
 __all__ = ["Key", "KeyVector", "Support", "Dof", "Body", "Coupling", "Spring", "Train", "StructuralParameter",
            "ExtraOutput", "MeshPair", "Kind"]
@@ -265,6 +266,12 @@ class Kind:
     def mesh_pairs(self, model: Any) -> tuple[MeshPair, ...]:
         """The pairs that mesh, one table each (default: the model's meshes)."""
         return tuple(MeshPair(m.name, m.gear_a, m.gear_b) for m in model.meshes)
+
+    def placement(self, model: Any, gears: Mapping, meshes: Mapping) -> Any:
+        """The placed train (:class:`~hacgear_core.geometry.train.TrainGeometry`: gear centres, senses, mesh
+        phases) of ``model`` from its ``gears`` and ``meshes`` geometry (default: one group of meshed gears,
+        :func:`~hacgear_core.geometry.train_geometry`)."""
+        return train_geometry(model, gears=gears, meshes=meshes)
 
     def nominal_mesh_forces(self, model: Any, base_radii: Mapping[str, tuple[float, float]]) -> dict[str, float]:
         """{table mesh: nominal force per contact [N]} at the model's operating torque, ``base_radii[mesh]`` the

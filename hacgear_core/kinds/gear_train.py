@@ -331,6 +331,9 @@ class GearTrain(Kind):
                              "shafts belong to the drivetrain: FMU mode 1, examples/drivetrain_bench.py)")
         _check_mesh_frequencies(model, _chain(model))
 
+    def placement(self, model: Any, gears: Mapping, meshes: Mapping) -> TrainGeometry:
+        return place_gear_train(model, gears, meshes)
+
     def nominal_mesh_forces(self, model: Any, base_radii: Mapping[str, tuple[float, float]]) -> dict[str, float]:
         return mesh_forces(model, base_radii, model.operating.torque_Nm)
 

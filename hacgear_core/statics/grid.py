@@ -43,7 +43,7 @@ import os
 import pickle
 import threading
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence
 
@@ -133,11 +133,15 @@ class ModelSolverFactory:
 # ---------------------------------------------------------------------------------------------
 # Grids
 # ---------------------------------------------------------------------------------------------
-def nominal_mesh_forces(model: Any, base_radii: Mapping[str, tuple[float, float]]) -> dict[str, float]:
-    """Nominal mesh force of every mesh [N] from the operating torque ``model.operating``: the torque flow
-    per contact as the model's kind gives them (:meth:`hacgear_core.kinds.base.Kind.nominal_mesh_forces`).  ``base_radii[mesh]`` are the
-    loaded-flank base radii ``(r_b of gear_a, r_b of gear_b)`` [m].
+def nominal_mesh_forces(model: Any, base_radii: Mapping[str, tuple[float, float]],
+                        torque_Nm: float | None = None) -> dict[str, float]:
+    """Nominal mesh force of every mesh [N] under ``torque_Nm`` [N m] on ``model.operating.torque_gear``
+    (default: the operating torque): the torque flow per contact as the model's kind gives it
+    (:meth:`hacgear_core.kinds.base.Kind.nominal_mesh_forces`).  ``base_radii[mesh]`` are the loaded-flank base
+    radii ``(r_b of gear_a, r_b of gear_b)`` [m].
     """
+    if torque_Nm is not None and float(torque_Nm) != model.operating.torque_Nm:
+        model = replace(model, operating=replace(model.operating, torque_Nm=float(torque_Nm)))
     return kind_of(model).nominal_mesh_forces(model, base_radii)
 
 

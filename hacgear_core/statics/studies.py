@@ -10,9 +10,10 @@ from typing import Any
 import numpy as np
 
 from hacgear_core.errors import GeometryError, ModelError, SolverError
-from hacgear_core.geometry import gear_geometry, mesh_geometry, nominal_mesh_forces
+from hacgear_core.geometry import gear_geometry, mesh_geometry
 from hacgear_core.model import Flank, Gauge, Model
 from hacgear_core.kinds import load_model
+from hacgear_core.statics.grid import nominal_mesh_forces
 from hacgear_core.statics.contact import ContactOptions, MeshContactSolver, make_mesh_solver
 from hacgear_core.statics.helical import HelicalMeshContactSolver, make_solver
 
@@ -299,7 +300,7 @@ def mesh_stiffness_report(model: Any, torque_Nm: float, *, mesh: str | None = No
                           side: str = "drive", progress=None, on_position=None) -> dict:
     """Static transmission error and mesh stiffness of every mesh (or of ``mesh``) of ``model`` under ``torque_Nm``
     [N m] on ``model.operating.torque_gear``: each mesh is loaded with the force that the torque flow through the
-    train gives it (:func:`hacgear_core.geometry.nominal_mesh_forces`), reported as the torque on its gear_a.
+    train gives it (the model's kind: :func:`hacgear_core.statics.grid.nominal_mesh_forces`), reported as the torque on its gear_a.
 
     ``side="coast"`` (spur meshes): the same torque reversed, loading the opposite flank of each gear (base radii,
     flanks, relief and gauges of that side).  Positions (``mesh_cycle``) are then the coast flank pair's own (0 =
@@ -352,7 +353,7 @@ def mesh_stiffness_report(model: Any, torque_Nm: float, *, mesh: str | None = No
             solver = make_solver(model, m.name, options=opts)
             lever = getattr(solver, "lever_arm_m", solver.base_radius_m)
             force = nominal_mesh_forces(model, {m.name: tuple(lever)}, torque_Nm=torque_Nm)[m.name] \
-                if len(model.meshes) == 1 else _train_force(model, torque_Nm, m.name, solver)
+                if len(model.meshes) == 1 else _train_force(model, torque_Nm, m.name, solver, geo)
         if progress is not None:
             progress(f"mesh {m.name}: static contact at {positions} mesh positions")
         c = mesh_stiffness_curve(solver, force, positions=positions, twist_rad=twist_rad, on_position=on_position)
@@ -385,9 +386,11 @@ def mesh_stiffness_report(model: Any, torque_Nm: float, *, mesh: str | None = No
     return out
 
 
-def _train_force(model: Any, torque_Nm: float, mesh_name: str, solver: Any) -> float:
-    """Force of one mesh of a train under ``torque_Nm``: the train's torque flow (base radii), divided by the
-    cosine of the base helix angle when the solver's mesh force is normal to the flank."""
-    f = nominal_mesh_forces(model, torque_Nm=torque_Nm)[mesh_name]
+def _train_force(model: Any, torque_Nm: float, mesh_name: str, solver: Any, geo: dict) -> float:
+    """Force of one mesh of a train under ``torque_Nm``: the train's torque flow (the loaded flanks' base radii
+    of the meshes ``geo``), divided by the cosine of the base helix angle when the solver's mesh force is normal to
+    the flank."""
+    radii = {n: (g.base_radius_m[g.gear_a], g.base_radius_m[g.gear_b]) for n, g in geo.items()}
+    f = nominal_mesh_forces(model, radii, torque_Nm=torque_Nm)[mesh_name]
     lever = getattr(solver, "lever_arm_m", None)
     return f if lever is None else f * solver.base_radius_m[0] / lever[0]

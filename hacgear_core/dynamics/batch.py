@@ -1,27 +1,29 @@
-"""Batched RK4 kernel: K independent states of one lumped gear system advanced together, lanes innermost.
+"""Batched RK4 kernel: K independent states of one lumped gear system advanced in one call, lanes innermost.
 
 The loop is :mod:`hacgear_core.dynamics.kernels`' speed-mode loop with every per-state quantity a row of K lanes
-(structure of arrays: ``sf[(i) * nl + l]`` is DOF ``i`` of lane ``l``) and every operation a loop over the lanes, so that the
-compiler vectorises across the lanes (SIMD) and the lanes' independent RK4 chains overlap (the single-state loop
-waits on each stage's table lookup).  Lanes share the system (matrices, mesh vectors, tables) and differ in state,
-mesh position, speed, step and external load.  Each lane performs the single-state loop's operations in its order
-(same expressions, same contraction), so a lane's results equal the single-state kernel's bit for bit
-(tests/test_batch.py).  The coast-flank terms are evaluated for every lane in a step where any lane's coast flanks
-may touch: a lane whose coast flanks stay apart then adds exact zeros (its coast forces are 0 below the coast
-tables' onset).
+(structure of arrays: entry ``i`` of lane ``l`` at ``i * K + l``) and each RK4 phase one loop over the lanes, which
+the compiler vectorises (the table lookups become gathers).  Lanes share the system (matrices, mesh vectors, tables)
+and differ in state, mesh position, speed, step and external load.  Each lane performs the single-state loop's
+operations in its order, its multiply-adds written as the fused multiply-adds the single-state loop's compiler
+forms (this loop is compiled without contraction, so the vectoriser cannot choose others): a lane's results equal
+the single-state kernel's bit for bit (tests/test_batch.py).  Where any lane's coast flanks may touch, every lane
+takes the coast terms: a lane whose coast flanks stay apart adds exact zeros (its coast forces are 0 below the coast
+tables' onset).  Speed per lane against the single-state kernel and what limits it: docs/dynamics.md, "Batched
+kernel".
 
-Arguments of the loop :func:`select_batch_kernel` returns (float64 C-contiguous unless noted; K lanes)::
+Arguments of the loop :func:`select_batch_kernel` returns (float64, C-contiguous, flat unless noted; K lanes)::
 
-    S (2n, K) states, KIN (3 + m, K) [tau_ref, completed cycles, omega_ref, then per mesh the out-of-range count],
+    S (2n K) states, KIN ((3 + m) K) [tau_ref, completed cycles, omega_ref, then per mesh the out-of-range count],
     n_steps int, H (K,) steps [s], FEXT (n, K) external loads, REC_EVERY (K,) int64 (0: no records),
-    CNT (K, 2) int64 [steps to the next record, steps done] (in/out: a lane's run may span several calls; set
+    CNT (K, 2) int64 [steps to the next record, steps done] (in/out: a lane's integration may span several calls;
     ``[REC_EVERY, 0]`` where it starts), rec_state (K, nr, 2n), rec_out (K, nr, REC m + 1) (each call writes from
-    record 0), NREC (K,) int64 (records written by the call, out),
-    then the system's packed arrays (:class:`~hacgear_core.dynamics.system.KernelArrays`):
-    mats, vecs, mmat, phase, scal, tab, tint, tflt, lin, lint, kidx, kval, nz, and the scratch W (batch_rows, K).
+    record 0), NREC (K,) int64 (records written by the call, out), then :func:`batch_constants` and the scratch
+    W (:func:`batch_rows` K).  The arrays the loop writes (S, KIN, CNT, the records, NREC, W) must not overlap each
+    other or the others (the loop is compiled with its array arguments marked ``noalias``).
 
-Speed mode only (the reference motion is imposed: each lane's ``omega_ref`` is constant); helical meshes
-(``LAW_TWIST``) and the torque experiment use the single-state kernel.
+Speed mode only (each lane's ``omega_ref`` is constant); helical meshes (``LAW_TWIST``) and the torque experiment
+use the single-state kernel.  :class:`Lanes` holds the arrays of K lanes, :func:`run_lanes` drives steady-state runs
+(:func:`hacgear_core.dynamics.steady.steady_run`) on them.
 """
 from __future__ import annotations
 
@@ -38,7 +40,8 @@ from hacgear_core.dynamics.kernels import (LAW_LINEAR, LAW_TABLE, REC, REC_COAST
                                            REC_DEFLECTION, REC_DTE, REC_FORCE, REC_POSITION, VARIANT_SPARSE,
                                            VARIANT_TWO_SIDED, _ix)
 
-__all__ = ["select_batch_kernel", "batch_rows", "batch_supported", "VARIANT_ROTATING"]
+__all__ = ["select_batch_kernel", "system_batch_kernel", "batch_constants", "batch_rows", "batch_supported", "Lanes",
+           "run_lanes", "VARIANT_ROTATING"]
 
 #: variant bit: the carrier rotates (each lane's effective stiffness and damping depend on its speed)
 VARIANT_ROTATING = 16
@@ -51,7 +54,7 @@ _NW_LANE = 8
 
 
 def batch_rows(n: int, m: int, nnz: int, rotating: bool) -> int:
-    """Rows of the batched kernel's scratch ``W`` (rows, K) for ``n`` DOFs, ``m`` meshes, ``nnz`` stiffness
+    """Rows of the batched kernel's scratch ``W`` (rows K) for ``n`` DOFs, ``m`` meshes, ``nnz`` stiffness
     entries."""
     return _NW_N * n + _NW_M * m + _NW_LANE + ((nnz + n * n) if rotating else 0)
 

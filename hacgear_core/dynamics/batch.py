@@ -41,10 +41,12 @@ from hacgear_core.dynamics.kernels import (LAW_LINEAR, LAW_TABLE, REC, REC_COAST
                                            VARIANT_TWO_SIDED, _ix)
 
 __all__ = ["select_batch_kernel", "system_batch_kernel", "batch_constants", "batch_rows", "batch_supported", "Lanes",
-           "run_lanes", "VARIANT_ROTATING"]
+           "run_lanes", "VARIANT_ROTATING", "VARIANT_DIAGONAL_K"]
 
 #: variant bit: the carrier rotates (each lane's effective stiffness and damping depend on its speed)
 VARIANT_ROTATING = 16
+#: variant bit: M^-1 K and M^-1 K_W are diagonal (no off-diagonal entries to multiply)
+VARIANT_DIAGONAL_K = 32
 
 # rows of the per-lane scratch W (the single-state loop's work vector, one row per entry): offsets in units of n
 # and m as in kernels._make_loop, then the lane constants and the per-lane matrices
@@ -102,17 +104,20 @@ def _deflection_cell_l(nd, x0, inv_dx, x):
 
 
 @njit(cache=True, inline="always", fastmath=False)
+def _lerp(y0, y1, a):
+    """``y0 + a (y1 - y0)`` with the product and sum fused, as the single-state kernel's compiler forms it."""
+    return _fma(a, y1 - y0, y0)
+
+
+@njit(cache=True, inline="always", fastmath=False)
 def _table_force_l(tab, off, npos, nd, x0, inv_dx, tau, x):
-    """The single-state kernel's bilinear drive-flank lookup (``kernels._table_force``) for one lane."""
+    """The single-state kernel's bilinear drive-flank lookup (``kernels._table_force``) for one lane: the two
+    position rows' values at the deflection, then between the rows; clipped at 0."""
     i, i1, a = _periodic_cell_l(npos, tau)
     j, b = _deflection_cell_l(nd, x0, inv_dx, x)
-    off = _ix(off)
-    nd = _ix(nd)
-    r0 = off + _ix(i) * nd + _ix(j)
-    r1 = off + _ix(i1) * nd + _ix(j)
-    v0 = _fma(b, tab[r0 + 1] - tab[r0], tab[r0])
-    v1 = _fma(b, tab[r1 + 1] - tab[r1], tab[r1])
-    f = _fma(a, v1 - v0, v0)
+    c0 = _ix(off) + _ix(i) * _ix(nd) + _ix(j)
+    c1 = _ix(off) + _ix(i1) * _ix(nd) + _ix(j)
+    f = _lerp(_lerp(tab[c0], tab[c0 + 1], b), _lerp(tab[c1], tab[c1 + 1], b), a)
     return 0.0 if f < 0.0 else f
 
 
@@ -120,12 +125,26 @@ def _table_force_l(tab, off, npos, nd, x0, inv_dx, tau, x):
 def _linear_force_l(lin, off, npos, tau, x):
     """The single-state kernel's conventional law (``kernels._linear_force``) for one lane."""
     i, i1, a = _periodic_cell_l(npos, tau)
-    off, npos, i, i1 = _ix(off), _ix(npos), _ix(i), _ix(i1)
-    k = _fma(a, lin[off + i1] - lin[off + i], lin[off + i])
-    e = _fma(a, lin[off + npos + i1] - lin[off + npos + i], lin[off + npos + i])
-    f0 = _fma(a, lin[off + 2 * npos + i1] - lin[off + 2 * npos + i], lin[off + 2 * npos + i])
+    o, np_, i, i1 = _ix(off), _ix(npos), _ix(i), _ix(i1)
+    k = _lerp(lin[o + i], lin[o + i1], a)
+    e = _lerp(lin[o + np_ + i], lin[o + np_ + i1], a)
+    f0 = _lerp(lin[o + 2 * np_ + i], lin[o + 2 * np_ + i1], a)
     f = _fma(k, x - e, f0)
     return 0.0 if f < 0.0 else f
+
+
+@njit(cache=True, inline="always", fastmath=False)
+def _drive_force_l(law, k, tab, tint, tflt, lin, lint, tau, x):
+    """Drive-flank force [N] of mesh ``k`` for one lane under force law ``law`` (``kernels.mesh_force``)."""
+    if law == LAW_TABLE:
+        return _table_force_l(tab, tint[k, 0], tint[k, 1], tint[k, 2], tflt[k, 0], tflt[k, 1], tau, x)
+    return _linear_force_l(lin, lint[k, 0], lint[k, 1], tau, x)
+
+
+@njit(cache=True, inline="always", fastmath=False)
+def _coast_row_l(tab, tint, tflt, r, tau, x):
+    """Force [N] of table row ``r`` for one lane, 0 below its onset (``kernels.table_row_force``)."""
+    return _coast_force_l(tab, tint[r, 0], tint[r, 1], tint[r, 2], tflt[r, 0], tflt[r, 1], tflt[r, 2], tau, x)
 
 
 @njit(cache=True, inline="always", fastmath=False)
@@ -137,10 +156,9 @@ def _coast_force_l(tab, off, npos, nd, x0, inv_dx, x_on, tau, x):
 
 
 @njit(cache=True, inline="always", fastmath=False)
-def _l_dot(n, sparse, nz, k, vf, ov, x, ox, B, l):
-    """Lane ``l``'s ``vf[ov + k n : ov + (k+1) n] . x[ox : ox + n]`` (``kernels._dot``, its order; ``x`` rows of
-    ``B`` lanes)."""
-    a = 0.0
+def _l_dot(n, sparse, nz, k, vf, ov, x, ox, B, l, a=0.0):
+    """Lane ``l``'s ``a + vf[ov + k n : ov + (k+1) n] . x[ox : ox + n]`` (``kernels._dot``, its order; ``x`` rows
+    of ``B`` lanes)."""
     if sparse:
         for p in range(1, nz[k, 0] + 1):
             j = _ix(nz[k, p])
@@ -152,15 +170,18 @@ def _l_dot(n, sparse, nz, k, vf, ov, x, ox, B, l):
 
 
 @njit(cache=True, inline="always", fastmath=False)
-def _l_sub_k(n, sparse, nnz, kidx, kval, kd, rot, w, oq, c, x, ox, out, oo, B, l):
+def _l_sub_k(n, sparse, diag, nnz, kidx, kval, kd, rot, w, oq, c, x, ox, out, oo, B, l):
     """Lane ``l``'s ``out[oo:oo+n] -= c (M^-1 K_eff) x[ox:ox+n]`` (``kernels._sub_k``); the entries shared
     (``kval[0]``) or (``rot``) the lane's rows of ``w`` from ``oq``.  The dense loops (not ``sparse``, not ``rot``)
     take the off-diagonal entries from the full matrix ``kd`` (n*n, row-major, the order of ``kidx``): its zeros
-    subtract nothing, and loops of constant length leave the lane loop innermost (vectorisable)."""
+    subtract nothing, and loops of constant length leave the lane loop innermost (vectorisable).  ``diag``: no
+    off-diagonal entries (``kidx`` holds the diagonal only)."""
     for i in range(n):
         q = w[(oq + i) * B + l] if rot else kval[0, i]
         o = (oo + i) * B + l
         out[o] = _fma(-(c * q), x[(ox + i) * B + l], out[o])
+    if diag:
+        return
     if not sparse and not rot:
         for r in range(n):
             for t in range(n):
@@ -178,49 +199,10 @@ def _l_sub_k(n, sparse, nnz, kidx, kval, kd, rot, w, oq, c, x, ox, out, oo, B, l
 
 @njit(cache=True, inline="always", fastmath=False)
 def _l_sub_c(n, sparse, adt, rot, w, oc, c, x, ox, out, oo, B, l):
-    """Lane ``l``'s ``out[oo:oo+n] -= c (M^-1 C_eff) x[ox:ox+n]`` (``kernels._sub_c``: its column blocks, its
-    order); ``adt`` shared or (``rot``) the lane's rows of ``w`` from ``oc``."""
-    j = 0
-    if sparse:
-        while j + 7 < n:
-            b0 = c * x[(ox + j) * B + l]
-            b1 = c * x[(ox + j + 1) * B + l]
-            b2 = c * x[(ox + j + 2) * B + l]
-            b3 = c * x[(ox + j + 3) * B + l]
-            b4 = c * x[(ox + j + 4) * B + l]
-            b5 = c * x[(ox + j + 5) * B + l]
-            b6 = c * x[(ox + j + 6) * B + l]
-            b7 = c * x[(ox + j + 7) * B + l]
-            r = _ix(j * n)
-            for i in range(n):
-                if rot:
-                    e0, e1, e2, e3 = (w[(oc + r + i) * B + l], w[(oc + r + n + i) * B + l],
-                                      w[(oc + r + 2 * n + i) * B + l], w[(oc + r + 3 * n + i) * B + l])
-                    e4, e5, e6, e7 = (w[(oc + r + 4 * n + i) * B + l], w[(oc + r + 5 * n + i) * B + l],
-                                      w[(oc + r + 6 * n + i) * B + l], w[(oc + r + 7 * n + i) * B + l])
-                else:
-                    e0, e1, e2, e3 = adt[r + i], adt[r + n + i], adt[r + 2 * n + i], adt[r + 3 * n + i]
-                    e4, e5, e6, e7 = adt[r + 4 * n + i], adt[r + 5 * n + i], adt[r + 6 * n + i], adt[r + 7 * n + i]
-                o = (oo + i) * B + l
-                out[o] = _fma(-e7, b7, _fma(-e6, b6, _fma(-e5, b5, _fma(-e4, b4, _fma(-e3, b3, _fma(
-                    -e2, b2, _fma(-e1, b1, _fma(-e0, b0, out[o]))))))))
-            j += 8
-        while j + 3 < n:
-            b0 = c * x[(ox + j) * B + l]
-            b1 = c * x[(ox + j + 1) * B + l]
-            b2 = c * x[(ox + j + 2) * B + l]
-            b3 = c * x[(ox + j + 3) * B + l]
-            r = _ix(j * n)
-            for i in range(n):
-                if rot:
-                    e0, e1, e2, e3 = (w[(oc + r + i) * B + l], w[(oc + r + n + i) * B + l],
-                                      w[(oc + r + 2 * n + i) * B + l], w[(oc + r + 3 * n + i) * B + l])
-                else:
-                    e0, e1, e2, e3 = adt[r + i], adt[r + n + i], adt[r + 2 * n + i], adt[r + 3 * n + i]
-                o = (oo + i) * B + l
-                out[o] = _fma(-e3, b3, _fma(-e2, b2, _fma(-e1, b1, _fma(-e0, b0, out[o]))))
-            j += 4
-    for j in range(j, n):
+    """Lane ``l``'s ``out[oo:oo+n] -= c (M^-1 C_eff) x[ox:ox+n]``, column by column (``kernels._sub_c``: its
+    column blocks subtract in the same order, each a fused multiply-add, so the same result); ``adt`` shared or
+    (``rot``) the lane's rows of ``w`` from ``oc``."""
+    for j in range(n):
         b = c * x[(ox + j) * B + l]
         for i in range(n):
             e = w[(oc + j * n + i) * B + l] if rot else adt[j * n + i]
@@ -245,6 +227,20 @@ def _l_sub_forces(n, m, sparse, nz, w, of, vmi, ov, out, oo, B, l):
                 out[o] = _fma(-c, vmi[ov + k * n + i], out[o])
 
 
+@njit(cache=True, inline="always", fastmath=False)
+def _l_stage(n, m, sparse, diag, nnz, kidx, kval, kd, rot, nz, adt, vf, o_vmi, o_vci, w, o_aq, o_ad, o_g0, o_p, od,
+             cp, ck, ok, cc, oc, of, ocf, coast, B, l):
+    """Lane ``l``'s stage acceleration ``a = g0 + cp p - ck K a_k - cc C a_c - F M^-1 v (- Fc M^-1 vc)`` into rows
+    ``od`` (``a_k``, ``a_c`` the rows ``ok``, ``oc``; forces the rows ``of``, coast forces ``ocf`` where ``coast``)."""
+    for i in range(n):
+        w[(od + i) * B + l] = _fma(cp, w[(o_p + i) * B + l], w[(o_g0 + i) * B + l])
+    _l_sub_k(n, sparse, diag, nnz, kidx, kval, kd, rot, w, o_aq, ck, w, ok, w, od, B, l)
+    _l_sub_c(n, sparse, adt, rot, w, o_ad, cc, w, oc, w, od, B, l)
+    _l_sub_forces(n, m, sparse, nz, w, of, vf, o_vmi, w, od, B, l)
+    if coast:
+        _l_sub_forces(n, m, sparse, nz, w, ocf, vf, o_vci, w, od, B, l)
+
+
 def _make_batch_loop(name: str, n_fixed: int, m_fixed: int, variant: int, lanes: int):
     """Compile the batched loop for ``n_fixed`` DOFs and ``m_fixed`` meshes (0: read from the arguments),
     ``variant`` (bit 0 the force law, bits as :func:`kernels._make_loop`'s: sparse, two-sided; plus
@@ -253,6 +249,7 @@ def _make_batch_loop(name: str, n_fixed: int, m_fixed: int, variant: int, lanes:
     sparse_c = (variant & VARIANT_SPARSE) != 0
     two_sided_c = (variant & VARIANT_TWO_SIDED) != 0
     rot_c = (variant & VARIANT_ROTATING) != 0
+    diag_c = (variant & VARIANT_DIAGONAL_K) != 0
     B = lanes
 
     def loop(sf, kf, n_steps, H, FEXT, REC_EVERY, CNT, rec_state, rec_out, NREC, mats, vf, mf, phase, scal, tab,
@@ -263,52 +260,23 @@ def _make_batch_loop(name: str, n_fixed: int, m_fixed: int, variant: int, lanes:
         sparse = sparse_c
         two_sided = two_sided_c
         rot = rot_c
+        diag = diag_c
         nnz = kidx.shape[0]
-        mn = m * n
-        mm = m * m
-        o_w = mn
-        o_rv = 2 * mn
-        o_vmi = 3 * mn
-        o_vc = 4 * mn
-        o_vci = 5 * mn
-        o_wv = mm
-        o_cv = 2 * mm
-        o_vvc = 3 * mm
-        o_wvc = 4 * mm
-        o_cvc = 5 * mm
+        # vector and matrix blocks of vf and mf (kernels.select_kernel's vecs and mmat)
+        mn, mm = m * n, m * m
+        o_w, o_rv, o_vmi, o_vc, o_vci = mn, 2 * mn, 3 * mn, 4 * mn, 5 * mn
+        o_wv, o_cv, o_vvc, o_wvc, o_cvc = mm, 2 * mm, 3 * mm, 4 * mm, 5 * mm
         c_ratio = scal[0]
         zref_2pi = scal[2]
         # W rows (each B lanes): the single-state loop's work vector (a1..a4, g0, p, M^-1 f_ext; per mesh the
         # products and forces), then the lane constants, then (rotating carrier) each lane's M^-1 K_eff entries and
         # M^-1 C_eff^T
-        o_a1 = 0 * n
-        o_a2 = 1 * n
-        o_a3 = 2 * n
-        o_a4 = 3 * n
-        o_g0 = 4 * n
-        o_p = 5 * n
-        o_fm = 6 * n
-        o_xq = 7 * n + 0 * m
-        o_xd = 7 * n + 1 * m
-        o_wq = 7 * n + 2 * m
-        o_wd = 7 * n + 3 * m
-        o_f1 = 7 * n + 4 * m
-        o_f2 = 7 * n + 5 * m
-        o_f3 = 7 * n + 6 * m
-        o_f4 = 7 * n + 7 * m
-        o_g1 = 7 * n + 8 * m
-        o_gw1 = 7 * n + 9 * m
-        o_g2 = 7 * n + 10 * m
-        o_gw2 = 7 * n + 11 * m
-        o_cq = 7 * n + 12 * m
-        o_cd = 7 * n + 13 * m
-        o_c1 = 7 * n + 14 * m
-        o_c2 = 7 * n + 15 * m
-        o_c3 = 7 * n + 16 * m
-        o_c4 = 7 * n + 17 * m
-        o_gc1 = 7 * n + 18 * m
-        o_gc2 = 7 * n + 19 * m
-        o_h = 7 * n + 20 * m
+        o_a1, o_a2, o_a3, o_a4, o_g0, o_p, o_fm = 0, n, 2 * n, 3 * n, 4 * n, 5 * n, 6 * n
+        r0 = 7 * n
+        o_xq, o_xd, o_wq, o_wd, o_f1, o_f2, o_f3 = r0, r0 + m, r0 + 2 * m, r0 + 3 * m, r0 + 4 * m, r0 + 5 * m, r0 + 6 * m
+        o_f4, o_g1, o_gw1, o_g2, o_gw2 = r0 + 7 * m, r0 + 8 * m, r0 + 9 * m, r0 + 10 * m, r0 + 11 * m
+        o_cq, o_cd, o_c1, o_c2, o_c3 = r0 + 12 * m, r0 + 13 * m, r0 + 14 * m, r0 + 15 * m, r0 + 16 * m
+        o_c4, o_gc1, o_gc2, o_h = r0 + 17 * m, r0 + 18 * m, r0 + 19 * m, r0 + 20 * m
         o_hh = o_h + 1
         o_hh2 = o_h + 2
         o_hhh = o_h + 3
@@ -385,27 +353,18 @@ def _make_batch_loop(name: str, n_fixed: int, m_fixed: int, variant: int, lanes:
                         t1 = tau + phase[k] + w[(o_wq + k) * B + l]
                         t2 = _fma(hh, w[(o_wd + k) * B + l], tau + 0.5 * dtau + phase[k] + w[(o_wq + k) * B + l])
                         x2 = _fma(hh, w[(o_xd + k) * B + l], xq)
-                        if law == LAW_TABLE:
-                            w[(o_f1 + k) * B + l] = _table_force_l(tab, tint[k, 0], tint[k, 1], tint[k, 2],
-                                                                   tflt[k, 0], tflt[k, 1], t1, xq)
-                            w[(o_f2 + k) * B + l] = _table_force_l(tab, tint[k, 0], tint[k, 1], tint[k, 2],
-                                                                   tflt[k, 0], tflt[k, 1], t2, x2)
-                        else:
-                            w[(o_f1 + k) * B + l] = _linear_force_l(lin, lint[k, 0], lint[k, 1], t1, xq)
-                            w[(o_f2 + k) * B + l] = _linear_force_l(lin, lint[k, 0], lint[k, 1], t2, x2)
+                        w[(o_f1 + k) * B + l] = _drive_force_l(law, k, tab, tint, tflt, lin, lint, t1, xq)
+                        w[(o_f2 + k) * B + l] = _drive_force_l(law, k, tab, tint, tflt, lin, lint, t2, x2)
                         if coast_on:
-                            r = m + k
-                            w[(o_c1 + k) * B + l] = _coast_force_l(tab, tint[r, 0], tint[r, 1], tint[r, 2],
-                                                                   tflt[r, 0], tflt[r, 1], tflt[r, 2], t1,
-                                                                   w[(o_cq + k) * B + l])
-                            w[(o_c2 + k) * B + l] = _coast_force_l(tab, tint[r, 0], tint[r, 1], tint[r, 2],
-                                                                   tflt[r, 0], tflt[r, 1], tflt[r, 2], t2,
-                                                                   _fma(hh, w[(o_cd + k) * B + l], w[(o_cq + k) * B + l]))
+                            cq = w[(o_cq + k) * B + l]
+                            w[(o_c1 + k) * B + l] = _coast_row_l(tab, tint, tflt, m + k, t1, cq)
+                            w[(o_c2 + k) * B + l] = _coast_row_l(tab, tint, tflt, m + k, t2,
+                                                                 _fma(hh, w[(o_cd + k) * B + l], cq))
                     for i in range(n):
                         w[(o_g0 + i) * B + l] = w[(o_fm + i) * B + l]
                         w[(o_p + i) * B + l] = 0.0
-                    _l_sub_k(n, sparse, nnz, kidx, kval, kd, rot, w, o_aq, 1.0, sf, 0, w, o_g0, B, l)
-                    _l_sub_k(n, sparse, nnz, kidx, kval, kd, rot, w, o_aq, 1.0, sf, n, w, o_p, B, l)
+                    _l_sub_k(n, sparse, diag, nnz, kidx, kval, kd, rot, w, o_aq, 1.0, sf, 0, w, o_g0, B, l)
+                    _l_sub_k(n, sparse, diag, nnz, kidx, kval, kd, rot, w, o_aq, 1.0, sf, n, w, o_p, B, l)
                     _l_sub_c(n, sparse, adt, rot, w, o_ad, 1.0, sf, n, w, o_g0, B, l)
                     for k in range(m):
                         w[(o_g1 + k) * B + l] = _l_dot(n, sparse, nz, k, vf, 0, w, o_g0, B, l)
@@ -458,36 +417,18 @@ def _make_batch_loop(name: str, n_fixed: int, m_fixed: int, variant: int, lanes:
                         t4 = _fma(h, _fma(hh, d, w[(o_wd + k) * B + l]), tau + dtau + phase[k] + w[(o_wq + k) * B + l])
                         x3 = _fma(hh, _fma(hh, a, w[(o_xd + k) * B + l]), w[(o_xq + k) * B + l])
                         x4 = _fma(h, _fma(hh, c, w[(o_xd + k) * B + l]), w[(o_xq + k) * B + l])
-                        if law == LAW_TABLE:
-                            w[(o_f3 + k) * B + l] = _table_force_l(tab, tint[k, 0], tint[k, 1], tint[k, 2],
-                                                                   tflt[k, 0], tflt[k, 1], t3, x3)
-                            w[(o_f4 + k) * B + l] = _table_force_l(tab, tint[k, 0], tint[k, 1], tint[k, 2],
-                                                                   tflt[k, 0], tflt[k, 1], t4, x4)
-                        else:
-                            w[(o_f3 + k) * B + l] = _linear_force_l(lin, lint[k, 0], lint[k, 1], t3, x3)
-                            w[(o_f4 + k) * B + l] = _linear_force_l(lin, lint[k, 0], lint[k, 1], t4, x4)
+                        w[(o_f3 + k) * B + l] = _drive_force_l(law, k, tab, tint, tflt, lin, lint, t3, x3)
+                        w[(o_f4 + k) * B + l] = _drive_force_l(law, k, tab, tint, tflt, lin, lint, t4, x4)
                         if coast_on:
-                            r = m + k
-                            w[(o_c3 + k) * B + l] = _coast_force_l(
-                                tab, tint[r, 0], tint[r, 1], tint[r, 2], tflt[r, 0], tflt[r, 1], tflt[r, 2], t3,
-                                _fma(hh, _fma(hh, e1, w[(o_cd + k) * B + l]), w[(o_cq + k) * B + l]))
-                            w[(o_c4 + k) * B + l] = _coast_force_l(
-                                tab, tint[r, 0], tint[r, 1], tint[r, 2], tflt[r, 0], tflt[r, 1], tflt[r, 2], t4,
-                                _fma(h, _fma(hh, e2, w[(o_cd + k) * B + l]), w[(o_cq + k) * B + l]))
-                    for i in range(n):
-                        w[(o_a3 + i) * B + l] = _fma(hh, w[(o_p + i) * B + l], w[(o_g0 + i) * B + l])
-                    _l_sub_k(n, sparse, nnz, kidx, kval, kd, rot, w, o_aq, w[o_hh2 * B + l], w, o_a1, w, o_a3, B, l)
-                    _l_sub_c(n, sparse, adt, rot, w, o_ad, hh, w, o_a2, w, o_a3, B, l)
-                    _l_sub_forces(n, m, sparse, nz, w, o_f3, vf, o_vmi, w, o_a3, B, l)
-                    if coast_on:
-                        _l_sub_forces(n, m, sparse, nz, w, o_c3, vf, o_vci, w, o_a3, B, l)
-                    for i in range(n):
-                        w[(o_a4 + i) * B + l] = _fma(h, w[(o_p + i) * B + l], w[(o_g0 + i) * B + l])
-                    _l_sub_k(n, sparse, nnz, kidx, kval, kd, rot, w, o_aq, w[o_hhh * B + l], w, o_a2, w, o_a4, B, l)
-                    _l_sub_c(n, sparse, adt, rot, w, o_ad, h, w, o_a3, w, o_a4, B, l)
-                    _l_sub_forces(n, m, sparse, nz, w, o_f4, vf, o_vmi, w, o_a4, B, l)
-                    if coast_on:
-                        _l_sub_forces(n, m, sparse, nz, w, o_c4, vf, o_vci, w, o_a4, B, l)
+                            cq = w[(o_cq + k) * B + l]
+                            cd = w[(o_cd + k) * B + l]
+                            w[(o_c3 + k) * B + l] = _coast_row_l(tab, tint, tflt, m + k, t3,
+                                                                 _fma(hh, _fma(hh, e1, cd), cq))
+                            w[(o_c4 + k) * B + l] = _coast_row_l(tab, tint, tflt, m + k, t4, _fma(h, _fma(hh, e2, cd), cq))
+                    _l_stage(n, m, sparse, diag, nnz, kidx, kval, kd, rot, nz, adt, vf, o_vmi, o_vci, w, o_aq, o_ad,
+                             o_g0, o_p, o_a3, hh, w[o_hh2 * B + l], o_a1, hh, o_a2, o_f3, o_c3, coast_on, B, l)
+                    _l_stage(n, m, sparse, diag, nnz, kidx, kval, kd, rot, nz, adt, vf, o_vmi, o_vci, w, o_aq, o_ad,
+                             o_g0, o_p, o_a4, h, w[o_hhh * B + l], o_a2, h, o_a3, o_f4, o_c4, coast_on, B, l)
                     if two_sided and not coast_on:
                         # staged one-sided: do the coast approaches of stages 3 and 4 stay apart?
                         for k in range(m):
@@ -545,28 +486,18 @@ def _make_batch_loop(name: str, n_fixed: int, m_fixed: int, variant: int, lanes:
                     rec_state[l, nrec, i] = sf[i * B + l]
                 tau_ref = kf[l]
                 for k in range(m):
-                    x = 0.0
-                    t = tau_ref + phase[k]
-                    d = 0.0
-                    xc = 0.0
-                    for j in range(n):
-                        x = _fma(vf[k * n + j], sf[j * B + l], x)
-                        t = _fma(vf[o_w + k * n + j], sf[j * B + l], t)
-                        d = _fma(vf[o_rv + k * n + j], sf[j * B + l], d)
-                        xc = _fma(vf[o_vc + k * n + j], sf[j * B + l], xc)
+                    # the record's products run over every DOF, as the single-state loop's do
+                    x = _l_dot(n, False, nz, k, vf, 0, sf, 0, B, l)
+                    t = _l_dot(n, False, nz, k, vf, o_w, sf, 0, B, l, tau_ref + phase[k])
+                    d = _l_dot(n, False, nz, k, vf, o_rv, sf, 0, B, l)
+                    xc = _l_dot(n, False, nz, k, vf, o_vc, sf, 0, B, l)
                     rec_out[l, nrec, REC * k + REC_POSITION] = kf[B + l] + t
                     rec_out[l, nrec, REC * k + REC_DEFLECTION] = x
                     rec_out[l, nrec, REC * k + REC_DTE] = d
                     rec_out[l, nrec, REC * k + REC_COAST_APPROACH] = xc
-                    if law == LAW_TABLE:
-                        f = _table_force_l(tab, tint[k, 0], tint[k, 1], tint[k, 2], tflt[k, 0], tflt[k, 1], t, x)
-                    else:
-                        f = _linear_force_l(lin, lint[k, 0], lint[k, 1], t, x)
-                    rec_out[l, nrec, REC * k + REC_FORCE] = f
-                    r = m + k
-                    rec_out[l, nrec, REC * k + REC_COAST_FORCE] = (
-                        _coast_force_l(tab, tint[r, 0], tint[r, 1], tint[r, 2], tflt[r, 0], tflt[r, 1], tflt[r, 2], t,
-                                       xc) if two_sided else 0.0)
+                    rec_out[l, nrec, REC * k + REC_FORCE] = _drive_force_l(law, k, tab, tint, tflt, lin, lint, t, x)
+                    rec_out[l, nrec, REC * k + REC_COAST_FORCE] = (_coast_row_l(tab, tint, tflt, m + k, t, xc)
+                                                                   if two_sided else 0.0)
                 rec_out[l, nrec, REC * m] = (CNT[l, 1] + step + 1) * w[o_h * B + l]
                 NREC[l] = nrec + 1
         for l in range(B):
@@ -590,7 +521,8 @@ class _NoAliasCompiler(CompilerBase):
 _LOOPS: dict = {}
 
 
-def select_batch_kernel(law: int, n: int, m: int, two_sided: bool, rotating: bool, lanes: int):
+def select_batch_kernel(law: int, n: int, m: int, two_sided: bool, rotating: bool, lanes: int,
+                        diagonal_k: bool = False):
     """The batched loop for force law ``law`` (``LAW_TABLE`` or ``LAW_LINEAR``), ``n`` DOFs, ``m`` meshes, with
     coast-flank contact or without, a rotating carrier or not: specialised to the sizes the single-state kernel
     specialises (:func:`kernels.select_kernel`; its dense or sparse mesh products, so that the sums are the
@@ -599,7 +531,7 @@ def select_batch_kernel(law: int, n: int, m: int, two_sided: bool, rotating: boo
         raise ValueError(f"the batched kernel runs force laws LAW_TABLE and LAW_LINEAR, not {law}")
     special = law == LAW_TABLE and (n, m) in ((2, 1), (4, 1), (3, 2))
     variant = law | (0 if special else VARIANT_SPARSE) | (VARIANT_TWO_SIDED if two_sided else 0) | (
-        VARIANT_ROTATING if rotating else 0)
+        VARIANT_ROTATING if rotating else 0) | (VARIANT_DIAGONAL_K if diagonal_k else 0)
     key = ((n, m, variant) if special else (0, 0, variant)) + (lanes,)
     if key not in _LOOPS:
         nf, mf = key[0], key[1]
@@ -613,7 +545,7 @@ def system_batch_kernel(system, lanes: int):
     if not batch_supported(system.law, system.twisted):
         return None
     return select_batch_kernel(system.law, system.n, system.m_kernel, system.two_sided, system.carrier_ratio != 0.0,
-                               lanes)
+                               lanes, system.arrays.kidx.shape[0] == system.n)
 
 
 def batch_constants(system) -> tuple:

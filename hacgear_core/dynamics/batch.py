@@ -227,20 +227,6 @@ def _l_sub_forces(n, m, sparse, nz, w, of, vmi, ov, out, oo, B, l):
                 out[o] = _fma(-c, vmi[ov + k * n + i], out[o])
 
 
-@njit(cache=True, inline="always", fastmath=False)
-def _l_stage(n, m, sparse, diag, nnz, kidx, kval, kd, rot, nz, adt, vf, o_vmi, o_vci, w, o_aq, o_ad, o_g0, o_p, od,
-             cp, ck, ok, cc, oc, of, ocf, coast, B, l):
-    """Lane ``l``'s stage acceleration ``a = g0 + cp p - ck K a_k - cc C a_c - F M^-1 v (- Fc M^-1 vc)`` into rows
-    ``od`` (``a_k``, ``a_c`` the rows ``ok``, ``oc``; forces the rows ``of``, coast forces ``ocf`` where ``coast``)."""
-    for i in range(n):
-        w[(od + i) * B + l] = _fma(cp, w[(o_p + i) * B + l], w[(o_g0 + i) * B + l])
-    _l_sub_k(n, sparse, diag, nnz, kidx, kval, kd, rot, w, o_aq, ck, w, ok, w, od, B, l)
-    _l_sub_c(n, sparse, adt, rot, w, o_ad, cc, w, oc, w, od, B, l)
-    _l_sub_forces(n, m, sparse, nz, w, of, vf, o_vmi, w, od, B, l)
-    if coast:
-        _l_sub_forces(n, m, sparse, nz, w, ocf, vf, o_vci, w, od, B, l)
-
-
 def _make_batch_loop(name: str, n_fixed: int, m_fixed: int, variant: int, lanes: int):
     """Compile the batched loop for ``n_fixed`` DOFs and ``m_fixed`` meshes (0: read from the arguments),
     ``variant`` (bit 0 the force law, bits as :func:`kernels._make_loop`'s: sparse, two-sided; plus
@@ -425,10 +411,22 @@ def _make_batch_loop(name: str, n_fixed: int, m_fixed: int, variant: int, lanes:
                             w[(o_c3 + k) * B + l] = _coast_row_l(tab, tint, tflt, m + k, t3,
                                                                  _fma(hh, _fma(hh, e1, cd), cq))
                             w[(o_c4 + k) * B + l] = _coast_row_l(tab, tint, tflt, m + k, t4, _fma(h, _fma(hh, e2, cd), cq))
-                    _l_stage(n, m, sparse, diag, nnz, kidx, kval, kd, rot, nz, adt, vf, o_vmi, o_vci, w, o_aq, o_ad,
-                             o_g0, o_p, o_a3, hh, w[o_hh2 * B + l], o_a1, hh, o_a2, o_f3, o_c3, coast_on, B, l)
-                    _l_stage(n, m, sparse, diag, nnz, kidx, kval, kd, rot, nz, adt, vf, o_vmi, o_vci, w, o_aq, o_ad,
-                             o_g0, o_p, o_a4, h, w[o_hhh * B + l], o_a2, h, o_a3, o_f4, o_c4, coast_on, B, l)
+                    # a3 = g0 + hh p - hh^2 K a1 - hh C a2 - F3 M^-1 v (- Fc3 M^-1 vc); a4 with h, h hh, a2, a3 (written
+                    # out twice: a loop over the two stages here is not vectorised)
+                    for i in range(n):
+                        w[(o_a3 + i) * B + l] = _fma(hh, w[(o_p + i) * B + l], w[(o_g0 + i) * B + l])
+                    _l_sub_k(n, sparse, diag, nnz, kidx, kval, kd, rot, w, o_aq, w[o_hh2 * B + l], w, o_a1, w, o_a3, B, l)
+                    _l_sub_c(n, sparse, adt, rot, w, o_ad, hh, w, o_a2, w, o_a3, B, l)
+                    _l_sub_forces(n, m, sparse, nz, w, o_f3, vf, o_vmi, w, o_a3, B, l)
+                    if coast_on:
+                        _l_sub_forces(n, m, sparse, nz, w, o_c3, vf, o_vci, w, o_a3, B, l)
+                    for i in range(n):
+                        w[(o_a4 + i) * B + l] = _fma(h, w[(o_p + i) * B + l], w[(o_g0 + i) * B + l])
+                    _l_sub_k(n, sparse, diag, nnz, kidx, kval, kd, rot, w, o_aq, w[o_hhh * B + l], w, o_a2, w, o_a4, B, l)
+                    _l_sub_c(n, sparse, adt, rot, w, o_ad, h, w, o_a3, w, o_a4, B, l)
+                    _l_sub_forces(n, m, sparse, nz, w, o_f4, vf, o_vmi, w, o_a4, B, l)
+                    if coast_on:
+                        _l_sub_forces(n, m, sparse, nz, w, o_c4, vf, o_vci, w, o_a4, B, l)
                     if two_sided and not coast_on:
                         # staged one-sided: do the coast approaches of stages 3 and 4 stay apart?
                         for k in range(m):

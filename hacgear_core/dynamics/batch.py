@@ -27,8 +27,6 @@ use the single-state kernel.  :class:`Lanes` holds the arrays of K lanes, :func:
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from llvmlite import ir
 from numba import njit, types

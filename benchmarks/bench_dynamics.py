@@ -1,9 +1,14 @@
 """Speed of the HAC dynamics core (one compiled kernel for every gear system).
 
-Prints, measured in one run (best of repeats: the machine may be shared):
+Prints, measured in one run (CPU time, best of repeats, the compared loops alternating in one process: the machine
+may be shared, and a loop timed first would pay the warm-up):
   1. the core kernel per mesh cycle [us] at 128 RK4 steps per cycle on the committed FE tables of the 28-tooth
      spur pair, 4-DOF (k_y = 200 N/um) and 2-DOF, both flanks (the committed tables' drive and coast sides) and
-     drive flank only (the coast tables dropped), and the ratio two-sided / one-sided (target <= 1.10);
+     drive flank only (the coast tables dropped), and the ratio two-sided / one-sided (target <= 1.05);
+  1b. the batched kernel (:mod:`hacgear_core.dynamics.batch`) advancing K = 8 speeds (500-4000 Hz) of the 4-DOF pair
+     (both flanks) in one call against the single-state kernel running the same 8 one after the other: CPU time per
+     mesh cycle and lane, the throughput ratio (target >= 2) and whether the lanes equal the single-state runs bit
+     for bit;
   2. a hand-scalarised one-sided 4-DOF spur RK4 kernel with the same bilinear lookup (every matrix entry a
      scalar, the practical limit on this machine) and the ratio core / hand-scalarised (aim <= 1.5);
   3. the idler chain (3 DOF, 2 meshes, both flanks) per mesh cycle at 128 RK4 steps (target <= 20 us; the dissertation's HAC
@@ -11,7 +16,9 @@ Prints, measured in one run (best of repeats: the machine may be shared):
   4. the 4-DOF spur model integrated with ``scipy.integrate.solve_ivp`` (RK45) and a
      ``scipy.interpolate.RegularGridInterpolator`` FDF lookup: cost per mesh cycle, agreement, speed ratio
      (target >= 100x);
-  5. the wall time of a 200-speed up+down sweep on 2 worker processes (target <= 10 s);
+  5. the wall time of a 200-speed up+down sweep on 2 worker processes (target <= 10 s), and the same sweep in
+     this process with its two branches as two lanes of the batched kernel against the serial single-state sweep
+     (CPU time, alternating; ratio, same rows bit for bit);
   6. the helical pair (12 DOF, one mesh, generalized FDF: W and M by trilinear lookup over position, deflection and
      twist) per mesh cycle at 128 RK4 steps on the committed tables of helical_28_33 (target <= 100 us; the
      dissertation's HAC: 10 ms).
@@ -32,6 +39,7 @@ import time
 import numpy as np
 from numba import njit
 
+from hacgear_core.dynamics.batch import Lanes
 from hacgear_core.kinds import build_system
 from hacgear_core.dynamics.equilibrium import static_state
 from hacgear_core.dynamics.steady import steady_state
@@ -46,17 +54,85 @@ SPC = 128  # RK4 steps per mesh cycle
 
 
 def kernel_us_per_cycle(system, cycles: int, repeats: int) -> float:
+    return alternating([kernel_run(system, cycles)], repeats)[0] / cycles * 1e6
+
+
+def kernel_run(system, cycles: int):
+    """A call of the single-state kernel over ``cycles`` mesh cycles at ``FM`` from the static state (compiled or
+    loaded here, outside any timing)."""
     s = static_state(system)
     fext = system.fext_speed()
     h = 1.0 / (FM * SPC)
     kin = np.array([0.0, 0.0, FM / system.zref_2pi])
-    system.integrate(s, kin, SPC, h, fext)  # compile / load cache
-    best = math.inf
-    for _ in range(repeats):
-        t = time.perf_counter()
+    system.integrate(s, kin, SPC, h, fext)
+    return lambda: system.integrate(s, kin, cycles * SPC, h, fext)
+
+
+def alternating(runs, repeats: int) -> list[float]:
+    """Best CPU time [s] of each callable in ``runs`` over ``repeats`` rounds; each round runs every callable once,
+    starting with a different one each round (so no callable always runs first: warm-up and clock changes fall on
+    each alike)."""
+    best = [math.inf] * len(runs)
+    for r in range(repeats):
+        for k in range(len(runs)):
+            i = (r + k) % len(runs)
+            t = time.process_time()
+            runs[i]()
+            best[i] = min(best[i], time.process_time() - t)
+    return best
+
+
+def batched_vs_single(system, lanes: int, cycles: int, repeats: int) -> tuple[float, float, bool]:
+    """CPU time per mesh cycle and lane [us] of ``lanes`` speeds (500-4000 Hz) advanced ``cycles`` cycles by the
+    batched kernel in one call and by the single-state kernel one after the other (alternating, best of
+    ``repeats``), and whether the lanes' states equal the single-state runs' bit for bit."""
+    fms = np.linspace(500.0, 4000.0, lanes)
+    fext = system.fext_speed()
+    s0 = static_state(system)
+    b = Lanes(system, lanes)
+
+    def load():
+        for j, fm in enumerate(fms):
+            b.load(j, s0, [0.0, 0.0, system.reference_speed(fm)], 1.0 / (fm * SPC), fext, 0)
+
+    singles = [(s0.copy(), np.array([0.0, 0.0, system.reference_speed(fm)]), 1.0 / (fm * SPC)) for fm in fms]
+
+    def run_single():
+        for s, kin, h in singles:
+            system.integrate(s, kin, cycles * SPC, h, fext)
+
+    load()
+    b.run(SPC)  # compile / load cache
+    system.integrate(s0.copy(), singles[0][1].copy(), SPC, singles[0][2], fext)
+    tb, ts = alternating([lambda: b.run(cycles * SPC), run_single], repeats)
+    load()
+    b.run(cycles * SPC)
+    same = True
+    for j, (fm, (_, _, h)) in enumerate(zip(fms, singles)):
+        s, kin = s0.copy(), np.array([0.0, 0.0, system.reference_speed(fm)])
         system.integrate(s, kin, cycles * SPC, h, fext)
-        best = min(best, time.perf_counter() - t)
-    return best / cycles * 1e6
+        same = same and np.array_equal(s, b.state(j)) and np.array_equal(kin, b.kin(j))
+    per = cycles * lanes
+    return tb / per * 1e6, ts / per * 1e6, same
+
+
+def batched_sweep(system, n_speeds: int, repeats: int) -> tuple[float, float, bool]:
+    """CPU time [s] of an ``n_speeds`` up+down sweep (500-4000 Hz) in this process: its two branches as lanes of the
+    batched kernel, and serially with the single-state kernel (alternating, best of ``repeats``); whether the two
+    give the same rows bit for bit."""
+    spec = SweepSpec(system, tuple(np.linspace(500.0, 4000.0, n_speeds)), "both")
+    out = {}
+
+    def go(batched):
+        out[batched] = run_sweep(spec, progress=False, batched=batched)
+
+    go(True)  # compile / load the batched loop
+    tb, ts = alternating([lambda: go(True), lambda: go(False)], repeats)
+    same = all(np.array_equal(out[True].branches[b].state, out[False].branches[b].state)
+               and all(np.array_equal(out[True].branches[b].metrics[k], out[False].branches[b].metrics[k],
+                                      equal_nan=True) for k in out[True].branches[b].metrics)
+               for b in ("up", "down"))
+    return tb, ts, same
 
 
 @njit(cache=True, inline="always", fastmath={"contract"})
@@ -204,15 +280,21 @@ def main() -> None:
     print("tables: committed FE tables of spur_28t_asym and idler_28_33_39")
     print(f"load average at start: {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs (shared machine: timings are "
           "best of repeats)")
-    us4 = kernel_us_per_cycle(s4, cycles, repeats)
-    us2 = kernel_us_per_cycle(s2, cycles, repeats)
-    us4_one = kernel_us_per_cycle(s4_one, cycles, repeats)
-    us2_one = kernel_us_per_cycle(s2_one, cycles, repeats)
-    ush, rel = hand_us_per_cycle(s4_one, cycles, repeats)
+    us4, us4_one = (t / cycles * 1e6 for t in alternating([kernel_run(s4, cycles), kernel_run(s4_one, cycles)],
+                                                           repeats))
+    us2, us2_one = (t / cycles * 1e6 for t in alternating([kernel_run(s2, cycles), kernel_run(s2_one, cycles)],
+                                                           repeats))
     for label, two, one in (("4-DOF", us4, us4_one), ("2-DOF", us2, us2_one)):
-        print(f"core kernel, spur {label}, {SPC} RK4 steps/cycle: both flanks {two:.2f} us per mesh cycle "
-              f"({two / SPC * 1e3:.1f} ns/step), drive flank only {one:.2f} us; ratio two-sided / one-sided "
-              f"{two / one:.2f} (target <= 1.10: {'MET' if two / one <= 1.10 else 'NOT MET'})")
+        print(f"core kernel, spur {label}, {SPC} RK4 steps/cycle (CPU time, alternating): both flanks {two:.2f} us per "
+              f"mesh cycle ({two / SPC * 1e3:.1f} ns/step), drive flank only {one:.2f} us; ratio two-sided / "
+              f"one-sided {two / one:.3f} (target <= 1.05: {'MET' if two / one <= 1.05 else 'NOT MET'})")
+    lanes = 8
+    ub, us, same = batched_vs_single(s4, lanes, 20, max(repeats // 4, 5))
+    print(f"batched kernel, spur 4-DOF both flanks, K = {lanes} speeds 500-4000 Hz in one call: {ub:.2f} us per mesh "
+          f"cycle and lane, single-state kernel on the same speeds {us:.2f} us; throughput ratio {us / ub:.2f} "
+          f"(target >= 2: {'MET' if us / ub >= 2 else 'NOT MET'}); lanes equal the single-state runs bit for bit: "
+          f"{same}")
+    ush, rel = hand_us_per_cycle(s4_one, cycles, repeats)
     print(f"hand-scalarised one-sided 4-DOF RK4, same lookup: {ush:.2f} us per mesh cycle (mesh deflection after 20 "
           f"cycles differs from the core by {rel:.1e} relative); ratio core (one-sided) / hand-scalarised "
           f"{us4_one / ush:.2f} (aim <= 1.5: {'MET' if us4_one / ush <= 1.5 else 'NOT MET'})")
@@ -231,6 +313,10 @@ def main() -> None:
     print(f"{n_speeds}-speed up+down sweep (500-4000 Hz, 2-DOF, 300 N m), 2 worker processes: {wall2:.2f} s wall; "
           f"mesh cycles integrated {info2['cycles']}, speeds at the cycle cap {info2['capped']}, confirmed jumps "
           f"{info2['jumps']}; target <= 10 s: {'MET' if wall2 <= 10 else 'NOT MET'}")
+    tb, ts, same = batched_sweep(s2, n_speeds, 3)
+    print(f"{n_speeds}-speed up+down sweep (500-4000 Hz, 2-DOF), this process (CPU time, alternating): up and down "
+          f"as 2 lanes of the batched kernel {tb:.2f} s, serial single-state {ts:.2f} s; ratio serial / batched "
+          f"{ts / tb:.2f}; same rows bit for bit: {same}")
     wall4, info4 = sweep_wall(s4, n_speeds, 2)
     print(f"{n_speeds}-speed up+down sweep, 4-DOF (k_y = 200 N/um), 2 worker processes: {wall4:.2f} s wall; "
           f"mesh cycles integrated {info4['cycles']}, speeds at the cap {info4['capped']}")

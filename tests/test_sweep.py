@@ -50,7 +50,7 @@ def test_resume_of_interrupted_sweep_is_identical(tmp_path, monkeypatch):
     fm = tuple(np.linspace(0.7 * fn_rot(), 1.0 * fn_rot(), 8))
     spec = SweepSpec(system(p, tab), fm, "up")
     ref = run_sweep(spec, out=tmp_path / "ref.h5", progress=False).branches["up"]
-    real = sw.steady_state
+    real = sw.drive  # the serial sweep integrates each speed through it
     calls = {"n": 0}
 
     def dying(*a, **k):
@@ -59,10 +59,10 @@ def test_resume_of_interrupted_sweep_is_identical(tmp_path, monkeypatch):
             raise KeyboardInterrupt
         return real(*a, **k)
 
-    monkeypatch.setattr(sw, "steady_state", dying)
+    monkeypatch.setattr(sw, "drive", dying)
     with pytest.raises(KeyboardInterrupt):
         run_sweep(spec, out=tmp_path / "res.h5", progress=False)
-    monkeypatch.setattr(sw, "steady_state", real)
+    monkeypatch.setattr(sw, "drive", real)
     # a kill in the middle of writing a row leaves uncommitted data beyond attrs["rows"]: dropped
     part = next((tmp_path / "res.h5.parts").glob("*.h5"))
     with h5py.File(part, "a") as f:

@@ -45,7 +45,7 @@ from hacgear_core.encodings import contact_state
 from hacgear_core.errors import ModelError
 from hacgear_core.response import skipped_tooth_fraction, static_strain_max, strain_dynamic_factor
 
-__all__ = ["SteadyStateOptions", "SteadyStateResult", "steady_state", "METRIC_NAMES", "trace_metrics"]
+__all__ = ["SteadyStateOptions", "SteadyStateResult", "steady_state", "steady_run", "drive", "METRIC_NAMES", "trace_metrics"]
 
 METRIC_NAMES = (
     "mean_deflection_m",
@@ -244,6 +244,30 @@ def steady_state(system: LumpedSystem, mesh_frequency_Hz: float, state0: np.ndar
     keep_trace : bool
         Return the final period's time histories in ``trace`` (per mesh: (nr, m) arrays).
     """
+    return drive(system, steady_run(system, mesh_frequency_Hz, state0, options, torque_Nm=torque_Nm,
+                                    keep_trace=keep_trace))
+
+
+def drive(system: LumpedSystem, run):
+    """Do the integrations a :func:`steady_run` generator asks for with the system's single-state kernel; return
+    its result."""
+    try:
+        s, kin, n_steps, h, fext, rec_every, rec_state, rec_out = next(run)
+        while True:
+            system.integrate(s, kin, n_steps, h, fext, rec_every=rec_every, rec_state=rec_state, rec_out=rec_out)
+            s, kin, n_steps, h, fext, rec_every, rec_state, rec_out = run.send(None)
+    except StopIteration as done:
+        return done.value
+
+
+def steady_run(system: LumpedSystem, mesh_frequency_Hz: float, state0: np.ndarray | None = None,
+               options: SteadyStateOptions | None = None, *, torque_Nm: float | None = None,
+               keep_trace: bool = False):
+    """:func:`steady_state` as a generator that leaves the integration to its caller: it yields each run it needs,
+    ``(s, kin, n_steps, h, fext, rec_every, rec_state, rec_out)`` (the arguments of
+    :meth:`~hacgear_core.dynamics.system.LumpedSystem.integrate`, in speed mode), expects them done in place when
+    resumed, and returns the :class:`SteadyStateResult`.  The batched sweeps advance several of them at once
+    (:func:`hacgear_core.dynamics.batch.run_lanes`)."""
     fm = float(mesh_frequency_Hz)
     if not (math.isfinite(fm) and fm > 0):
         raise ModelError(f"mesh frequency [Hz] must be finite and > 0, got {mesh_frequency_Hz!r}")
@@ -279,7 +303,7 @@ def steady_state(system: LumpedSystem, mesh_frequency_Hz: float, state0: np.ndar
     while cycles < opt.max_cycles and period == 0:
         nc = min(opt.chunk_cycles, opt.max_cycles - cycles)
         kin[:] = (0.0, 0.0, omega)
-        system.integrate(s, kin, nc * nsp, h, fext, rec_every=nsp, rec_state=rec_s, rec_out=rec_o)
+        yield s, kin, nc * nsp, h, fext, nsp, rec_s, rec_o
         if not np.all(np.isfinite(s)):
             raise ModelError(f"integration diverged at f_m = {fm:g} Hz (state not finite)")
         hist[cycles + 1: cycles + 1 + nc] = rec_s[:nc] @ proj.T
@@ -317,7 +341,7 @@ def steady_state(system: LumpedSystem, mesh_frequency_Hz: float, state0: np.ndar
     rs = np.zeros((nrec, n2))
     ro = np.zeros((nrec, system.record_width))
     kin[:] = (0.0, 0.0, omega)
-    system.integrate(s, kin, nrec, h, fext, rec_every=1, rec_state=rs, rec_out=ro)
+    yield s, kin, nrec, h, fext, 1, rs, ro
     rf = system.record_fields(ro)
     tau, x, f, dte = rf["mesh_position"], rf["mesh_deflection_m"], rf["mesh_force_N"], rf["dynamic_transmission_error_m"]
     metrics = trace_metrics(system, x, f, dte, tau=tau, static_forces_N=fs, fc=rf["coast_force_N"],

@@ -37,7 +37,8 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from hacgear_core.dynamics.steady import METRIC_NAMES, SteadyStateOptions, steady_state
+from hacgear_core.dynamics.batch import batch_supported, run_lanes
+from hacgear_core.dynamics.steady import METRIC_NAMES, SteadyStateOptions, drive, steady_run
 from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import ModelError
 from hacgear_core.h5files import SWEEP_FORMAT, check_writable_kind
@@ -240,7 +241,20 @@ def _branch_from_group(g, branch: str, recomputed: int = 0) -> BranchResult:
 
 
 def _run_branch(spec: SweepSpec, branch: str, part: str | None, progress: bool, position: int = 0) -> BranchResult:
-    """Compute one branch (in this process), appending rows to ``part`` if given."""
+    """Compute one branch (in this process, the single-state kernel), appending rows to ``part`` if given."""
+    lane = _branch_lane(spec, branch, part, progress, position)
+    res = None
+    try:
+        while True:
+            res = drive(spec.system, lane.send(res))
+    except StopIteration as stop:
+        return stop.value
+
+
+def _branch_lane(spec: SweepSpec, branch: str, part: str | None, progress: bool, position: int = 0):
+    """One branch as a generator (:func:`hacgear_core.dynamics.batch.run_lanes`): yields the
+    :func:`~hacgear_core.dynamics.steady.steady_run` of each speed not yet stored, receives its result, appends it
+    to ``part`` if given and returns the :class:`BranchResult`."""
     system = spec.system
     fms = spec.frequencies(branch)
     n2 = 2 * system.n
@@ -265,7 +279,7 @@ def _run_branch(spec: SweepSpec, branch: str, part: str | None, progress: bool, 
                        position=position, leave=True)
         rows = []
         for i in range(done, len(fms)):
-            res = steady_state(system, fms[i], state, spec.options)
+            res = yield steady_run(system, fms[i], state, spec.options)
             state = res.state
             if f is not None:
                 _append_row(f, fms[i], res)
@@ -344,7 +358,7 @@ def _discard(outp: Path, run_id: str, branch: str, part: Path) -> int:
 
 
 def run_sweeps(specs, *, out: str | Path | None = None, executor: Executor | None = None,
-               progress: bool = True, fresh: bool = False) -> list[SweepResult]:
+               progress: bool = True, fresh: bool = False, batched: bool = False) -> list[SweepResult]:
     """Run several sweeps (e.g. several torques or models), their branches as independent tasks.
 
     Parameters
@@ -360,6 +374,11 @@ def run_sweeps(specs, *, out: str | Path | None = None, executor: Executor | Non
         Discard the rows of these sweeps already stored in ``out`` (finished or interrupted) and compute every
         speed again; by default they are reused.  Each :class:`BranchResult` says how many speeds it computed
         (``recomputed``) and how many were discarded (``discarded``).
+    batched : bool
+        Without an executor: run the branches of systems that share their matrices and tables (the up and down
+        branch of a sweep, sweeps at several torques) as lanes of the batched kernel
+        (:func:`hacgear_core.dynamics.batch.run_lanes`; the same numbers bit for bit); branches of helical systems
+        run one by one.
     """
     specs = list(specs)
     outp = Path(out) if out is not None else None
@@ -380,7 +399,9 @@ def run_sweeps(specs, *, out: str | Path | None = None, executor: Executor | Non
             part = None if outp is None else str(outp.parent / f"{outp.name}.parts" / f"{rid}_{b}.h5")
             tasks.append((spec, b, part, progress, len(tasks)))
             keys.append((si, b))
-    if executor is None:
+    if executor is None and batched:
+        outs = _run_batched(tasks)
+    elif executor is None:
         outs = [_task(t) for t in tasks]
     else:
         # compile (or load) each kernel here, once, before the workers start: they then load it from numba's cache
@@ -408,9 +429,40 @@ def run_sweeps(specs, *, out: str | Path | None = None, executor: Executor | Non
 
 
 def run_sweep(spec: SweepSpec, *, out=None, executor: Executor | None = None, progress: bool = True,
-              fresh: bool = False) -> SweepResult:
+              fresh: bool = False, batched: bool = False) -> SweepResult:
     """Run one sweep (see :func:`run_sweeps`)."""
-    return run_sweeps([spec], out=out, executor=executor, progress=progress, fresh=fresh)[0]
+    return run_sweeps([spec], out=out, executor=executor, progress=progress, fresh=fresh, batched=batched)[0]
+
+
+def _same_kernel(a: LumpedSystem, b: LumpedSystem) -> bool:
+    """Whether systems ``a`` and ``b`` run on the same kernel arrays (they may differ in torque)."""
+    if a is b:
+        return True
+    if (a.law, a.n, a.m_kernel, a.two_sided, a.twisted, a.carrier_ratio) != (
+            b.law, b.n, b.m_kernel, b.two_sided, b.twisted, b.carrier_ratio):
+        return False
+    return all(np.array_equal(getattr(a.arrays, f.name), getattr(b.arrays, f.name))
+               for f in dataclasses.fields(a.arrays))
+
+
+def _run_batched(tasks) -> list[BranchResult]:
+    """The branch tasks, those of systems with the same kernel arrays as lanes of one batched run."""
+    outs = [None] * len(tasks)
+    groups: list[list[int]] = []
+    for i, t in enumerate(tasks):
+        if not batch_supported(t[0].system.law, t[0].system.twisted):
+            outs[i] = _task(t)
+            continue
+        for g in groups:
+            if _same_kernel(tasks[g[0]][0].system, t[0].system):
+                g.append(i)
+                break
+        else:
+            groups.append([i])
+    for g in groups:
+        for i, r in zip(g, run_lanes(tasks[g[0]][0].system, [_branch_lane(*tasks[i]) for i in g])):
+            outs[i] = r
+    return outs
 
 
 def detect_jumps(branches: dict, threshold: float = 0.3, metric: str = "rms_deflection_m",

@@ -40,11 +40,10 @@ import numpy as np
 from numba import njit
 
 from hacgear_core.dynamics.batch import Lanes
-from hacgear_core.kinds import build_system
 from hacgear_core.dynamics.equilibrium import static_state
 from hacgear_core.dynamics.steady import steady_state
 from hacgear_core.dynamics.sweep import SweepSpec, run_sweep
-from hacgear_core.kinds import load_model
+from hacgear_core.kinds import build_system, load_model
 from hacgear_core.tables import load_system_tables
 from hacgear_core.tables.interp import bilinear
 from hacgear_core.workers import process_pool

@@ -16,11 +16,7 @@ import numpy as np
 from hacgear_core.dynamics.synthetic import linear_fdf_table
 from hacgear_core.tables import load_system_tables
 
-try:
-    from hacgear_core.kinds import SpurPairParameters, build_system, load_model, spur_pair_system
-except ImportError:   # the layout before the kinds registry (the baseline was recorded with it)
-    from hacgear_core.dynamics.build import SpurPairParameters, build_system, spur_pair_system
-    from hacgear_core.model import load_model
+from hacgear_core.kinds import SpurPairParameters, build_system, load_model, spur_pair_system
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "tests" / "data" / "assembly_fingerprints.json"

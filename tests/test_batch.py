@@ -10,11 +10,10 @@ import numpy as np
 import pytest
 
 from hacgear_core.dynamics import batch, kernels
-from hacgear_core.dynamics.build import build_system
 from hacgear_core.dynamics.equilibrium import static_state
 from hacgear_core.dynamics.sweep import SweepSpec, run_sweep
 from hacgear_core.dynamics.synthetic import linear_fdf_table
-from hacgear_core.model import load_model
+from hacgear_core.kinds import build_system, load_model
 from hacgear_core.tables import load_system_tables
 
 from _dyn import K, params, system
@@ -113,7 +112,7 @@ def test_force_laws_of_a_synthetic_pair(law):
     xs = 100.0 / 0.0634 / K
     sy = system(params(modal_damping_ratio=0.03, torque_Nm=100.0),
                 linear_fdf_table(K, offset_amplitude_m=0.2 * xs, x_max_m=6 * xs), law)
-    assert sy.law == (kernels.LAW_LINEAR if law == "ste" else kernels.LAW_TABLE)
+    assert sy.mesh_law.kernel_law == (kernels.LAW_LINEAR if law == "ste" else kernels.LAW_TABLE)
     lanes = [(static_state(sy), fm, sy.fext_speed()) for fm in (1100.0, 2300.0)]
     _assert_lanes_equal(_run_both(sy, lanes, cycles=8, rec_every=3))
 

@@ -59,9 +59,10 @@ def batch_rows(n: int, m: int, nnz: int, rotating: bool) -> int:
     return _NW_N * n + _NW_M * m + _NW_LANE + ((nnz + n * n) if rotating else 0)
 
 
-def batch_supported(law: int, twisted: bool) -> bool:
-    """Whether the batched kernel runs systems of force law ``law`` (helical meshes: no)."""
-    return (law in (LAW_TABLE, LAW_LINEAR)) and not twisted
+def batch_supported(system) -> bool:
+    """Whether the batched kernel runs ``system`` (a :class:`~hacgear_core.dynamics.system.LumpedSystem`): the
+    table and linear laws' loops, not the twist law of helical meshes."""
+    return system.mesh_law.kernel_law in (LAW_TABLE, LAW_LINEAR)
 
 
 @intrinsic
@@ -538,9 +539,10 @@ def select_batch_kernel(law: int, n: int, m: int, two_sided: bool, rotating: boo
 def system_batch_kernel(system, lanes: int):
     """The batched loop of ``lanes`` lanes for ``system`` (a :class:`~hacgear_core.dynamics.system.LumpedSystem`),
     or None where the batched kernel does not run it (helical meshes)."""
-    if not batch_supported(system.law, system.twisted):
+    if not batch_supported(system):
         return None
-    return select_batch_kernel(system.law, system.n, system.m_kernel, system.two_sided, system.carrier_ratio != 0.0,
+    law = system.mesh_law
+    return select_batch_kernel(law.kernel_law, system.n, system.m_kernel, law.kernel_two_sided, system.carrier_ratio != 0.0,
                                lanes, system.arrays.kidx.shape[0] == system.n)
 
 
@@ -574,7 +576,7 @@ class Lanes:
         kernel = system_batch_kernel(system, lanes)
         if kernel is None:
             raise ValueError(f"{system.name}: the batched kernel does not run helical meshes (force law "
-                             f"{system.law})")
+                             f"{system.force_law_name})")
         self.system = system
         self.kernel = kernel
         self.B = B = int(lanes)

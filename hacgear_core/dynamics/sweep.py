@@ -438,8 +438,8 @@ def _same_kernel(a: LumpedSystem, b: LumpedSystem) -> bool:
     """Whether systems ``a`` and ``b`` run on the same kernel arrays (they may differ in torque)."""
     if a is b:
         return True
-    if (a.law, a.n, a.m_kernel, a.two_sided, a.twisted, a.carrier_ratio) != (
-            b.law, b.n, b.m_kernel, b.two_sided, b.twisted, b.carrier_ratio):
+    if (a.mesh_law.kernel_law, a.n, a.m_kernel, a.mesh_law.kernel_two_sided, a.carrier_ratio) != (
+            b.mesh_law.kernel_law, b.n, b.m_kernel, b.mesh_law.kernel_two_sided, b.carrier_ratio):
         return False
     return all(np.array_equal(getattr(a.arrays, f.name), getattr(b.arrays, f.name))
                for f in dataclasses.fields(a.arrays))
@@ -450,7 +450,7 @@ def _run_batched(tasks) -> list[BranchResult]:
     outs = [None] * len(tasks)
     groups: list[list[int]] = []
     for i, t in enumerate(tasks):
-        if not batch_supported(t[0].system.law, t[0].system.twisted):
+        if not batch_supported(t[0].system):
             outs[i] = _task(t)
             continue
         for g in groups:

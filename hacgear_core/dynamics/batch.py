@@ -226,6 +226,159 @@ def _l_sub_forces(n, m, sparse, nz, w, of, vmi, ov, out, oo, B, l):
                 out[o] = _fma(-c, vmi[ov + k * n + i], out[o])
 
 
+@njit(cache=True, inline="always", fastmath=False)
+def _layout(n, m, nnz):
+    """Offsets of the blocks of ``vf`` and ``mf`` (kernels.select_kernel's ``vecs`` and ``mmat``) and of the rows
+    of the scratch ``W`` (each K lanes) for ``n`` DOFs, ``m`` meshes, ``nnz`` stiffness entries."""
+    mn, mm = m * n, m * m
+    o_w, o_rv, o_vmi, o_vc, o_vci = mn, 2 * mn, 3 * mn, 4 * mn, 5 * mn
+    o_wv, o_cv, o_vvc, o_wvc, o_cvc = mm, 2 * mm, 3 * mm, 4 * mm, 5 * mm
+    # W rows (each B lanes): the single-state loop's work vector (a1..a4, g0, p, M^-1 f_ext; per mesh the
+    # products and forces), then the lane constants, then (rotating carrier) each lane's M^-1 K_eff entries and
+    # M^-1 C_eff^T
+    o_a1, o_a2, o_a3, o_a4, o_g0, o_p, o_fm = 0, n, 2 * n, 3 * n, 4 * n, 5 * n, 6 * n
+    r0 = 7 * n
+    o_xq, o_xd, o_wq, o_wd, o_f1, o_f2, o_f3 = r0, r0 + m, r0 + 2 * m, r0 + 3 * m, r0 + 4 * m, r0 + 5 * m, r0 + 6 * m
+    o_f4, o_g1, o_gw1, o_g2, o_gw2 = r0 + 7 * m, r0 + 8 * m, r0 + 9 * m, r0 + 10 * m, r0 + 11 * m
+    o_cq, o_cd, o_c1, o_c2, o_c3 = r0 + 12 * m, r0 + 13 * m, r0 + 14 * m, r0 + 15 * m, r0 + 16 * m
+    o_c4, o_gc1, o_gc2, o_h = r0 + 17 * m, r0 + 18 * m, r0 + 19 * m, r0 + 20 * m
+    o_hh = o_h + 1
+    o_hh2 = o_h + 2
+    o_hhh = o_h + 3
+    o_c6 = o_h + 4
+    o_c6q = o_h + 5
+    o_dtau = o_h + 6
+    o_tau = o_h + 7
+    o_aq = o_h + 8
+    o_ad = o_aq + nnz
+    return (mn, mm, o_w, o_rv, o_vmi, o_vc, o_vci, o_wv, o_cv, o_vvc, o_wvc, o_cvc, o_a1, o_a2, o_a3, o_a4, o_g0,
+            o_p, o_fm, r0, o_xq, o_xd, o_wq, o_wd, o_f1, o_f2, o_f3, o_f4, o_g1, o_gw1, o_g2, o_gw2, o_cq, o_cd,
+            o_c1, o_c2, o_c3, o_c4, o_gc1, o_gc2, o_h, o_hh, o_hh2, o_hhh, o_c6, o_c6q, o_dtau, o_tau, o_aq, o_ad)
+
+
+@njit(cache=True, inline="always", fastmath=False)
+def _lane_stages(coast, l, B, n, m, nnz, law, sparse, rot, diag, two_sided, sf, w, vf, mf, phase, tab, tint, tflt,
+                 lin, lint, kidx, kval, kd, nz, adt):
+    """Lane ``l``'s four RK4 stages of one step from the step-start products in ``w`` (``a1``..``a4`` written),
+    with the coast terms (``coast``) or without; without them and with ``two_sided``, whether the coast
+    approaches of stages 3 and 4 may touch (the step is then redone with them).  A function of its own so that
+    the caller decides ``coast`` outside its lane loop: decided inside, the compiler keeps both paths in the
+    vectorised loop (masked) and a step without coast contact costs twice as much."""
+    (mn, mm, o_w, o_rv, o_vmi, o_vc, o_vci, o_wv, o_cv, o_vvc, o_wvc, o_cvc, o_a1, o_a2, o_a3, o_a4, o_g0, o_p,
+     o_fm, r0, o_xq, o_xd, o_wq, o_wd, o_f1, o_f2, o_f3, o_f4, o_g1, o_gw1, o_g2, o_gw2, o_cq, o_cd, o_c1, o_c2,
+     o_c3, o_c4, o_gc1, o_gc2, o_h, o_hh, o_hh2, o_hhh, o_c6, o_c6q, o_dtau, o_tau, o_aq, o_ad) = _layout(n, m, nnz)
+    recheck = False
+    h = w[o_h * B + l]
+    hh = w[o_hh * B + l]
+    tau = w[o_tau * B + l]
+    dtau = w[o_dtau * B + l]
+    # stages 1 and 2: their lookups need only the state
+    for k in range(m):
+        xq = w[(o_xq + k) * B + l]
+        t1 = tau + phase[k] + w[(o_wq + k) * B + l]
+        t2 = _fma(hh, w[(o_wd + k) * B + l], tau + 0.5 * dtau + phase[k] + w[(o_wq + k) * B + l])
+        x2 = _fma(hh, w[(o_xd + k) * B + l], xq)
+        w[(o_f1 + k) * B + l] = _drive_force_l(law, k, tab, tint, tflt, lin, lint, t1, xq)
+        w[(o_f2 + k) * B + l] = _drive_force_l(law, k, tab, tint, tflt, lin, lint, t2, x2)
+        if coast:
+            cq = w[(o_cq + k) * B + l]
+            w[(o_c1 + k) * B + l] = _coast_row_l(tab, tint, tflt, m + k, t1, cq)
+            w[(o_c2 + k) * B + l] = _coast_row_l(tab, tint, tflt, m + k, t2,
+                                                 _fma(hh, w[(o_cd + k) * B + l], cq))
+    for i in range(n):
+        w[(o_g0 + i) * B + l] = w[(o_fm + i) * B + l]
+        w[(o_p + i) * B + l] = 0.0
+    _l_sub_k(n, sparse, diag, nnz, kidx, kval, kd, rot, w, o_aq, 1.0, sf, 0, w, o_g0, B, l)
+    _l_sub_k(n, sparse, diag, nnz, kidx, kval, kd, rot, w, o_aq, 1.0, sf, n, w, o_p, B, l)
+    _l_sub_c(n, sparse, adt, rot, w, o_ad, 1.0, sf, n, w, o_g0, B, l)
+    for k in range(m):
+        w[(o_g1 + k) * B + l] = _l_dot(n, sparse, nz, k, vf, 0, w, o_g0, B, l)
+        w[(o_gw1 + k) * B + l] = _l_dot(n, sparse, nz, k, vf, o_w, w, o_g0, B, l)
+        if coast:
+            w[(o_gc1 + k) * B + l] = _l_dot(n, sparse, nz, k, vf, o_vc, w, o_g0, B, l)
+    for i in range(n):
+        w[(o_a1 + i) * B + l] = w[(o_g0 + i) * B + l]
+    _l_sub_forces(n, m, sparse, nz, w, o_f1, vf, o_vmi, w, o_a1, B, l)
+    if coast:
+        _l_sub_forces(n, m, sparse, nz, w, o_c1, vf, o_vci, w, o_a1, B, l)
+    for i in range(n):
+        w[(o_a2 + i) * B + l] = _fma(hh, w[(o_p + i) * B + l], w[(o_g0 + i) * B + l])
+    _l_sub_c(n, sparse, adt, rot, w, o_ad, hh, w, o_a1, w, o_a2, B, l)
+    for k in range(m):
+        w[(o_g2 + k) * B + l] = _l_dot(n, sparse, nz, k, vf, 0, w, o_a2, B, l)
+        w[(o_gw2 + k) * B + l] = _l_dot(n, sparse, nz, k, vf, o_w, w, o_a2, B, l)
+        if coast:
+            w[(o_gc2 + k) * B + l] = _l_dot(n, sparse, nz, k, vf, o_vc, w, o_a2, B, l)
+    _l_sub_forces(n, m, sparse, nz, w, o_f2, vf, o_vmi, w, o_a2, B, l)
+    if coast:
+        _l_sub_forces(n, m, sparse, nz, w, o_c2, vf, o_vci, w, o_a2, B, l)
+    # stages 3 and 4
+    for k in range(m):
+        a = w[(o_g1 + k) * B + l]
+        b = w[(o_gw1 + k) * B + l]
+        c = w[(o_g2 + k) * B + l]
+        d = w[(o_gw2 + k) * B + l]
+        for j in range(m):
+            a = _fma(-mf[k * m + j], w[(o_f1 + j) * B + l], a)
+            b = _fma(-mf[o_wv + k * m + j], w[(o_f1 + j) * B + l], b)
+            c = _fma(-mf[k * m + j], w[(o_f2 + j) * B + l], c)
+            d = _fma(-mf[o_wv + k * m + j], w[(o_f2 + j) * B + l], d)
+        e1 = 0.0
+        e2 = 0.0
+        if coast:
+            e1 = w[(o_gc1 + k) * B + l]
+            e2 = w[(o_gc2 + k) * B + l]
+            for j in range(m):
+                a = _fma(-mf[o_vvc + k * m + j], w[(o_c1 + j) * B + l], a)
+                b = _fma(-mf[o_wvc + k * m + j], w[(o_c1 + j) * B + l], b)
+                c = _fma(-mf[o_vvc + k * m + j], w[(o_c2 + j) * B + l], c)
+                d = _fma(-mf[o_wvc + k * m + j], w[(o_c2 + j) * B + l], d)
+                e1 -= _fma(mf[o_cv + k * m + j], w[(o_f1 + j) * B + l],
+                           mf[o_cvc + k * m + j] * w[(o_c1 + j) * B + l])
+                e2 -= _fma(mf[o_cv + k * m + j], w[(o_f2 + j) * B + l],
+                           mf[o_cvc + k * m + j] * w[(o_c2 + j) * B + l])
+        t3 = _fma(hh, _fma(hh, b, w[(o_wd + k) * B + l]),
+                  tau + 0.5 * dtau + phase[k] + w[(o_wq + k) * B + l])
+        t4 = _fma(h, _fma(hh, d, w[(o_wd + k) * B + l]), tau + dtau + phase[k] + w[(o_wq + k) * B + l])
+        x3 = _fma(hh, _fma(hh, a, w[(o_xd + k) * B + l]), w[(o_xq + k) * B + l])
+        x4 = _fma(h, _fma(hh, c, w[(o_xd + k) * B + l]), w[(o_xq + k) * B + l])
+        w[(o_f3 + k) * B + l] = _drive_force_l(law, k, tab, tint, tflt, lin, lint, t3, x3)
+        w[(o_f4 + k) * B + l] = _drive_force_l(law, k, tab, tint, tflt, lin, lint, t4, x4)
+        if coast:
+            cq = w[(o_cq + k) * B + l]
+            cd = w[(o_cd + k) * B + l]
+            w[(o_c3 + k) * B + l] = _coast_row_l(tab, tint, tflt, m + k, t3,
+                                                 _fma(hh, _fma(hh, e1, cd), cq))
+            w[(o_c4 + k) * B + l] = _coast_row_l(tab, tint, tflt, m + k, t4, _fma(h, _fma(hh, e2, cd), cq))
+    # a3 = g0 + hh p - hh^2 K a1 - hh C a2 - F3 M^-1 v (- Fc3 M^-1 vc); a4 with h, h hh, a2, a3 (written
+    # out twice: a loop over the two stages here is not vectorised)
+    for i in range(n):
+        w[(o_a3 + i) * B + l] = _fma(hh, w[(o_p + i) * B + l], w[(o_g0 + i) * B + l])
+    _l_sub_k(n, sparse, diag, nnz, kidx, kval, kd, rot, w, o_aq, w[o_hh2 * B + l], w, o_a1, w, o_a3, B, l)
+    _l_sub_c(n, sparse, adt, rot, w, o_ad, hh, w, o_a2, w, o_a3, B, l)
+    _l_sub_forces(n, m, sparse, nz, w, o_f3, vf, o_vmi, w, o_a3, B, l)
+    if coast:
+        _l_sub_forces(n, m, sparse, nz, w, o_c3, vf, o_vci, w, o_a3, B, l)
+    for i in range(n):
+        w[(o_a4 + i) * B + l] = _fma(h, w[(o_p + i) * B + l], w[(o_g0 + i) * B + l])
+    _l_sub_k(n, sparse, diag, nnz, kidx, kval, kd, rot, w, o_aq, w[o_hhh * B + l], w, o_a2, w, o_a4, B, l)
+    _l_sub_c(n, sparse, adt, rot, w, o_ad, h, w, o_a3, w, o_a4, B, l)
+    _l_sub_forces(n, m, sparse, nz, w, o_f4, vf, o_vmi, w, o_a4, B, l)
+    if coast:
+        _l_sub_forces(n, m, sparse, nz, w, o_c4, vf, o_vci, w, o_a4, B, l)
+    if two_sided and not coast:
+        # staged one-sided: do the coast approaches of stages 3 and 4 stay apart?
+        for k in range(m):
+            lim = tflt[m + k, 2] - 1e-12
+            e1 = _l_dot(n, sparse, nz, k, vf, o_vc, w, o_a1, B, l)
+            e2 = _l_dot(n, sparse, nz, k, vf, o_vc, w, o_a2, B, l)
+            cq = w[(o_cq + k) * B + l]
+            cd = w[(o_cd + k) * B + l]
+            recheck = (recheck | (_fma(hh, _fma(hh, e1, cd), cq) >= lim)
+                       | (_fma(h, _fma(hh, e2, cd), cq) >= lim))
+    return recheck
+
+
 def _make_batch_loop(name: str, n_fixed: int, m_fixed: int, variant: int, lanes: int):
     """Compile the batched loop for ``n_fixed`` DOFs and ``m_fixed`` meshes (0: read from the arguments),
     ``variant`` (bit 0 the force law, bits as :func:`kernels._make_loop`'s: sparse, two-sided; plus
@@ -248,29 +401,11 @@ def _make_batch_loop(name: str, n_fixed: int, m_fixed: int, variant: int, lanes:
         diag = diag_c
         nnz = kidx.shape[0]
         # vector and matrix blocks of vf and mf (kernels.select_kernel's vecs and mmat)
-        mn, mm = m * n, m * m
-        o_w, o_rv, o_vmi, o_vc, o_vci = mn, 2 * mn, 3 * mn, 4 * mn, 5 * mn
-        o_wv, o_cv, o_vvc, o_wvc, o_cvc = mm, 2 * mm, 3 * mm, 4 * mm, 5 * mm
+        (mn, mm, o_w, o_rv, o_vmi, o_vc, o_vci, o_wv, o_cv, o_vvc, o_wvc, o_cvc, o_a1, o_a2, o_a3, o_a4, o_g0, o_p,
+         o_fm, r0, o_xq, o_xd, o_wq, o_wd, o_f1, o_f2, o_f3, o_f4, o_g1, o_gw1, o_g2, o_gw2, o_cq, o_cd, o_c1, o_c2,
+         o_c3, o_c4, o_gc1, o_gc2, o_h, o_hh, o_hh2, o_hhh, o_c6, o_c6q, o_dtau, o_tau, o_aq, o_ad) = _layout(n, m, nnz)
         c_ratio = scal[0]
         zref_2pi = scal[2]
-        # W rows (each B lanes): the single-state loop's work vector (a1..a4, g0, p, M^-1 f_ext; per mesh the
-        # products and forces), then the lane constants, then (rotating carrier) each lane's M^-1 K_eff entries and
-        # M^-1 C_eff^T
-        o_a1, o_a2, o_a3, o_a4, o_g0, o_p, o_fm = 0, n, 2 * n, 3 * n, 4 * n, 5 * n, 6 * n
-        r0 = 7 * n
-        o_xq, o_xd, o_wq, o_wd, o_f1, o_f2, o_f3 = r0, r0 + m, r0 + 2 * m, r0 + 3 * m, r0 + 4 * m, r0 + 5 * m, r0 + 6 * m
-        o_f4, o_g1, o_gw1, o_g2, o_gw2 = r0 + 7 * m, r0 + 8 * m, r0 + 9 * m, r0 + 10 * m, r0 + 11 * m
-        o_cq, o_cd, o_c1, o_c2, o_c3 = r0 + 12 * m, r0 + 13 * m, r0 + 14 * m, r0 + 15 * m, r0 + 16 * m
-        o_c4, o_gc1, o_gc2, o_h = r0 + 17 * m, r0 + 18 * m, r0 + 19 * m, r0 + 20 * m
-        o_hh = o_h + 1
-        o_hh2 = o_h + 2
-        o_hhh = o_h + 3
-        o_c6 = o_h + 4
-        o_c6q = o_h + 5
-        o_dtau = o_h + 6
-        o_tau = o_h + 7
-        o_aq = o_h + 8
-        o_ad = o_aq + nnz
         for l in range(B):
             h = H[l]
             w[o_h * B + l] = h
@@ -327,115 +462,15 @@ def _make_batch_loop(name: str, n_fixed: int, m_fixed: int, variant: int, lanes:
                     kf[(3 + k) * B + l] += 1.0 if out_of_range else 0.0
             while True:
                 recheck = False
-                for l in range(B):
-                    h = w[o_h * B + l]
-                    hh = w[o_hh * B + l]
-                    tau = w[o_tau * B + l]
-                    dtau = w[o_dtau * B + l]
-                    # stages 1 and 2: their lookups need only the state
-                    for k in range(m):
-                        xq = w[(o_xq + k) * B + l]
-                        t1 = tau + phase[k] + w[(o_wq + k) * B + l]
-                        t2 = _fma(hh, w[(o_wd + k) * B + l], tau + 0.5 * dtau + phase[k] + w[(o_wq + k) * B + l])
-                        x2 = _fma(hh, w[(o_xd + k) * B + l], xq)
-                        w[(o_f1 + k) * B + l] = _drive_force_l(law, k, tab, tint, tflt, lin, lint, t1, xq)
-                        w[(o_f2 + k) * B + l] = _drive_force_l(law, k, tab, tint, tflt, lin, lint, t2, x2)
-                        if coast_on:
-                            cq = w[(o_cq + k) * B + l]
-                            w[(o_c1 + k) * B + l] = _coast_row_l(tab, tint, tflt, m + k, t1, cq)
-                            w[(o_c2 + k) * B + l] = _coast_row_l(tab, tint, tflt, m + k, t2,
-                                                                 _fma(hh, w[(o_cd + k) * B + l], cq))
-                    for i in range(n):
-                        w[(o_g0 + i) * B + l] = w[(o_fm + i) * B + l]
-                        w[(o_p + i) * B + l] = 0.0
-                    _l_sub_k(n, sparse, diag, nnz, kidx, kval, kd, rot, w, o_aq, 1.0, sf, 0, w, o_g0, B, l)
-                    _l_sub_k(n, sparse, diag, nnz, kidx, kval, kd, rot, w, o_aq, 1.0, sf, n, w, o_p, B, l)
-                    _l_sub_c(n, sparse, adt, rot, w, o_ad, 1.0, sf, n, w, o_g0, B, l)
-                    for k in range(m):
-                        w[(o_g1 + k) * B + l] = _l_dot(n, sparse, nz, k, vf, 0, w, o_g0, B, l)
-                        w[(o_gw1 + k) * B + l] = _l_dot(n, sparse, nz, k, vf, o_w, w, o_g0, B, l)
-                        if coast_on:
-                            w[(o_gc1 + k) * B + l] = _l_dot(n, sparse, nz, k, vf, o_vc, w, o_g0, B, l)
-                    for i in range(n):
-                        w[(o_a1 + i) * B + l] = w[(o_g0 + i) * B + l]
-                    _l_sub_forces(n, m, sparse, nz, w, o_f1, vf, o_vmi, w, o_a1, B, l)
-                    if coast_on:
-                        _l_sub_forces(n, m, sparse, nz, w, o_c1, vf, o_vci, w, o_a1, B, l)
-                    for i in range(n):
-                        w[(o_a2 + i) * B + l] = _fma(hh, w[(o_p + i) * B + l], w[(o_g0 + i) * B + l])
-                    _l_sub_c(n, sparse, adt, rot, w, o_ad, hh, w, o_a1, w, o_a2, B, l)
-                    for k in range(m):
-                        w[(o_g2 + k) * B + l] = _l_dot(n, sparse, nz, k, vf, 0, w, o_a2, B, l)
-                        w[(o_gw2 + k) * B + l] = _l_dot(n, sparse, nz, k, vf, o_w, w, o_a2, B, l)
-                        if coast_on:
-                            w[(o_gc2 + k) * B + l] = _l_dot(n, sparse, nz, k, vf, o_vc, w, o_a2, B, l)
-                    _l_sub_forces(n, m, sparse, nz, w, o_f2, vf, o_vmi, w, o_a2, B, l)
-                    if coast_on:
-                        _l_sub_forces(n, m, sparse, nz, w, o_c2, vf, o_vci, w, o_a2, B, l)
-                    # stages 3 and 4
-                    for k in range(m):
-                        a = w[(o_g1 + k) * B + l]
-                        b = w[(o_gw1 + k) * B + l]
-                        c = w[(o_g2 + k) * B + l]
-                        d = w[(o_gw2 + k) * B + l]
-                        for j in range(m):
-                            a = _fma(-mf[k * m + j], w[(o_f1 + j) * B + l], a)
-                            b = _fma(-mf[o_wv + k * m + j], w[(o_f1 + j) * B + l], b)
-                            c = _fma(-mf[k * m + j], w[(o_f2 + j) * B + l], c)
-                            d = _fma(-mf[o_wv + k * m + j], w[(o_f2 + j) * B + l], d)
-                        e1 = 0.0
-                        e2 = 0.0
-                        if coast_on:
-                            e1 = w[(o_gc1 + k) * B + l]
-                            e2 = w[(o_gc2 + k) * B + l]
-                            for j in range(m):
-                                a = _fma(-mf[o_vvc + k * m + j], w[(o_c1 + j) * B + l], a)
-                                b = _fma(-mf[o_wvc + k * m + j], w[(o_c1 + j) * B + l], b)
-                                c = _fma(-mf[o_vvc + k * m + j], w[(o_c2 + j) * B + l], c)
-                                d = _fma(-mf[o_wvc + k * m + j], w[(o_c2 + j) * B + l], d)
-                                e1 -= _fma(mf[o_cv + k * m + j], w[(o_f1 + j) * B + l],
-                                           mf[o_cvc + k * m + j] * w[(o_c1 + j) * B + l])
-                                e2 -= _fma(mf[o_cv + k * m + j], w[(o_f2 + j) * B + l],
-                                           mf[o_cvc + k * m + j] * w[(o_c2 + j) * B + l])
-                        t3 = _fma(hh, _fma(hh, b, w[(o_wd + k) * B + l]),
-                                  tau + 0.5 * dtau + phase[k] + w[(o_wq + k) * B + l])
-                        t4 = _fma(h, _fma(hh, d, w[(o_wd + k) * B + l]), tau + dtau + phase[k] + w[(o_wq + k) * B + l])
-                        x3 = _fma(hh, _fma(hh, a, w[(o_xd + k) * B + l]), w[(o_xq + k) * B + l])
-                        x4 = _fma(h, _fma(hh, c, w[(o_xd + k) * B + l]), w[(o_xq + k) * B + l])
-                        w[(o_f3 + k) * B + l] = _drive_force_l(law, k, tab, tint, tflt, lin, lint, t3, x3)
-                        w[(o_f4 + k) * B + l] = _drive_force_l(law, k, tab, tint, tflt, lin, lint, t4, x4)
-                        if coast_on:
-                            cq = w[(o_cq + k) * B + l]
-                            cd = w[(o_cd + k) * B + l]
-                            w[(o_c3 + k) * B + l] = _coast_row_l(tab, tint, tflt, m + k, t3,
-                                                                 _fma(hh, _fma(hh, e1, cd), cq))
-                            w[(o_c4 + k) * B + l] = _coast_row_l(tab, tint, tflt, m + k, t4, _fma(h, _fma(hh, e2, cd), cq))
-                    # a3 = g0 + hh p - hh^2 K a1 - hh C a2 - F3 M^-1 v (- Fc3 M^-1 vc); a4 with h, h hh, a2, a3 (written
-                    # out twice: a loop over the two stages here is not vectorised)
-                    for i in range(n):
-                        w[(o_a3 + i) * B + l] = _fma(hh, w[(o_p + i) * B + l], w[(o_g0 + i) * B + l])
-                    _l_sub_k(n, sparse, diag, nnz, kidx, kval, kd, rot, w, o_aq, w[o_hh2 * B + l], w, o_a1, w, o_a3, B, l)
-                    _l_sub_c(n, sparse, adt, rot, w, o_ad, hh, w, o_a2, w, o_a3, B, l)
-                    _l_sub_forces(n, m, sparse, nz, w, o_f3, vf, o_vmi, w, o_a3, B, l)
-                    if coast_on:
-                        _l_sub_forces(n, m, sparse, nz, w, o_c3, vf, o_vci, w, o_a3, B, l)
-                    for i in range(n):
-                        w[(o_a4 + i) * B + l] = _fma(h, w[(o_p + i) * B + l], w[(o_g0 + i) * B + l])
-                    _l_sub_k(n, sparse, diag, nnz, kidx, kval, kd, rot, w, o_aq, w[o_hhh * B + l], w, o_a2, w, o_a4, B, l)
-                    _l_sub_c(n, sparse, adt, rot, w, o_ad, h, w, o_a3, w, o_a4, B, l)
-                    _l_sub_forces(n, m, sparse, nz, w, o_f4, vf, o_vmi, w, o_a4, B, l)
-                    if coast_on:
-                        _l_sub_forces(n, m, sparse, nz, w, o_c4, vf, o_vci, w, o_a4, B, l)
-                    if two_sided and not coast_on:
-                        # staged one-sided: do the coast approaches of stages 3 and 4 stay apart?
-                        for k in range(m):
-                            lim = tflt[m + k, 2] - 1e-12
-                            e1 = _l_dot(n, sparse, nz, k, vf, o_vc, w, o_a1, B, l)
-                            e2 = _l_dot(n, sparse, nz, k, vf, o_vc, w, o_a2, B, l)
-                            cq = w[(o_cq + k) * B + l]
-                            cd = w[(o_cd + k) * B + l]
-                            recheck = (recheck | (_fma(hh, _fma(hh, e1, cd), cq) >= lim)
-                                       | (_fma(h, _fma(hh, e2, cd), cq) >= lim))
+                if coast_on:
+                    for l in range(B):
+                        _lane_stages(True, l, B, n, m, nnz, law, sparse, rot, diag, two_sided, sf, w, vf, mf, phase,
+                                     tab, tint, tflt, lin, lint, kidx, kval, kd, nz, adt)
+                else:
+                    for l in range(B):
+                        recheck = recheck | _lane_stages(False, l, B, n, m, nnz, law, sparse, rot, diag, two_sided,
+                                                         sf, w, vf, mf, phase, tab, tint, tflt, lin, lint, kidx,
+                                                         kval, kd, nz, adt)
                 if not recheck:
                     break
                 coast_on = True
@@ -542,8 +577,8 @@ def system_batch_kernel(system, lanes: int):
     if not batch_supported(system):
         return None
     law = system.mesh_law
-    return select_batch_kernel(law.kernel_law, system.n, system.m_kernel, law.kernel_two_sided, system.carrier_ratio != 0.0,
-                               lanes, system.arrays.kidx.shape[0] == system.n)
+    return select_batch_kernel(law.kernel_law, system.n, system.m_kernel, law.kernel_two_sided,
+                               system.carrier_ratio != 0.0, lanes, system.arrays.kidx.shape[0] == system.n)
 
 
 def batch_constants(system) -> tuple:
@@ -556,7 +591,8 @@ def batch_constants(system) -> tuple:
         n = system.n
         kd = np.zeros((n, n))
         kd[a.kidx[:, 0], a.kidx[:, 1]] = a.kval[0]
-        c["batch_constants"] = (a.mats, np.ascontiguousarray(a.vecs.reshape(-1)), np.ascontiguousarray(a.mmat.reshape(-1)),
+        c["batch_constants"] = (a.mats, np.ascontiguousarray(a.vecs.reshape(-1)),
+                                np.ascontiguousarray(a.mmat.reshape(-1)),
                                 a.phase, a.scal, a.tab, a.tint, a.tflt, a.lin, a.lint, a.kidx, a.kval,
                                 np.ascontiguousarray(kd.reshape(-1)), a.nz,
                                 np.ascontiguousarray(a.mats[1].T).reshape(-1))

@@ -5,7 +5,8 @@ exception, but not when the parent is killed (``kill -9``, the OOM killer, a clo
 workers then wait on their call queue forever (three orphans of ~115 MB each per killed ``hacgear statics``).
 :func:`process_pool` gives each worker a daemon thread that checks every ``period_s`` whether its parent is
 still there and ends the worker (``os._exit``) when it is not.  Used by ``hacgear statics`` and
-``hacgear sweep``; any other pool of the library should come from here too.
+``hacgear sweep``; any other pool of the library should come from here too.  :func:`executor_slots` says how many
+tasks an executor runs at once (the sweeps size their batched tasks by it).
 """
 from __future__ import annotations
 
@@ -16,7 +17,7 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any, Callable
 
-__all__ = ["process_pool", "ORPHAN_EXIT_STATUS"]
+__all__ = ["process_pool", "executor_slots", "ORPHAN_EXIT_STATUS"]
 
 #: exit status of a worker that ended because its parent died
 ORPHAN_EXIT_STATUS = 70
@@ -70,3 +71,17 @@ def process_pool(max_workers: int | None = None, *, mp_context: Any = None, star
         mp_context = multiprocessing.get_context(start_method)
     return ProcessPoolExecutor(max_workers=max_workers, mp_context=mp_context, initializer=_init_worker,
                                initargs=(os.getpid(), float(period_s), initializer, tuple(initargs)))
+
+
+def executor_slots(executor: Any) -> int | None:
+    """How many tasks ``executor`` runs at once: a ``ProcessPoolExecutor``'s worker processes, a Dask
+    ``Client.get_executor()``'s worker threads over the cluster; None for any other executor (unknown)."""
+    if isinstance(executor, ProcessPoolExecutor):
+        return int(executor._max_workers)
+    client = getattr(executor, "_client", None)
+    if client is not None and hasattr(client, "nthreads"):
+        try:
+            return max(1, int(sum(client.nthreads().values())))
+        except Exception:  # a client that cannot answer (closed, not connected): unknown
+            return None
+    return None

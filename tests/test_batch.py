@@ -1,20 +1,22 @@
 """The batched kernel (hacgear_core.dynamics.batch): every lane equals the single-state kernel bit for bit — lanes at
 different speeds and in different contact states (loaded, contact loss, coast-flank impacts), lane counts that are
 not a multiple of the vector width, a rotating carrier with coupled supports, the conventional force law — and the
-batched sweeps equal the serial ones."""
+batched sweeps equal the serial ones, in this process and on a process pool, and how their branches become tasks."""
 from __future__ import annotations
 
 import dataclasses
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
 from hacgear_core.dynamics import batch, kernels
 from hacgear_core.dynamics.equilibrium import static_state
-from hacgear_core.dynamics.sweep import SweepSpec, run_sweep
+from hacgear_core.dynamics.sweep import SweepSpec, plan_lanes, read_sweep, run_sweeps
 from hacgear_core.dynamics.synthetic import linear_fdf_table
 from hacgear_core.kinds import build_system, load_model
 from hacgear_core.tables import load_system_tables
+from hacgear_core.workers import executor_slots, process_pool
 
 from _dyn import K, params, system
 
@@ -117,20 +119,77 @@ def test_force_laws_of_a_synthetic_pair(law):
     _assert_lanes_equal(_run_both(sy, lanes, cycles=8, rec_every=3))
 
 
-def test_batched_sweep_equals_serial(spur):
-    """Up and down branches as two lanes (continuation in each, records across calls of unequal length): the same
-    rows bit for bit as the serial sweep, including the jumps."""
+def _assert_sweeps_equal(a, b):
+    for x, y in zip(a, b):
+        for br in x.branches:
+            p, q = x.branches[br], y.branches[br]
+            assert np.array_equal(p.state, q.state) and np.array_equal(p.cycles_run, q.cycles_run)
+            for k in p.metrics:
+                assert np.array_equal(p.metrics[k], q.metrics[k], equal_nan=True)
+        assert [dataclasses.asdict(j) for j in x.jumps] == [dataclasses.asdict(j) for j in y.jumps]
+
+
+def test_batched_sweeps_equal_serial(spur, tmp_path):
+    """Sweeps at two torques, up and down (4 branches of one system): by default (``batched=None``) they run as the
+    4 lanes of one batched task, and give the serial sweeps' rows bit for bit (continuation in each branch, records
+    across calls of unequal length), jumps included; the results file holds the same rows.  Three branches with
+    ``batched=True`` run on the 4-lane loop with one lane idle: the same rows again."""
     model, tables = spur
     sy = build_system(model, tables)
-    spec = SweepSpec(sy, tuple(np.linspace(2600.0, 3600.0, 9)), "both")
-    a = run_sweep(spec, progress=False)
-    b = run_sweep(spec, progress=False, batched=True)
-    for br in ("up", "down"):
-        x, y = a.branches[br], b.branches[br]
-        assert np.array_equal(x.state, y.state) and np.array_equal(x.cycles_run, y.cycles_run)
-        for k in x.metrics:
-            assert np.array_equal(x.metrics[k], y.metrics[k], equal_nan=True)
-    assert [dataclasses.asdict(j) for j in a.jumps] == [dataclasses.asdict(j) for j in b.jumps]
+    fms = tuple(np.linspace(2600.0, 3600.0, 9))
+    specs = [SweepSpec(sy, fms, "both", torque_Nm=t) for t in (sy.torque_Nm, 0.6 * sy.torque_Nm)]
+    tasks = [(sp, b) for sp in specs for b in sp.branches]
+    assert plan_lanes(tasks, None, 1) == [([0, 1, 2, 3], 4)]
+    serial = run_sweeps(specs, progress=False, batched=False)
+    _assert_sweeps_equal(serial, run_sweeps(specs, progress=False, out=tmp_path / "s.h5"))
+    stored = read_sweep(tmp_path / "s.h5")
+    for r in serial:
+        for br, x in r.branches.items():
+            assert np.array_equal(stored[r.run_id][br].state, x.state)
+    three = specs[:1] + [SweepSpec(sy, fms, "up", torque_Nm=0.6 * sy.torque_Nm)]
+    assert plan_lanes([(sp, b) for sp in three for b in sp.branches], True, 1) == [([0, 1, 2], 4)]
+    part = run_sweeps(three, progress=False, batched=True)
+    _assert_sweeps_equal(serial[:1], part[:1])
+    up = serial[1].branches["up"]
+    assert np.array_equal(part[1].branches["up"].state, up.state)
+
+
+def test_batched_sweeps_on_a_process_pool(spur):
+    """Four torques x up/down on a pool of 2 processes: two batched tasks of 4 lanes (one per worker), the rows
+    of the serial sweeps bit for bit."""
+    model, tables = spur
+    sy = build_system(model, tables)
+    fms = tuple(np.linspace(2800.0, 3400.0, 4))
+    specs = [SweepSpec(sy, fms, "both", torque_Nm=f * sy.torque_Nm) for f in (1.0, 0.8, 0.6, 0.4)]
+    assert [w for _, w in plan_lanes([(sp, b) for sp in specs for b in sp.branches], None, 2)] == [4, 4]
+    with process_pool(2) as ex:
+        assert executor_slots(ex) == 2
+        pooled = run_sweeps(specs, progress=False, executor=ex)
+    _assert_sweeps_equal(run_sweeps(specs, progress=False, batched=False), pooled)
+
+
+def test_plan_lanes_splits_each_system_over_the_slots():
+    """How the branches become tasks: per system (same kernel arrays, any torque), split over the executor's slots,
+    at most 8 lanes per task, compiled lane counts 2, 4 or 8; by default only tasks of >= 4 lanes are batched; an
+    executor of unknown size gets no batched tasks by default; ``batched=False`` none; helical systems none."""
+    a = system(params(torque_Nm=100.0), linear_fdf_table(K))
+    b = system(params(torque_Nm=100.0, bearing_stiffness_N_per_m=(300e6, 250e6)), linear_fdf_table(K))
+
+    def tasks(sy, n):
+        return [(SweepSpec(sy, (1000.0, 1100.0), "up", torque_Nm=50.0 + i), "up") for i in range(n)]
+
+    t = tasks(a, 9)
+    assert plan_lanes(t, None, 1) == [(list(range(8)), 8), ([8], 0)]
+    assert plan_lanes(t, None, 2) == [([0, 1, 2, 3, 4], 8), ([5, 6, 7, 8], 4)]
+    assert plan_lanes(t, None, 3) == [([i], 0) for i in range(9)]          # 3 lanes per slot: not worth it
+    assert plan_lanes(t, True, 3) == [([0, 1, 2], 4), ([3, 4, 5], 4), ([6, 7, 8], 4)]
+    assert plan_lanes(t, None, None) == [([i], 0) for i in range(9)]
+    assert plan_lanes(t, True, None) == [(list(range(8)), 8), ([8], 0)]
+    assert plan_lanes(t, False, 1) == [([i], 0) for i in range(9)]
+    mixed = tasks(a, 2) + tasks(b, 4) + tasks(a, 2)
+    assert plan_lanes(mixed, None, 1) == [([0, 1, 6, 7], 4), ([2, 3, 4, 5], 4)]
+    helical = [(SimpleNamespace(system=SimpleNamespace(mesh_law=SimpleNamespace(kernel_law=kernels.LAW_TWIST))), "up")]
+    assert plan_lanes(helical * 4, True, 1) == [([i], 0) for i in range(4)]
 
 
 def test_helical_meshes_are_refused():

@@ -396,3 +396,29 @@ def test_simulate_drive_only_helical_table_flags_the_backlash_crossing(capsys, t
     err = capsys.readouterr().err
     assert err.count("WARNING") == 1 and "m12:" in err and "no coast table: beyond the backlash (394.5 µm" in err
     assert "hacgear statics" in err
+
+
+def test_cli_sweep_batched_option_reaches_run_sweeps(capsys, monkeypatch):
+    """``--batched auto|on|off`` maps to ``run_sweeps(batched=None|True|False)`` (the lanes' equality with the
+    serial sweeps is tests/test_batch.py's); a value outside the three is refused by the parser."""
+    import hacgear_core.cli.sweep as cli_sweep
+
+    seen = []
+    real = cli_sweep.run_sweeps
+
+    def spy(specs, **kw):
+        seen.append(kw["batched"])
+        return real(specs, **{**kw, "batched": False})
+
+    monkeypatch.setattr(cli_sweep, "run_sweeps", spy)
+    argv = ["sweep", "synthetic:28t", "--torques", "100,200", "--fm", "1500:2500:2", "--json", "--no-progress"]
+    outs = []
+    for opt in ([], ["--batched", "on"], ["--batched", "off"]):
+        rc, d = _cli(argv + opt, capsys)
+        assert rc == 0
+        outs.append(d)
+    assert seen == [None, True, False]
+    assert outs[0] == outs[1] == outs[2]
+    with pytest.raises(SystemExit):
+        main(argv + ["--batched", "yes"])
+    assert "invalid choice" in capsys.readouterr().err

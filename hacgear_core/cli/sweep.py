@@ -6,6 +6,7 @@ import argparse
 
 from hacgear_core.cli._dyn_common import add_model_options, inputs_from_args
 from hacgear_core.cli._options import check_option
+from hacgear_core.dynamics.batch import BATCH_COMPILE_CPU_S
 from hacgear_core.dynamics.steady import SteadyStateOptions
 from hacgear_core.dynamics.sweep import SweepSpec, parse_fm, run_sweeps
 from hacgear_core.errors import ModelError
@@ -49,7 +50,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "column |mu|max (--json: max_multiplier per speed)")
     p.add_argument("--torques", default=None,
                    help="several torques on the input gear, comma separated [N*m] (instead of --torque): one sweep "
-                        "per torque, all branches in parallel over --workers processes")
+                        "per torque, all branches in parallel over --workers processes (see --batched)")
+    p.add_argument("--batched", choices=("auto", "on", "off"), default="auto",
+                   help="run branches of one system (up and down, several --torques) as lanes of the batched kernel, "
+                        "same numbers bit for bit: auto where a process gets >= 4 of them (e.g. 2 torques x both "
+                        "directions on 1 worker), on where it gets >= 2, off never (default %(default)s; the first "
+                        f"run on a machine compiles the batched loop, about {BATCH_COMPILE_CPU_S} s on one core per "
+                        "lane count 2, 4 or 8)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
@@ -89,7 +96,8 @@ def run(args: argparse.Namespace) -> int:
     if args.workers > 1 and n_tasks > 1:
         ex = process_pool(min(args.workers, n_tasks))
     try:
-        results = run_sweeps(specs, out=args.out, executor=ex, progress=not args.no_progress, fresh=args.fresh)
+        results = run_sweeps(specs, out=args.out, executor=ex, progress=not args.no_progress, fresh=args.fresh,
+                             batched={"auto": None, "on": True, "off": False}[args.batched])
     finally:
         if ex is not None:
             ex.shutdown()

@@ -3,13 +3,14 @@
 The loop is :mod:`hacgear_core.dynamics.kernels`' speed-mode loop with every per-state quantity a row of K lanes
 (structure of arrays: entry ``i`` of lane ``l`` at ``i * K + l``) and each RK4 phase one loop over the lanes, which
 the compiler vectorises (the table lookups become gathers).  Lanes share the system (matrices, mesh vectors, tables)
-and differ in state, mesh position, speed, step and external load.  Each lane performs the single-state loop's
-operations in its order, its multiply-adds written as the fused multiply-adds the single-state loop's compiler
-forms (this loop is compiled without contraction, so the vectoriser cannot choose others): a lane's results equal
-the single-state kernel's bit for bit (tests/test_batch.py).  Where any lane's coast flanks may touch, every lane
-takes the coast terms: a lane whose coast flanks stay apart adds exact zeros (its coast forces are 0 below the coast
-tables' onset).  Speed per lane against the single-state kernel and what limits it: docs/dynamics.md, "Batched
-kernel".
+and differ in state, mesh position, speed, step, external load and damping matrix (the modal damping of a system
+depends on its operating torque, so sweeps at several torques can share a loop).  Each lane performs the
+single-state loop's operations in its order, its multiply-adds written as the fused multiply-adds the single-state
+loop's compiler forms (this loop is compiled without contraction, so the vectoriser cannot choose others): a lane's
+results equal the single-state kernel's bit for bit (tests/test_batch.py).  Where any lane's coast flanks may touch,
+every lane takes the coast terms: a lane whose coast flanks stay apart adds exact zeros (its coast forces are 0
+below the coast tables' onset).  Speed per lane against the single-state kernel and what limits it:
+docs/dynamics.md, "Batched kernel".
 
 Arguments of the loop :func:`select_batch_kernel` returns (float64, C-contiguous, flat unless noted; K lanes)::
 
@@ -17,15 +18,18 @@ Arguments of the loop :func:`select_batch_kernel` returns (float64, C-contiguous
     n_steps int, H (K,) steps [s], FEXT (n, K) external loads, REC_EVERY (K,) int64 (0: no records),
     CNT (K, 2) int64 [steps to the next record, steps done] (in/out: a lane's integration may span several calls;
     ``[REC_EVERY, 0]`` where it starts), rec_state (K, nr, 2n), rec_out (K, nr, REC m + 1) (each call writes from
-    record 0), NREC (K,) int64 (records written by the call, out), then :func:`batch_constants` and the scratch
-    W (:func:`batch_rows` K).  The arrays the loop writes (S, KIN, CNT, the records, NREC, W) must not overlap each
-    other or the others (the loop is compiled with its array arguments marked ``noalias``).
+    record 0), NREC (K,) int64 (records written by the call, out), then :func:`batch_constants`, ADT (n n K) each
+    lane's :func:`lane_damping` and the scratch W (:func:`batch_rows` K).  The arrays the loop writes (S, KIN, CNT,
+    the records, NREC, W) must not overlap each other or the others (the loop is compiled with its array arguments
+    marked ``noalias``).
 
 Speed mode only (each lane's ``omega_ref`` is constant); helical meshes (``LAW_TWIST``) and the torque experiment
 use the single-state kernel.  :class:`Lanes` holds the arrays of K lanes, :func:`run_lanes` drives steady-state runs
 (:func:`hacgear_core.dynamics.steady.steady_run`) on them.
 """
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 from llvmlite import ir
@@ -34,12 +38,18 @@ from numba.core import cgutils
 from numba.extending import intrinsic
 from numba.core.compiler import CompilerBase, DefaultPassBuilder
 
+from hacgear_core.dynamics import kernels
 from hacgear_core.dynamics.kernels import (LAW_LINEAR, LAW_TABLE, REC, REC_COAST_APPROACH, REC_COAST_FORCE,
                                            REC_DEFLECTION, REC_DTE, REC_FORCE, REC_POSITION, VARIANT_SPARSE,
                                            VARIANT_TWO_SIDED, _ix)
 
-__all__ = ["select_batch_kernel", "system_batch_kernel", "batch_constants", "batch_rows", "batch_supported", "Lanes",
-           "run_lanes", "VARIANT_ROTATING", "VARIANT_DIAGONAL_K"]
+__all__ = ["BATCH_COMPILE_CPU_S", "select_batch_kernel", "system_batch_kernel", "batch_constants", "batch_rows",
+           "batch_supported", "lane_damping", "lanes_compatible", "Lanes", "run_lanes", "VARIANT_ROTATING",
+           "VARIANT_DIAGONAL_K"]
+
+#: compile time of one batched loop (one system variant and lane count) on one core of the 2-core development
+#: machine [s]: 73-81 s measured for the 2-DOF spur pair at 2 and 4 lanes with an empty numba cache
+BATCH_COMPILE_CPU_S = 80
 
 #: variant bit: the carrier rotates (each lane's effective stiffness and damping depend on its speed)
 VARIANT_ROTATING = 16
@@ -199,12 +209,12 @@ def _l_sub_k(n, sparse, diag, nnz, kidx, kval, kd, rot, w, oq, c, x, ox, out, oo
 @njit(cache=True, inline="always", fastmath=False)
 def _l_sub_c(n, sparse, adt, rot, w, oc, c, x, ox, out, oo, B, l):
     """Lane ``l``'s ``out[oo:oo+n] -= c (M^-1 C_eff) x[ox:ox+n]``, column by column (``kernels._sub_c``: its
-    column blocks subtract in the same order, each a fused multiply-add, so the same result); ``adt`` shared or
-    (``rot``) the lane's rows of ``w`` from ``oc``."""
+    column blocks subtract in the same order, each a fused multiply-add, so the same result); the entries from the
+    lane's rows of ``adt`` (its own damping) or (``rot``) of ``w`` from ``oc``."""
     for j in range(n):
         b = c * x[(ox + j) * B + l]
         for i in range(n):
-            e = w[(oc + j * n + i) * B + l] if rot else adt[j * n + i]
+            e = w[(oc + j * n + i) * B + l] if rot else adt[(j * n + i) * B + l]
             o = (oo + i) * B + l
             out[o] = _fma(-e, b, out[o])
 
@@ -431,7 +441,7 @@ def _make_batch_loop(name: str, n_fixed: int, m_fixed: int, variant: int, lanes:
                     w[(o_aq + z) * B + l] = _fma(-(oc * oc), kval[1, z], kval[0, z])
                 for i in range(n):
                     for j in range(n):
-                        w[(o_ad + j * n + i) * B + l] = _fma(oc, mats[2, i, j], mats[1, i, j])
+                        w[(o_ad + j * n + i) * B + l] = _fma(oc, mats[2, i, j], adt[(j * n + i) * B + l])
             NREC[l] = 0
         nr_cap = rec_state.shape[1]
         recs = False
@@ -583,8 +593,9 @@ def system_batch_kernel(system, lanes: int):
 
 def batch_constants(system) -> tuple:
     """The batched loop's arguments from ``mats`` on that do not depend on the lanes, for ``system``:
-    ``(mats, vf, mf, phase, scal, tab, tint, tflt, lin, lint, kidx, kval, kd, nz, adt)`` (``vf``, ``mf`` the flat
-    ``vecs``, ``mmat``; ``kd`` the full M^-1 K (n*n, row-major); ``adt`` the flat transpose of M^-1 C)."""
+    ``(mats, vf, mf, phase, scal, tab, tint, tflt, lin, lint, kidx, kval, kd, nz)`` (``vf``, ``mf`` the flat
+    ``vecs``, ``mmat``; ``kd`` the full M^-1 K (n*n, row-major)); the damping is each lane's
+    (:func:`lane_damping`)."""
     c = system._cache
     if "batch_constants" not in c:
         a = system.arrays
@@ -594,19 +605,44 @@ def batch_constants(system) -> tuple:
         c["batch_constants"] = (a.mats, np.ascontiguousarray(a.vecs.reshape(-1)),
                                 np.ascontiguousarray(a.mmat.reshape(-1)),
                                 a.phase, a.scal, a.tab, a.tint, a.tflt, a.lin, a.lint, a.kidx, a.kval,
-                                np.ascontiguousarray(kd.reshape(-1)), a.nz,
-                                np.ascontiguousarray(a.mats[1].T).reshape(-1))
+                                np.ascontiguousarray(kd.reshape(-1)), a.nz)
     return c["batch_constants"]
+
+
+def lane_damping(system) -> np.ndarray:
+    """``system``'s M^-1 C as a lane of the batched loop takes it: its transpose, flat (n*n,)."""
+    return np.ascontiguousarray(system.arrays.mats[1].T).reshape(-1)
+
+
+def lanes_compatible(a, b) -> bool:
+    """Whether runs of systems ``a`` and ``b`` can be lanes of one batched loop: the same loop and the same kernel
+    arrays but for the damping matrix (each lane has its own; e.g. the same pair at two torques, whose modal damping
+    is taken at each torque)."""
+    if a is b:
+        return True
+    if not (batch_supported(a) and batch_supported(b)):
+        return False
+    la, lb = a.mesh_law, b.mesh_law
+    if (la.kernel_law, a.n, a.m_kernel, la.kernel_two_sided, a.carrier_ratio) != (
+            lb.kernel_law, b.n, b.m_kernel, lb.kernel_two_sided, b.carrier_ratio):
+        return False
+    for f in dataclasses.fields(a.arrays):
+        x, y = getattr(a.arrays, f.name), getattr(b.arrays, f.name)
+        if f.name == "mats":
+            x, y = np.delete(x, 1, axis=0), np.delete(y, 1, axis=0)
+        if not np.array_equal(x, y):
+            return False
+    return True
 
 
 class Lanes:
     """``lanes`` lanes of the batched loop for one system: their states, kinematics, steps and loads as the loop
     takes them (flat, lanes innermost), the scratch and the records of one call.
 
-    ``load(j, s, kin, h, fext, rec_every)`` starts lane ``j`` on an integration (``s`` (2n,), ``kin`` (3,) as for
-    :meth:`~hacgear_core.dynamics.system.LumpedSystem.integrate` in speed mode), ``run(n_steps, n_rec)`` advances
-    every lane (records: at most ``n_rec`` per lane, in ``rec_state``/``rec_out``, ``nrec`` written),
-    ``state(j)``/``kin(j)`` read a lane back."""
+    ``load(j, s, kin, h, fext, rec_every[, damping])`` starts lane ``j`` on an integration (``s`` (2n,), ``kin``
+    (3,) as for :meth:`~hacgear_core.dynamics.system.LumpedSystem.integrate` in speed mode; ``damping`` its own
+    :func:`lane_damping`), ``run(n_steps, n_rec)`` advances every lane (records: at most ``n_rec`` per lane, in
+    ``rec_state``/``rec_out``, ``nrec`` written), ``state(j)``/``kin(j)`` read a lane back."""
 
     def __init__(self, system, lanes: int) -> None:
         kernel = system_batch_kernel(system, lanes)
@@ -619,6 +655,8 @@ class Lanes:
         n, m = system.n, system.m_kernel
         self.n = n
         self.consts = batch_constants(system)
+        self.ADT = np.zeros((n * n, B))
+        self.ADT[:] = lane_damping(system)[:, None]
         self.S = np.zeros(2 * n * B)
         self.KIN = np.zeros((3 + m) * B)
         self.H = np.zeros(B)
@@ -627,11 +665,28 @@ class Lanes:
         self.CNT = np.zeros((B, 2), np.int64)
         self.nrec = np.zeros(B, np.int64)
         self.W = np.zeros(batch_rows(n, m, system.arrays.kidx.shape[0], system.carrier_ratio != 0.0) * B)
+        self._ready = False
         self.rec_state = np.zeros((B, 0, 2 * n))
         self.rec_out = np.zeros((B, 0, system.record_width))
 
-    def load(self, j: int, s, kin, h: float, fext, rec_every: int) -> None:
+    def prepare(self, notice=None) -> tuple[bool, float]:
+        """Load this loop from numba's cache or compile it (once per machine and lane count), saying so first
+        (:func:`hacgear_core.dynamics.kernels.prepare_kernel`); :meth:`run` does it on its first call.  Returns
+        ``(compiled, seconds)``."""
+        law = self.system.mesh_law
+        label = (f"the batched loop ({self.B} lanes) of "
+                 + kernels.kernel_label(law.kernel_law, self.n, law.m_kernel, law.kernel_two_sided))
+        return kernels.prepare_kernel(self.kernel, self._args(0), label, notice, cpu_s=BATCH_COMPILE_CPU_S)
+
+    def _args(self, n_steps: int) -> tuple:
+        return (self.S, self.KIN, int(n_steps), self.H, self.FEXT, self.RE, self.CNT, self.rec_state, self.rec_out,
+                self.nrec, *self.consts, self.ADT.reshape(-1), self.W)
+
+    def load(self, j: int, s, kin, h: float, fext, rec_every: int, damping=None) -> None:
+        """``damping``: the lane's :func:`lane_damping` (default: the system's)."""
         B = self.B
+        if damping is not None:
+            self.ADT[:, j] = damping
         self.S.reshape(-1, B)[:, j] = s
         k = self.KIN.reshape(-1, B)
         k[:, j] = 0.0
@@ -648,6 +703,7 @@ class Lanes:
         self.KIN.reshape(-1, B)[:, j] = self.KIN.reshape(-1, B)[:, src]
         self.H[j] = self.H[src]
         self.FEXT[:, j] = self.FEXT[:, src]
+        self.ADT[:, j] = self.ADT[:, src]
         self.RE[j] = 0
         self.CNT[j] = (0, 0)
 
@@ -661,11 +717,13 @@ class Lanes:
         if self.rec_state.shape[1] < n_rec:
             self.rec_state = np.zeros((self.B, n_rec, 2 * self.n))
             self.rec_out = np.zeros((self.B, n_rec, self.rec_out.shape[2]))
-        self.kernel(self.S, self.KIN, int(n_steps), self.H, self.FEXT, self.RE, self.CNT, self.rec_state,
-                    self.rec_out, self.nrec, *self.consts, self.W)
+        if not self._ready:
+            self.prepare()
+            self._ready = True
+        self.kernel(*self._args(n_steps))
 
 
-def run_lanes(system, lanes) -> list:
+def run_lanes(system, lanes, width: int | None = None, systems=None) -> list:
     """Advance lanes of runs of ``system`` together with the batched kernel.
 
     Each lane is a generator that yields :func:`~hacgear_core.dynamics.steady.steady_run` generators (one speed at
@@ -674,14 +732,19 @@ def run_lanes(system, lanes) -> list:
     lane's current integration leaves, so each integration is done exactly as
     :meth:`~hacgear_core.dynamics.system.LumpedSystem.integrate` does it (the kernel's lanes equal the single-state
     kernel bit for bit); a finished lane repeats another's work without records until all are done (the loop is
-    compiled for a lane count).  Returns the lanes' return values, in order.
+    compiled for a lane count).  ``width``: run the loop compiled for that many lanes (at least ``len(lanes)``; the
+    lanes beyond them idle from the start), so that a few lane counts serve any number of runs.  ``systems``: each
+    lane's system where they differ in damping only (:func:`lanes_compatible` with ``system``; default ``system``
+    for every lane).  Returns the lanes' return values, in order.
     """
     lanes = list(lanes)
     out = [None] * len(lanes)
     if not lanes:
         return out
     runs = [None] * len(lanes)
-    batch = Lanes(system, len(lanes))
+    B = max(len(lanes), int(width or 0))
+    batch = Lanes(system, B)
+    damping = [None] * len(lanes) if systems is None else [lane_damping(sy) for sy in systems]
 
     def pull(i, result):
         """Lane i's next integration request (its current run's, else its next run's), None when it is done."""
@@ -698,15 +761,15 @@ def run_lanes(system, lanes) -> list:
                 result = stop.value
                 runs[i] = None
 
-    reqs: list = [None] * len(lanes)   # per lane: [request, steps left, records copied]
+    reqs: list = [None] * B   # per lane: [request, steps left, records copied]
     for i in range(len(lanes)):
         r = pull(i, None)
         if r is not None:
             reqs[i] = [r, int(r[2]), 0]
-            batch.load(i, r[0], r[1], r[3], r[4], r[5])
-    idle = [i for i in range(len(lanes)) if reqs[i] is None]
-    while len(idle) < len(lanes):
-        src = next(i for i in range(len(lanes)) if reqs[i] is not None)
+            batch.load(i, r[0], r[1], r[3], r[4], r[5], damping[i])
+    idle = [i for i in range(B) if reqs[i] is None]
+    while len(idle) < B:
+        src = next(i for i in range(B) if reqs[i] is not None)
         for i in idle:
             batch.copy_lane(i, src)
         steps = min(v[1] for v in reqs if v is not None)
@@ -733,5 +796,5 @@ def run_lanes(system, lanes) -> list:
                 idle.append(i)
             else:
                 reqs[i] = [nxt, int(nxt[2]), 0]
-                batch.load(i, nxt[0], nxt[1], nxt[3], nxt[4], nxt[5])
+                batch.load(i, nxt[0], nxt[1], nxt[3], nxt[4], nxt[5], damping[i])
     return out

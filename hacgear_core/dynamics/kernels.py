@@ -771,7 +771,7 @@ class _CompileWatch(event.Listener):
         pass
 
 
-def prepare_kernel(kernel, args, label: str, notice=None) -> tuple[bool, float]:
+def prepare_kernel(kernel, args, label: str, notice=None, cpu_s: float = COMPILE_CPU_S) -> tuple[bool, float]:
     """Make ``kernel`` (a :func:`select_kernel` loop) ready for arguments like ``args`` (the tuple a call passes):
     numba loads it from its on-disk cache or, the first time on a machine (or after an upgrade of numba or of
     this file), compiles it and writes the cache.  Before compiling, ``notice(message)`` is called with a line
@@ -786,6 +786,8 @@ def prepare_kernel(kernel, args, label: str, notice=None) -> tuple[bool, float]:
     label : str
         What is compiled, in words (:func:`kernel_label`).
     notice : callable(str), optional
+    cpu_s : float
+        The compile time the notice announces [s on one core].
 
     Returns
     -------
@@ -799,7 +801,7 @@ def prepare_kernel(kernel, args, label: str, notice=None) -> tuple[bool, float]:
     if notice is None:
         notice = logging.getLogger(COMPILE_LOGGER).info
     watch = _CompileWatch(kernel, lambda: notice(
-        f"compiling {label}: once per machine (numba caches it), about {COMPILE_CPU_S} s on one core"))
+        f"compiling {label}: once per machine (numba caches it), about {cpu_s:g} s on one core"))
     with event.install_listener("numba:compile", watch):
         kernel.compile(sig)
     return watch.compiled, time.perf_counter() - t0

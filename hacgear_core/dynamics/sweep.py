@@ -37,12 +37,13 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from hacgear_core.dynamics.batch import batch_supported, run_lanes
+from hacgear_core.dynamics.batch import Lanes, batch_supported, lanes_compatible, run_lanes
 from hacgear_core.dynamics.steady import METRIC_NAMES, SteadyStateOptions, drive, steady_run
 from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import ModelError
 from hacgear_core.h5files import SWEEP_FORMAT, check_writable_kind
 from hacgear_core.model.schema import RANGES
+from hacgear_core.workers import executor_slots
 
 __all__ = [
     "SweepSpec",
@@ -55,6 +56,9 @@ __all__ = [
     "detect_jumps",
     "read_sweep",
     "sweep_mesh_names",
+    "plan_lanes",
+    "LANE_WIDTHS",
+    "BATCH_MIN_LANES",
 ]
 
 DIRECTIONS = ("up", "down", "both")
@@ -357,8 +361,18 @@ def _discard(outp: Path, run_id: str, branch: str, part: Path) -> int:
     return n
 
 
+#: lane counts the batched sweep tasks run with (a task of fewer branches idles the other lanes): each count is
+#: one compilation of the batched loop per kind of system (:data:`~hacgear_core.dynamics.batch.BATCH_COMPILE_CPU_S`)
+LANE_WIDTHS = (2, 4, 8)
+#: fewest branches of one system a sweep runs as lanes of one batched task unless ``batched=True``: at 4 lanes the
+#: loop advances a lane in half the time of the single-state kernel (docs/dynamics.md, "Batched kernel"); at 2 the
+#: gain within a sweep is ~10 %, less than the loop's compilation is worth to a first run
+BATCH_MIN_LANES = 4
+
+
 def run_sweeps(specs, *, out: str | Path | None = None, executor: Executor | None = None,
-               progress: bool = True, fresh: bool = False, batched: bool = False) -> list[SweepResult]:
+               progress: bool = True, fresh: bool = False, batched: bool | None = None,
+               workers: int | None = None) -> list[SweepResult]:
     """Run several sweeps (e.g. several torques or models), their branches as independent tasks.
 
     Parameters
@@ -367,18 +381,25 @@ def run_sweeps(specs, *, out: str | Path | None = None, executor: Executor | Non
     out : path, optional
         HDF5 results file (incremental and resumable, see module docstring); None: in memory only.
     executor : concurrent.futures.Executor, optional
-        Runs the branch tasks (process pools pickle the systems); None: serially in this process.
+        Runs the tasks (process pools pickle the systems, a Dask client's executor spreads them over its
+        cluster); None: serially in this process.
     progress : bool
         tqdm progress bars.
     fresh : bool
         Discard the rows of these sweeps already stored in ``out`` (finished or interrupted) and compute every
         speed again; by default they are reused.  Each :class:`BranchResult` says how many speeds it computed
         (``recomputed``) and how many were discarded (``discarded``).
-    batched : bool
-        Without an executor: run the branches of systems that share their matrices and tables (the up and down
-        branch of a sweep, sweeps at several torques) as lanes of the batched kernel
-        (:func:`hacgear_core.dynamics.batch.run_lanes`; the same numbers bit for bit); branches of helical systems
-        run one by one.
+    batched : bool, optional
+        Run branches of systems that share their matrices and tables (the up and down branch of a sweep, sweeps at
+        several torques, whose damping may differ) as lanes of the batched kernel
+        (:func:`hacgear_core.dynamics.batch.run_lanes`; the same numbers bit for bit).  The branches of each such
+        system are split over the executor's slots (``workers``; one without an executor), at most 8 lanes per task.
+        None (default): only where a task gets at least :data:`BATCH_MIN_LANES` branches; True: wherever a task gets
+        two or more; False: never.  Branches of helical systems always run one by one.
+    workers : int, optional
+        How many tasks the executor runs at once (default: asked from a process pool or a Dask client,
+        :func:`hacgear_core.workers.executor_slots`; an executor that cannot say gets no batched tasks unless
+        ``batched=True``).
     """
     specs = list(specs)
     outp = Path(out) if out is not None else None
@@ -399,17 +420,23 @@ def run_sweeps(specs, *, out: str | Path | None = None, executor: Executor | Non
             part = None if outp is None else str(outp.parent / f"{outp.name}.parts" / f"{rid}_{b}.h5")
             tasks.append((spec, b, part, progress, len(tasks)))
             keys.append((si, b))
-    if executor is None and batched:
-        outs = _run_batched(tasks)
-    elif executor is None:
-        outs = [_task(t) for t in tasks]
+    slots = 1 if executor is None else (workers if workers is not None else executor_slots(executor))
+    plan = plan_lanes(tasks, batched, slots)
+    units = [([tasks[i] for i in idx], width) for idx, width in plan]
+    order = [i for idx, _ in plan for i in idx]
+    if executor is None:
+        outs = [r for u in units for r in _unit(u)]
     else:
         # compile (or load) each kernel here, once, before the workers start: they then load it from numba's cache
         # instead of each compiling the same one at the same time
-        for t in tasks:
-            t[0].system.prepare_kernel()
-        outs = list(executor.map(_task, tasks))
-    for key, t, r in zip(keys, tasks, outs):
+        for ts, width in units:
+            if width:
+                Lanes(ts[0][0].system, width).prepare()
+            else:
+                ts[0][0].system.prepare_kernel()
+        outs = [r for rs in executor.map(_unit, units) for r in rs]
+    for i, r in zip(order, outs):
+        key, t = keys[i], tasks[i]
         results[key] = r
         if outp is not None:
             spec, b, part = t[0], t[1], Path(t[2])
@@ -429,40 +456,51 @@ def run_sweeps(specs, *, out: str | Path | None = None, executor: Executor | Non
 
 
 def run_sweep(spec: SweepSpec, *, out=None, executor: Executor | None = None, progress: bool = True,
-              fresh: bool = False, batched: bool = False) -> SweepResult:
+              fresh: bool = False, batched: bool | None = None, workers: int | None = None) -> SweepResult:
     """Run one sweep (see :func:`run_sweeps`)."""
-    return run_sweeps([spec], out=out, executor=executor, progress=progress, fresh=fresh, batched=batched)[0]
+    return run_sweeps([spec], out=out, executor=executor, progress=progress, fresh=fresh, batched=batched,
+                      workers=workers)[0]
 
 
-def _same_kernel(a: LumpedSystem, b: LumpedSystem) -> bool:
-    """Whether systems ``a`` and ``b`` run on the same kernel arrays (they may differ in torque)."""
-    if a is b:
-        return True
-    if (a.mesh_law.kernel_law, a.n, a.m_kernel, a.mesh_law.kernel_two_sided, a.carrier_ratio) != (
-            b.mesh_law.kernel_law, b.n, b.m_kernel, b.mesh_law.kernel_two_sided, b.carrier_ratio):
-        return False
-    return all(np.array_equal(getattr(a.arrays, f.name), getattr(b.arrays, f.name))
-               for f in dataclasses.fields(a.arrays))
-
-
-def _run_batched(tasks) -> list[BranchResult]:
-    """The branch tasks, those of systems with the same kernel arrays as lanes of one batched run."""
-    outs = [None] * len(tasks)
+def plan_lanes(tasks, batched: bool | None, slots: int | None) -> list[tuple[list[int], int]]:
+    """How :func:`run_sweeps` runs its branch tasks (``tasks[i][0]`` the branch's :class:`SweepSpec`): a list of
+    ``(indices, width)``, each one task: a single branch on the single-state kernel (``width`` 0) or branches of one
+    system (at any torques: :func:`~hacgear_core.dynamics.batch.lanes_compatible`) as lanes of the batched loop
+    compiled for ``width`` lanes.  The branches of each system are split over
+    ``slots`` tasks (the executor's; None: unknown), at most 8 lanes each; ``batched`` as in :func:`run_sweeps`."""
+    units: list[tuple[list[int], int]] = []
     groups: list[list[int]] = []
     for i, t in enumerate(tasks):
-        if not batch_supported(t[0].system):
-            outs[i] = _task(t)
+        if batched is False or not batch_supported(t[0].system):
+            units.append(([i], 0))
             continue
         for g in groups:
-            if _same_kernel(tasks[g[0]][0].system, t[0].system):
+            if lanes_compatible(tasks[g[0]][0].system, t[0].system):
                 g.append(i)
                 break
         else:
             groups.append([i])
+    least = 2 if batched else BATCH_MIN_LANES
     for g in groups:
-        for i, r in zip(g, run_lanes(tasks[g[0]][0].system, [_branch_lane(*tasks[i]) for i in g])):
-            outs[i] = r
-    return outs
+        if slots is None and not batched:
+            per = 1
+        else:
+            per = min(LANE_WIDTHS[-1], math.ceil(len(g) / (slots or 1)))
+        for c in range(0, len(g), per):
+            chunk = g[c:c + per]
+            if len(chunk) >= least:
+                units.append((chunk, next(w for w in LANE_WIDTHS if w >= len(chunk))))
+            else:
+                units.extend(([i], 0) for i in chunk)
+    return units
+
+
+def _unit(unit) -> list[BranchResult]:
+    """One task of :func:`plan_lanes`: its branches' results, in order."""
+    ts, width = unit
+    if not width:
+        return [_task(ts[0])]
+    return run_lanes(ts[0][0].system, [_branch_lane(*t) for t in ts], width, systems=[t[0].system for t in ts])
 
 
 def detect_jumps(branches: dict, threshold: float = 0.3, metric: str = "rms_deflection_m",

@@ -115,7 +115,12 @@ def test_study_file_errors_name_the_key_unit_and_range(tmp_path):
                      (ok.replace("positions = 16", "positions = 1"), r"positions \[-\] = 1; allowed: integer 2"),
                      (ok.replace("[dynamic]", "[dynamic]\nspeed = 3"), r"unknown key\(s\) \['speed'\]"),
                      (ok.replace("values = [0.0]", "values = [0.0, 0.0]"), r"values repeat"),
-                     (ok.replace("3200.0, 3]", "3200.0, 0]"), r"mesh_frequency_Hz \[Hz\]")):
+                     (ok.replace("3200.0, 3]", "3200.0, 0]"), r"mesh_frequency_Hz \[Hz\]"),
+                     (ok.replace("torque_Nm = 300.0", "torque_Nm = 300.0\ntorques_Nm = [200.0]"),
+                      r"\[dynamic\] torque_Nm and torques_Nm \[N\*m\] exclude each other"),
+                     (ok.replace("torque_Nm = 300.0", "torques_Nm = [300.0, 300.0]"),
+                      r"\[dynamic\] torques_Nm \[N\*m\] = \[300.0, 300.0\]; allowed: a non-empty list of distinct "
+                      r"torques")):
         with pytest.raises(ModelError, match=msg):
             parse_study(bad, file="s.toml")
 
@@ -158,7 +163,8 @@ def test_quick_study_harris_map_and_relief_lowers_the_resonance(tmp_path):
     best_torque = res.torque_Nm[np.argmin(ste, axis=1)]
     assert best_torque[0] < best_torque[1] <= best_torque[2]
     assert ste[1, 2] < 0.6 * ste[0, 2]                       # 30 um at 300 N*m: far below no relief
-    df = np.fmax(res.dynamic["up"]["dynamic_factor_force"], res.dynamic["down"]["dynamic_factor_force"]).max(axis=1)
+    df = np.fmax(res.dynamic["up"]["dynamic_factor_force"],
+                 res.dynamic["down"]["dynamic_factor_force"]).max(axis=(1, 2))
     assert df[1] < df[0] and df[2] < df[0]
     k = res.static["mean_mesh_stiffness_N_per_m"]
     assert np.all((k > 5e7) & (k < 1e9))
@@ -169,6 +175,57 @@ def test_quick_study_harris_map_and_relief_lowers_the_resonance(tmp_path):
     fresh = run_study(spec, tmp_path / "q.h5", workers=1, progress=False, fresh=True)
     assert [(v.status, v.tables_reused) for v in fresh.variants] == [("computed", True)] * 3
     _assert_same_results(tmp_path / "q.h5", tmp_path / "q.h5")
+
+
+def test_sweeps_at_several_torques_run_as_batched_lanes(tmp_path, monkeypatch):
+    """``[dynamic] torques_Nm``: each variant is swept at every torque; its 4 branches (2 torques x up/down) run as
+    the lanes of one batched task (``workers = 1``) and the rows at 300 N*m equal, bit for bit, those of the study
+    swept at 300 N*m alone (serial, single-state kernel).  The peak root strain is the strain dynamic factor times
+    the static peak strain at each torque; the best variant by the sweeps' peak root strain is taken over both
+    torques; a sweep torque beyond a variant's tables fails that variant, naming the torque and the range."""
+    import hacgear_core.dynamics.sweep as sweep_module
+    from hacgear_core.studies import best_variants
+
+    one = load_study(_quick(tmp_path, relief=(0.0, 45.0), speeds=4, name="one.toml"))
+    run_study(one, tmp_path / "one.h5", workers=1, progress=False)
+    two_file = tmp_path / "two.toml"
+    two_file.write_text(QUICK.format(relief=[0.0, 45.0], speeds=4).replace("torque_Nm = 300.0",
+                                                                            "torques_Nm = [200.0, 300.0]"))
+    two = load_study(two_file)
+    assert two.dynamic_torques_Nm(123.0) == [200.0, 300.0] and one.dynamic_torques_Nm(123.0) == [300.0]
+    calls = []
+
+    def spy(system, lanes, width=None, **kw):
+        calls.append((len(lanes), width))
+        return run_lanes(system, lanes, width, **kw)
+
+    run_lanes = sweep_module.run_lanes
+    monkeypatch.setattr(sweep_module, "run_lanes", spy)
+    rep = run_study(two, tmp_path / "two.h5", workers=1, progress=False)
+    assert calls == [(4, 4), (4, 4)]                     # per variant: its 4 branches as one batched task
+    assert [v.status for v in rep.variants] == ["computed"] * 2
+    a, b = read_study(tmp_path / "one.h5"), read_study(tmp_path / "two.h5")
+    assert a.dynamic_torque_Nm.tolist() == [[300.0]] * 2 and b.dynamic_torque_Nm.tolist() == [[200.0, 300.0]] * 2
+    for br in ("up", "down"):
+        for m, v in b.dynamic[br].items():
+            assert v.shape == (2, 2, 4)
+            assert np.array_equal(v[:, 1], a.dynamic[br][m][:, 0], equal_nan=True), (br, m)
+    assert [j[1] for j in b.jumps] == [j[0] for j in a.jumps]
+    # strain: dynamic factor x static peak strain at the sweep's torque (the static rows hold it at 200 and 300)
+    i200, i300 = (int(np.flatnonzero(b.torque_Nm == t)[0]) for t in (200.0, 300.0))
+    for d, it in ((0, i200), (1, i300)):
+        np.testing.assert_allclose(b.dynamic["up"]["peak_root_strain"][:, d],
+                                   b.dynamic["up"]["dynamic_factor_strain"][:, d]
+                                   * b.static["max_root_strain"][:, it][:, None], rtol=1e-12)
+    best = best_variants(b)["sweep_max_peak_root_strain"]
+    worst = np.fmax(b.dynamic["up"]["peak_root_strain"], b.dynamic["down"]["peak_root_strain"]).max(axis=(1, 2))
+    assert best["values"] == worst.tolist() and best["index"] == int(np.argmin(worst))
+    # beyond the tables (operating 300 N*m x max_torque_factor 3 = 900 N*m)
+    high = tmp_path / "high.toml"
+    high.write_text(QUICK.format(relief=[45.0], speeds=2).replace("torque_Nm = 300.0", "torques_Nm = [300.0, 950.0]"))
+    bad = run_study(load_study(high), tmp_path / "high.h5", workers=1, progress=False).variants[0]
+    assert bad.status == "failed" and "[dynamic] torque 950 N*m lies beyond the load range" in bad.error
+    assert "0 … 900 N*m" in bad.error
 
 
 def test_dask_local_cluster_gives_the_local_pool_results_bit_for_bit(tmp_path):
@@ -315,7 +372,8 @@ def test_example_study_tip_relief_statement():
     # the premature (tip-edge) contact of the unrelieved teeth: contact pressure several times the relieved flanks'
     p = res.static["max_contact_pressure_Pa"]
     assert np.all(p[relief == 0][0] > 3.0 * p[relief >= 30].max(axis=0))
-    df = np.fmax(res.dynamic["up"]["dynamic_factor_force"], res.dynamic["down"]["dynamic_factor_force"]).max(axis=1)
+    df = np.fmax(res.dynamic["up"]["dynamic_factor_force"],
+                 res.dynamic["down"]["dynamic_factor_force"]).max(axis=(1, 2))
     assert df[relief > 0].min() < df[relief == 0][0]
 
 

@@ -91,8 +91,13 @@ def run(args: argparse.Namespace) -> int:
                 continue
             v["static"] = {m: res.static[m][i] for m in res.static}
             if res.dynamic:
+                v["sweep_torque_Nm"] = res.dynamic_torque_Nm[i]
                 v["sweep_max"] = {m: max(float(np.nanmax(br[m][i])) for br in res.dynamic.values())
                                   for m in ("dynamic_factor_force", "peak_root_strain", "contact_loss_fraction")}
+                v["sweep_max_per_torque"] = {
+                    m: [max(float(np.nanmax(br[m][i, d])) for br in res.dynamic.values())
+                        for d in range(res.dynamic_torque_Nm.shape[1])]
+                    for m in ("dynamic_factor_force", "peak_root_strain", "contact_loss_fraction")}
                 v["jumps"] = res.jumps[i]
         d["best"] = {k: {kk: vv for kk, vv in v.items() if kk != "values"} for k, v in best.items()}
         print(dumps(d, indent=1))
@@ -110,10 +115,13 @@ def run(args: argparse.Namespace) -> int:
         for i in done:
             print(f"  {res.labels[i]}: " + ", ".join(f"{x * 1e6:.2f}" for x in res.static["ste_peak_to_peak_m"][i]))
         if res.dynamic:
-            print(f"largest force dynamic factor of the sweeps at {np.nanmax(res.dynamic_torque_Nm):g} N·m:")
+            torques = res.dynamic_torque_Nm[done[0]]
+            print("largest force dynamic factor of the sweeps at " + ", ".join(f"{t:g}" for t in torques) + " N·m:")
             for i in done:
-                df = max(float(np.nanmax(br["dynamic_factor_force"][i])) for br in res.dynamic.values())
-                print(f"  {res.labels[i]}: {df:.2f} ({len(res.jumps[i])} confirmed jump(s))")
+                dfs = [max(float(np.nanmax(br["dynamic_factor_force"][i, d])) for br in res.dynamic.values())
+                       for d in range(torques.size)]
+                print(f"  {res.labels[i]}: " + ", ".join(f"{x:.2f}" for x in dfs)
+                      + f" ({sum(len(j) for j in res.jumps[i])} confirmed jump(s))")
     for name, b in best.items():
         print(f"best by {name}: {b['label']} ({b['value']:.6g} {b['unit']})")
     if rep.failed:

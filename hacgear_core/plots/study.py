@@ -1,6 +1,6 @@
 """Pictures of a study results file: the Harris map (static transmission error peak-to-peak over torque, one curve
-per variant), the dynamic map (force dynamic factor and peak root strain over mesh frequency x variant, heat maps
-with the confirmed jumps marked) and the best variant per criterion over the study's load spectrum."""
+per variant), the dynamic map (force dynamic factor and peak root strain over mesh frequency x variant at each sweep
+torque, heat maps with the confirmed jumps marked) and the best variant per criterion over the study's load spectrum."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -55,34 +55,40 @@ def harris_map(res: StudyResults):
 
 def dynamic_map(res: StudyResults):
     """Heat maps over mesh frequency [Hz] x variant: force dynamic factor [-] and peak root strain [µε], one column
-    per sweep branch; confirmed jumps marked (▲ jump-up, ▼ jump-down) on their variant's row."""
+    per sweep branch, one pair of rows per sweep torque [N m]; confirmed jumps marked (▲ jump-up, ▼ jump-down) on
+    their variant's row.  Each metric has one colour scale over all torques and branches."""
     branches = list(res.dynamic)
-    fig, axes = plt.subplots(2, len(branches), figsize=(6.0 * len(branches), 7.0), squeeze=False, sharex=True)
+    nd = res.dynamic_torque_Nm.shape[1]
+    fig, axes = plt.subplots(2 * nd, len(branches), figsize=(6.0 * len(branches), 3.5 * 2 * nd), squeeze=False,
+                             sharex=True)
     f = res.frequency_Hz
     df = np.diff(f).mean() if f.size > 1 else 1.0
     n = len(res.labels)
     edges_f = np.concatenate([f - df / 2, [f[-1] + df / 2]])
     edges_v = np.arange(n + 1) - 0.5
-    rows = (("dynamic_factor_force", 1.0, "force dynamic factor [-]", "magma"),
-            ("peak_root_strain", 1e6, "peak root strain [µε]", "viridis"))
-    for r, (metric, scale, label, cmap) in enumerate(rows):
-        vals = [np.where(res.done[:, None], res.dynamic[b][metric] * scale, np.nan) for b in branches]
+    metrics = (("dynamic_factor_force", 1.0, "force dynamic factor [-]", "magma"),
+               ("peak_root_strain", 1e6, "peak root strain [µε]", "viridis"))
+    for r, (metric, scale, label, cmap) in enumerate(metrics):
+        vals = [np.where(res.done[:, None, None], res.dynamic[b][metric] * scale, np.nan) for b in branches]
         lo = min(np.nanmin(v) for v in vals)
         hi = max(np.nanmax(v) for v in vals)
-        for c, b in enumerate(branches):
-            ax = axes[r, c]
-            mesh = ax.pcolormesh(edges_f, edges_v, vals[c], cmap=cmap, vmin=lo, vmax=hi, shading="flat")
-            for i, jl in enumerate(res.jumps):
-                for j in jl:
-                    if j["branch"] == b:
-                        ax.plot(j["frequency_Hz"], i, "^" if j["kind"] == "jump-up" else "v", color="cyan",
-                                mec="k", ms=9)
-            ax.set_yticks(range(n), [_short(res, i) for i in range(n)])
-            ax.set_ylabel(_title_key(res) if len(res.variables) == 1 else "variant")
-            ax.set_title(f"{label.split(' [')[0]}, {b} sweep at {np.nanmax(res.dynamic_torque_Nm):g} N·m")
-            fig.colorbar(mesh, ax=ax, label=label)
-            if r == 1:
-                ax.set_xlabel("mesh frequency [Hz]")
+        for d in range(nd):
+            torque = np.nanmax(res.dynamic_torque_Nm[:, d]) if np.any(np.isfinite(res.dynamic_torque_Nm[:, d])) \
+                else float("nan")
+            for c, b in enumerate(branches):
+                ax = axes[2 * d + r, c]
+                mesh = ax.pcolormesh(edges_f, edges_v, vals[c][:, d], cmap=cmap, vmin=lo, vmax=hi, shading="flat")
+                for i, per_torque in enumerate(res.jumps):
+                    for j in per_torque[d]:
+                        if j["branch"] == b:
+                            ax.plot(j["frequency_Hz"], i, "^" if j["kind"] == "jump-up" else "v", color="cyan",
+                                    mec="k", ms=9)
+                ax.set_yticks(range(n), [_short(res, i) for i in range(n)])
+                ax.set_ylabel(_title_key(res) if len(res.variables) == 1 else "variant")
+                ax.set_title(f"{label.split(' [')[0]}, {b} sweep at {torque:g} N·m")
+                fig.colorbar(mesh, ax=ax, label=label)
+                if 2 * d + r == 2 * nd - 1:
+                    ax.set_xlabel("mesh frequency [Hz]")
     fig.suptitle(f"dynamic map: {res.name} (▲/▼ confirmed jump-up / jump-down)")
     fig.tight_layout()
     return fig

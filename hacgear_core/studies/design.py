@@ -13,20 +13,26 @@ For each variant (one combination of the study's variable values, :mod:`.study_f
 3. **static results** over the study's torques, from the tables: static transmission error peak-to-peak and mean
    local-slope mesh stiffness (FDF inversion, :func:`~hacgear_core.tables.fdf.static_stiffness`), peak root strain
    over the gauges (:func:`~hacgear_core.response.static_strain_max`) and peak contact pressure over the cycle;
-4. **dynamic results** (optional): up/down speed sweeps at one torque (:func:`~hacgear_core.dynamics.sweep.run_sweeps`),
-   per speed the force and strain dynamic factors, the peak root strain (strain dynamic factor × static peak
-   strain at that torque), contact loss and RMS mesh deflection, and the confirmed jumps.
+4. **dynamic results** (optional): up/down speed sweeps at one or several torques
+   (:func:`~hacgear_core.dynamics.sweep.run_sweeps`; the branches at several torques share the variant's system, so
+   they run as lanes of the batched kernel where a task gets four or more), per speed the force and strain dynamic
+   factors, the peak root strain (strain dynamic factor × static peak strain at that torque), contact loss and RMS
+   mesh deflection, and the confirmed jumps.
 
 Results file (``format = "hacgear-study"``; units in each dataset's ``unit`` attribute; ``nv`` variants, ``nt``
-static torques, ``nf`` speeds)::
+static torques, ``nd`` sweep torques, ``nf`` speeds)::
 
     /                         attrs: format, study_name, study_json, study_sha256, hacgear_version
     /variables/<i>/values     (nv,) value of variable i per variant   attrs: key, unit
     /variant_label (nv,)  status (nv,) 0 pending | 1 done | 2 failed   error (nv,)  mesh (nv,)
     /tables_file (nv,)        the variant's tables, relative to the results file's folder
     /static/torque_Nm (nt,)   /static/<metric> (nv, nt) for STATIC_METRICS
-    /dynamic/mesh_frequency_Hz (nf,)  /dynamic/torque_Nm (nv,)  /dynamic/<up|down>/<metric> (nv, nf), ascending
-    /dynamic/jumps_json (nv,) confirmed jumps of the variant's mesh (JSON list)
+    /dynamic/mesh_frequency_Hz (nf,)  /dynamic/torque_Nm (nv, nd)  /dynamic/<up|down>/<metric> (nv, nd, nf),
+                              speeds ascending
+    /dynamic/jumps_json (nv, nd) confirmed jumps of the variant's mesh at each torque (JSON list)
+
+(Files written before several sweep torques existed hold ``(nv,)`` and ``(nv, nf)``; :func:`read_study` reads them
+as ``nd = 1``.)
 
 A variant's rows are written and the file closed before its status is set to done, so a study killed at any time
 and run again recomputes only the variants not done (their tables and sweep rows resume where they stopped).  A
@@ -182,8 +188,8 @@ def _prepare(spec: StudySpec, values: tuple, tables_dir: Path) -> tuple[Path, Pa
     # the tables span 0 ... max_torque_factor x the operating torque (mesh forces are linear in the torque)
     top = model.statics.max_torque_factor * abs(model.operating.torque_Nm)
     asked = [("static torque", t) for t in spec.static_torques_Nm]
-    if spec.dynamic and spec.dynamic["torque_Nm"] is not None:
-        asked.append(("[dynamic] torque", spec.dynamic["torque_Nm"]))
+    if spec.dynamic and (spec.dynamic["torque_Nm"] is not None or spec.dynamic.get("torques_Nm")):
+        asked += [("[dynamic] torque", t) for t in spec.dynamic_torques_Nm(model.operating.torque_Nm)]
     for what, t in asked:
         if t > top * (1 + 1e-12):
             raise TableError(f"{what} {t:g} N*m lies beyond the load range of the variant's tables, 0 … {top:g} N*m "
@@ -222,36 +228,43 @@ def _static_rows(spec: StudySpec, system: Any, k: int) -> dict[str, np.ndarray]:
 
 
 def _dynamic_rows(spec: StudySpec, system: Any, k: int, sweeps_file: Path, executor, progress: bool, label: str):
+    """The sweeps of one variant at each of the study's sweep torques: ``(torques (nd,), {branch: {metric: (nd, nf)}},
+    [confirmed jumps of the studied mesh at each torque])``."""
     dyn = spec.dynamic
-    torque = dyn["torque_Nm"] if dyn["torque_Nm"] is not None else system.torque_Nm
-    sw = SweepSpec(system, tuple(spec.frequencies_Hz()), dyn["direction"], torque_Nm=torque,
-                   options=SteadyStateOptions(max_cycles=dyn["max_cycles"]), label=label)
-    res = run_sweeps([sw], out=sweeps_file, executor=executor, progress=progress)[0]
-    table = system.meshes[k].table
-    force = float(sw.system.nominal_forces_N(torque)[k])
-    strains = static_strain_max(table, force)
-    smax = max(strains.values()) if strains else np.nan
+    torques = spec.dynamic_torques_Nm(system.torque_Nm)
+    opts = SteadyStateOptions(max_cycles=dyn["max_cycles"])
     fms = np.asarray(spec.frequencies_Hz())
-    rows = {}
-    for b, br in res.branches.items():
-        order = np.argsort(br.mesh_frequency_Hz)
-        if not np.allclose(br.mesh_frequency_Hz[order], fms):
-            raise ModelError(f"sweep branch {b}: frequencies differ from the study's")
-        r = {m: np.asarray(br.metrics[m])[order, k] for m in ("dynamic_factor_force", "dynamic_factor_strain",
-                                                              "contact_loss_fraction", "rms_deflection_m")}
-        r["peak_root_strain"] = r["dynamic_factor_strain"] * smax
-        r["converged"] = np.asarray(br.converged, float)[order]
-        rows[b] = r
+    sweeps = [SweepSpec(system, tuple(fms), dyn["direction"], torque_Nm=t, options=opts,
+                        label=f"{label}, {t:g} N*m") for t in torques]
+    results = run_sweeps(sweeps, out=sweeps_file, executor=executor, progress=progress)
+    table = system.meshes[k].table
     mesh = system.mesh_names[k]
-    jumps = [{"kind": j.kind, "branch": j.branch, "frequency_Hz": j.frequency_Hz, "interval_Hz": list(j.interval_Hz),
-              "rms_before_m": j.rms_before_m, "rms_after_m": j.rms_after_m}
-             for j in res.jumps if j.confirmed and j.mesh == mesh]
-    return float(torque), rows, jumps
+    names = ("dynamic_factor_force", "dynamic_factor_strain", "contact_loss_fraction", "rms_deflection_m")
+    rows: dict[str, dict[str, np.ndarray]] = {}
+    jumps = []
+    for d, (sw, res) in enumerate(zip(sweeps, results)):
+        strains = static_strain_max(table, float(sw.system.nominal_forces_N(sw.system.torque_Nm)[k]))
+        smax = max(strains.values()) if strains else np.nan
+        for b, br in res.branches.items():
+            order = np.argsort(br.mesh_frequency_Hz)
+            if not np.allclose(br.mesh_frequency_Hz[order], fms):
+                raise ModelError(f"sweep branch {b}: frequencies differ from the study's")
+            r = rows.setdefault(b, {m: np.full((len(torques), fms.size), np.nan)
+                                    for m in names + ("peak_root_strain", "converged")})
+            for m in names:
+                r[m][d] = np.asarray(br.metrics[m])[order, k]
+            r["peak_root_strain"][d] = r["dynamic_factor_strain"][d] * smax
+            r["converged"][d] = np.asarray(br.converged, float)[order]
+        jumps.append([{"kind": j.kind, "branch": j.branch, "frequency_Hz": j.frequency_Hz,
+                       "interval_Hz": list(j.interval_Hz), "rms_before_m": j.rms_before_m,
+                       "rms_after_m": j.rms_after_m} for j in res.jumps if j.confirmed and j.mesh == mesh])
+    return np.asarray(torques, float), rows, jumps
 
 
 # ------------------------------------------------------------------------------------------------ results file
 def _create(path: Path, spec: StudySpec) -> None:
     nv, nt, nf = len(spec.variants), len(spec.static_torques_Nm), len(spec.frequencies_Hz())
+    nd = spec.n_dynamic_torques
     tmp = path.with_name(path.name + ".creating")
     with h5py.File(tmp, "w") as f:
         f.attrs.update(format=STUDY_FORMAT, study_name=spec.name, study_sha256=spec.sha256(),
@@ -276,11 +289,11 @@ def _create(path: Path, spec: StudySpec) -> None:
         if spec.dynamic:
             dg = f.create_group("dynamic")
             dg.create_dataset("mesh_frequency_Hz", data=np.asarray(spec.frequencies_Hz())).attrs["unit"] = "Hz"
-            dg.create_dataset("torque_Nm", data=np.full(nv, np.nan)).attrs["unit"] = "N*m"
-            dg.create_dataset("jumps_json", data=np.array(["[]"] * nv, dtype=object), dtype=_STR)
+            dg.create_dataset("torque_Nm", data=np.full((nv, nd), np.nan)).attrs["unit"] = "N*m"
+            dg.create_dataset("jumps_json", data=np.full((nv, nd), "[]", dtype=object), dtype=_STR)
             for b in ("up", "down") if spec.dynamic["direction"] == "both" else (spec.dynamic["direction"],):
                 for m, (unit, desc) in DYNAMIC_METRICS.items():
-                    d = dg.create_dataset(f"{b}/{m}", data=np.full((nv, nf), np.nan))
+                    d = dg.create_dataset(f"{b}/{m}", data=np.full((nv, nd, nf), np.nan))
                     d.attrs.update(unit=unit, description=desc)
     tmp.replace(path)
 
@@ -316,9 +329,9 @@ def _write_variant(path: Path, i: int, status: str, *, error: str = "", tables: 
             for m, row in static.items():
                 f[f"static/{m}"][i] = row
         if dynamic:
-            torque, rows, jumps = dynamic
-            f["dynamic/torque_Nm"][i] = torque
-            f["dynamic/jumps_json"][i] = json.dumps(jumps)
+            torques, rows, jumps = dynamic
+            f["dynamic/torque_Nm"][i] = torques
+            f["dynamic/jumps_json"][i] = np.array([json.dumps(j) for j in jumps], dtype=object)
             for b, r in rows.items():
                 for m, row in r.items():
                     f[f"dynamic/{b}/{m}"][i] = row
@@ -426,8 +439,11 @@ class StudyResults:
     torque_Nm: np.ndarray
     static: dict
     frequency_Hz: np.ndarray | None = None
+    #: (nv, nd) the sweep torques of each variant [N*m]
     dynamic_torque_Nm: np.ndarray | None = None
+    #: {branch: {metric: (nv, nd, nf)}}
     dynamic: dict = field(default_factory=dict)
+    #: jumps[variant][torque]: the confirmed jumps (dicts)
     jumps: list = field(default_factory=list)
 
     @property
@@ -458,9 +474,12 @@ def read_study(path: str | Path) -> StudyResults:
         if "dynamic" in f:
             dg = f["dynamic"]
             res.frequency_Hz = dg["mesh_frequency_Hz"][()]
-            res.dynamic_torque_Nm = dg["torque_Nm"][()]
-            res.dynamic = {b: {m: dg[f"{b}/{m}"][()] for m in DYNAMIC_METRICS} for b in ("up", "down") if b in dg}
-            res.jumps = [json.loads(_s(v)) for v in dg["jumps_json"][()]]
+            one = dg["torque_Nm"].ndim == 1  # written before several sweep torques existed: nd = 1
+            res.dynamic_torque_Nm = dg["torque_Nm"][()][:, None] if one else dg["torque_Nm"][()]
+            res.dynamic = {b: {m: dg[f"{b}/{m}"][()][:, None, :] if one else dg[f"{b}/{m}"][()]
+                               for m in DYNAMIC_METRICS} for b in ("up", "down") if b in dg}
+            js = dg["jumps_json"][()]
+            res.jumps = [[json.loads(_s(v)) for v in (row if not one else [row])] for row in js]
     return res
 
 
@@ -468,7 +487,8 @@ def best_variants(res: StudyResults) -> dict[str, dict]:
     """The best finished variant per criterion (smallest value): the static metrics averaged over the study's load
     spectrum (its torques and time shares, linear interpolation between the static torques; without a spectrum the
     static torques with equal shares), and the largest force dynamic factor and peak root strain over the sweep
-    (both branches).  {criterion: {index, label, value, unit, values (per variant, None where not done)}}."""
+    (both branches, every sweep torque).  {criterion: {index, label, value, unit, values (per variant, None where not
+    done)}}."""
     spec = res.spec
     ts, ws = spec.get("spectrum_torques_Nm") or [], spec.get("spectrum_weights") or []
     if not ts:
@@ -480,9 +500,9 @@ def best_variants(res: StudyResults) -> dict[str, dict]:
                                                 for row in vals]), STATIC_METRICS[m][0])
     if res.dynamic:
         for m in ("dynamic_factor_force", "peak_root_strain"):
-            stack = np.stack([br[m] for br in res.dynamic.values()])
+            stack = np.stack([br[m] for br in res.dynamic.values()])  # (branches, nv, nd, nf)
             with np.errstate(all="ignore"):
-                crit[f"sweep_max_{m}"] = (np.nanmax(np.where(np.isfinite(stack), stack, -np.inf), axis=(0, 2)),
+                crit[f"sweep_max_{m}"] = (np.nanmax(np.where(np.isfinite(stack), stack, -np.inf), axis=(0, 2, 3)),
                                           DYNAMIC_METRICS[m][0])
     out = {}
     ok = res.done

@@ -18,8 +18,9 @@ grid of each variant's tables, and what to compute per variant::
     [static]                            # static results over torque (from each variant's tables)
     torques_Nm = [100.0, 200.0, 300.0, 400.0, 500.0]
 
-    [dynamic]                           # optional: up/down speed sweeps at one torque
-    torque_Nm = 300.0                   # optional (default: the variant's [operating] torque_Nm)
+    [dynamic]                           # optional: up/down speed sweeps
+    torque_Nm = 300.0                   # optional (default: the variant's [operating] torque_Nm), or
+    # torques_Nm = [150.0, 300.0, 450.0]  one sweep per torque (they run as lanes of the batched kernel)
     mesh_frequency_Hz = [500.0, 4000.0, 36]    # start, stop, count
     direction = "both"                  # up | down | both
     max_cycles = 3000                   # steady-state cycle cap per speed
@@ -150,6 +151,21 @@ class StudySpec:
             return []
         a, b, n = self.dynamic["mesh_frequency_Hz"]
         return [a + (b - a) * i / (n - 1) for i in range(n)] if n > 1 else [a]
+
+    def dynamic_torques_Nm(self, operating_torque_Nm: float) -> list[float]:
+        """The torques of the sweeps [N*m]: ``[dynamic] torques_Nm``, else ``torque_Nm``, else the variant's
+        operating torque ``operating_torque_Nm`` (empty without ``[dynamic]``)."""
+        if not self.dynamic:
+            return []
+        if self.dynamic.get("torques_Nm"):
+            return list(self.dynamic["torques_Nm"])
+        t = self.dynamic["torque_Nm"]
+        return [float(operating_torque_Nm if t is None else t)]
+
+    @property
+    def n_dynamic_torques(self) -> int:
+        """How many torques each variant is swept at (0 without ``[dynamic]``)."""
+        return len(self.dynamic_torques_Nm(0.0))
 
     def canonical(self) -> dict:
         """The values the results depend on (what the results file's ``study_sha256`` is taken of)."""
@@ -325,12 +341,19 @@ def parse_study(text: str, *, file: str = "<study>", folder: Path | None = None)
                     and r.contains(v[1]) and isinstance(v[2], int) and not isinstance(v[2], bool) and v[2] >= 1)
         dt = dr.get("torque_Nm", (int, float), "N*m", RANGES["torque_Nm"].text, default=None,
                     check=lambda t: _num(t) and RANGES["torque_Nm"].contains(t))
+        dts = dr.get("torques_Nm", list, "N*m", f"a non-empty list of distinct torques, each "
+                     f"{RANGES['torque_Nm'].text}", default=None, check=lambda v: _torques(v) and len(set(v)) == len(v))
+        if dt is not None and dts is not None:
+            raise ModelError(f"{file}: [dynamic] torque_Nm and torques_Nm [N*m] exclude each other: give one torque "
+                             "or a list of them")
         direction = dr.get("direction", str, "", " | ".join(_DIRECTIONS), default="both",
                            check=lambda s: s in _DIRECTIONS)
         cap = dr.get("max_cycles", int, "-", "integer 16 … 100000", default=3000, check=lambda c: 16 <= c <= 100000)
         dr.done()
         dynamic = {"mesh_frequency_Hz": [float(fm[0]), float(fm[1]), int(fm[2])],
                    "torque_Nm": None if dt is None else float(dt), "direction": direction, "max_cycles": int(cap)}
+        if dts is not None:  # only then a key of its own: the results of studies with one torque keep their hash
+            dynamic["torques_Nm"] = [float(t) for t in dts]
     sp_t: tuple = ()
     sp_w: tuple = ()
     if "load_spectrum" in top.data:

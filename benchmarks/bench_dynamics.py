@@ -18,7 +18,8 @@ may be shared, and a loop timed first would pay the warm-up):
      (target >= 100x);
   5. the wall time of a 200-speed up+down sweep on 2 worker processes (target <= 10 s), and the same sweep in
      this process with its two branches as two lanes of the batched kernel against the serial single-state sweep
-     (CPU time, alternating; ratio, same rows bit for bit);
+     (CPU time, alternating; ratio, same rows bit for bit), and sweeps at 4 torques (8 branches) in this process as
+     ``run_sweeps`` runs them by default (one 8-lane batched task) against the serial sweeps;
   6. the helical pair (12 DOF, one mesh, generalized FDF: W and M by trilinear lookup over position, deflection and
      twist) per mesh cycle at 128 RK4 steps on the committed tables of helical_28_33 (target <= 100 us; the
      dissertation's HAC: 10 ms).
@@ -42,7 +43,7 @@ from numba import njit
 from hacgear_core.dynamics.batch import Lanes
 from hacgear_core.dynamics.equilibrium import static_state
 from hacgear_core.dynamics.steady import steady_state
-from hacgear_core.dynamics.sweep import SweepSpec, run_sweep
+from hacgear_core.dynamics.sweep import SweepSpec, run_sweep, run_sweeps
 from hacgear_core.kinds import build_system, load_model
 from hacgear_core.tables import load_system_tables
 from hacgear_core.tables.interp import bilinear
@@ -115,22 +116,25 @@ def batched_vs_single(system, lanes: int, cycles: int, repeats: int) -> tuple[fl
     return tb / per * 1e6, ts / per * 1e6, same
 
 
-def batched_sweep(system, n_speeds: int, repeats: int) -> tuple[float, float, bool]:
-    """CPU time [s] of an ``n_speeds`` up+down sweep (500-4000 Hz) in this process: its two branches as lanes of the
-    batched kernel, and serially with the single-state kernel (alternating, best of ``repeats``); whether the two
-    give the same rows bit for bit."""
-    spec = SweepSpec(system, tuple(np.linspace(500.0, 4000.0, n_speeds)), "both")
+def batched_sweep(system, n_speeds: int, repeats: int, torque_factors=(1.0,),
+                  batched: bool | None = True) -> tuple[float, float, bool]:
+    """CPU time [s] of up+down sweeps of ``n_speeds`` speeds (500-4000 Hz) at ``torque_factors`` x the system's torque
+    in this process: with ``run_sweeps(batched=batched)`` (their branches as lanes of the batched kernel) and
+    serially with the single-state kernel (alternating, best of ``repeats``); whether the two give the same rows bit
+    for bit."""
+    fms = tuple(np.linspace(500.0, 4000.0, n_speeds))
+    specs = [SweepSpec(system, fms, "both", torque_Nm=f * system.torque_Nm) for f in torque_factors]
     out = {}
 
-    def go(batched):
-        out[batched] = run_sweep(spec, progress=False, batched=batched)
+    def go(b):
+        out[b] = run_sweeps(specs, progress=False, batched=b)
 
-    go(True)  # compile / load the batched loop
-    tb, ts = alternating([lambda: go(True), lambda: go(False)], repeats)
-    same = all(np.array_equal(out[True].branches[b].state, out[False].branches[b].state)
-               and all(np.array_equal(out[True].branches[b].metrics[k], out[False].branches[b].metrics[k],
-                                      equal_nan=True) for k in out[True].branches[b].metrics)
-               for b in ("up", "down"))
+    go(batched)  # compile / load the batched loop
+    tb, ts = alternating([lambda: go(batched), lambda: go(False)], repeats)
+    same = all(np.array_equal(x.branches[b].state, y.branches[b].state)
+               and all(np.array_equal(x.branches[b].metrics[k], y.branches[b].metrics[k], equal_nan=True)
+                       for k in x.branches[b].metrics)
+               for x, y in zip(out[batched], out[False]) for b in ("up", "down"))
     return tb, ts, same
 
 
@@ -316,6 +320,12 @@ def main() -> None:
     print(f"{n_speeds}-speed up+down sweep (500-4000 Hz, 2-DOF), this process (CPU time, alternating): up and down "
           f"as 2 lanes of the batched kernel {tb:.2f} s, serial single-state {ts:.2f} s; ratio serial / batched "
           f"{ts / tb:.2f}; same rows bit for bit: {same}")
+    nt = 4
+    tb, ts, same = batched_sweep(s2, n_speeds // 4, 2, (1.0, 0.75, 0.5, 0.25), None)
+    print(f"{n_speeds // 4}-speed up+down sweeps at {nt} torques (300, 225, 150, 75 N m; 2-DOF), this process (CPU "
+          f"time, alternating): run_sweeps' default (their {2 * nt} branches as one {2 * nt}-lane batched task) "
+          f"{tb:.2f} s, serial single-state {ts:.2f} s; ratio serial / batched {ts / tb:.2f}; same rows bit for bit: "
+          f"{same}")
     wall4, info4 = sweep_wall(s4, n_speeds, 2)
     print(f"{n_speeds}-speed up+down sweep, 4-DOF (k_y = 200 N/um), 2 worker processes: {wall4:.2f} s wall; "
           f"mesh cycles integrated {info4['cycles']}, speeds at the cap {info4['capped']}")

@@ -21,6 +21,7 @@ from hacgear_core.kinds import load_model
 from hacgear_core.model.toml_writer import dumps as dump_toml
 from hacgear_core.studies import apply_key, load_study, parse_study, read_study, run_study
 from hacgear_core.studies.design import variant_model_text
+from hacgear_core.workers import executor_slots
 
 from _procs import kill_when, session_processes
 
@@ -234,7 +235,9 @@ def test_dask_local_cluster_gives_the_local_pool_results_bit_for_bit(tmp_path):
     run_study(spec, tmp_path / "pool.h5", workers=2, progress=False)
     with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
                                   dashboard_address=None) as cluster, distributed.Client(cluster) as client:
-        rep = run_study(spec, tmp_path / "dask.h5", executor=client.get_executor(), progress=False)
+        ex = client.get_executor()
+        assert executor_slots(ex) == 2               # the cluster's threads: the sweeps size batched tasks by it
+        rep = run_study(spec, tmp_path / "dask.h5", executor=ex, progress=False)
     assert [v.status for v in rep.variants] == ["computed"] * 2
     assert not any(v.tables_reused for v in rep.variants)       # own tables folder: computed on the cluster
     _assert_same_results(tmp_path / "pool.h5", tmp_path / "dask.h5")

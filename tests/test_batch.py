@@ -30,14 +30,17 @@ def spur():
     return model, tables
 
 
-def _run_both(sy, lanes, cycles, rec_every=1):
-    """Integrate each lane ``(state, mesh frequency [Hz], fext)`` with the batched kernel (all lanes at once) and
-    with the single-state kernel (one by one); return both results per lane."""
-    b = batch.Lanes(sy, len(lanes))
+def _run_both(sy, lanes, cycles, rec_every=1, width=None):
+    """Integrate each lane ``(state, mesh frequency [Hz], fext)`` with the batched kernel (all lanes at once, on the
+    loop compiled for ``width`` lanes: the spare ones idle, repeating lane 0 without records) and with the
+    single-state kernel (one by one); return both results per lane."""
+    b = batch.Lanes(sy, width or len(lanes))
     n_steps = cycles * SPC
     n_rec = n_steps // rec_every
     for j, (s, fm, fext) in enumerate(lanes):
         b.load(j, s, [0.0, 0.0, sy.reference_speed(fm)], 1.0 / (fm * SPC), fext, rec_every)
+    for j in range(len(lanes), b.B):
+        b.copy_lane(j, 0)
     b.run(n_steps, n_rec)
     out = []
     for j, (s0, fm, fext) in enumerate(lanes):
@@ -81,14 +84,15 @@ def test_lanes_equal_single_state_kernel_in_every_contact_state(spur):
     assert np.max(f[2]["coast_force_N"]) > 1e3                   # coast-flank impact
 
 
-def test_one_lane_and_drive_only_tables(spur):
-    """K = 1 and the one-sided loop (the tables' coast sides dropped), 2-DOF pair: equal to the single-state
-    kernel."""
+def test_one_lane_among_idle_ones_and_drive_only_tables(spur):
+    """One lane on the 4-lane loop (three idle lanes), the one-sided loop (the tables' coast sides dropped), 2-DOF
+    pair: equal to the single-state kernel."""
     model, tables = spur
     drive_only = {name: dataclasses.replace(t, coast=None) for name, t in tables.meshes.items()}
     sy = build_system(model, drive_only)
     assert not sy.two_sided
-    _assert_lanes_equal(_run_both(sy, [(static_state(sy), 1800.0, sy.fext_speed())], cycles=10, rec_every=SPC))
+    _assert_lanes_equal(_run_both(sy, [(static_state(sy), 1800.0, sy.fext_speed())], cycles=10, rec_every=SPC,
+                                  width=4))
 
 
 def test_rotating_carrier_coupled_supports_and_loads_per_lane():
@@ -110,12 +114,12 @@ def test_rotating_carrier_coupled_supports_and_loads_per_lane():
 
 @pytest.mark.parametrize("law", ["ste", "hac"])
 def test_force_laws_of_a_synthetic_pair(law):
-    """The conventional law (``ste``: LAW_LINEAR) and the table law on a softening synthetic pair, two speeds."""
+    """The conventional law (``ste``: LAW_LINEAR) and the table law on a softening synthetic pair, four speeds."""
     xs = 100.0 / 0.0634 / K
     sy = system(params(modal_damping_ratio=0.03, torque_Nm=100.0),
                 linear_fdf_table(K, offset_amplitude_m=0.2 * xs, x_max_m=6 * xs), law)
     assert sy.mesh_law.kernel_law == (kernels.LAW_LINEAR if law == "ste" else kernels.LAW_TABLE)
-    lanes = [(static_state(sy), fm, sy.fext_speed()) for fm in (1100.0, 2300.0)]
+    lanes = [(static_state(sy), fm, sy.fext_speed()) for fm in (1100.0, 1700.0, 2300.0, 2900.0)]
     _assert_lanes_equal(_run_both(sy, lanes, cycles=8, rec_every=3))
 
 

@@ -30,6 +30,7 @@ use the single-state kernel.  :class:`Lanes` holds the arrays of K lanes, :func:
 from __future__ import annotations
 
 import dataclasses
+from types import FunctionType
 
 import numpy as np
 from llvmlite import ir
@@ -48,8 +49,9 @@ __all__ = ["BATCH_COMPILE_CPU_S", "select_batch_kernel", "system_batch_kernel", 
            "VARIANT_DIAGONAL_K"]
 
 #: compile time of one batched loop (one system variant and lane count) on one core of the 2-core development
-#: machine [s]: 73-81 s measured for the 2-DOF spur pair at 2 and 4 lanes with an empty numba cache
-BATCH_COMPILE_CPU_S = 80
+#: machine [s]: 19.5-24.9 s measured for the spur pair (2-DOF at 4 lanes, 2- and 4-DOF at 8) with an empty numba
+#: cache
+BATCH_COMPILE_CPU_S = 25
 
 #: variant bit: the carrier rotates (each lane's effective stiffness and damping depend on its speed)
 VARIANT_ROTATING = 16
@@ -61,6 +63,10 @@ VARIANT_DIAGONAL_K = 32
 _NW_N = 7
 _NW_M = 20
 _NW_LANE = 8
+
+# each batched loop's two stage functions (_make_stages: with and without the coast terms); _make_batch_loop gives
+# every loop its own
+_stages_coast = _stages_plain = None
 
 
 def batch_rows(n: int, m: int, nnz: int, rotating: bool) -> int:
@@ -266,127 +272,143 @@ def _layout(n, m, nnz):
             o_c1, o_c2, o_c3, o_c4, o_gc1, o_gc2, o_h, o_hh, o_hh2, o_hhh, o_c6, o_c6q, o_dtau, o_tau, o_aq, o_ad)
 
 
-@njit(cache=True, inline="always", fastmath=False)
-def _lane_stages(coast, l, B, n, m, nnz, law, sparse, rot, diag, two_sided, sf, w, vf, mf, phase, tab, tint, tflt,
-                 lin, lint, kidx, kval, kd, nz, adt):
-    """Lane ``l``'s four RK4 stages of one step from the step-start products in ``w`` (``a1``..``a4`` written),
-    with the coast terms (``coast``) or without; without them and with ``two_sided``, whether the coast
-    approaches of stages 3 and 4 may touch (the step is then redone with them).  A function of its own so that
-    the caller decides ``coast`` outside its lane loop: decided inside, the compiler keeps both paths in the
-    vectorised loop (masked) and a step without coast contact costs twice as much."""
-    (mn, mm, o_w, o_rv, o_vmi, o_vc, o_vci, o_wv, o_cv, o_vvc, o_wvc, o_cvc, o_a1, o_a2, o_a3, o_a4, o_g0, o_p,
-     o_fm, r0, o_xq, o_xd, o_wq, o_wd, o_f1, o_f2, o_f3, o_f4, o_g1, o_gw1, o_g2, o_gw2, o_cq, o_cd, o_c1, o_c2,
-     o_c3, o_c4, o_gc1, o_gc2, o_h, o_hh, o_hh2, o_hhh, o_c6, o_c6q, o_dtau, o_tau, o_aq, o_ad) = _layout(n, m, nnz)
-    recheck = False
-    h = w[o_h * B + l]
-    hh = w[o_hh * B + l]
-    tau = w[o_tau * B + l]
-    dtau = w[o_dtau * B + l]
-    # stages 1 and 2: their lookups need only the state
-    for k in range(m):
-        xq = w[(o_xq + k) * B + l]
-        t1 = tau + phase[k] + w[(o_wq + k) * B + l]
-        t2 = _fma(hh, w[(o_wd + k) * B + l], tau + 0.5 * dtau + phase[k] + w[(o_wq + k) * B + l])
-        x2 = _fma(hh, w[(o_xd + k) * B + l], xq)
-        w[(o_f1 + k) * B + l] = _drive_force_l(law, k, tab, tint, tflt, lin, lint, t1, xq)
-        w[(o_f2 + k) * B + l] = _drive_force_l(law, k, tab, tint, tflt, lin, lint, t2, x2)
-        if coast:
-            cq = w[(o_cq + k) * B + l]
-            w[(o_c1 + k) * B + l] = _coast_row_l(tab, tint, tflt, m + k, t1, cq)
-            w[(o_c2 + k) * B + l] = _coast_row_l(tab, tint, tflt, m + k, t2,
-                                                 _fma(hh, w[(o_cd + k) * B + l], cq))
-    for i in range(n):
-        w[(o_g0 + i) * B + l] = w[(o_fm + i) * B + l]
-        w[(o_p + i) * B + l] = 0.0
-    _l_sub_k(n, sparse, diag, nnz, kidx, kval, kd, rot, w, o_aq, 1.0, sf, 0, w, o_g0, B, l)
-    _l_sub_k(n, sparse, diag, nnz, kidx, kval, kd, rot, w, o_aq, 1.0, sf, n, w, o_p, B, l)
-    _l_sub_c(n, sparse, adt, rot, w, o_ad, 1.0, sf, n, w, o_g0, B, l)
-    for k in range(m):
-        w[(o_g1 + k) * B + l] = _l_dot(n, sparse, nz, k, vf, 0, w, o_g0, B, l)
-        w[(o_gw1 + k) * B + l] = _l_dot(n, sparse, nz, k, vf, o_w, w, o_g0, B, l)
-        if coast:
-            w[(o_gc1 + k) * B + l] = _l_dot(n, sparse, nz, k, vf, o_vc, w, o_g0, B, l)
-    for i in range(n):
-        w[(o_a1 + i) * B + l] = w[(o_g0 + i) * B + l]
-    _l_sub_forces(n, m, sparse, nz, w, o_f1, vf, o_vmi, w, o_a1, B, l)
-    if coast:
-        _l_sub_forces(n, m, sparse, nz, w, o_c1, vf, o_vci, w, o_a1, B, l)
-    for i in range(n):
-        w[(o_a2 + i) * B + l] = _fma(hh, w[(o_p + i) * B + l], w[(o_g0 + i) * B + l])
-    _l_sub_c(n, sparse, adt, rot, w, o_ad, hh, w, o_a1, w, o_a2, B, l)
-    for k in range(m):
-        w[(o_g2 + k) * B + l] = _l_dot(n, sparse, nz, k, vf, 0, w, o_a2, B, l)
-        w[(o_gw2 + k) * B + l] = _l_dot(n, sparse, nz, k, vf, o_w, w, o_a2, B, l)
-        if coast:
-            w[(o_gc2 + k) * B + l] = _l_dot(n, sparse, nz, k, vf, o_vc, w, o_a2, B, l)
-    _l_sub_forces(n, m, sparse, nz, w, o_f2, vf, o_vmi, w, o_a2, B, l)
-    if coast:
-        _l_sub_forces(n, m, sparse, nz, w, o_c2, vf, o_vci, w, o_a2, B, l)
-    # stages 3 and 4
-    for k in range(m):
-        a = w[(o_g1 + k) * B + l]
-        b = w[(o_gw1 + k) * B + l]
-        c = w[(o_g2 + k) * B + l]
-        d = w[(o_gw2 + k) * B + l]
-        for j in range(m):
-            a = _fma(-mf[k * m + j], w[(o_f1 + j) * B + l], a)
-            b = _fma(-mf[o_wv + k * m + j], w[(o_f1 + j) * B + l], b)
-            c = _fma(-mf[k * m + j], w[(o_f2 + j) * B + l], c)
-            d = _fma(-mf[o_wv + k * m + j], w[(o_f2 + j) * B + l], d)
-        e1 = 0.0
-        e2 = 0.0
-        if coast:
-            e1 = w[(o_gc1 + k) * B + l]
-            e2 = w[(o_gc2 + k) * B + l]
-            for j in range(m):
-                a = _fma(-mf[o_vvc + k * m + j], w[(o_c1 + j) * B + l], a)
-                b = _fma(-mf[o_wvc + k * m + j], w[(o_c1 + j) * B + l], b)
-                c = _fma(-mf[o_vvc + k * m + j], w[(o_c2 + j) * B + l], c)
-                d = _fma(-mf[o_wvc + k * m + j], w[(o_c2 + j) * B + l], d)
-                e1 -= _fma(mf[o_cv + k * m + j], w[(o_f1 + j) * B + l],
-                           mf[o_cvc + k * m + j] * w[(o_c1 + j) * B + l])
-                e2 -= _fma(mf[o_cv + k * m + j], w[(o_f2 + j) * B + l],
-                           mf[o_cvc + k * m + j] * w[(o_c2 + j) * B + l])
-        t3 = _fma(hh, _fma(hh, b, w[(o_wd + k) * B + l]),
-                  tau + 0.5 * dtau + phase[k] + w[(o_wq + k) * B + l])
-        t4 = _fma(h, _fma(hh, d, w[(o_wd + k) * B + l]), tau + dtau + phase[k] + w[(o_wq + k) * B + l])
-        x3 = _fma(hh, _fma(hh, a, w[(o_xd + k) * B + l]), w[(o_xq + k) * B + l])
-        x4 = _fma(h, _fma(hh, c, w[(o_xd + k) * B + l]), w[(o_xq + k) * B + l])
-        w[(o_f3 + k) * B + l] = _drive_force_l(law, k, tab, tint, tflt, lin, lint, t3, x3)
-        w[(o_f4 + k) * B + l] = _drive_force_l(law, k, tab, tint, tflt, lin, lint, t4, x4)
-        if coast:
-            cq = w[(o_cq + k) * B + l]
-            cd = w[(o_cd + k) * B + l]
-            w[(o_c3 + k) * B + l] = _coast_row_l(tab, tint, tflt, m + k, t3,
-                                                 _fma(hh, _fma(hh, e1, cd), cq))
-            w[(o_c4 + k) * B + l] = _coast_row_l(tab, tint, tflt, m + k, t4, _fma(h, _fma(hh, e2, cd), cq))
-    # a3 = g0 + hh p - hh^2 K a1 - hh C a2 - F3 M^-1 v (- Fc3 M^-1 vc); a4 with h, h hh, a2, a3 (written
-    # out twice: a loop over the two stages here is not vectorised)
-    for i in range(n):
-        w[(o_a3 + i) * B + l] = _fma(hh, w[(o_p + i) * B + l], w[(o_g0 + i) * B + l])
-    _l_sub_k(n, sparse, diag, nnz, kidx, kval, kd, rot, w, o_aq, w[o_hh2 * B + l], w, o_a1, w, o_a3, B, l)
-    _l_sub_c(n, sparse, adt, rot, w, o_ad, hh, w, o_a2, w, o_a3, B, l)
-    _l_sub_forces(n, m, sparse, nz, w, o_f3, vf, o_vmi, w, o_a3, B, l)
-    if coast:
-        _l_sub_forces(n, m, sparse, nz, w, o_c3, vf, o_vci, w, o_a3, B, l)
-    for i in range(n):
-        w[(o_a4 + i) * B + l] = _fma(h, w[(o_p + i) * B + l], w[(o_g0 + i) * B + l])
-    _l_sub_k(n, sparse, diag, nnz, kidx, kval, kd, rot, w, o_aq, w[o_hhh * B + l], w, o_a2, w, o_a4, B, l)
-    _l_sub_c(n, sparse, adt, rot, w, o_ad, h, w, o_a3, w, o_a4, B, l)
-    _l_sub_forces(n, m, sparse, nz, w, o_f4, vf, o_vmi, w, o_a4, B, l)
-    if coast:
-        _l_sub_forces(n, m, sparse, nz, w, o_c4, vf, o_vci, w, o_a4, B, l)
-    if two_sided and not coast:
-        # staged one-sided: do the coast approaches of stages 3 and 4 stay apart?
-        for k in range(m):
-            lim = tflt[m + k, 2] - 1e-12
-            e1 = _l_dot(n, sparse, nz, k, vf, o_vc, w, o_a1, B, l)
-            e2 = _l_dot(n, sparse, nz, k, vf, o_vc, w, o_a2, B, l)
-            cq = w[(o_cq + k) * B + l]
-            cd = w[(o_cd + k) * B + l]
-            recheck = (recheck | (_fma(hh, _fma(hh, e1, cd), cq) >= lim)
-                       | (_fma(h, _fma(hh, e2, cd), cq) >= lim))
-    return recheck
+def _make_stages(name: str, n_fixed: int, m_fixed: int, variant: int, lanes: int, coast: bool):
+    """Compile every lane's four RK4 stages of one step from the step-start products in ``w`` (``a1``..``a4``
+    written), with the coast terms (``coast``) or without; without them and with ``two_sided``, the function
+    returns whether the coast approaches of stages 3 and 4 may touch in any lane (the step is then redone with
+    them).  A function of its own per ``coast``, so that the caller decides it outside the lane loop (decided
+    inside, the compiler keeps both paths in the vectorised loop, masked, and a step without coast contact costs
+    twice as much) and so that numba compiles the stages once, not once per call site (its inliner copies a
+    callee's IR block by block, with the whole scope each time: inlined twice, these stages took 53 of the loop's
+    95 s of compilation)."""
+    law = variant & 1
+    sparse = (variant & VARIANT_SPARSE) != 0
+    two_sided = (variant & VARIANT_TWO_SIDED) != 0
+    rot = (variant & VARIANT_ROTATING) != 0
+    diag = (variant & VARIANT_DIAGONAL_K) != 0
+    B = lanes
+
+    def stages(sf, w, vf, mf, phase, tab, tint, tflt, lin, lint, kidx, kval, kd, nz, adt):
+        n = _ix(n_fixed if n_fixed else sf.shape[0] // (2 * B))
+        m = _ix(m_fixed if m_fixed else phase.shape[0])
+        nnz = kidx.shape[0]
+        (mn, mm, o_w, o_rv, o_vmi, o_vc, o_vci, o_wv, o_cv, o_vvc, o_wvc, o_cvc, o_a1, o_a2, o_a3, o_a4, o_g0, o_p,
+         o_fm, r0, o_xq, o_xd, o_wq, o_wd, o_f1, o_f2, o_f3, o_f4, o_g1, o_gw1, o_g2, o_gw2, o_cq, o_cd, o_c1, o_c2,
+         o_c3, o_c4, o_gc1, o_gc2, o_h, o_hh, o_hh2, o_hhh, o_c6, o_c6q, o_dtau, o_tau, o_aq, o_ad) = _layout(n, m, nnz)
+        recheck = False
+        for l in range(B):
+            h = w[o_h * B + l]
+            hh = w[o_hh * B + l]
+            tau = w[o_tau * B + l]
+            dtau = w[o_dtau * B + l]
+            # stages 1 and 2: their lookups need only the state
+            for k in range(m):
+                xq = w[(o_xq + k) * B + l]
+                t1 = tau + phase[k] + w[(o_wq + k) * B + l]
+                t2 = _fma(hh, w[(o_wd + k) * B + l], tau + 0.5 * dtau + phase[k] + w[(o_wq + k) * B + l])
+                x2 = _fma(hh, w[(o_xd + k) * B + l], xq)
+                w[(o_f1 + k) * B + l] = _drive_force_l(law, k, tab, tint, tflt, lin, lint, t1, xq)
+                w[(o_f2 + k) * B + l] = _drive_force_l(law, k, tab, tint, tflt, lin, lint, t2, x2)
+                if coast:
+                    cq = w[(o_cq + k) * B + l]
+                    w[(o_c1 + k) * B + l] = _coast_row_l(tab, tint, tflt, m + k, t1, cq)
+                    w[(o_c2 + k) * B + l] = _coast_row_l(tab, tint, tflt, m + k, t2,
+                                                         _fma(hh, w[(o_cd + k) * B + l], cq))
+            for i in range(n):
+                w[(o_g0 + i) * B + l] = w[(o_fm + i) * B + l]
+                w[(o_p + i) * B + l] = 0.0
+            _l_sub_k(n, sparse, diag, nnz, kidx, kval, kd, rot, w, o_aq, 1.0, sf, 0, w, o_g0, B, l)
+            _l_sub_k(n, sparse, diag, nnz, kidx, kval, kd, rot, w, o_aq, 1.0, sf, n, w, o_p, B, l)
+            _l_sub_c(n, sparse, adt, rot, w, o_ad, 1.0, sf, n, w, o_g0, B, l)
+            for k in range(m):
+                w[(o_g1 + k) * B + l] = _l_dot(n, sparse, nz, k, vf, 0, w, o_g0, B, l)
+                w[(o_gw1 + k) * B + l] = _l_dot(n, sparse, nz, k, vf, o_w, w, o_g0, B, l)
+                if coast:
+                    w[(o_gc1 + k) * B + l] = _l_dot(n, sparse, nz, k, vf, o_vc, w, o_g0, B, l)
+            for i in range(n):
+                w[(o_a1 + i) * B + l] = w[(o_g0 + i) * B + l]
+            _l_sub_forces(n, m, sparse, nz, w, o_f1, vf, o_vmi, w, o_a1, B, l)
+            if coast:
+                _l_sub_forces(n, m, sparse, nz, w, o_c1, vf, o_vci, w, o_a1, B, l)
+            for i in range(n):
+                w[(o_a2 + i) * B + l] = _fma(hh, w[(o_p + i) * B + l], w[(o_g0 + i) * B + l])
+            _l_sub_c(n, sparse, adt, rot, w, o_ad, hh, w, o_a1, w, o_a2, B, l)
+            for k in range(m):
+                w[(o_g2 + k) * B + l] = _l_dot(n, sparse, nz, k, vf, 0, w, o_a2, B, l)
+                w[(o_gw2 + k) * B + l] = _l_dot(n, sparse, nz, k, vf, o_w, w, o_a2, B, l)
+                if coast:
+                    w[(o_gc2 + k) * B + l] = _l_dot(n, sparse, nz, k, vf, o_vc, w, o_a2, B, l)
+            _l_sub_forces(n, m, sparse, nz, w, o_f2, vf, o_vmi, w, o_a2, B, l)
+            if coast:
+                _l_sub_forces(n, m, sparse, nz, w, o_c2, vf, o_vci, w, o_a2, B, l)
+            # stages 3 and 4
+            for k in range(m):
+                a = w[(o_g1 + k) * B + l]
+                b = w[(o_gw1 + k) * B + l]
+                c = w[(o_g2 + k) * B + l]
+                d = w[(o_gw2 + k) * B + l]
+                for j in range(m):
+                    a = _fma(-mf[k * m + j], w[(o_f1 + j) * B + l], a)
+                    b = _fma(-mf[o_wv + k * m + j], w[(o_f1 + j) * B + l], b)
+                    c = _fma(-mf[k * m + j], w[(o_f2 + j) * B + l], c)
+                    d = _fma(-mf[o_wv + k * m + j], w[(o_f2 + j) * B + l], d)
+                e1 = 0.0
+                e2 = 0.0
+                if coast:
+                    e1 = w[(o_gc1 + k) * B + l]
+                    e2 = w[(o_gc2 + k) * B + l]
+                    for j in range(m):
+                        a = _fma(-mf[o_vvc + k * m + j], w[(o_c1 + j) * B + l], a)
+                        b = _fma(-mf[o_wvc + k * m + j], w[(o_c1 + j) * B + l], b)
+                        c = _fma(-mf[o_vvc + k * m + j], w[(o_c2 + j) * B + l], c)
+                        d = _fma(-mf[o_wvc + k * m + j], w[(o_c2 + j) * B + l], d)
+                        e1 -= _fma(mf[o_cv + k * m + j], w[(o_f1 + j) * B + l],
+                                   mf[o_cvc + k * m + j] * w[(o_c1 + j) * B + l])
+                        e2 -= _fma(mf[o_cv + k * m + j], w[(o_f2 + j) * B + l],
+                                   mf[o_cvc + k * m + j] * w[(o_c2 + j) * B + l])
+                t3 = _fma(hh, _fma(hh, b, w[(o_wd + k) * B + l]),
+                          tau + 0.5 * dtau + phase[k] + w[(o_wq + k) * B + l])
+                t4 = _fma(h, _fma(hh, d, w[(o_wd + k) * B + l]), tau + dtau + phase[k] + w[(o_wq + k) * B + l])
+                x3 = _fma(hh, _fma(hh, a, w[(o_xd + k) * B + l]), w[(o_xq + k) * B + l])
+                x4 = _fma(h, _fma(hh, c, w[(o_xd + k) * B + l]), w[(o_xq + k) * B + l])
+                w[(o_f3 + k) * B + l] = _drive_force_l(law, k, tab, tint, tflt, lin, lint, t3, x3)
+                w[(o_f4 + k) * B + l] = _drive_force_l(law, k, tab, tint, tflt, lin, lint, t4, x4)
+                if coast:
+                    cq = w[(o_cq + k) * B + l]
+                    cd = w[(o_cd + k) * B + l]
+                    w[(o_c3 + k) * B + l] = _coast_row_l(tab, tint, tflt, m + k, t3,
+                                                         _fma(hh, _fma(hh, e1, cd), cq))
+                    w[(o_c4 + k) * B + l] = _coast_row_l(tab, tint, tflt, m + k, t4, _fma(h, _fma(hh, e2, cd), cq))
+            # a3 = g0 + hh p - hh^2 K a1 - hh C a2 - F3 M^-1 v (- Fc3 M^-1 vc); a4 with h, h hh, a2, a3 (written
+            # out twice: a loop over the two stages here is not vectorised)
+            for i in range(n):
+                w[(o_a3 + i) * B + l] = _fma(hh, w[(o_p + i) * B + l], w[(o_g0 + i) * B + l])
+            _l_sub_k(n, sparse, diag, nnz, kidx, kval, kd, rot, w, o_aq, w[o_hh2 * B + l], w, o_a1, w, o_a3, B, l)
+            _l_sub_c(n, sparse, adt, rot, w, o_ad, hh, w, o_a2, w, o_a3, B, l)
+            _l_sub_forces(n, m, sparse, nz, w, o_f3, vf, o_vmi, w, o_a3, B, l)
+            if coast:
+                _l_sub_forces(n, m, sparse, nz, w, o_c3, vf, o_vci, w, o_a3, B, l)
+            for i in range(n):
+                w[(o_a4 + i) * B + l] = _fma(h, w[(o_p + i) * B + l], w[(o_g0 + i) * B + l])
+            _l_sub_k(n, sparse, diag, nnz, kidx, kval, kd, rot, w, o_aq, w[o_hhh * B + l], w, o_a2, w, o_a4, B, l)
+            _l_sub_c(n, sparse, adt, rot, w, o_ad, h, w, o_a3, w, o_a4, B, l)
+            _l_sub_forces(n, m, sparse, nz, w, o_f4, vf, o_vmi, w, o_a4, B, l)
+            if coast:
+                _l_sub_forces(n, m, sparse, nz, w, o_c4, vf, o_vci, w, o_a4, B, l)
+            if two_sided and not coast:
+                # staged one-sided: do the coast approaches of stages 3 and 4 stay apart?
+                for k in range(m):
+                    lim = tflt[m + k, 2] - 1e-12
+                    e1 = _l_dot(n, sparse, nz, k, vf, o_vc, w, o_a1, B, l)
+                    e2 = _l_dot(n, sparse, nz, k, vf, o_vc, w, o_a2, B, l)
+                    cq = w[(o_cq + k) * B + l]
+                    cd = w[(o_cd + k) * B + l]
+                    recheck = (recheck | (_fma(hh, _fma(hh, e1, cd), cq) >= lim)
+                               | (_fma(h, _fma(hh, e2, cd), cq) >= lim))
+        return recheck
+
+    stages.__name__ = stages.__qualname__ = name
+    return njit(cache=True, fastmath=False, forceinline=True, pipeline_class=_NoAliasCompiler)(stages)
 
 
 def _make_batch_loop(name: str, n_fixed: int, m_fixed: int, variant: int, lanes: int):
@@ -397,7 +419,6 @@ def _make_batch_loop(name: str, n_fixed: int, m_fixed: int, variant: int, lanes:
     sparse_c = (variant & VARIANT_SPARSE) != 0
     two_sided_c = (variant & VARIANT_TWO_SIDED) != 0
     rot_c = (variant & VARIANT_ROTATING) != 0
-    diag_c = (variant & VARIANT_DIAGONAL_K) != 0
     B = lanes
 
     def loop(sf, kf, n_steps, H, FEXT, REC_EVERY, CNT, rec_state, rec_out, NREC, mats, vf, mf, phase, scal, tab,
@@ -408,7 +429,6 @@ def _make_batch_loop(name: str, n_fixed: int, m_fixed: int, variant: int, lanes:
         sparse = sparse_c
         two_sided = two_sided_c
         rot = rot_c
-        diag = diag_c
         nnz = kidx.shape[0]
         # vector and matrix blocks of vf and mf (kernels.select_kernel's vecs and mmat)
         (mn, mm, o_w, o_rv, o_vmi, o_vc, o_vci, o_wv, o_cv, o_vvc, o_wvc, o_cvc, o_a1, o_a2, o_a3, o_a4, o_g0, o_p,
@@ -471,17 +491,10 @@ def _make_batch_loop(name: str, n_fixed: int, m_fixed: int, variant: int, lanes:
                         coast_on = coast_on | (cq >= lim) | (_fma(hh, cd, cq) >= lim)
                     kf[(3 + k) * B + l] += 1.0 if out_of_range else 0.0
             while True:
-                recheck = False
                 if coast_on:
-                    for l in range(B):
-                        _lane_stages(True, l, B, n, m, nnz, law, sparse, rot, diag, two_sided, sf, w, vf, mf, phase,
-                                     tab, tint, tflt, lin, lint, kidx, kval, kd, nz, adt)
-                else:
-                    for l in range(B):
-                        recheck = recheck | _lane_stages(False, l, B, n, m, nnz, law, sparse, rot, diag, two_sided,
-                                                         sf, w, vf, mf, phase, tab, tint, tflt, lin, lint, kidx,
-                                                         kval, kd, nz, adt)
-                if not recheck:
+                    _stages_coast(sf, w, vf, mf, phase, tab, tint, tflt, lin, lint, kidx, kval, kd, nz, adt)
+                    break
+                if not _stages_plain(sf, w, vf, mf, phase, tab, tint, tflt, lin, lint, kidx, kval, kd, nz, adt):
                     break
                 coast_on = True
             for l in range(B):
@@ -546,7 +559,13 @@ def _make_batch_loop(name: str, n_fixed: int, m_fixed: int, variant: int, lanes:
             CNT[l, 1] += n_steps
         return 0
 
-    loop.__name__ = loop.__qualname__ = name
+    # the stage functions reach the loop as globals of its own, not as closure cells: numba keys its on-disk cache
+    # by the closure cells' pickled contents, and a pickled dispatcher differs from process to process
+    stage_globals = dict(globals(), _stages_coast=_make_stages(f"{name}_stages1", n_fixed, m_fixed, variant, lanes,
+                                                               True),
+                         _stages_plain=_make_stages(f"{name}_stages0", n_fixed, m_fixed, variant, lanes, False))
+    loop = FunctionType(loop.__code__, stage_globals, name, loop.__defaults__, loop.__closure__)
+    loop.__qualname__ = name
     return njit(cache=True, fastmath=False, pipeline_class=_NoAliasCompiler)(loop)
 
 

@@ -1,10 +1,13 @@
 """The batched kernel (hacgear_core.dynamics.batch): every lane equals the single-state kernel bit for bit — lanes at
 different speeds and in different contact states (loaded, contact loss, coast-flank impacts), lane counts that are
 not a multiple of the vector width, a rotating carrier with coupled supports, the conventional force law — and the
-batched sweeps equal the serial ones, in this process and on a process pool, and how their branches become tasks."""
+batched sweeps equal the serial ones, in this process and on a process pool, and how their branches become tasks;
+a fresh process loads a compiled loop from numba's cache."""
 from __future__ import annotations
 
 import dataclasses
+import subprocess
+import sys
 from types import SimpleNamespace
 
 import numpy as np
@@ -199,3 +202,19 @@ def test_plan_lanes_splits_each_system_over_the_slots():
 def test_helical_meshes_are_refused():
     with pytest.raises(ValueError, match="LAW_TABLE and LAW_LINEAR"):
         batch.select_batch_kernel(kernels.LAW_TWIST, 12, 1, False, False, 2)
+
+
+def test_a_fresh_process_loads_the_batched_loop_from_the_cache():
+    """Once compiled (here by the tests above: the 2-DOF pair's two-sided 4-lane loop), a batched loop is loaded
+    from numba's on-disk cache by every later process, not compiled again: the loop's cache key (its closure
+    variables) is the same in every process."""
+    code = ("from hacgear_core.dynamics import batch\n"
+            "from hacgear_core.kinds import build_system, load_model\n"
+            "from hacgear_core.tables import load_system_tables\n"
+            "model = load_model('spur_28t_asym')\n"
+            "sy = build_system(model, load_system_tables(model.path))\n"
+            "print(batch.Lanes(sy, 4).prepare()[0])\n")
+    runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
+            for _ in range(2)]
+    assert all(r.returncode == 0 for r in runs), [r.stderr[-2000:] for r in runs]
+    assert runs[1].stdout.split() == ["False"], runs[1].stdout

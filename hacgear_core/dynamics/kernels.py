@@ -483,13 +483,22 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
                     wk[o_xq + k], wk[o_xd + k], wk[o_wq + k], wk[o_wd + k], wk[o_cq + k], wk[o_cd + k] = _dot_state(
                         n, nz, k, vf, o_w, o_vc, s)
                     continue
-                wk[o_xq + k] = _dot(n, sparse, nz, k, vf, 0, s, 0)
-                wk[o_xd + k] = _dot(n, sparse, nz, k, vf, 0, s, n)
-                wk[o_wq + k] = _dot(n, sparse, nz, k, vf, o_w, s, 0)
-                wk[o_wd + k] = _dot(n, sparse, nz, k, vf, o_w, s, n)
+                # all products first, then their stores: numba cannot tell the compiler that wk and s never overlap,
+                # so a store between two products makes it load s and vf again (two-sided 4-DOF loop 4 % faster on
+                # an Intel Xeon, 2026-12-06)
+                xq = _dot(n, sparse, nz, k, vf, 0, s, 0)
+                xd = _dot(n, sparse, nz, k, vf, 0, s, n)
+                wq = _dot(n, sparse, nz, k, vf, o_w, s, 0)
+                wd = _dot(n, sparse, nz, k, vf, o_w, s, n)
                 if two_sided or twist:
-                    wk[o_cq + k] = _dot(n, sparse, nz, k, vf, o_vc, s, 0)
-                    wk[o_cd + k] = _dot(n, sparse, nz, k, vf, o_vc, s, n)
+                    cq = _dot(n, sparse, nz, k, vf, o_vc, s, 0)
+                    cd = _dot(n, sparse, nz, k, vf, o_vc, s, n)
+                    wk[o_cq + k] = cq
+                    wk[o_cd + k] = cd
+                wk[o_xq + k] = xq
+                wk[o_xd + k] = xd
+                wk[o_wq + k] = wq
+                wk[o_wd + k] = wd
             if count:
                 for k in range(m):
                     if wk[o_xq + k] > tflt[k, 3] or (two_sided and wk[o_cq + k] > tflt[m + k, 3]) or (

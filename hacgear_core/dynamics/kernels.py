@@ -484,8 +484,7 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
                         n, nz, k, vf, o_w, o_vc, s)
                     continue
                 # all products first, then their stores: numba cannot tell the compiler that wk and s never overlap,
-                # so a store between two products makes it load s and vf again (two-sided 4-DOF loop 4 % faster on
-                # an Intel Xeon, 2026-12-06)
+                # so a store between two products would make it load s and vf again
                 xq = _dot(n, sparse, nz, k, vf, 0, s, 0)
                 xd = _dot(n, sparse, nz, k, vf, 0, s, n)
                 wq = _dot(n, sparse, nz, k, vf, o_w, s, 0)

@@ -117,3 +117,28 @@ def test_shafts_do_not_load_the_bearings_twice():
     assert eq.mesh_forces_N[0] == pytest.approx(f, rel=1e-9)
     y = [eq.q[i] for i, d in enumerate(sy.dof_names) if d.endswith("u_loa")]
     np.testing.assert_allclose(np.abs(y), f / 200e6, rtol=1e-9)
+
+
+def test_integrate_refuses_written_arrays_that_share_memory():
+    """The kernel writes the state, the kinematics and the records and is compiled with its arrays marked noalias:
+    two of them overlapping in memory is refused by name before any step; views of one buffer that do not overlap
+    (records side by side in one array) integrate like separate arrays."""
+    sy = system(params(), linear_fdf_table(K))
+    n, w = sy.n, sy.record_width
+    fext = sy.fext_speed()
+    h = 1e-6
+    buf = np.zeros(2 * n + 3)
+    buf[2 * n + 2] = 100.0
+    with pytest.raises(ValueError, match="s and kin share memory"):
+        sy.integrate(buf[:2 * n], buf[2 * n - 1:2 * n + 2], 10, h, fext)
+    s, kin = buf[:2 * n].copy(), buf[2 * n:].copy()
+    with pytest.raises(ValueError, match="s and rec_state share memory"):
+        sy.integrate(s, kin, 10, h, fext, rec_every=1, rec_state=s.reshape(1, 2 * n), rec_out=np.zeros((4, w)))
+    assert np.array_equal(s, buf[:2 * n]) and np.array_equal(kin, buf[2 * n:])  # refused before any step
+    rec = np.zeros(4 * (2 * n + w))
+    s2, kin2 = s.copy(), kin.copy()
+    assert sy.integrate(s, kin, 10, h, fext, rec_every=1, rec_state=rec[:8 * n].reshape(4, 2 * n),
+                        rec_out=rec[8 * n:].reshape(4, w)) == 4
+    rs, ro = np.zeros((4, 2 * n)), np.zeros((4, w))
+    assert sy.integrate(s2, kin2, 10, h, fext, rec_every=1, rec_state=rs, rec_out=ro) == 4
+    assert kin[0] > 0.0 and np.array_equal(s, s2) and np.array_equal(rec[:8 * n].reshape(4, 2 * n), rs)

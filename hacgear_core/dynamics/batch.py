@@ -37,12 +37,11 @@ from llvmlite import ir
 from numba import njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
-from numba.core.compiler import CompilerBase, DefaultPassBuilder
 
 from hacgear_core.dynamics import kernels
 from hacgear_core.dynamics.kernels import (LAW_LINEAR, LAW_TABLE, REC, REC_COAST_APPROACH, REC_COAST_FORCE,
                                            REC_DEFLECTION, REC_DTE, REC_FORCE, REC_POSITION, VARIANT_SPARSE,
-                                           VARIANT_TWO_SIDED, _ix)
+                                           VARIANT_TWO_SIDED, _NoAliasCompiler, _ix)
 
 __all__ = ["BATCH_COMPILE_CPU_S", "select_batch_kernel", "system_batch_kernel", "batch_constants", "batch_rows",
            "batch_supported", "lane_damping", "lanes_compatible", "Lanes", "run_lanes", "VARIANT_ROTATING",
@@ -567,16 +566,6 @@ def _make_batch_loop(name: str, n_fixed: int, m_fixed: int, variant: int, lanes:
     loop = FunctionType(loop.__code__, stage_globals, name, loop.__defaults__, loop.__closure__)
     loop.__qualname__ = name
     return njit(cache=True, fastmath=False, pipeline_class=_NoAliasCompiler)(loop)
-
-
-class _NoAliasCompiler(CompilerBase):
-    """numba's nopython pipeline with the array arguments marked ``noalias`` (``Flags.noalias``): the batched
-    loop's arrays never overlap, and without the mark the compiler must assume that a store into the scratch may
-    change the tables it gathers from, which keeps it from vectorising the lane loops."""
-
-    def define_pipelines(self):
-        self.state.flags.noalias = True
-        return [DefaultPassBuilder.define_nopython_pipeline(self.state)]
 
 
 _LOOPS: dict = {}

@@ -66,6 +66,7 @@ import time
 import numpy as np
 from numba import njit, typeof
 from numba.core import event
+from numba.core.compiler import CompilerBase, DefaultPassBuilder
 
 from hacgear_core.encodings import Experiment
 from hacgear_core.tables.interp import periodic_cell, deflection_cell, trilinear_flat
@@ -116,6 +117,17 @@ REC_COAST_APPROACH = 4
 REC_COAST_FORCE = 5
 
 _FM = {"contract"}
+
+
+class _NoAliasCompiler(CompilerBase):
+    """numba's nopython pipeline with the array arguments marked ``noalias`` (``Flags.noalias``), for the compiled
+    loops whose arrays never overlap: without the mark the compiler must assume that a store into the scratch or
+    the state may change the mesh vectors, matrices and tables, and loads them again after every store (and, in the
+    batched loop, cannot vectorise the lane loops)."""
+
+    def define_pipelines(self):
+        self.state.flags.noalias = True
+        return [DefaultPassBuilder.define_nopython_pipeline(self.state)]
 
 
 @njit(cache=True, inline="always")
@@ -483,8 +495,7 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
                     wk[o_xq + k], wk[o_xd + k], wk[o_wq + k], wk[o_wd + k], wk[o_cq + k], wk[o_cd + k] = _dot_state(
                         n, nz, k, vf, o_w, o_vc, s)
                     continue
-                # all products first, then their stores: numba cannot tell the compiler that wk and s never overlap,
-                # so a store between two products would make it load s and vf again
+                # all products first, then their stores (each product reads only s and vf)
                 xq = _dot(n, sparse, nz, k, vf, 0, s, 0)
                 xd = _dot(n, sparse, nz, k, vf, 0, s, n)
                 wq = _dot(n, sparse, nz, k, vf, o_w, s, 0)
@@ -686,7 +697,7 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
         return nrec
 
     loop.__name__ = loop.__qualname__ = name
-    return njit(cache=True, fastmath=_FM)(loop)
+    return njit(cache=True, fastmath=_FM, pipeline_class=_NoAliasCompiler)(loop)
 
 
 
@@ -732,7 +743,9 @@ def select_kernel(law: int, n: int, m: int, two_sided: bool = False):
         nz (m, 1 + w) int64: per mesh the count then the indices of the DOFs where its v, w, vc, M^-1 v or
             M^-1 vc is nonzero (the generic loop runs its mesh products over them; the specialised loops are dense)
 
-    and it returns the number of records written (module docstring).  ``law = LAW_TWIST`` (helical meshes, one-sided):
+    and it returns the number of records written (module docstring).  The arrays the loop writes (``s``, ``kin``,
+    the records, ``work``, ``eff``, ``kval``) must not overlap each other or the others: the loop is compiled with
+    its array arguments marked ``noalias``.  ``law = LAW_TWIST`` (helical meshes, one-sided):
     ``vecs[4]``, ``vecs[5]`` and the coast entries of ``mmat`` hold the twist vectors t_k and M^-1 t_k, the table
     rows are those of :func:`flatten_twist_tables`.
     """

@@ -47,6 +47,16 @@ from hacgear_core.tables.fdf import static_stiffness
 __all__ = ["GearBody", "MeshCoupling", "LumpedSystem", "KernelArrays"]
 
 
+def _check_disjoint(**arrays: np.ndarray) -> None:
+    """ValueError naming the first two of ``arrays`` (name -> array) that share memory."""
+    items = list(arrays.items())
+    for i, (a, x) in enumerate(items):
+        for b, y in items[i + 1:]:
+            if np.shares_memory(x, y):
+                raise ValueError(f"integrate: {a} and {b} share memory; the kernel writes both, so each must be an "
+                                 f"array of its own (e.g. {b}.copy())")
+
+
 @dataclass(frozen=True)
 class GearBody:
     """One gear of a lumped system.
@@ -570,10 +580,16 @@ class LumpedSystem:
     def integrate(self, s: np.ndarray, kin: np.ndarray, n_steps: int, h: float, fext: np.ndarray, *,
                   mode: int = kernels.MODE_SPEED, rec_every: int = 0, rec_state: np.ndarray | None = None,
                   rec_out: np.ndarray | None = None) -> int:
-        """Advance ``n_steps`` RK4 steps of ``h`` [s] in place (see :mod:`~hacgear_core.dynamics.kernels`)."""
+        """Advance ``n_steps`` RK4 steps of ``h`` [s] in place (see :mod:`~hacgear_core.dynamics.kernels`).
+
+        ``s``, ``kin`` and the records are written: each must be an array of its own (ValueError where two share
+        memory; the kernel is compiled with its arrays marked ``noalias``)."""
         if rec_state is None:
             rec_state = np.zeros((0, 2 * self.n))
             rec_out = np.zeros((0, self.record_width))
+            _check_disjoint(s=s, kin=kin)
+        else:
+            _check_disjoint(s=s, kin=kin, rec_state=rec_state, rec_out=rec_out)
         if self._kernel_ready is not self.kernel:
             self.prepare_kernel()
         return self.kernel(s, kin, int(n_steps), float(h), int(mode), fext, int(rec_every), rec_state, rec_out,

@@ -204,6 +204,7 @@ def test_every_system_validates_and_equals_the_native_fmu(system, tmp_path):
         import build_fmu as script
     finally:
         sys.path.remove(str(ROOT))
+    ecos_missing = _ecos_missing()
     for version in (2, 3):
         py = build_fmu(ROOT / "models" / system, tmp_path / "py", fmi_version=version, backend="pythonfmu")
         nat = build_fmu(ROOT / "models" / system, tmp_path / "nat", fmi_version=version, backend="native")
@@ -216,12 +217,27 @@ def test_every_system_validates_and_equals_the_native_fmu(system, tmp_path):
             assert np.max(np.abs(x - y)) <= 1e-9 * max(np.max(np.abs(y)), 1e-300), (system, version, name)
         if version == 2:
             for fmu in (py, nat):
-                _assert_libcosim_and_ecos_equal_fmpy(fmu, b)
+                _assert_libcosim_and_ecos_equal_fmpy(fmu, b, ecos=not ecos_missing)
+    if ecos_missing:
+        pytest.skip(f"everything but the Ecos runs passed; {ecos_missing}")
 
 
-def _assert_libcosim_and_ecos_equal_fmpy(fmu, reference, h=1e-4, n=50):
-    """The FMI 2.0 FMU's first mesh force under libcosim and under Ecos (in-process) at the communication step
-    ``h`` [s] equals fmpy's ``reference`` run of the same default experiment step for step (<= 1e-9 relative)."""
+def _ecos_missing() -> str:
+    """Why the Ecos master cannot run here ('' where it can): ecospy not installed, or its library not loading
+    (it needs Debian's libtbb12, which .ci/run installs)."""
+    try:
+        import ecospy  # noqa: F401
+    except ImportError:
+        return "ecospy is not installed (pip install ecospy)"
+    except OSError as exc:  # its libecosc.so loads libtbb
+        return f"ecospy's library does not load ({exc}): apt-get install libtbb12"
+    return ""
+
+
+def _assert_libcosim_and_ecos_equal_fmpy(fmu, reference, h=1e-4, n=50, ecos=True):
+    """The FMI 2.0 FMU's first mesh force under libcosim and (``ecos``) under Ecos (in-process) at the
+    communication step ``h`` [s] equals fmpy's ``reference`` run of the same default experiment step for step
+    (<= 1e-9 relative)."""
     from fmpy import read_model_description
     from libcosimpy.CosimExecution import CosimExecution
     from libcosimpy.CosimObserver import CosimObserver
@@ -241,7 +257,9 @@ def _assert_libcosim_and_ecos_equal_fmpy(fmu, reference, h=1e-4, n=50):
         assert ex.step(1)
         got.append(obs.last_real_values(i, [vr])[0])
     assert np.max(np.abs(np.asarray(got) - ref)) <= tol, (fmu.name, "libcosim", name)
-    import ecospy  # needs Debian's libtbb12, which .ci/run installs
+    if not ecos:
+        return
+    import ecospy
 
     structure = ecospy.EcosSimulationStructure()
     structure.add_model("g", str(fmu))

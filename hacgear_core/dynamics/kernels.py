@@ -519,7 +519,8 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
             # vc . a2 are the coast stages' e1, e2) and restaged with them if a coast approach reaches within 1e-12 m
             # of its table's onset (far above the rounding of the two ways of forming it), so skipping is exact.  Under
             # load the coast flanks stay apart and a two-sided step costs four dot products per mesh more than a
-            # one-sided one (measured: 1.02-1.03x per mesh cycle, against 1.3x with the coast terms in every step).
+            # one-sided one (measured on the spur 4-DOF pair: about 1.04x per mesh cycle, against 1.3x with the coast
+            # terms in every step; docs/dynamics.md, "What the check costs").
             coast_on = twist
             if two_sided:
                 for k in range(m):

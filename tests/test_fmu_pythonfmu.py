@@ -23,7 +23,8 @@ pytest.importorskip("pythonfmu")
 pytest.importorskip("pythonfmu3")
 
 from test_fmu import (_ISOLATED_RUN, _Low, _isolated_site, _library,  # noqa: E402
-                      assert_contact_code_under_libcosim_and_ecos, assert_fmu_time_series_equals_library)
+                      assert_contact_code_under_libcosim_and_ecos, assert_fmu_time_series_equals_library,
+                      ecos_missing)
 
 from hacgear_core.errors import HacgearError  # noqa: E402
 from hacgear_core.fmu import build_fmu  # noqa: E402
@@ -204,7 +205,7 @@ def test_every_system_validates_and_equals_the_native_fmu(system, tmp_path):
         import build_fmu as script
     finally:
         sys.path.remove(str(ROOT))
-    ecos_missing = _ecos_missing()
+    ecos_why = ecos_missing()
     for version in (2, 3):
         py = build_fmu(ROOT / "models" / system, tmp_path / "py", fmi_version=version, backend="pythonfmu")
         nat = build_fmu(ROOT / "models" / system, tmp_path / "nat", fmi_version=version, backend="native")
@@ -217,21 +218,9 @@ def test_every_system_validates_and_equals_the_native_fmu(system, tmp_path):
             assert np.max(np.abs(x - y)) <= 1e-9 * max(np.max(np.abs(y)), 1e-300), (system, version, name)
         if version == 2:
             for fmu in (py, nat):
-                _assert_libcosim_and_ecos_equal_fmpy(fmu, b, ecos=not ecos_missing)
-    if ecos_missing:
-        pytest.skip(f"everything but the Ecos runs passed; {ecos_missing}")
-
-
-def _ecos_missing() -> str:
-    """Why the Ecos master cannot run here ('' where it can): ecospy not installed, or its library not loading
-    (it needs Debian's libtbb12, which .ci/run installs)."""
-    try:
-        import ecospy  # noqa: F401
-    except ImportError:
-        return "ecospy is not installed (pip install ecospy)"
-    except OSError as exc:  # its libecosc.so loads libtbb
-        return f"ecospy's library does not load ({exc}): apt-get install libtbb12"
-    return ""
+                _assert_libcosim_and_ecos_equal_fmpy(fmu, b, ecos=not ecos_why)
+    if ecos_why:
+        pytest.skip(f"everything but the Ecos runs passed; {ecos_why}")
 
 
 def _assert_libcosim_and_ecos_equal_fmpy(fmu, reference, h=1e-4, n=50, ecos=True):

@@ -3,12 +3,17 @@ output paths checked before any work."""
 from __future__ import annotations
 
 import argparse
+import json
+import subprocess
+import sys
 import time
 from pathlib import Path
 
 import pytest
 
 from hacgear_core.cli import build_parser, main
+from hacgear_core.cli._commands import COMMANDS
+from hacgear_core.model import shipped_systems
 from hacgear_core.outpaths import check_out_dir, check_out_path
 from hacgear_core.errors import HacgearError
 
@@ -90,3 +95,46 @@ def test_module_entry_points_write_only_where_told(module, argv, tmp_path):
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 2 and "cannot be created" in r.stderr, r.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["f"]
+
+
+def test_top_level_help_loads_no_library():
+    """`hacgear --help` imports neither the library's numerics nor numba, scipy or matplotlib (it took 2.5 s of
+    CPU importing every command's module); each command is listed with its one-line help."""
+    code = ("import sys\nfrom hacgear_core.cli import main\ntry:\n    main(['--help'])\nexcept SystemExit:\n    pass\n"
+            "heavy = sorted(m for m in ('numba', 'scipy', 'matplotlib', 'h5py', 'hacgear_core.dynamics', "
+            "'hacgear_core.statics') if m in sys.modules)\nprint('HEAVY', heavy)")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert "HEAVY []" in r.stdout
+    for name, (_, one_line) in COMMANDS.items():
+        assert name in r.stdout
+    assert set(_subcommands()) == set(COMMANDS)
+
+
+def test_each_command_is_registered_by_its_listed_module():
+    """build_parser(name) registers exactly that command fully (its options), the others by name only."""
+    for name in COMMANDS:
+        sub = next(a for a in build_parser(name)._actions if isinstance(a, argparse._SubParsersAction))
+        full = [n for n, p in sub.choices.items() if p._actions]   # the others: no options, not even -h
+        assert full == [name], (name, full)
+
+
+def test_list_names_every_shipped_system(capsys):
+    assert main(["list", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)["systems"]
+    assert [r["name"] for r in rows] == list(shipped_systems())
+    spur = next(r for r in rows if r["name"] == "spur_28t_asym")
+    assert spur["kind"] == "spur_pair" and spur["gears"] == {"pinion": 28, "wheel": 28} and spur["tables"]
+    assert main(["list"]) == 0
+    assert f"{len(rows)} systems in " in capsys.readouterr().out
+
+
+def test_a_closed_pipe_ends_the_command_quietly():
+    """`hacgear info X | head -1`: the reader is gone before the command writes; no BrokenPipeError traceback,
+    nothing on stderr, SIGPIPE's exit status."""
+    p = subprocess.Popen([sys.executable, "-m", "hacgear_core.cli", "info", "idler_28_33_39"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    p.stdout.close()
+    err = p.stderr.read().decode()
+    assert p.wait(timeout=120) == 141
+    assert "Traceback" not in err and "BrokenPipe" not in err, err

@@ -1,11 +1,13 @@
 """Command-line interface: ``hacgear <subcommand> ...``.
 
-Each subcommand lives in its own module of this package and exposes
+Each subcommand lives in its own module of this package (listed with its one-line help in ``_commands.py``) and
+exposes
 
 ``register(subparsers) -> None``
     adds its ``argparse`` sub-parser and sets ``func`` (``args -> int``) as a default;
 
-so stages of the pipeline own their commands.  Units: every quantity on the command
+so stages of the pipeline own their commands.  Only the module of the command being run is imported (the others
+appear in ``hacgear --help`` by their one-line help), so ``hacgear --help`` does not load the library.  Units: every quantity on the command
 line is given in the unit its option name states (``--torque`` in N·m, ``--fm`` in Hz);
 ``--json`` prints SI values with the unit in the key name.
 """
@@ -14,18 +16,20 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
-import pkgutil
+import os
 import re
 import sys
 
 from hacgear_core import __version__
-from hacgear_core.dynamics.kernels import COMPILE_LOGGER
+from hacgear_core.cli._commands import COMMANDS
 from hacgear_core.errors import HacgearError
 
 __all__ = ["main", "build_parser"]
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The ``hacgear`` parser.  ``command`` None: every subcommand fully registered; a name: only that one (the
+    others are listed with their one-line help), so that parsing imports one command's module."""
     parser = argparse.ArgumentParser(
         prog="hacgear",
         description=(
@@ -37,14 +41,20 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"hacgear {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="<command>")
-    for info in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
-        if info.name.startswith("_"):
-            continue
-        module = importlib.import_module(f"{__name__}.{info.name}")
-        register = getattr(module, "register", None)
-        if register is not None:
-            register(sub)
+    for name, (module, one_line) in COMMANDS.items():
+        if command is None or name == command:
+            importlib.import_module(f"{__name__}.{module}").register(sub)
+        else:
+            sub.add_parser(name, help=one_line, add_help=False)
     return parser
+
+
+def _command_in(argv: list[str]) -> str:
+    """The subcommand named in ``argv`` ('' for none: ``--help``, ``--version``, an unknown word)."""
+    for tok in argv:
+        if not tok.startswith("-"):
+            return tok if tok in COMMANDS else ""
+    return ""
 
 
 #: a value that begins with '-' but is a number or a range (-200, -1e3, -.5, -1000:4000:31, -inf, -200,235.7)
@@ -74,12 +84,31 @@ def _attach_negative_values(parser: argparse.ArgumentParser, argv: list[str]) ->
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``hacgear`` console script; returns the exit status."""
-    parser = build_parser()
     argv = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser(_command_in(argv) or "")
     args = parser.parse_args(_attach_negative_values(parser, argv))
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    try:
+        status = _run(args)
+        sys.stdout.flush()   # inside the guard: a reader that went away is met here, not at exit
+        return status
+    except BrokenPipeError:
+        # the reader went away (`hacgear info X | head`): stop quietly, as cat or ls do, and keep Python's
+        # flush at exit from writing to the closed pipe
+        try:
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, sys.stdout.fileno())
+        except (OSError, ValueError):
+            pass
+        return 141   # the shell's status of a command ended by SIGPIPE
+
+
+def _run(args: argparse.Namespace) -> int:
+    """Run the parsed command with the library's compile notices on stderr; a HacgearError is a clear message."""
+    from hacgear_core.dynamics.kernels import COMPILE_LOGGER  # the library, loaded only to run a command
+
     # the library's compile notices ("compiling the integration kernel ...") go to stderr, never into --json stdout
     # (once: a command run inside another, as demo's stages, keeps the outer command's handler)
     logger = logging.getLogger(COMPILE_LOGGER)

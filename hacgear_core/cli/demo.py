@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from hacgear_core.cli._commands import command_help
 from hacgear_core.cli._help import plain_text
 from hacgear_core.dynamics.kernels import COMPILE_CPU_S
 from hacgear_core.encodings import ContactState
@@ -38,7 +39,7 @@ DEFAULT_MODEL = "spur_28t_asym"
 
 
 def register(sub) -> None:
-    p = sub.add_parser("demo", help="run the whole pipeline on the default model and write its outputs",
+    p = sub.add_parser("demo", help=command_help("demo"),
                        description=plain_text(__doc__), formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("model", nargs="?", default=DEFAULT_MODEL, help="model (default: %(default)s)")
     p.add_argument("--out", default="demo_out", help="output folder, created if missing (default: %(default)s)")

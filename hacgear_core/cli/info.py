@@ -18,6 +18,7 @@ import re
 import sys
 from typing import Any
 
+from hacgear_core.cli._commands import command_help
 from hacgear_core.errors import GeometryError, ModelError
 from hacgear_core.geometry import SIDES, model_geometry
 from hacgear_core.jsonio import json_safe
@@ -29,7 +30,7 @@ __all__ = ["register", "run", "info_dict"]
 
 def register(subparsers: Any) -> None:
     p = subparsers.add_parser(
-        "info", help="derived geometry: centre distance, base radii, contact ratios, roll angles, masses",
+        "info", help=command_help("info"),
         description="Derived gear geometry of a model (models/<system>/model.toml, its folder or a system name). "
                     "Text: tables with units. --json: SI values, unit in the key name.")
     p.add_argument("model", help="model file, folder or system name")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from hacgear_core.cli._commands import command_help
 from hacgear_core.cli._dyn_common import add_model_options, inputs_from_args
 from hacgear_core.cli._options import check_option
 from hacgear_core.dynamics.modes import gyroscopic_modes, impulse_test, modal_analysis
@@ -16,7 +17,7 @@ __all__ = ["register", "run"]
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
-        "modes", help="natural frequencies and mode shapes at a torque (modal analysis + impulse test)",
+        "modes", help=command_help("modes"),
         description=(
             "Linearised modal analysis of the lumped model at the torque (each mesh's stiffness = cycle mean of the "
             "local slope of its force-deflection function at its static deflection) and the impulse test (free "

@@ -19,6 +19,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from hacgear_core.cli._commands import command_help
 from hacgear_core.cli._help import plain_text
 from hacgear_core.errors import TableError
 from hacgear_core.h5files import file_kind
@@ -35,7 +36,7 @@ _SUFFIXES = (".png", ".pdf", ".svg")
 
 
 def register(subparsers: Any) -> None:
-    p = subparsers.add_parser("plot", help="plot a tables.h5 (FDF, strain), a sweep or a study results file",
+    p = subparsers.add_parser("plot", help=command_help("plot"),
                               description=plain_text(__doc__), formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("file", help="tables.h5, sweep results .h5 or study results .h5")
     p.add_argument("--out", required=True, help="image file to write (.png, .pdf or .svg; its folder must exist)")

@@ -7,6 +7,7 @@ import argparse
 import math
 from typing import Any
 
+from hacgear_core.cli._commands import command_help
 from hacgear_core.errors import ModelError
 from hacgear_core.kinds import load_model
 from hacgear_core.outpaths import check_out_path
@@ -17,7 +18,7 @@ __all__ = ["register", "run"]
 
 def register(subparsers: Any) -> None:
     p = subparsers.add_parser(
-        "plot-geometry", help="plot teeth in mesh, line of action and the (exaggerated) modifications",
+        "plot-geometry", help=command_help("plot-geometry"),
         description="Plot the teeth of one mesh of MODEL at a mesh position with the line of action, base and tip "
                     "circles and SAP/EAP marks, plus the tip relief / crowning exaggerated.")
     p.add_argument("model", help="model file, folder or system name")

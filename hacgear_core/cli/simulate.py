@@ -8,6 +8,7 @@ import sys
 
 import numpy as np
 
+from hacgear_core.cli._commands import command_help
 from hacgear_core.cli._dyn_common import add_model_options, inputs_from_args
 from hacgear_core.cli._options import check_option
 from hacgear_core.dynamics.simulator import (Simulator, gauge_passage, passage_cycles, static_gauge_passage,
@@ -28,7 +29,7 @@ SIMULATE_METRICS = ("mean_deflection_m", "rms_deflection_m", "peak_force_N", "mi
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
-        "simulate", help="time simulation at a mesh frequency (or a run-up) with post-processed outputs",
+        "simulate", help=command_help("simulate"),
         description=(
             "Integrate the lumped model from static equilibrium at constant mesh frequency --fm [Hz] (or ramped "
             "linearly to --fm-end) for --cycles mesh cycles, and write the last --record-cycles cycles: per mesh "

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from hacgear_core.cli._commands import command_help
 from hacgear_core.cli._options import check_option, given
 from hacgear_core.errors import ModelError, TableError
 from hacgear_core.jsonio import dumps
@@ -27,7 +28,7 @@ __all__ = ["register", "run", "check_report"]
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "statics",
-        help="static contact analyses on the mesh grids → tables.h5 (FDF, strains, pressures)",
+        help=command_help("statics"),
         description=(
             "Run the static contact solver of every mesh on a grid of mesh positions (one mesh cycle) × "
             "mesh forces 0 … max_torque_factor × nominal (load control) and × a regular mesh-deflection grid "

@@ -16,6 +16,7 @@ from typing import Any
 
 from tqdm import tqdm
 
+from hacgear_core.cli._commands import command_help
 from hacgear_core.cli._options import check_option
 from hacgear_core.jsonio import dumps
 from hacgear_core.kinds import load_model
@@ -26,7 +27,7 @@ __all__ = ["register", "run"]
 
 def register(subparsers: Any) -> None:
     p = subparsers.add_parser(
-        "stiffness", help="static transmission error and mesh stiffness over a mesh cycle",
+        "stiffness", help=command_help("stiffness"),
         description="Static contact solve (FE far field + Hertz near field) over one mesh cycle of every mesh at the "
                     "given torque. Text: summary with units. --json: SI values, unit in the key name.")
     p.add_argument("model", help="model file, folder or system name")

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from hacgear_core.cli._commands import command_help
 from hacgear_core.errors import ModelError
 from hacgear_core.jsonio import dumps
 from hacgear_core.outpaths import check_out_path
@@ -17,7 +18,7 @@ __all__ = ["register", "run", "dask_executor"]
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
-        "study", help="design study: model variants -> tables -> Harris map and dynamic map (one HDF5 file)",
+        "study", help=command_help("study"),
         description=(
             "Run a study file (docs/studies.md): every combination of its variables' values is a variant of the base "
             "model; each variant gets its own tables (statics grid of the study, reused when a table of the same "

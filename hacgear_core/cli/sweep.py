@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from hacgear_core.cli._commands import command_help
 from hacgear_core.cli._dyn_common import add_model_options, inputs_from_args
 from hacgear_core.cli._options import check_option
 from hacgear_core.dynamics.batch import BATCH_COMPILE_CPU_S
@@ -20,7 +21,7 @@ __all__ = ["register", "run"]
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
-        "sweep", help="steady-state speed sweep (up/down/both) with jump detection",
+        "sweep", help=command_help("sweep"),
         description=(
             "Steady-state dynamic response of a gear system over mesh frequency [Hz]. Each speed starts from the "
             "previous steady state; steady state is detected (period-n orbit of the once-per-mesh-cycle "

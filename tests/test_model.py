@@ -523,3 +523,21 @@ def test_unreachable_carrier_radius_is_refused_at_load(tmp_path):
     assert "value 150" in msg and "mesh 'sun_planet'" in msg
     need = (50.2743 + 42.5398) / math.cos(math.radians(15.97))
     assert f"{need:.4f} mm within 0.0001 relative" in msg
+
+
+def test_a_duplicate_gear_name_is_named_as_such():
+    """Two [[gears]] named 'pinion' said 'gear_a and gear_b must differ' (the mesh saw one gear twice)."""
+    text = (MODELS / "spur_28t_asym" / "model.toml").read_text()
+    bad = text.replace('name = "wheel"', 'name = "pinion"', 1).replace('gear_b = "wheel"', 'gear_b = "pinion"')
+    with pytest.raises(ModelError, match=r"key 'gears\[1\]\.name': 'pinion' is already the name of gears\[0\]"):
+        parse_model(bad)
+
+
+def test_a_byte_order_mark_is_read(tmp_path):
+    """A model file saved with a UTF-8 byte-order mark (as Windows editors do) loads like the one without; it
+    said 'Invalid statement (line 1, column 1)'."""
+    src = MODELS / "spur_28t_asym" / "model.toml"
+    bom = tmp_path / "model.toml"
+    bom.write_bytes(b"\xef\xbb\xbf" + src.read_bytes())
+    a, b = load_model(bom), load_model(src)
+    assert a.gears == b.gears and a.meshes == b.meshes and a.sha256 != b.sha256

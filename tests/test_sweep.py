@@ -3,6 +3,8 @@ from __future__ import annotations
 
 from concurrent.futures import ThreadPoolExecutor
 
+import re
+
 import h5py
 import numpy as np
 import pytest
@@ -10,6 +12,7 @@ import pytest
 import hacgear_core.dynamics.sweep as sw
 from _dyn import fn_rot, softening, system
 from hacgear_core.dynamics.sweep import BranchResult, SweepSpec, detect_jumps, run_sweep, run_sweeps
+from hacgear_core.errors import ModelError
 
 
 def test_jump_up_and_down_detected_on_softening_fdf():
@@ -186,3 +189,16 @@ def test_stability_checked_sweep_stores_the_multipliers(tmp_path):
     assert "max_multiplier" in r.to_json()["branches"]["up"]
     plain = run_sweep(SweepSpec(system(p, tab), fm[:2], "up"), progress=False)
     assert np.all(np.isnan(plain.branches["up"].max_multiplier))
+
+
+@pytest.mark.parametrize("text, message", [
+    ("1000:3000:1", "gives one speed but START != STOP"),
+    ("3000:1000:5", "START [Hz] = 3000 > STOP = 1000"),
+])
+def test_fm_range_refuses_what_it_would_ignore_or_reorder(text, message):
+    """`--fm 1000:3000:1` ran 1000 Hz only and `3000:1000:5` ran ascending, both silently."""
+    from hacgear_core.dynamics.sweep import parse_fm
+    with pytest.raises(ModelError, match=re.escape(message)):
+        parse_fm(text)
+    assert parse_fm("1500:1500:1").tolist() == [1500.0]
+    assert parse_fm("1000:3000:3").tolist() == [1000.0, 2000.0, 3000.0]

@@ -76,6 +76,12 @@ def parse_fm(text: str) -> np.ndarray:
         raise ModelError(f"--fm START and STOP [Hz] = {text!r} are out of range; allowed: {r.text} each")
     if n < 1:
         raise ModelError(f"--fm N [-] = {n} in {text!r} is out of range; allowed: integer >= 1")
+    if a > b:
+        raise ModelError(f"--fm START [Hz] = {a:g} > STOP = {b:g} in {text!r}: give START <= STOP; the order the "
+                         "speeds are run in is --direction (down: from STOP to START)")
+    if n == 1 and a != b:
+        raise ModelError(f"--fm N [-] = 1 in {text!r} gives one speed but START != STOP: give {a:g}:{a:g}:1 for one "
+                         "speed, or N >= 2")
     return np.linspace(a, b, n) if n > 1 else np.array([a])
 
 

@@ -530,6 +530,7 @@ def parse_model(text: str, *, file: str = "<model>", path: Path | None = None, s
     gears = tuple(_read_gear(s, materials) for s in top.array_of_tables("gears"))
     if not gears:
         raise top.error("gears", "", "at least two [[gears]]", [], problem="no gear defined")
+    _unique_gear_names(top, gears)
 
     meshes = []
     for msec in top.array_of_tables("meshes"):
@@ -619,6 +620,16 @@ def _check_carrier_reach(psec: _Section, carrier_radius_m: float, gears, meshes)
                                       "mesh"))
 
 
+def _unique_gear_names(top: "_Section", gears) -> None:
+    """Refuse two [[gears]] of one name before any mesh refers to them (a mesh would then see one gear twice)."""
+    seen: dict[str, int] = {}
+    for i, g in enumerate(gears):
+        if g.name in seen:
+            raise top.error(f"gears[{i}].name", "", "a name no other gear has", g.name,
+                            problem=f"'{g.name}' is already the name of gears[{seen[g.name]}]")
+        seen[g.name] = i
+
+
 def _parse_lumped(top: _Section, *, name: str, kind: str, title: str, source: str, file: str, path: Path | None,
                   sha256: str, no_support: set) -> Model:
     """A fully lumped model (``[system] lumped = true``): members by mass, inertia and base radius, meshes by a
@@ -626,6 +637,7 @@ def _parse_lumped(top: _Section, *, name: str, kind: str, title: str, source: st
     gears = tuple(_read_lumped_gear(s) for s in top.array_of_tables("gears"))
     if not gears:
         raise top.error("gears", "", "at least two [[gears]]", [], problem="no gear defined")
+    _unique_gear_names(top, gears)
     meshes = []
     for msec in top.array_of_tables("meshes"):
         mname = msec.string("name")
@@ -702,7 +714,7 @@ def read_model(model: str | Path) -> Model:
     except OSError as exc:
         raise ModelError(f"{path}: cannot read the model file ({exc.strerror or exc})") from None
     try:
-        text = data.decode("utf-8")
+        text = data.decode("utf-8-sig")   # a byte-order mark (Windows editors write one) is no TOML
     except UnicodeDecodeError:
         raise ModelError(f"{path}: model file is not UTF-8 text") from None
     return parse_model(text, file=str(path), path=path, sha256=hashlib.sha256(data).hexdigest())

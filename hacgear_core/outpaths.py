@@ -1,13 +1,42 @@
 """Output paths checked before a command or a figure script starts its work, so that a long run never ends in a
-traceback (shared by the command line and the plots)."""
+traceback, and files written whole or not at all (shared by the command line, the library's result files and the
+plots)."""
 from __future__ import annotations
 
 import os
+import shutil
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Iterator
 
 from hacgear_core.errors import HacgearError
 
-__all__ = ["check_out_path", "check_out_dir"]
+__all__ = ["check_out_path", "check_out_dir", "written_whole", "WRITING_SUFFIX"]
+
+#: suffix of the temporary file a result is written to before it replaces its target (a kill leaves only this)
+WRITING_SUFFIX = ".writing"
+
+
+@contextmanager
+def written_whole(path: str | Path, *, start_from_existing: bool = False) -> Iterator[Path]:
+    """Write ``path`` atomically: yields a temporary path beside it (``<name>.writing``) to write, which replaces
+    ``path`` in one rename when the block ends without an exception; on an exception it is removed and ``path``
+    stays as it was.  A kill (even ``kill -9``) therefore leaves ``path`` whole (old or new) and at most the
+    temporary file, which the next write of ``path`` replaces.  ``start_from_existing``: the temporary file starts
+    as a copy of ``path`` (for files that are updated, such as a results file that gains a branch)."""
+    path = Path(path)
+    tmp = path.with_name(path.name + WRITING_SUFFIX)
+    if tmp.exists():
+        tmp.unlink()   # an earlier write of ours that was killed
+    if start_from_existing and path.exists():
+        shutil.copyfile(path, tmp)
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    except BaseException:
+        if tmp.exists():
+            tmp.unlink()
+        raise
 
 
 def _writable_folder(folder: Path, what: str) -> None:

@@ -143,3 +143,30 @@ def test_sweep_figure_branches_distinguishable_and_jumps_marked(tmp_path):
     arrows = [a for a in ax.findobj(Annotation) if a.arrow_patch is not None]
     assert len(arrows) == len(jumps) == len([j for j in res.jumps if j.confirmed]) >= 2
     plt.close(fig)
+
+
+def test_an_unknown_gauge_writes_no_figure(tmp_path, capsys):
+    """`plot --gauge bad/x` wrote the FDF figure, then failed; now it fails first and writes nothing."""
+    out = tmp_path / "fdf.png"
+    assert main(["plot", str(ROOT / "models" / "spur_28t_asym" / "tables.h5"), "--out", str(out),
+                 "--gauge", "bad/x"]) == 2
+    assert "--gauge 'bad/x' not in" in capsys.readouterr().err and not out.exists()
+
+
+def test_a_sweep_missing_a_branch_is_plotted_with_a_warning(tmp_path, capsys):
+    """A results file whose down branch was never stored (a killed `sweep --direction both`): the plot command
+    warns on stderr and the figure's title says INCOMPLETE (it drew the up branch without a word)."""
+    import h5py
+    p, tab, _ = softening_example()
+    sy = spur_pair_system(p, tab)
+    fn = sy.natural_frequencies_Hz()[0]
+    res = run_sweep(SweepSpec(sy, tuple(np.linspace(0.8 * fn, 1.2 * fn, 5)), "both"), out=tmp_path / "s.h5",
+                    progress=False)
+    with h5py.File(tmp_path / "s.h5", "a") as f:
+        del f[f"sweeps/{res.run_id}/down"]
+    capsys.readouterr()
+    assert main(["plot", str(tmp_path / "s.h5"), "--out", str(tmp_path / "s.png")]) == 0
+    assert f"run {res.run_id}: the down sweep is missing" in capsys.readouterr().err
+    from hacgear_core.plots.sweep import sweep_figure
+    fig, _ = sweep_figure(tmp_path / "s.h5")
+    assert fig._suptitle is not None and fig._suptitle.get_text().startswith("INCOMPLETE: ")

@@ -202,3 +202,48 @@ def test_fm_range_refuses_what_it_would_ignore_or_reorder(text, message):
         parse_fm(text)
     assert parse_fm("1500:1500:1").tolist() == [1500.0]
     assert parse_fm("1000:3000:3").tolist() == [1000.0, 2000.0, 3000.0]
+
+
+def test_results_file_is_written_whole_and_a_stub_is_replaced(tmp_path):
+    """The results file changes by one rename per finished branch: the stub a write killed at its start leaves
+    (96 bytes of HDF5 superblock, which every later run refused, --fresh included) is recognised and replaced; a
+    file missing a branch is named by missing_branches (the plot says so)."""
+    p, tab = softening()
+    spec = SweepSpec(system(p, tab), tuple(np.linspace(0.7 * fn_rot(), 1.0 * fn_rot(), 4)), "both")
+    out = tmp_path / "s.h5"
+    out.write_bytes(b"\x89HDF\r\n\x1a\n" + bytes(88))
+    from hacgear_core.h5files import file_kind
+    assert file_kind(out) == "stub"
+    with pytest.warns(RuntimeWarning, match="stub of a write killed at its start"):
+        res = run_sweep(spec, out=out, progress=False)
+    assert sorted(sw.read_sweep(out, res.run_id)) == ["down", "up"] and sw.missing_branches(out) == {}
+    assert not list(tmp_path.glob("*.writing")) and not (tmp_path / "s.h5.parts").exists()
+    with h5py.File(out, "a") as f:
+        del f[f"sweeps/{res.run_id}/down"]
+    assert sw.missing_branches(out) == {res.run_id: ["down"]}
+    again = run_sweep(spec, out=out, progress=False)   # completes the missing branch only
+    assert again.branches["up"].recomputed == 0 and again.branches["down"].recomputed == 4
+    assert sw.missing_branches(out) == {}
+
+
+def test_a_kill_while_the_results_file_is_written_leaves_it_whole(tmp_path):
+    """written_whole: a process killed inside the block (os._exit, as kill -9) leaves the target as it was and
+    only the temporary file, which the next write replaces; an exception removes the temporary file."""
+    import subprocess
+    import sys
+    from hacgear_core.outpaths import written_whole
+    target = tmp_path / "r.h5"
+    target.write_bytes(b"old")
+    code = (f"import os\nfrom hacgear_core.outpaths import written_whole\n"
+            f"with written_whole({str(target)!r}, start_from_existing=True) as t:\n"
+            f"    open(t, 'ab').write(b'half')\n    os._exit(9)\n")
+    assert subprocess.run([sys.executable, "-c", code]).returncode == 9
+    assert target.read_bytes() == b"old" and (tmp_path / "r.h5.writing").read_bytes() == b"oldhalf"
+    with pytest.raises(ZeroDivisionError):
+        with written_whole(target) as t:
+            t.write_bytes(b"new")
+            1 / 0
+    assert target.read_bytes() == b"old" and not (tmp_path / "r.h5.writing").exists()
+    with written_whole(target) as t:
+        t.write_bytes(b"new")
+    assert target.read_bytes() == b"new" and not (tmp_path / "r.h5.writing").exists()

@@ -16,11 +16,13 @@ Axes are labelled with their units (µm, kN, Hz, µε).
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 from typing import Any
 
 from hacgear_core.cli._commands import command_help
 from hacgear_core.cli._help import plain_text
+from hacgear_core.dynamics.sweep import missing_branches
 from hacgear_core.errors import TableError
 from hacgear_core.h5files import file_kind
 from hacgear_core.outpaths import check_out_path
@@ -57,12 +59,12 @@ def run(args) -> int:
     if what == "tables":
         tabs = read_tables(path)
         table = tabs.mesh(args.mesh)
+        if args.gauge is not None and args.gauge not in table.strain:   # before any figure is written
+            raise TableError(f"--gauge {args.gauge!r} not in {path}; gauges: {sorted(table.strain)}")
         fig = plot_fdf(table)
         fig.savefig(out, dpi=110)
         print(f"FDF of mesh '{table.name}': {out}")
         if args.gauge is not None:
-            if args.gauge not in table.strain:
-                raise TableError(f"--gauge {args.gauge!r} not in {path}; gauges: {sorted(table.strain)}")
             sdf = out.with_name(out.stem + "_sdf.png")
             plot_sdf(table, args.gauge).savefig(sdf, dpi=110)
             print(f"strain-deflection function of {args.gauge}: {sdf}")
@@ -75,6 +77,10 @@ def run(args) -> int:
     if what == "sweep":
         jumps = plot_sweep_file(path, out, args.run)
         print(f"sweep response: {out}")
+        for rid, lost in missing_branches(path).items():
+            if args.run in (None, rid):
+                print(f"  WARNING: run {rid}: the {' and '.join(lost)} sweep is missing (interrupted; the same sweep "
+                      "command completes it); the figure says so", file=sys.stderr)
         for j in jumps:
             print(f"  {j['kind']} of mesh {j['mesh']} at {j['frequency_Hz']:.0f} Hz ({j['branch']} sweep)")
         return 0

@@ -16,7 +16,7 @@ from hacgear_core.dynamics.simulator import (Simulator, gauge_passage, passage_c
 from hacgear_core.dynamics.steady import trace_metrics
 from hacgear_core.errors import ModelError
 from hacgear_core.jsonio import dumps
-from hacgear_core.outpaths import check_out_path
+from hacgear_core.outpaths import check_out_path, written_whole
 from hacgear_core.response import dynamic_contact_pressure, dynamic_mesh_stiffness
 
 __all__ = ["register", "run", "SIMULATE_METRICS"]
@@ -194,12 +194,13 @@ def run(args: argparse.Namespace) -> int:
         "out": args.out,
     }
     if args.out:
-        if args.out.endswith(".npz"):
-            np.savez(args.out, **tr)
-        else:
-            keys = list(tr)
-            np.savetxt(args.out, np.column_stack([tr[k] for k in keys]), delimiter=",", header=",".join(keys),
-                       comments="")
+        with written_whole(args.out) as tmp, open(tmp, "wb") as fh:
+            if args.out.endswith(".npz"):
+                np.savez(fh, **tr)
+            else:
+                keys = list(tr)
+                np.savetxt(fh, np.column_stack([tr[k] for k in keys]), delimiter=",", header=",".join(keys),
+                           comments="")
     if args.json:
         print(dumps(summary))
         return 0

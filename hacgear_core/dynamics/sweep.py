@@ -41,7 +41,8 @@ from hacgear_core.dynamics.batch import Lanes, batch_supported, lanes_compatible
 from hacgear_core.dynamics.steady import METRIC_NAMES, SteadyStateOptions, drive, steady_run
 from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import ModelError
-from hacgear_core.h5files import SWEEP_FORMAT, check_writable_kind
+from hacgear_core.h5files import SWEEP_FORMAT, check_writable_kind, holds_nothing
+from hacgear_core.outpaths import written_whole
 from hacgear_core.model.schema import RANGES
 from hacgear_core.workers import executor_slots
 
@@ -54,6 +55,7 @@ __all__ = [
     "run_sweep",
     "run_sweeps",
     "detect_jumps",
+    "missing_branches",
     "read_sweep",
     "sweep_mesh_names",
     "plan_lanes",
@@ -321,7 +323,9 @@ def _task(args):
 
 
 def _copy_into(out: Path, run_id: str, spec: SweepSpec, branch: str, part: Path) -> None:
-    with h5py.File(out, "a") as fo, h5py.File(part, "r") as fp:
+    """Add a finished branch to the results file ``out`` in one rename (a kill leaves ``out`` as it was)."""
+    with written_whole(out, start_from_existing=True) as tmp, h5py.File(tmp, "a") as fo, \
+            h5py.File(part, "r") as fp:
         fo.attrs["format"] = SWEEP_FORMAT
         g = fo.require_group("sweeps").require_group(run_id)
         g.attrs["spec"] = json.dumps(spec._describe(), sort_keys=True)
@@ -359,10 +363,12 @@ def _discard(outp: Path, run_id: str, branch: str, part: Path) -> int:
             pass
         part.unlink()
     if outp.exists():
-        with h5py.File(outp, "a") as f:
+        with h5py.File(outp, "r") as f:
             path = f"sweeps/{run_id}/{branch}"
-            if path in f:
-                n = max(n, int(f[path]["mesh_frequency_Hz"].shape[0]))
+            stored = int(f[path]["mesh_frequency_Hz"].shape[0]) if path in f else None
+        if stored is not None:
+            n = max(n, stored)
+            with written_whole(outp, start_from_existing=True) as tmp, h5py.File(tmp, "a") as f:
                 del f[path]
     return n
 
@@ -411,6 +417,10 @@ def run_sweeps(specs, *, out: str | Path | None = None, executor: Executor | Non
     outp = Path(out) if out is not None else None
     if outp is not None:
         check_writable_kind(outp, "sweep", "sweep results")
+        if holds_nothing(outp):
+            warnings.warn(f"{outp} held no results (an empty HDF5 file, or the stub of a write killed at its start); "
+                          "it is replaced", RuntimeWarning, stacklevel=2)
+            outp.unlink()
     tasks, keys, results, discarded = [], [], {}, {}
     for si, spec in enumerate(specs):
         rid = spec.run_id()
@@ -590,6 +600,23 @@ def read_sweep(out: str | Path, run_id: str | None = None) -> dict:
         for rid, g in f.get("sweeps", {}).items():
             res[rid] = {b: _branch_from_group(g[b], b) for b in g.keys()}
     return res if run_id is None else res[run_id]
+
+
+def missing_branches(out: str | Path) -> dict[str, list[str]]:
+    """Branches a run of a results file asked for but does not hold (an interrupted or killed sweep; rerunning the
+    same command completes them): {run_id: [branch, ...]} for the runs with any missing."""
+    res = {}
+    with h5py.File(out, "r") as f:
+        for rid, g in f.get("sweeps", {}).items():
+            try:
+                direction = json.loads(g.attrs.get("spec", "{}")).get("direction", "")
+            except ValueError:
+                direction = ""
+            want = ("up", "down") if direction == "both" else ((direction,) if direction in DIRECTIONS else ())
+            lost = [b for b in want if b not in g]
+            if lost:
+                res[rid] = lost
+    return res
 
 
 def sweep_mesh_names(out: str | Path, run_id: str) -> tuple[str, ...]:

@@ -12,7 +12,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from hacgear_core.dynamics.sweep import detect_jumps, read_sweep, sweep_mesh_names  # noqa: E402
+from hacgear_core.dynamics.sweep import detect_jumps, missing_branches, read_sweep, sweep_mesh_names  # noqa: E402
 from hacgear_core.errors import TableError  # noqa: E402
 
 __all__ = ["plot_sweep_file", "sweep_figure", "mark_jump"]
@@ -65,6 +65,7 @@ def sweep_figure(path: str | Path, run_id: str | None = None) -> tuple:
         raise TableError(f"{path}: no sweep results in this file (make one with `hacgear sweep ... --out FILE`)")
     with h5py.File(path, "r") as f:
         labels = {rid: str(f["sweeps"][rid].attrs.get("label", rid)) for rid in runs}
+    lost = {rid: b for rid, b in missing_branches(path).items() if rid in runs}
     names = {rid: sweep_mesh_names(path, rid) for rid in runs}
     n_mesh = max(len(v) for v in names.values())
     fig, ax = plt.subplots(2, n_mesh, figsize=(8 * n_mesh ** 0.5 + 1, 7), sharex=True, squeeze=False)
@@ -95,5 +96,9 @@ def sweep_figure(path: str | Path, run_id: str | None = None) -> tuple:
         ax[1, c].set_xlabel("mesh frequency [Hz]   (arrows and dotted lines: confirmed jumps)")
     for c in range(n_mesh):
         ax[0, c].legend(fontsize=7, loc="best")
+    if lost:
+        note = "; ".join(f"{labels[rid]}: {' and '.join(b)} sweep missing" for rid, b in lost.items())
+        fig.suptitle(f"INCOMPLETE: {note} (interrupted run; the same sweep command completes it)", color="firebrick",
+                     fontsize=10)
     fig.tight_layout()
     return fig, jumps_out

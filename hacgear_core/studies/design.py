@@ -63,7 +63,8 @@ from hacgear_core.dynamics.steady import SteadyStateOptions
 from hacgear_core.dynamics.sweep import SweepSpec, run_sweeps
 from hacgear_core.errors import HacgearError, ModelError, TableError
 from hacgear_core.geometry.gear import gear_geometry
-from hacgear_core.h5files import STUDY_FORMAT, check_writable_kind, file_kind
+from hacgear_core.h5files import STUDY_FORMAT, check_writable_kind, file_kind, holds_nothing
+from hacgear_core.outpaths import written_whole
 from hacgear_core.model import resolve_model_path
 from hacgear_core.kinds import load_model, parse_model
 from hacgear_core.model.provenance import model_values_sha256
@@ -306,7 +307,7 @@ def _open_results(path: Path, spec: StudySpec, fresh: bool) -> str:
     else:
         note = ""
     if path.exists():
-        if file_kind(path) == "empty":
+        if holds_nothing(path):
             path.unlink()
         else:
             try:
@@ -324,7 +325,8 @@ def _open_results(path: Path, spec: StudySpec, fresh: bool) -> str:
 
 def _write_variant(path: Path, i: int, status: str, *, error: str = "", tables: str = "", mesh: str = "",
                    static: dict | None = None, dynamic: tuple | None = None) -> None:
-    with h5py.File(path, "a") as f:
+    """Store one variant's results in one rename of the results file (a kill leaves it as it was)."""
+    with written_whole(path, start_from_existing=True) as tmp, h5py.File(tmp, "a") as f:
         if static:
             for m, row in static.items():
                 f[f"static/{m}"][i] = row

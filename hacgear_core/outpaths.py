@@ -10,8 +10,9 @@ from pathlib import Path
 from typing import Iterator
 
 from hacgear_core.errors import HacgearError
+from hacgear_core.model import shipped_systems_dir
 
-__all__ = ["check_out_path", "check_out_dir", "written_whole", "WRITING_SUFFIX"]
+__all__ = ["check_out_path", "check_out_dir", "check_not_shipped", "written_whole", "WRITING_SUFFIX"]
 
 #: suffix of the temporary file a result is written to before it replaces its target (a kill leaves only this)
 WRITING_SUFFIX = ".writing"
@@ -51,14 +52,26 @@ def check_out_path(path: str | Path, option: str = "--out", *, suffixes: tuple[s
     writable folder, not a folder itself.  Returns the path; raises :class:`HacgearError` naming the option."""
     p = Path(path)
     what = f"{option} {str(path)!r}"
+    if p.is_dir():
+        raise HacgearError(f"{what} is a folder; give a file name"
+                           + (f" ending in {' or '.join(suffixes)}" if suffixes else ""))
     if suffixes and p.suffix.lower() not in suffixes:
         raise HacgearError(f"{what}: the file must end in {' or '.join(suffixes)}")
-    if p.is_dir():
-        raise HacgearError(f"{what} is a folder; give a file name")
     if p.exists() and not os.access(p, os.W_OK):
         raise HacgearError(f"{what}: the file exists and is not writable")
     _writable_folder(p.parent if str(p.parent) else Path("."), what)
     return p
+
+
+def check_not_shipped(path: str | Path, option: str = "--out") -> None:
+    """Refuse an output folder that is, or lies inside, the shipped systems' folder (``models/`` of the checkout,
+    the installed ``hacgear_core.systems``) or a system folder (one holding a model.toml): outputs do not go among
+    the shipped files."""
+    p = Path(path).resolve()
+    shipped = shipped_systems_dir().resolve()
+    if p == shipped or shipped in p.parents or (p / "model.toml").is_file():
+        raise HacgearError(f"{option} {str(path)!r} is the shipped systems' folder or a system folder ({shipped}); "
+                           "write outputs to a folder of their own (e.g. --out demo_out)")
 
 
 def check_out_dir(path: str | Path, option: str = "--out") -> Path:

@@ -306,3 +306,31 @@ def test_two_stage_figure_names_its_shafts_and_plots_over_mesh_frequency(tmp_pat
     np.testing.assert_allclose(stage_mesh_frequency_Hz(res, "s2"), w / 0.5 * 28 / (2 * math.pi))
     out = plot_stages(res, tmp_path / "two.png")
     assert out.stat().st_size > 10_000
+
+
+def test_stiffness_negative_torque_loads_the_coast_flanks(capsys):
+    """`stiffness --torque -300` was refused ('must be finite and > 0') while sweep and simulate take a negative
+    torque as the coast side: it is now --side coast at 300 N*m, bit for bit, and says so."""
+    rc, neg, err = _run(["stiffness", "spur_28t_asym", "--torque", "-300", "--positions", "4", "--json"], capsys)
+    assert rc == 0 and "loads the coast flanks: --side coast at 300 N*m" in err
+    rc, pos, _ = _run(["stiffness", "spur_28t_asym", "--torque", "300", "--side", "coast", "--positions", "4",
+                       "--json"], capsys)
+    a, b = json.loads(neg)["meshes"], json.loads(pos)["meshes"]
+    for d in (a, b):
+        for m in d.values():
+            m.pop("seconds", None)   # wall time of the solve
+    assert rc == 0 and a == b
+    rc, _, err = _run(["stiffness", "spur_28t_asym", "--torque", "-300", "--side", "coast"], capsys)
+    assert rc == 2 and "the coast side is the torque reversed already" in err
+
+
+def test_out_folder_is_named_as_a_folder_and_demo_stays_out_of_models(tmp_path, capsys):
+    """`simulate --out somedir` said 'must end in .csv'; `demo --out models/` wrote 8 files among the shipped
+    systems."""
+    rc, _, err = _run(["simulate", "spur_28t_asym", "--fm", "1000", "--out", str(tmp_path)], capsys)
+    assert rc == 2 and "is a folder; give a file name ending in" in err
+    for folder in (ROOT / "models", ROOT / "models" / "spur_28t_asym"):
+        before = sorted(p.name for p in folder.iterdir())
+        rc, _, err = _run(["demo", "--out", str(folder), "--quick"], capsys)
+        assert rc == 2 and "is the shipped systems' folder or a system folder" in err
+        assert sorted(p.name for p in folder.iterdir()) == before

@@ -31,7 +31,7 @@ from hacgear_core.encodings import ContactState
 from hacgear_core.fmu import build_fmu
 from hacgear_core.fmu.bench import BenchConfig, plot_bench, run_drivetrain_bench
 from hacgear_core.kinds import load_model
-from hacgear_core.outpaths import check_out_dir
+from hacgear_core.outpaths import check_not_shipped, check_out_dir
 
 __all__ = ["register", "run"]
 
@@ -69,6 +69,7 @@ def _stage(name: str, argv: list[str], out: Path, json_name: str | None) -> dict
 
 def run(args) -> int:
     out = check_out_dir(args.out, "--out")
+    check_not_shipped(out, "--out")
     model = load_model(args.model)
     out.mkdir(parents=True, exist_ok=True)
     torque = model.operating.torque_Nm

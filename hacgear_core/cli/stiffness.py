@@ -18,6 +18,7 @@ from tqdm import tqdm
 
 from hacgear_core.cli._commands import command_help
 from hacgear_core.cli._options import check_option
+from hacgear_core.errors import ModelError
 from hacgear_core.jsonio import dumps
 from hacgear_core.kinds import load_model
 from hacgear_core.statics.studies import mesh_stiffness_report, model_variant
@@ -32,7 +33,8 @@ def register(subparsers: Any) -> None:
                     "given torque. Text: summary with units. --json: SI values, unit in the key name.")
     p.add_argument("model", help="model file, folder or system name")
     p.add_argument("--torque", type=float, default=None, metavar="T",
-                   help="torque [N·m] on the model's operating torque gear (default: [operating] torque_Nm)")
+                   help="torque [N·m] on the model's operating torque gear (default: [operating] torque_Nm); a "
+                        "negative torque loads the coast flanks (the same as --side coast with its magnitude)")
     p.add_argument("--mesh", default=None, help="only this mesh (default: every mesh of the model)")
     p.add_argument("--positions", type=int, default=64, help="mesh positions per cycle (default 64)")
     p.add_argument("--slices", type=int, default=None, help="face slices (default: model [statics] face_slices)")
@@ -76,6 +78,14 @@ def run(args: argparse.Namespace) -> int:
     if args.no_relief or args.no_crowning:
         model = model_variant(model, tip_relief=not args.no_relief, lead_crowning=not args.no_crowning)
     torque = model.operating.torque_Nm if args.torque is None else args.torque
+    if torque < 0:
+        # as in sweep and simulate, a negative torque loads the coast flanks
+        if args.side == "coast":
+            raise ModelError(f"--torque {torque:g} with --side coast: the coast side is the torque reversed "
+                             "already; give --side coast with a positive torque, or a negative torque alone")
+        print(f"hacgear stiffness: torque {torque:g} N*m < 0 loads the coast flanks: --side coast at "
+              f"{-torque:g} N*m", file=sys.stderr)
+        torque, args.side = -torque, "coast"
     d = mesh_stiffness_report(model, torque, mesh=args.mesh, positions=args.positions, slices=args.slices,
                               face_coupling=args.face_coupling, twist_rad=args.twist, side=args.side,
                               progress=lambda msg: print(f"hacgear stiffness: {msg}", file=sys.stderr, flush=True),

@@ -239,9 +239,13 @@ def test_simulate_reports_the_root_strain_of_a_tooth_passing_through_the_mesh(ca
         assert s["static_max"] == pytest.approx(sm[g], rel=0.01, abs=2e-6)    # table gauge names = system's
     rc, out = _cli(argv, capsys)
     assert rc == 0 and "+0.0 µε" not in out and "tooth " in out and "static " in out
+    for g, s in d["root_strain"].items():   # the factor's peak is printed beside it, named by its side
+        assert (f"    {g}: {s['factor_side']} peak {s['peak_on_static_side'] * 1e6:+.1f} µε (static "
+                f"{s['static_extreme'] * 1e6:+.1f} µε, factor {s['dynamic_factor']:.3f})") in out
     rc, d = _cli(argv + ["--cycles", "5", "--json"], capsys)
     need = d["root_strain"]["wheel/SG25"]["cycles_needed"]
-    assert rc == 0 and need == 7 and d["extreme_strain"]["wheel/SG25"] is None
+    # the coast pairs -1..3 of the tables (drive -2..2) widen the passage window by one cycle: 8 (was 7 with -2..2)
+    assert rc == 0 and need == 8 and d["extreme_strain"]["wheel/SG25"] is None
     rc, out = _cli(argv + ["--cycles", "5"], capsys)
     assert f"not recorded: a tooth's passage takes {need} mesh cycles; give --cycles >= {need}" in out
 
@@ -422,3 +426,17 @@ def test_cli_sweep_batched_option_reaches_run_sweeps(capsys, monkeypatch):
     with pytest.raises(SystemExit):
         main(argv + ["--batched", "yes"])
     assert "invalid choice" in capsys.readouterr().err
+
+
+def test_strain_factor_is_shown_beside_the_peak_it_divides():
+    """The idler's gear2/SG20 printed '+1802.0 µε (static −1580.4 µε, factor 1.100)': the factor compares the
+    compression peaks, the number beside it was the tension peak.  The summary now carries the peak on the static
+    extreme's side, and the text names the other side's larger peak separately."""
+    from hacgear_core.cli.simulate import _passage_summary
+    from hacgear_core.dynamics.simulator import GaugePassage
+    dyn = GaugePassage("gear2/SG20", 3, (10.0, 12.0), (0.0, 1e-3), np.array([-1738.4e-6, 0.0, 1802.0e-6]))
+    sta = GaugePassage("gear2/SG20", 3, (10.0, 12.0), None, np.array([-1580.4e-6, 0.0, 1200.0e-6]))
+    s = _passage_summary(dyn, sta, 2)
+    assert s["extreme"] == pytest.approx(1802.0e-6) and s["factor_side"] == "compression"
+    assert s["peak_on_static_side"] == pytest.approx(-1738.4e-6)
+    assert s["dynamic_factor"] == pytest.approx(1738.4 / 1580.4)

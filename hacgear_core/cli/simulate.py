@@ -68,8 +68,10 @@ def _passage_summary(p, static, need: int) -> dict:
     out = {"recorded": True, "tooth": p.tooth, "mesh_cycles": list(p.cycles), "time_s": list(p.time_s),
            "extreme": p.extreme, "max": p.max_strain, "min": p.min_strain}
     if static is not None:
+        side = "tension" if static.extreme > 0 else "compression"
         out.update(static_extreme=static.extreme, static_max=static.max_strain, static_min=static.min_strain,
-                   dynamic_factor=p.factor_over(static))
+                   dynamic_factor=p.factor_over(static), factor_side=side,
+                   peak_on_static_side=p.max_strain if side == "tension" else p.min_strain)
     return out
 
 
@@ -246,9 +248,15 @@ def run(args: argparse.Namespace) -> int:
                 print(f"    {g}: not recorded: a tooth's passage takes {s['cycles_needed']} mesh cycles; give "
                       f"--cycles >= {s['cycles_needed']}")
                 continue
-            st = (f" (static {s['static_extreme'] * 1e6:+.1f} µε, factor {s['dynamic_factor']:.3f})"
-                  if "static_extreme" in s else "")
-            print(f"    {g}: {s['extreme'] * 1e6:+.1f} µε{st}, range {s['min'] * 1e6:+.1f} … "
+            if "static_extreme" in s:
+                # the factor compares peaks of one sign: the static extreme's side (tension or compression)
+                st = (f"{s['factor_side']} peak {s['peak_on_static_side'] * 1e6:+.1f} µε (static "
+                      f"{s['static_extreme'] * 1e6:+.1f} µε, factor {s['dynamic_factor']:.3f})")
+                if (s["extreme"] > 0) != (s["static_extreme"] > 0):
+                    st += f"; largest magnitude {s['extreme'] * 1e6:+.1f} µε, on the other side"
+            else:
+                st = f"{s['extreme'] * 1e6:+.1f} µε"
+            print(f"    {g}: {st}, range {s['min'] * 1e6:+.1f} … "
                   f"{s['max'] * 1e6:+.1f} µε; "
                   f"tooth {s['tooth']}, mesh cycles {s['mesh_cycles'][0]:.2f}-{s['mesh_cycles'][1]:.2f}, "
                   f"t {s['time_s'][0]:.6g}-{s['time_s'][1]:.6g} s")

@@ -121,7 +121,15 @@ def test_study_file_errors_name_the_key_unit_and_range(tmp_path):
                       r"\[dynamic\] torque_Nm and torques_Nm \[N\*m\] exclude each other"),
                      (ok.replace("torque_Nm = 300.0", "torques_Nm = [300.0, 300.0]"),
                       r"\[dynamic\] torques_Nm \[N\*m\] = \[300.0, 300.0\]; allowed: a non-empty list of distinct "
-                      r"torques")):
+                      r"torques"),
+                     # descending: every variant failed with 'frequencies differ from the study's'
+                     (ok.replace("[2000.0, 3200.0, 3]", "[3200.0, 2000.0, 3]"),
+                      r"mesh_frequency_Hz \[Hz\] = \[3200.0, 2000.0, 3\]; allowed: \[start, stop, count\]: start <= "
+                      r"stop"),
+                     (ok.replace("[2000.0, 3200.0, 3]", "[2000.0, 3200.0, 1]"), r"count >= 1 \(1: start = stop\)"),
+                     (ok + "\n[load_spectrum]\ntorques_Nm = [100.0, 200.0]\nweights = [0.3, 0.5]\n",
+                      r"weights \[-\] = \[0.3, 0.5\]; allowed: one time share >= 0 per torque, the shares summing "
+                      r"to 1")):
         with pytest.raises(ModelError, match=msg):
             parse_study(bad, file="s.toml")
 

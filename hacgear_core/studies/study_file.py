@@ -27,7 +27,7 @@ grid of each variant's tables, and what to compute per variant::
 
     [load_spectrum]                     # optional: for the best variant per criterion
     torques_Nm = [150.0, 300.0, 450.0]
-    weights = [0.3, 0.5, 0.2]           # time shares (normalised)
+    weights = [0.3, 0.5, 0.2]           # time shares, summing to 1
 
 Key paths
 ---------
@@ -336,9 +336,11 @@ def parse_study(text: str, *, file: str = "<study>", folder: Path | None = None)
     if "dynamic" in top.data:
         dr = _Reader(top.get("dynamic", dict, "", "a table"), "dynamic", file)
         r = RANGES["mesh_frequency_Hz"]
-        fm = dr.get("mesh_frequency_Hz", list, "Hz", f"[start, stop, count]: start, stop {r.text}, count >= 1",
+        fm = dr.get("mesh_frequency_Hz", list, "Hz", f"[start, stop, count]: start <= stop, each {r.text}; "
+                    "count >= 1 (1: start = stop); the sweep's order is [dynamic] direction",
                     check=lambda v: len(v) == 3 and _num(v[0]) and _num(v[1]) and r.contains(v[0])
-                    and r.contains(v[1]) and isinstance(v[2], int) and not isinstance(v[2], bool) and v[2] >= 1)
+                    and r.contains(v[1]) and isinstance(v[2], int) and not isinstance(v[2], bool) and v[2] >= 1
+                    and v[0] <= v[1] and (v[2] > 1 or v[0] == v[1]))
         dt = dr.get("torque_Nm", (int, float), "N*m", RANGES["torque_Nm"].text, default=None,
                     check=lambda t: _num(t) and RANGES["torque_Nm"].contains(t))
         dts = dr.get("torques_Nm", list, "N*m", f"a non-empty list of distinct torques, each "
@@ -360,12 +362,12 @@ def parse_study(text: str, *, file: str = "<study>", folder: Path | None = None)
         lr = _Reader(top.get("load_spectrum", dict, "", "a table"), "load_spectrum", file)
         sp_t = tuple(float(t) for t in lr.get("torques_Nm", list, "N*m", "a non-empty list of torques",
                                               check=_torques))
-        sp_w = tuple(float(w) for w in lr.get("weights", list, "-", "one weight >= 0 per torque, sum > 0",
+        sp_w = tuple(float(w) for w in lr.get("weights", list, "-", "one time share >= 0 per torque, the shares "
+                                              "summing to 1 (within 1e-6)",
                                               check=lambda w: len(w) == len(sp_t) and all(_num(x) and x >= 0
-                                                                                          for x in w) and sum(w) > 0))
+                                                                                          for x in w)
+                                              and abs(math.fsum(w) - 1.0) <= 1e-6))
         lr.done()
-        s = sum(sp_w)
-        sp_w = tuple(w / s for w in sp_w)
     top.done()
     return StudySpec(name=name, base_model=_resolve_base(base, folder), variables=tuple(variables),
                      static_torques_Nm=tuple(float(t) for t in torques), mesh=mesh, statics=statics, solver=solver,

@@ -347,6 +347,11 @@ def test_cli_study_json_and_plot(tmp_path, capsys):
     study = _quick(tmp_path, relief=(0.0, 30.0), speeds=3)
     out = tmp_path / "q.h5"
     assert main(["study", str(study), "--out", str(out), "--workers", "1", "--no-progress"]) == 0
+    err = capsys.readouterr().err   # --no-progress: a line per stage of each variant, not silence until the end
+    v1, v2 = "variant 1/2 (gears[*].drive.tip_relief_um=0)", "variant 2/2 (gears[*].drive.tip_relief_um=30)"
+    for stage in (f"{v1}: tables", f"{v1}: statics: building the contact solvers", f"{v2}: sweeps over 3 speeds",
+                  f"{v2}: done in"):
+        assert f"hacgear study: {stage}" in err, err[-3000:]
     assert main(["plot", str(out), "--out", str(tmp_path / "map.png")]) == 0
     for name in ("map.png", "map_dynamic.png", "map_best.png"):
         assert (tmp_path / name).stat().st_size > 10_000

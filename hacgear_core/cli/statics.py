@@ -216,6 +216,7 @@ def run(args: argparse.Namespace) -> int:
         max_torque_factor=args.max_torque_factor,
         deflection_margin=DEFAULT_DEFLECTION_MARGIN if args.deflection_margin is None else args.deflection_margin,
         solver=args.solver or "fe", workers=args.workers, resume=not args.fresh, progress=not args.no_progress,
+        log=lambda msg: print(f"hacgear statics: {msg}", file=sys.stderr, flush=True),
     )
     if args.json:
         print(json.dumps(rep.as_dict(), indent=2))

@@ -3,6 +3,7 @@ process pool or a Dask cluster, into one resumable HDF5 results file."""
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -44,7 +45,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--fresh", action="store_true",
                    help="discard the results file and compute every variant's results again (tables and sweep rows "
                         "of the same provenance are still reused)")
-    p.add_argument("--no-progress", action="store_true", help="no progress bars")
+    p.add_argument("--no-progress", action="store_true",
+                   help="no progress bars: one line on stderr per stage of each variant instead")
     p.add_argument("--json", action="store_true", help="print a JSON summary (SI, unit in the key names)")
     p.set_defaults(func=run)
 
@@ -77,7 +79,9 @@ def run(args: argparse.Namespace) -> int:
         client, executor = dask_executor(args.scheduler)
     try:
         rep = run_study(spec, out, tables_dir=args.tables_dir, executor=executor, workers=args.workers,
-                        fresh=args.fresh, progress=not args.no_progress)
+                        fresh=args.fresh, progress=not args.no_progress,
+                        log=(lambda m: print(f"hacgear study: {m}", file=sys.stderr, flush=True))
+                        if args.no_progress else None)
     finally:
         if client is not None:
             client.close()

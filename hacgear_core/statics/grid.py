@@ -361,6 +361,7 @@ def run_statics(
     resume: bool = True,
     progress: bool = True,
     twists_rad: np.ndarray | None = None,
+    log: Callable[[str], None] | None = None,
 ) -> StaticsReport:
     """Run the static grid of every mesh and write ``out`` (HDF5, format of :mod:`hacgear_core.tables`).
 
@@ -389,8 +390,11 @@ def run_statics(
     progress : show a tqdm progress bar (stderr).
     twists_rad : mesh-twist grid [rad] (odd length, contains 0) for the meshes whose solver resolves the face
         (helical: :class:`~hacgear_core.statics.helical.HelicalMeshContactSolver`); None: no twist axis.
+    log : called with a line at each stage that runs before the progress bar (building the solvers, checking an
+        existing table), so a long step never runs silently; None: nothing.
     """
     t0 = time.perf_counter()
+    say = log or (lambda _msg: None)
     out = Path(out)
     partial = _partial_path(out)
     check_writable_kind(out, "tables", "a tables file")
@@ -410,6 +414,9 @@ def run_statics(
         own_executor = executor = process_pool(workers or os.cpu_count(), start_method="spawn")
     try:
         # --- solver descriptions (in a worker, so the solver built there is reused) ----------
+        say(f"building the contact solvers of {len(names)} mesh side(s) ({', '.join(names)}): finite-element "
+            "meshes and factorisations, cached on disk after their first build"
+            + (f"; then {out} is compared with what they would write" if out.exists() and resume else ""))
         if executor is None:
             infos = {m: _describe_task(factories[m]) for m in names}
         else:
@@ -456,6 +463,8 @@ def run_statics(
             raise TableError(f"{out} is a finished table made with other settings (differs: {diff}); it is kept. "
                              "Write the new grid to another file with --out, or replace this one with "
                              "--fresh")
+        say(f"solvers ready after {time.perf_counter() - t0:.1f} s; solving {2 * n_positions * len(names)} position "
+            "tasks")
         f, resumed_note = tb.open_statics_file(partial, layouts, root_attrs, resume=resume)
         try:
             return _run_phases(f, tb, factories, layouts, positions, executor, deflection_margin, progress,
@@ -569,6 +578,7 @@ def compute_statics(
     resume: bool = True,
     progress: bool = True,
     sides: Sequence[str] = SIDES,
+    log: Callable[[str], None] | None = None,
 ) -> StaticsReport:
     """``hacgear statics``: the static grids of both sides of every mesh of a model file → ``tables.h5``.
 
@@ -579,7 +589,8 @@ def compute_statics(
     mesh twists from ``-max_twist_mrad`` to ``+max_twist_mrad``; the coast side
     ``hacgear_core.statics.coast.make_coast_solver``) or ``"analytic"`` (:class:`AnalyticPairSolver`, reference
     spring model).  ``sides``: ``("drive", "coast")`` (default; helical meshes: both sides over the same twist
-    grid, each in its own mesh frame) or ``("drive",)`` (a one-sided table, e.g. for quick studies).
+    grid, each in its own mesh frame) or ``("drive",)`` (a one-sided table, e.g. for quick studies).  ``log``: as
+    in :func:`run_statics`.
     """
     mdl = load_model(model)
     if solver not in ("fe", "analytic"):
@@ -616,5 +627,5 @@ def compute_statics(
         factories, out_path, n_positions=n_pos, n_deflections=n_def, loads_N=loads_for,
         deflection_margin=deflection_margin, model_sha256=mdl.sha256, model_file=str(mdl.path.name),
         model_values=values,
-        executor=executor, workers=workers, resume=resume, progress=progress, twists_rad=twists,
+        executor=executor, workers=workers, resume=resume, progress=progress, twists_rad=twists, log=log,
     )

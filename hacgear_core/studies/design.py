@@ -52,7 +52,7 @@ import time
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import h5py
 import numpy as np
@@ -348,7 +348,7 @@ def _write_variant(path: Path, i: int, status: str, *, error: str = "", tables: 
 # ------------------------------------------------------------------------------------------------ runner
 def run_study(spec: StudySpec, out: str | Path, *, tables_dir: str | Path | None = None,
               executor: cf.Executor | None = None, workers: int | None = None, fresh: bool = False,
-              progress: bool = True) -> StudyReport:
+              progress: bool = True, log: Callable[[str], None] | None = None) -> StudyReport:
     """Run every variant of ``spec`` not yet done in ``out`` (module docstring) and return what happened.
 
     Parameters
@@ -363,8 +363,12 @@ def run_study(spec: StudySpec, out: str | Path, *, tables_dir: str | Path | None
     fresh : discard ``out`` and recompute every variant's results (tables and sweep rows of the same provenance
         are still reused).
     progress : progress bars on stderr.
+    log : called with one line as each variant starts a stage (tables, static rows, sweeps) and as it ends, so a
+        run without progress bars is never silent for a whole variant; None: nothing.
     """
     from hacgear_core.workers import process_pool
+
+    say = log or (lambda _msg: None)
 
     t0 = time.perf_counter()
     out = Path(out)
@@ -394,29 +398,37 @@ def run_study(spec: StudySpec, out: str | Path, *, tables_dir: str | Path | None
             t1 = time.perf_counter()
             tables = ""
             reused = False
+            tag = f"variant {i + 1}/{len(spec.variants)} ({label})"
             try:
                 mpath, tpath, _ = _prepare(spec, values, tables_dir.resolve())
                 tables = str(tpath)
                 reused = tpath.exists()
+                say(f"{tag}: tables {'(reused) ' if reused else ''}{tpath}")
                 compute_statics(mpath, tpath, solver=spec.solver, executor=executor,
-                                workers=1 if executor is None else None, progress=progress)
+                                workers=1 if executor is None else None, progress=progress,
+                                log=None if log is None else (lambda m, tag=tag: say(f"{tag}: statics: {m}")))
                 system = build_system(load_model(mpath), load_system_tables(mpath, tpath))
                 k = _mesh_index(spec, system)
+                say(f"{tag}: static rows over {len(spec.static_torques_Nm)} torques")
                 static = _static_rows(spec, system, k)
                 dynamic = None
                 if spec.dynamic:
+                    say(f"{tag}: sweeps over {len(spec.frequencies_Hz())} speeds "
+                        f"({spec.dynamic['direction']})")
                     dynamic = _dynamic_rows(spec, system, k, tpath.with_name(tpath.stem + "_sweeps.h5"),
                                             executor, progress, f"variant {i + 1}/{len(spec.variants)}")
                 _write_variant(out, i, "done", tables=os.path.relpath(tpath, out.resolve().parent),
                                mesh=system.mesh_names[k], static=static, dynamic=dynamic)
                 outcomes.append(VariantOutcome(i, label, "computed", tables_file=tables, tables_reused=reused,
                                                seconds=time.perf_counter() - t1))
+                say(f"{tag}: done in {time.perf_counter() - t1:.1f} s")
             except HacgearError as exc:
                 msg = f"variant {i + 1} ({label}): {exc}"
                 _write_variant(out, i, "failed", error=msg,
                                tables=os.path.relpath(tables, out.resolve().parent) if tables else "")
                 outcomes.append(VariantOutcome(i, label, "failed", error=msg, tables_file=tables,
                                                seconds=time.perf_counter() - t1))
+                say(f"{tag}: FAILED: {exc}")
             if bar is not None:
                 bar.update(1)
     finally:

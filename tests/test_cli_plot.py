@@ -170,3 +170,82 @@ def test_a_sweep_missing_a_branch_is_plotted_with_a_warning(tmp_path, capsys):
     from hacgear_core.plots.sweep import sweep_figure
     fig, _ = sweep_figure(tmp_path / "s.h5")
     assert fig._suptitle is not None and fig._suptitle.get_text().startswith("INCOMPLETE: ")
+
+
+TWO_VARIABLES = """
+[study]
+name = "two"
+base_model = "spur_28t_asym"
+
+[[variables]]
+key = "gears[*].drive.tip_relief_um"
+values = [0.0, 30.0]
+
+[[variables]]
+key = "gears[*].lead_crowning_um"
+values = [0.0, 15.0]
+
+[statics]
+positions = 16
+loads = 8
+deflections = 24
+solver = "analytic"
+
+[static]
+torques_Nm = [100.0, 300.0, 500.0]
+
+[dynamic]
+torque_Nm = 300.0
+mesh_frequency_Hz = [2000.0, 3500.0, 4]
+max_cycles = 800
+"""
+
+
+def _overlaps(a, b) -> bool:
+    return a.x0 < b.x1 - 1 and b.x0 < a.x1 - 1 and a.y0 < b.y1 - 1 and b.y0 < a.y1 - 1
+
+
+def test_study_figures_of_two_variables_read_well(tmp_path):
+    """A study of two variables (the issue's case: the dynamic map cut its right column, colour-bar labels over
+    'variant', ~50 px panels, x ticks run together; the best-variant legend over the text; labels as key paths and
+    Python names): every text inside the figure, no text over another axes or over another text of the same
+    panel, panels at least 2.6 inches tall, variables by short name with units, criteria in words."""
+    from hacgear_core.plots.study import best_variant_chart, dynamic_map, harris_map
+    from hacgear_core.studies import load_study, read_study, run_study
+
+    (tmp_path / "two.toml").write_text(TWO_VARIABLES)
+    run_study(load_study(tmp_path / "two.toml"), tmp_path / "two.h5", workers=1, progress=False)
+    res = read_study(tmp_path / "two.h5")
+    for name, fig in (("harris", harris_map(res)), ("dynamic", dynamic_map(res)), ("best", best_variant_chart(res))):
+        fig.canvas.draw()
+        r = fig.canvas.get_renderer()
+        page = fig.bbox
+        # numeric tick labels are placed by matplotlib (those beyond the view limits exist but are not drawn)
+        texts = [t for t in fig.findobj(Text) if t.get_text() and t.get_visible()
+                 and not re.fullmatch(r"[−-]?[\d.]+", t.get_text())]
+        for t in texts:
+            e = t.get_window_extent(r)
+            assert e.x0 >= -1 and e.x1 <= page.x1 + 1 and e.y0 >= -1 and e.y1 <= page.y1 + 1, \
+                f"{name}: {t.get_text()!r} outside the figure"
+        joined = " | ".join(t.get_text() for t in texts)
+        assert "gears[*]" not in joined and "_um" not in joined and "ste_peak_to_peak" not in joined, joined
+        assert "tip relief 30 µm, lead crowning 15 µm" in joined, name
+        for i, ax in enumerate(fig.axes):   # a panel's texts stay clear of the other panels (colour bars too)
+            for t in ax.get_yticklabels() + [ax.yaxis.label, ax.title]:
+                if not t.get_text():
+                    continue
+                e = t.get_window_extent(r)
+                for j, other in enumerate(fig.axes):
+                    if j != i:
+                        assert not _overlaps(e, other.get_window_extent(r)), \
+                            f"{name}: {t.get_text()!r} of panel {i} over panel {j}"
+        for leg in [fig.legends[0]] if fig.legends else []:
+            for ax in fig.axes:
+                assert not _overlaps(leg.get_window_extent(r), ax.get_window_extent(r)), f"{name}: legend over axes"
+        if name == "dynamic":
+            heights = [ax.get_window_extent(r).height / fig.dpi for ax in fig.axes if ax.collections]
+            assert min(heights) >= 1.6, heights   # the heat map itself, without title and ticks
+            ticks = [t.get_text() for ax in fig.axes for t in ax.get_xticklabels() if t.get_text()]
+            assert all(len(t) <= 5 for t in ticks), ticks   # no '20003000'
+        _check(fig, name)
+        plt.close(fig)

@@ -57,15 +57,20 @@ def _at_twist(table, twist) -> bool:
     return twist is not None and getattr(table, "twist", None) is not None
 
 
-def dynamic_contact_pressure(table, tau, x, twist=None) -> np.ndarray:
+def dynamic_contact_pressure(table, tau, x, twist=None, part: str = "peak") -> np.ndarray:
     """Maximum contact pressure over all teeth (n,) [Pa] along the trajectory; for a helical mesh table (twist
-    axis) at the mesh twist ``twist`` (n,) [rad] when given (trilinear lookup of the twist-resolved pressure)."""
+    axis) at the mesh twist ``twist`` (n,) [rad] when given (trilinear lookup of the twist-resolved pressure).
+    ``part``: "peak" over every contact, "flank" over the flank (Hertzian) contacts, "edge" over the tip-edge
+    contacts (NaN for a table that does not tell them apart)."""
     tau = np.asarray(tau, float).ravel()
     x = np.asarray(x, float).ravel()
     if _at_twist(table, twist):
         g = np.asarray(twist, float).ravel()
-        return np.maximum(table.twist_quantity(table.twist.peak_pressure_Pa, tau, x, g), 0.0)
-    return table.pressure(tau, x)
+        data = table.pressure_data(part, twist=True)
+        if data is None:
+            return np.full(tau.shape, np.nan)
+        return np.maximum(table.twist_quantity(data, tau, x, g), 0.0)
+    return table.pressure(tau, x, part)
 
 
 def _gauge(table, gauge: str) -> np.ndarray:

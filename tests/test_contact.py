@@ -482,3 +482,21 @@ def _hob_max_strains(model, _cache={}):
 def test_hob_tip_radius_18mm_matches_dissertation_band(model):
     m = _hob_max_strains(model)
     assert m[1.8e-3] / m[0.4e-3] - 1 == pytest.approx(-0.132, abs=0.04)
+
+
+def test_tip_edge_and_flank_pressures_are_told_apart():
+    """The unmodified 50-tooth pair at its nominal load (2412 N): at mesh position 0.25 the next tooth pair
+    touches early at the tip edge (a corner on the mating flank: 3.6 GPa with the 0.1 mm edge radius) while the
+    loaded pair's flank carries 0.45 GPa; the solution gives both per pair, and the peak is the larger of the two.
+    At the pitch point region (0.5, two pairs on their flanks) there is no edge contact."""
+    from hacgear_core.statics.helical import make_solver
+    s = make_solver(load_model("spur_50t_icr137"), "m12")
+    sol = s.solve_load(0.25, 2412.0)
+    k = list(s.tooth_offsets)
+    i0, i1 = k.index(0), k.index(1)
+    assert sol.tooth_load_N[i1] > 0.1 * 2412.0
+    assert sol.edge_pressure_Pa[i1] > 2e9 and sol.flank_pressure_Pa[i1] == 0.0
+    assert 0.3e9 < sol.flank_pressure_Pa[i0] < 0.6e9 and sol.edge_pressure_Pa[i0] == 0.0
+    np.testing.assert_array_equal(np.maximum(sol.flank_pressure_Pa, sol.edge_pressure_Pa), sol.peak_pressure_Pa)
+    mid = s.solve_load(0.5, 2412.0)
+    assert np.all(mid.edge_pressure_Pa == 0.0) and np.all(mid.flank_pressure_Pa == mid.peak_pressure_Pa)

@@ -710,3 +710,35 @@ def test_rename_gears_carries_names_only(tmp_path):
         assert np.array_equal(f["meshes/m12/strain/gear_b1/R70p7"][()], g["meshes/m12/strain/wheel/R70p7"][()],
                               equal_nan=True)
         assert '"renames": {"pinion": "gear_a1", "wheel": "gear_b1"}' in str(f.attrs[RENAMED_ATTR])
+
+
+def test_flank_and_edge_pressures_are_tabulated_apart(tmp_path):
+    """Every shipped table holds the contact pressure split into flank (Hertzian) and tip-edge contacts, the peak
+    the larger of the two; the unmodified 50-tooth pair has tip-edge contact (premature / late, off the line of
+    action) and `statics --check` notes it; a table without the split (older) reads as None, is noted as such,
+    and an inconsistent split is a problem."""
+    from dataclasses import replace as dc_replace
+    from hacgear_core.tables import read_tables, write_tables
+    from hacgear_core.tables.check import pressure_notes, sanity_problems
+
+    for system in ("spur_50t_icr137", "helical_28_33"):
+        tabs = read_tables(REPO / "models" / system / "tables.h5")
+        for t in tabs.meshes.values():
+            for side in (t, t.coast):
+                np.testing.assert_array_equal(np.maximum(side.flank_pressure_Pa, side.edge_pressure_Pa),
+                                              side.peak_pressure_Pa)
+    t = read_tables(REPO / "models" / "spur_50t_icr137" / "tables.h5").mesh("m12")
+    assert t.edge_pressure_Pa.max() > 5e9 and t.flank_pressure_Pa.max() < t.edge_pressure_Pa.max()
+    assert any(n.startswith("tip-edge contact at ") for n in pressure_notes(t))
+    bad = dc_replace(t, flank_pressure_Pa=t.flank_pressure_Pa * 0.5, coast=None)
+    assert any("their larger differs from peak_pressure_Pa" in p for p in sanity_problems(bad))
+    tabs = read_tables(REPO / "models" / "spur_50t_icr137" / "tables.h5")
+    old = dc_replace(tabs, meshes={m: dc_replace(v, flank_pressure_Pa=None, edge_pressure_Pa=None,
+                                                 coast=dc_replace(v.coast, flank_pressure_Pa=None,
+                                                                  edge_pressure_Pa=None))
+                                   for m, v in tabs.meshes.items()})
+    write_tables(tmp_path / "old.h5", old)
+    back = read_tables(tmp_path / "old.h5").mesh("m12")
+    assert back.flank_pressure_Pa is None and back.edge_pressure_Pa is None
+    assert np.isnan(back.pressure(0.3, 2e-5, "edge")) and back.pressure(0.3, 2e-5) >= 0
+    assert pressure_notes(back) and "not told apart" in pressure_notes(back)[0]

@@ -18,6 +18,8 @@ from hacgear_core.errors import ModelError
 from hacgear_core.jsonio import dumps
 from hacgear_core.outpaths import check_out_path, written_whole
 from hacgear_core.response import dynamic_contact_pressure, dynamic_mesh_stiffness
+from hacgear_core.tables.check import STEEL_PRESSURE_LIMIT_PA
+from hacgear_core.tables.table import PRESSURE_PARTS
 
 __all__ = ["register", "run", "SIMULATE_METRICS"]
 
@@ -72,6 +74,37 @@ def _passage_summary(p, static, need: int) -> dict:
         out.update(static_extreme=static.extreme, static_max=static.max_strain, static_min=static.min_strain,
                    dynamic_factor=p.factor_over(static), factor_side=side,
                    peak_on_static_side=p.max_strain if side == "tension" else p.min_strain)
+    return out
+
+
+def pressure_text(s: dict) -> str:
+    """The contact pressures of one mesh's summary: flank (Hertzian) and tip edge apart where the tables tell them."""
+    if math.isnan(s["max_flank_pressure_Pa"]):
+        return (f"max contact pressure {s['max_peak_pressure_Pa'] / 1e6:.1f} MPa (flank and tip-edge contacts not "
+                "told apart by these tables)")
+    text = f"max flank (Hertzian) contact pressure {s['max_flank_pressure_Pa'] / 1e6:.1f} MPa"
+    if s["max_edge_pressure_Pa"] > 0:
+        text += (f", tip-edge contact {100 * s['edge_contact_fraction']:.3g} % of the time at up to "
+                 f"{s['max_edge_pressure_Pa'] / 1e6:.1f} MPa")
+    return text
+
+
+def pressure_warnings(mesh: str, s: dict) -> list[str]:
+    """Warnings for contact pressures beyond what gear steel carries (:data:`STEEL_PRESSURE_LIMIT_PA`)."""
+    lim = STEEL_PRESSURE_LIMIT_PA
+    out = []
+    if s["max_flank_pressure_Pa"] > lim:
+        out.append(f"mesh {mesh}: flank contact pressure {s['max_flank_pressure_Pa'] / 1e9:.2f} GPa exceeds the "
+                   f"{lim / 1e9:g} GPa no gear steel carries (static capacity of case-hardened steel, ISO 6336-2/-5: "
+                   "about 2.6 GPa): the flanks would pit or crush")
+    if s["max_edge_pressure_Pa"] > lim:
+        out.append(f"mesh {mesh}: tip-edge contact at {s['max_edge_pressure_Pa'] / 1e9:.2f} GPa (a tip corner on the "
+                   "mating flank, off the line of action): its value is set by the edge radius (tip_edge_radius_mm, "
+                   "0.1 mm taken for a sharp corner), not a flank stress; tip relief or a rounded tip edge avoids it")
+    if math.isnan(s["max_flank_pressure_Pa"]) and s["max_peak_pressure_Pa"] > lim:
+        out.append(f"mesh {mesh}: contact pressure {s['max_peak_pressure_Pa'] / 1e9:.2f} GPa exceeds {lim / 1e9:g} "
+                   "GPa; these tables do not tell flank from tip-edge contact (regenerate them: `hacgear statics "
+                   "MODEL --fresh`)")
     return out
 
 
@@ -150,11 +183,12 @@ def run(args: argparse.Namespace) -> int:
             tr[f"{m}.dynamic_transmission_error_m"] = raw["dynamic_transmission_error_m"][:, k]
         gk = raw["mesh_twist_rad"][:, k] if c.t is not None else None      # helical: read at the mesh twist
         tr[f"{m}.dynamic_mesh_stiffness_N_per_m"] = dynamic_mesh_stiffness(c.table, tau[:, k], x[:, k], gk)
-        pressure = dynamic_contact_pressure(c.table, tau[:, k], x[:, k], gk)
-        if c.coast_table is not None:  # the flanks in contact: drive or coast (never both)
-            gc = raw["coast_twist_rad"][:, k] if "coast_twist_rad" in raw else None   # helical: at the coast twist
-            pressure = np.maximum(pressure, dynamic_contact_pressure(c.coast_table, tau[:, k], xc[:, k], gc))
-        tr[f"{m}.peak_pressure_Pa"] = pressure
+        for part in PRESSURE_PARTS:   # every contact, the flank (Hertzian) contacts, the tip edges
+            pressure = dynamic_contact_pressure(c.table, tau[:, k], x[:, k], gk, part)
+            if c.coast_table is not None:  # the flanks in contact: drive or coast (never both)
+                gc = raw["coast_twist_rad"][:, k] if "coast_twist_rad" in raw else None   # helical: the coast twist
+                pressure = np.maximum(pressure, dynamic_contact_pressure(c.coast_table, tau[:, k], xc[:, k], gc, part))
+            tr[f"{m}.{part}_pressure_Pa"] = pressure
     for g in gauges:  # the tooth of the reported passage (tooth 0 when none was recorded)
         tooth = passages[g].tooth if passages[g] is not None else 0
         tr[f"strain[{g}]"] = strain_of_tooth(sy, g, tau, x, xc, raw.get("mesh_twist_rad"), tooth=tooth)
@@ -170,6 +204,9 @@ def run(args: argparse.Namespace) -> int:
             "loaded_flank": "coast" if coast[k] else "drive",
             **{name: float(metrics[name][k]) for name in SIMULATE_METRICS},
             "max_peak_pressure_Pa": float(tr[f"{c.name}.peak_pressure_Pa"].max()),
+            "max_flank_pressure_Pa": float(np.max(tr[f"{c.name}.flank_pressure_Pa"])),
+            "max_edge_pressure_Pa": float(np.max(tr[f"{c.name}.edge_pressure_Pa"])),
+            "edge_contact_fraction": float(np.mean(tr[f"{c.name}.edge_pressure_Pa"] > 0)),
             "steps_beyond_tables": sim.out_of_range_steps[k],
             "table_deflection_range_m": [float(c.table.deflection_m[0]), float(c.table.deflection_m[-1])],
         }
@@ -215,8 +252,10 @@ def run(args: argparse.Namespace) -> int:
     for m, s in per_mesh.items():
         print(f"  {m}, last {args.record_cycles} cycles: mean x {s['mean_deflection_m'] * 1e6:.3f} µm, rms "
               f"{s['rms_deflection_m'] * 1e6:.3f} µm; {s['loaded_flank']} flanks (the loaded ones): F_max "
-              f"{s['peak_force_N']:.1f} N, contact loss {s['contact_loss_fraction']:.3f}; max contact pressure "
-              f"{s['max_peak_pressure_Pa'] / 1e6:.1f} MPa")
+              f"{s['peak_force_N']:.1f} N, contact loss {s['contact_loss_fraction']:.3f}; "
+              + pressure_text(s))
+        for w in pressure_warnings(m, s):
+            print(f"  WARNING: {w}", file=sys.stderr)
         if sy.meshes[list(per_mesh).index(m)].coast_table is not None:
             print(f"    back side ({'drive' if s['loaded_flank'] == 'coast' else 'coast'} flanks) in contact "
                   f"{s['back_side_contact_fraction']:.3f} of the time, peak force {s['peak_back_side_force_N']:.1f} "

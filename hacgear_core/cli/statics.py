@@ -20,7 +20,7 @@ from hacgear_core.kinds import load_model
 from hacgear_core.outpaths import check_out_path
 from hacgear_core.statics import DEFAULT_DEFLECTION_MARGIN, compute_statics, nominal_mesh_forces
 from hacgear_core.tables import file_integrity, read_tables
-from hacgear_core.tables.check import resolution_notes, sanity_problems
+from hacgear_core.tables.check import pressure_notes, resolution_notes, sanity_problems
 
 __all__ = ["register", "run", "check_report"]
 
@@ -115,7 +115,9 @@ def check_report(model: str | Path, tables: str | Path | None = None, *, ignore_
             "deflection_grid_min_m": float(mt.deflection_m[0]), "deflection_grid_max_m": float(mt.deflection_m[-1]),
             "force_max_N": float(np.max(mt.force_N[finite])) if finite.any() else float("nan"),
             "peak_pressure_max_Pa": float(np.nanmax(mt.peak_pressure_Pa)),
-            "solver": mt.solver, "problems": mp_problems, "notes": resolution_notes(mt),
+            "flank_pressure_max_Pa": None if mt.flank_pressure_Pa is None else float(np.nanmax(mt.flank_pressure_Pa)),
+            "edge_pressure_max_Pa": None if mt.edge_pressure_Pa is None else float(np.nanmax(mt.edge_pressure_Pa)),
+            "solver": mt.solver, "problems": mp_problems, "notes": resolution_notes(mt) + pressure_notes(mt),
             "side": mt.side, "flanks": list(mt.flanks),
         }
         if mt.side == "coast":

@@ -588,12 +588,16 @@ class Simulator:
                                      [self.coast_approach_m],
                                      [self.mesh_twist_rad] if self.mesh_twist_rad else None, tooth=tooth)[0])
 
-    def peak_pressure_Pa(self, mesh: int = 0) -> float:
+    def peak_pressure_Pa(self, mesh: int = 0, part: str = "peak") -> float:
         """Maximum contact pressure over all teeth of mesh ``mesh`` now [Pa] (table lookup), on the flanks in
-        contact: the drive table's, or the coast table's when the teeth have crossed the backlash."""
+        contact: the drive table's, or the coast table's when the teeth have crossed the backlash.  ``part``:
+        "peak" every contact, "flank" the flank (Hertzian) contacts, "edge" the tip-edge contacts (NaN where the
+        tables do not tell them apart)."""
         c = self.system.meshes[mesh]
         g = [self.mesh_twist_rad[mesh]] if c.t is not None else None      # helical: at the mesh twist
-        p = float(dynamic_contact_pressure(c.table, [self.mesh_position[mesh]], [self.mesh_deflection_m[mesh]], g)[0])
+        p = float(dynamic_contact_pressure(c.table, [self.mesh_position[mesh]], [self.mesh_deflection_m[mesh]], g,
+                                           part)[0])
         if c.coast_table is not None:
-            p = max(p, float(c.coast_table.pressure(self.mesh_position[mesh], self.coast_approach_m[mesh])))
+            pc = float(c.coast_table.pressure(self.mesh_position[mesh], self.coast_approach_m[mesh], part))
+            p = max(p, pc) if not (math.isnan(p) or math.isnan(pc)) else math.nan
         return p

@@ -44,6 +44,7 @@ from hacgear_core.fmu.spec import FmuVariable, Reading, ident, output_expression
 from hacgear_core.model.schema import RANGES
 from hacgear_core.kinds import load_model
 from hacgear_core.tables import read_tables
+from hacgear_core.tables.check import STEEL_PRESSURE_LIMIT_PA
 
 __all__ = ["MODEL_FILE", "TABLES_FILE", "Adapter", "make_adapter", "variables_for"]
 
@@ -75,6 +76,14 @@ def _nice_ceil(x: float) -> float:
             return float(f"{m * 10.0 ** e:.1g}")
     return float(f"{10.0 ** (e + 1):.1g}")  # pragma: no cover
 
+
+
+def split_pressure(coupling) -> bool:
+    """Whether the tables of a mesh (drive and, where present, coast side) tell flank from tip-edge contact."""
+    tabs = [getattr(coupling, "table", None), getattr(coupling, "coast_table", None)]
+    tabs = [t for t in tabs if t is not None]
+    return bool(tabs) and all(getattr(t, "flank_pressure_Pa", None) is not None
+                              and getattr(t, "edge_pressure_Pa", None) is not None for t in tabs)
 
 class Adapter:
     """FMI variables of one gear system and the simulator behind them.
@@ -324,6 +333,21 @@ class Adapter:
                   f"maximum contact pressure over all teeth of mesh {mn} on the flanks in contact, drive or coast "
                   "(table lookup)", display_unit="MPa",
                   nominal=pressure[k], read=by(lambda s, j: s.peak_pressure_Pa(j), fallible=True)),
+            ]
+            if split_pressure(c):   # tables that tell flank from tip-edge contact
+                spec += [
+                    V(f"{m_}.flank_pressure", "Real", "output", "continuous", "Pa",
+                      f"maximum flank (Hertzian) contact pressure over all teeth of mesh {mn} on the flanks in "
+                      f"contact (table lookup); above {STEEL_PRESSURE_LIMIT_PA / 1e9:g} GPa no gear steel carries it",
+                      display_unit="MPa", nominal=pressure[k],
+                      read=by(lambda s, j: s.peak_pressure_Pa(j, "flank"), fallible=True)),
+                    V(f"{m_}.edge_pressure", "Real", "output", "continuous", "Pa",
+                      f"maximum tip-edge contact pressure over all teeth of mesh {mn} (a tip corner on the mating "
+                      "flank, off the line of action; 0 without such contact): its value is set by the edge radius "
+                      "(0.1 mm taken for a sharp corner), not a flank stress", display_unit="MPa",
+                      nominal=pressure[k], read=by(lambda s, j: s.peak_pressure_Pa(j, "edge"), fallible=True)),
+                ]
+            spec += [
                 V(f"{m_}.out_of_range", "Boolean", "output", "discrete", "",
                   f"true once the state of mesh {mn} has left its tables' deflection range (forces, pressures and "
                   "strains there are extrapolated; logged once as a warning)",

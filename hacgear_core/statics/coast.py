@@ -154,6 +154,8 @@ class CoastSideSolver:
                        mesh_deflection_m=sol.mesh_deflection_m + self.contact_deflection_m,
                        tooth_load_N=np.asarray(sol.tooth_load_N)[r], contact_roll_deg=np.asarray(sol.contact_roll_deg)[r],
                        half_width_m=np.asarray(sol.half_width_m)[r], peak_pressure_Pa=np.asarray(sol.peak_pressure_Pa)[r],
+                       flank_pressure_Pa=None if sol.flank_pressure_Pa is None else np.asarray(sol.flank_pressure_Pa)[r],
+                       edge_pressure_Pa=None if sol.edge_pressure_Pa is None else np.asarray(sol.edge_pressure_Pa)[r],
                        strain=per_pair(sol.strain), stress=per_pair(sol.stress), hub_reaction=hub,
                        contact_s_m=None if sol.contact_s_m is None else np.asarray(sol.contact_s_m)[r],
                        pattern_load_N=None if sol.pattern_load_N is None else np.asarray(sol.pattern_load_N)[r])

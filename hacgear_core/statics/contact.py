@@ -74,9 +74,28 @@ __all__ = [
     "PositionSetup",
     "ContactState",
     "MeshContactSolver",
+    "split_pressure",
     "make_mesh_solver",
     "mesh_solver_inputs",
 ]
+
+
+def split_pressure(n_pairs: int, pair_index: np.ndarray, pressure_Pa: np.ndarray,
+                   tip_contact: np.ndarray) -> dict[str, np.ndarray]:
+    """Largest contact pressure of each pair [Pa] over its flank contacts and over its tip-edge contacts:
+    ``{"flank_pressure_Pa": (n_pairs,), "edge_pressure_Pa": (n_pairs,)}`` (0 where there is none).
+    ``pair_index``, ``pressure_Pa``: (Np,) per contact point; ``tip_contact``: (Np,) per contact point or
+    (n_pairs,) per pair (the plane solver decides it per pair, the face-resolving one per slice)."""
+    p = np.asarray(pressure_Pa, float)
+    tip = np.asarray(tip_contact, bool)
+    if tip.size != p.size:
+        tip = tip[pair_index]
+    flank = np.zeros(n_pairs)
+    edge = np.zeros(n_pairs)
+    np.maximum.at(flank, pair_index[~tip], p[~tip])
+    np.maximum.at(edge, pair_index[tip], p[tip])
+    return {"flank_pressure_Pa": flank, "edge_pressure_Pa": edge}
+
 
 # =============================================================================================
 # Options and geometry helpers
@@ -146,6 +165,8 @@ _OTHER_FLANK = {"drive": "coast", "coast": "drive"}
 def _rot(a: float) -> np.ndarray:
     c, s = math.cos(a), math.sin(a)
     return np.array([[c, -s], [s, c]])
+
+
 
 
 @dataclass(frozen=True)
@@ -673,7 +694,8 @@ class MeshContactSolver:
         loaded = load > 0
         return dict(load_N=load, roll_b_rad=np.where(loaded, s.roll_b_rad, np.nan),
                     s_a_m=np.where(loaded, s.s_a, np.nan), s_b_m=np.where(loaded, s.s_b, np.nan),
-                    half_width_m=hw, peak_pressure_Pa=pp, tip_contact=s.tip_contact & loaded)
+                    half_width_m=hw, peak_pressure_Pa=pp, tip_contact=s.tip_contact & loaded,
+                    **split_pressure(npair, s.pair_index, st.peak_pressure_Pa, s.tip_contact))
 
     def _strain_operator(self, setup_pairs: np.ndarray, tooth_a: np.ndarray, tooth_b: np.ndarray, s_a: np.ndarray,
                          s_b: np.ndarray, offsets: np.ndarray) -> dict[str, np.ndarray]:
@@ -763,6 +785,8 @@ class MeshContactSolver:
                               contact_roll_deg=pick(np.degrees(pr["roll_b_rad"]), np.nan),
                               half_width_m=pick(pr["half_width_m"], 0.0),
                               peak_pressure_Pa=pick(pr["peak_pressure_Pa"], 0.0),
+                              flank_pressure_Pa=pick(pr["flank_pressure_Pa"], 0.0),
+                              edge_pressure_Pa=pick(pr["edge_pressure_Pa"], 0.0),
                               strain=(eps := self.strains(st)), stress=self.stresses(st, strains=eps),
                               hub_reaction=self.hub_reactions(st),
                               contact_s_m=np.stack([pick(pr["s_a_m"], np.nan), pick(pr["s_b_m"], np.nan)], axis=1))

@@ -35,6 +35,10 @@ class StaticSolution:
         Hertzian contact half-width [m] (0 where unloaded).
     peak_pressure_Pa : (Nw,) array
         maximum contact pressure of each pair [Pa] (0 where unloaded).
+    flank_pressure_Pa, edge_pressure_Pa : (Nw,) arrays or None
+        the same maximum over the pair's flank contacts (Hertzian: involute on involute or on a relieved flank)
+        and over its tip-edge contacts (a tip corner pressing on the mating flank, off the line of action, whose
+        pressure the edge radius sets) [Pa]; 0 where there is none; None when the solver does not tell them apart.
     strain : dict gauge → (Nw,) array
         strain [-] at gauge ``"<gear>/<gauge>"`` on the tooth belonging to pair offset k.
     stress : dict gauge → (Nw,) array
@@ -75,6 +79,8 @@ class StaticSolution:
     slice_load_N: np.ndarray | None = None
     slice_pressure_Pa: np.ndarray | None = None
     pattern_load_N: np.ndarray | None = None
+    flank_pressure_Pa: np.ndarray | None = None
+    edge_pressure_Pa: np.ndarray | None = None
 
 
 @runtime_checkable

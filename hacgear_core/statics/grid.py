@@ -269,7 +269,8 @@ def _position_task(factory: SolverFactory, phase: int, mesh: str, ip: int, posit
     T: dict[str, Any] = {
         "force_N": np.zeros((nd, nt)), "tooth_load_N": np.zeros((nd, nt, nw)),
         "contact_roll_deg": np.full((nd, nt, nw), np.nan), "half_width_m": np.zeros((nd, nt, nw)),
-        "peak_pressure_Pa": np.zeros((nd, nt)), "strain": {g: np.zeros((nd, nt, nw)) for g in info.gauge_names},
+        "peak_pressure_Pa": np.zeros((nd, nt)), "flank_pressure_Pa": np.zeros((nd, nt)),
+        "edge_pressure_Pa": np.zeros((nd, nt)), "strain": {g: np.zeros((nd, nt, nw)) for g in info.gauge_names},
         "hub_reaction": {g: np.zeros((nd, nt, 3)) for g in info.gear_names},
         "generalized_fdf": np.zeros((nd, nt, 2)), "generalized_force": np.zeros((nd, nt, 12)),
         "slice_load_N": np.zeros((nd, nt, ns)), "slice_pressure_Pa": np.zeros((nd, nt, ns)),
@@ -290,8 +291,13 @@ def _position_task(factory: SolverFactory, phase: int, mesh: str, ip: int, posit
             T["tooth_load_N"][j, it] = sol.tooth_load_N
             T["contact_roll_deg"][j, it] = sol.contact_roll_deg
             T["half_width_m"][j, it] = sol.half_width_m
-            pp = np.asarray(sol.peak_pressure_Pa, float)
-            T["peak_pressure_Pa"][j, it] = float(np.nanmax(pp)) if pp.size and np.any(np.isfinite(pp)) else 0.0
+            for k in ("peak_pressure_Pa", "flank_pressure_Pa", "edge_pressure_Pa"):
+                pp = getattr(sol, k)
+                if pp is None:   # a solver that does not tell flank and edge contacts apart
+                    T[k][j, it] = math.nan
+                    continue
+                pp = np.asarray(pp, float)
+                T[k][j, it] = float(np.nanmax(pp)) if pp.size and np.any(np.isfinite(pp)) else 0.0
             for gg in info.gauge_names:
                 if gg not in sol.strain:
                     raise SolverError(f"solver returned no strain for gauge {gg!r} at mesh '{mesh}' position {position}")
@@ -305,12 +311,13 @@ def _position_task(factory: SolverFactory, phase: int, mesh: str, ip: int, posit
                 T["slice_load_N"][j, it] = sol.slice_load_N
                 T["slice_pressure_Pa"][j, it] = sol.slice_pressure_Pa
     res: dict[str, Any] = {k: T[k][:, iz] for k in ("force_N", "tooth_load_N", "contact_roll_deg", "half_width_m",
-                                                    "peak_pressure_Pa")}
+                                                    "peak_pressure_Pa", "flank_pressure_Pa", "edge_pressure_Pa")}
     res["strain"] = {g: a[:, iz] for g, a in T["strain"].items()}
     res["hub_reaction"] = {g: a[:, iz] for g, a in T["hub_reaction"].items()}
     if twists is not None:
         res.update(generalized_fdf=T["generalized_fdf"], generalized_force=T["generalized_force"],
                    tooth_load_twist_N=T["tooth_load_N"], peak_pressure_twist_Pa=T["peak_pressure_Pa"],
+                   flank_pressure_twist_Pa=T["flank_pressure_Pa"], edge_pressure_twist_Pa=T["edge_pressure_Pa"],
                    slice_load_N=T["slice_load_N"], slice_pressure_Pa=T["slice_pressure_Pa"],
                    strain_twist=T["strain"])
     res["n_solves"] = n_solves

@@ -57,7 +57,7 @@ from hacgear_core.model import Model
 from hacgear_core.kinds import load_model
 from hacgear_core.statics import fe3d
 from hacgear_core.statics.contact import (ContactOptions, ContactState, MeshContactSolver, make_mesh_solver,
-                                          mesh_solver_inputs)
+                                          mesh_solver_inputs, split_pressure)
 from hacgear_core.statics.contract import StaticSolution
 from hacgear_core.statics.nearfield import halfspace_approach_hertz
 
@@ -459,7 +459,8 @@ class HelicalMeshContactSolver(MeshContactSolver):
         tip = np.zeros(npair, bool)
         np.logical_or.at(tip, s.pair_index, s.tip_contact & (F > 0))
         return dict(load_N=load, roll_b_rad=wmean(s.roll_b_rad), s_a_m=wmean(s.s_a), s_b_m=wmean(s.s_b),
-                    half_width_m=hw, peak_pressure_Pa=pp, tip_contact=tip)
+                    half_width_m=hw, peak_pressure_Pa=pp, tip_contact=tip,
+                    **split_pressure(npair, s.pair_index, st.peak_pressure_Pa, s.tip_contact))
 
     def strains(self, st: ContactState, offsets: Sequence[int] | None = None) -> dict[str, np.ndarray]:
         """Gauge strains [-] at each gauge's axial position on the teeth of ``offsets`` (default ``tooth_offsets``)."""

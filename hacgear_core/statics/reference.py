@@ -334,7 +334,8 @@ class AnalyticPairSolver:
             self.gear_names[1]: np.array([0.0, F, -F * self.base_radius_m[1]]),
         }
         return StaticSolution(True, "ok", int(iterations), float(position), float(F), float(x), f.copy(), roll_b,
-                              a, p, strain, hub)
+                              a, p, strain, hub, flank_pressure_Pa=np.asarray(p, float).copy(),
+                              edge_pressure_Pa=np.zeros_like(np.asarray(p, float)))   # involute contacts only
 
 
 @dataclass(frozen=True)

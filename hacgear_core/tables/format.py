@@ -77,6 +77,11 @@ DATASETS: dict[str, tuple[str, str]] = {
                                 "offset); NaN where the pair is unloaded"),
     "half_width_m": ("m", "Hertzian contact half-width per (position, deflection, offset); 0 where unloaded"),
     "peak_pressure_Pa": ("Pa", "maximum contact pressure over all tooth pairs per (position, deflection)"),
+    "flank_pressure_Pa": ("Pa", "maximum contact pressure over the flank (Hertzian) contacts of all tooth pairs per "
+                                "(position, deflection); 0 where none"),
+    "edge_pressure_Pa": ("Pa", "maximum contact pressure over the tip-edge contacts (a tip corner on the mating flank, "
+                               "off the line of action; its value is set by the edge radius) per (position, "
+                               "deflection); 0 where none"),
     "strain": ("1", "root strain at gauge <gear>/<gauge> on the tooth of pair offset k per (position, "
                     "deflection, offset): the strain-deflection function"),
     "hub_reaction": ("N, N, N*m", "generalized mesh force on the gear [Fx, Fy, Mz] per (position, deflection)"),
@@ -91,6 +96,8 @@ DATASETS: dict[str, tuple[str, str]] = {
                                     "q = [u_a, theta_a, u_b, theta_b] (global frame), summed contact by contact"),
     "tooth_load_twist_N": ("N", "load of tooth pair k per (position, deflection, twist, offset)"),
     "peak_pressure_twist_Pa": ("Pa", "maximum contact pressure per (position, deflection, twist)"),
+    "flank_pressure_twist_Pa": ("Pa", "maximum flank (Hertzian) contact pressure per (position, deflection, twist)"),
+    "edge_pressure_twist_Pa": ("Pa", "maximum tip-edge contact pressure per (position, deflection, twist)"),
     "slice_load_N": ("N", "load per face slice (all pairs) per (position, deflection, twist, slice): the contact "
                           "pattern across the face"),
     "slice_pressure_Pa": ("Pa", "peak contact pressure per face slice per (position, deflection, twist, slice)"),
@@ -130,7 +137,7 @@ class MeshLayout:
 
     #: datasets of every mesh group (format version 1); the twist-axis ones are added for helical meshes
     base_datasets = ("no_load_deflection_m", "static_deflection_m", "deflection_m", "force_N", "tooth_load_N",
-                     "contact_roll_deg", "half_width_m", "peak_pressure_Pa")
+                     "contact_roll_deg", "half_width_m", "peak_pressure_Pa", "flank_pressure_Pa", "edge_pressure_Pa")
 
     @property
     def shapes(self) -> dict[str, tuple[int, ...]]:
@@ -138,7 +145,8 @@ class MeshLayout:
         out = {
             "no_load_deflection_m": (npos,), "static_deflection_m": (npos, nl), "deflection_m": (nd,),
             "force_N": (npos, nd), "tooth_load_N": (npos, nd, nw), "contact_roll_deg": (npos, nd, nw),
-            "half_width_m": (npos, nd, nw), "peak_pressure_Pa": (npos, nd),
+            "half_width_m": (npos, nd, nw), "peak_pressure_Pa": (npos, nd), "flank_pressure_Pa": (npos, nd),
+            "edge_pressure_Pa": (npos, nd),
         }
         if self.twist_rad is not None:
             nt, ns = self.twist_rad.size, self.slice_z_m.size
@@ -146,6 +154,7 @@ class MeshLayout:
                 "no_load_deflection_twist_m": (npos, nt), "static_deflection_twist_m": (npos, nl, nt),
                 "generalized_fdf": (npos, nd, nt, 2), "generalized_force": (npos, nd, nt, 12),
                 "tooth_load_twist_N": (npos, nd, nt, nw), "peak_pressure_twist_Pa": (npos, nd, nt),
+                "flank_pressure_twist_Pa": (npos, nd, nt), "edge_pressure_twist_Pa": (npos, nd, nt),
                 "slice_load_N": (npos, nd, nt, ns), "slice_pressure_Pa": (npos, nd, nt, ns),
             })
         return out
@@ -153,8 +162,8 @@ class MeshLayout:
 
 #: twist-axis datasets stored as float32 (post-processing quantities; read back as float64): the generalized FDF
 #: and the deflections keep float64
-_SINGLE = ("generalized_force", "tooth_load_twist_N", "peak_pressure_twist_Pa", "slice_load_N", "slice_pressure_Pa",
-           "strain_twist")
+_SINGLE = ("generalized_force", "tooth_load_twist_N", "peak_pressure_twist_Pa", "flank_pressure_twist_Pa",
+           "edge_pressure_twist_Pa", "slice_load_N", "slice_pressure_Pa", "strain_twist")
 
 
 def _dataset(group: Any, name: str, data: np.ndarray, key: str | None = None, compress: bool = False) -> None:
@@ -421,14 +430,15 @@ def write_position(f: Any, mesh: str, phase: int, ip: int, payload: Mapping[str,
                 g[k][ip] = payload[k]
         flag = "done_loads"
     else:
-        for k in ("force_N", "tooth_load_N", "contact_roll_deg", "half_width_m", "peak_pressure_Pa"):
+        for k in ("force_N", "tooth_load_N", "contact_roll_deg", "half_width_m", "peak_pressure_Pa",
+                  "flank_pressure_Pa", "edge_pressure_Pa"):
             g[k][ip] = payload[k]
         for gauge, a in payload["strain"].items():
             g[f"strain/{gauge}"][ip] = a
         for gear, a in payload["hub_reaction"].items():
             g[f"hub_reaction/{gear}"][ip] = a
         for k in ("generalized_fdf", "generalized_force", "tooth_load_twist_N", "peak_pressure_twist_Pa",
-                  "slice_load_N", "slice_pressure_Pa"):
+                  "flank_pressure_twist_Pa", "edge_pressure_twist_Pa", "slice_load_N", "slice_pressure_Pa"):
             if k in payload:
                 g[k][ip] = payload[k]
         for gauge, a in payload.get("strain_twist", {}).items():
@@ -634,6 +644,14 @@ def _read_mesh(path: Path, m: str, g: Any, allow_incomplete: bool, check_values:
     return _read_side(path, m, g, allow_incomplete, coast, check_values)
 
 
+def _optional(path: Path, g: Any, name: str) -> np.ndarray | None:
+    """Dataset ``name`` of group ``g``, or None where it is absent or NaN throughout (not given)."""
+    if name not in g:
+        return None
+    a = _read(path, g[name])
+    return None if np.all(np.isnan(np.asarray(a, float))) else a
+
+
 def _read_side(path: Path, m: str, g: Any, allow_incomplete: bool, coast: MeshTable | None,
                check_values: bool) -> MeshTable:
     required = ("position", "load_N", "deflection_m", "no_load_deflection_m", "static_deflection_m", "force_N",
@@ -660,6 +678,9 @@ def _read_side(path: Path, m: str, g: Any, allow_incomplete: bool, coast: MeshTa
     r = {k: _read(path, g[k]) for k in ("position", "deflection_m", "no_load_deflection_m", "load_N",
                                         "static_deflection_m", "tooth_offsets", "tooth_load_N", "contact_roll_deg",
                                         "peak_pressure_Pa")}
+    # flank and edge pressures apart: None in tables written before the split (absent) and in tables written from
+    # tables that lacked them (NaN throughout)
+    r.update({k: _optional(path, g, k) for k in ("flank_pressure_Pa", "edge_pressure_Pa")})
     twist = None
     if "twist_rad" in g:
         strain_tw = {name[len("strain_twist/"):]: _read(path, ds) for name, ds in _walk(g["strain_twist"], "strain_twist/")}
@@ -670,6 +691,8 @@ def _read_side(path: Path, m: str, g: Any, allow_incomplete: bool, coast: MeshTa
             generalized_force=g["generalized_force"][()], tooth_load_N=g["tooth_load_twist_N"][()],
             peak_pressure_Pa=g["peak_pressure_twist_Pa"][()], slice_load_N=g["slice_load_N"][()],
             slice_pressure_Pa=g["slice_pressure_Pa"][()], slice_z_m=g["slice_z_m"][()],
+            flank_pressure_Pa=_optional(path, g, "flank_pressure_twist_Pa"),
+            edge_pressure_Pa=_optional(path, g, "edge_pressure_twist_Pa"),
             strain={k: strain_tw[k] for k in order if k in strain_tw}, r_mesh=fr["r_mesh"], r_twist=fr["r_twist"],
             frame={k: fr[k] for k in ("e1", "e2", "e3", "P_ref", "n_ref", "O_a", "O_b")},
             base_helix_angle_rad=float(fr["base_helix_angle_rad"]), lever_arm_m=fr["lever_arm_m"],
@@ -737,6 +760,8 @@ def write_tables(path: str | Path, tables: SystemTables) -> None:
             for k in ("deflection_m", "no_load_deflection_m", "static_deflection_m", "force_N", "tooth_load_N",
                       "contact_roll_deg", "peak_pressure_Pa"):
                 g[k][...] = getattr(t, k)
+            for k in ("flank_pressure_Pa", "edge_pressure_Pa"):   # NaN: not told apart in the source table
+                g[k][...] = getattr(t, k) if getattr(t, k) is not None else np.nan
             g["half_width_m"][...] = t.half_width_m if t.half_width_m is not None else np.nan
             for gauge, a in t.strain.items():
                 g[f"strain/{gauge}"][...] = a
@@ -750,6 +775,9 @@ def write_tables(path: str | Path, tables: SystemTables) -> None:
                                 ("tooth_load_twist_N", "tooth_load_N"), ("peak_pressure_twist_Pa", "peak_pressure_Pa"),
                                 ("slice_load_N", "slice_load_N"), ("slice_pressure_Pa", "slice_pressure_Pa")):
                     g[k][...] = getattr(tw, attr)
+                for k, attr in (("flank_pressure_twist_Pa", "flank_pressure_Pa"),
+                                ("edge_pressure_twist_Pa", "edge_pressure_Pa")):
+                    g[k][...] = getattr(tw, attr) if getattr(tw, attr) is not None else np.nan
                 for gauge, a in tw.strain.items():
                     g[f"strain_twist/{gauge}"][...] = a
             g["done_loads"][...] = 1

@@ -20,7 +20,7 @@ import numpy as np
 from hacgear_core.errors import TableError
 from hacgear_core.tables.interp import interp_rows, pair_rows, trilinear_many
 
-__all__ = ["InterpolationStats", "MeshTable", "StrainTable", "SystemTables", "TwistTable"]
+__all__ = ["InterpolationStats", "MeshTable", "PRESSURE_PARTS", "StrainTable", "SystemTables", "TwistTable"]
 
 
 @dataclass
@@ -82,6 +82,9 @@ class StrainTable(dict):
 
 
 
+#: the parts of the contact pressure a table holds: over every contact, the flank (Hertzian) contacts, the tip edges
+PRESSURE_PARTS = ("peak", "flank", "edge")
+
 #: names of the arrays of a :class:`TwistTable` with their trailing shape after (Np, Nd, Nt) (None: not gridded)
 TWIST_GRIDDED = ("generalized_fdf", "generalized_force", "tooth_load_N", "peak_pressure_Pa", "slice_load_N",
                  "slice_pressure_Pa")
@@ -94,7 +97,8 @@ class TwistTable:
     ``twist_rad`` (Nt,) regular grid containing 0; ``no_load_deflection_m`` (Np, Nt); ``static_deflection_m``
     (Np, Nl, Nt); ``generalized_fdf`` (Np, Nd, Nt, 2): mesh force W [N] and twist moment M [N m], the generalized
     FDF: ``f_d = W r_mesh + M r_twist`` (exact for involute contacts); ``generalized_force`` (Np, Nd, Nt, 12): f_d
-    summed contact by contact; ``tooth_load_N`` (Np, Nd, Nt, Nw); ``peak_pressure_Pa`` (Np, Nd, Nt);
+    summed contact by contact; ``tooth_load_N`` (Np, Nd, Nt, Nw); ``peak_pressure_Pa`` (Np, Nd, Nt), and split
+    into ``flank_pressure_Pa`` / ``edge_pressure_Pa`` (Np, Nd, Nt; None in tables written before the split);
     ``slice_load_N``, ``slice_pressure_Pa`` (Np, Nd, Nt, Ns) at ``slice_z_m`` (Ns,) (global axial coordinate);
     ``strain`` gauge → (Np, Nd, Nt, Nw); ``r_mesh``, ``r_twist`` (12,): x = r_mesh·q, gamma = r_twist·q;
     ``frame``: e1, e2, e3, P_ref, n_ref, O_a, O_b (global frame), ``base_helix_angle_rad``, ``lever_arm_m``
@@ -117,8 +121,13 @@ class TwistTable:
     base_helix_angle_rad: float
     lever_arm_m: np.ndarray
     reference_plane_z_m: float
+    flank_pressure_Pa: np.ndarray | None = None
+    edge_pressure_Pa: np.ndarray | None = None
 
     def __post_init__(self) -> None:
+        for k in ("flank_pressure_Pa", "edge_pressure_Pa"):
+            if getattr(self, k) is not None:
+                object.__setattr__(self, k, _f64(getattr(self, k)))
         for k in ("twist_rad", "no_load_deflection_m", "static_deflection_m", "generalized_fdf", "generalized_force",
                   "tooth_load_N", "peak_pressure_Pa", "slice_load_N", "slice_pressure_Pa", "slice_z_m", "r_mesh",
                   "r_twist", "lever_arm_m"):
@@ -139,6 +148,10 @@ class TwistTable:
                              f"{(npos, nd, nt, 12)}")
         if self.no_load_deflection_m.shape != (npos, nt):
             raise TableError(f"no_load_deflection_m has shape {self.no_load_deflection_m.shape}, expected {(npos, nt)}")
+        for k in ("peak_pressure_Pa", "flank_pressure_Pa", "edge_pressure_Pa"):
+            a = getattr(self, k)
+            if a is not None and a.shape != (npos, nd, nt):
+                raise TableError(f"{k} has shape {a.shape}, expected {(npos, nd, nt)}")
 
     @property
     def zero_index(self) -> int:
@@ -210,8 +223,13 @@ class MeshTable:
     position_offset: float = float("nan")
     pair_shift: dict[str, int] = field(default_factory=dict)
     coast: "MeshTable | None" = None
+    flank_pressure_Pa: np.ndarray | None = None
+    edge_pressure_Pa: np.ndarray | None = None
 
     def __post_init__(self) -> None:
+        for k in ("flank_pressure_Pa", "edge_pressure_Pa"):
+            if getattr(self, k) is not None:
+                object.__setattr__(self, k, _f64(getattr(self, k)))
         conv = {k: _f64(getattr(self, k)) for k in (
             "position", "deflection_m", "force_N", "no_load_deflection_m", "load_N", "static_deflection_m",
             "tooth_load_N", "contact_roll_deg", "peak_pressure_Pa")}
@@ -241,6 +259,9 @@ class MeshTable:
         }
         if self.half_width_m is not None:
             shapes["half_width_m"] = (npos, nd, nw)
+        for k in ("flank_pressure_Pa", "edge_pressure_Pa"):
+            if getattr(self, k) is not None:
+                shapes[k] = (npos, nd)
         for k, shp in shapes.items():
             if getattr(self, k).shape != shp:
                 raise TableError(f"{where}: {k} has shape {getattr(self, k).shape}, expected {shp}")
@@ -377,9 +398,21 @@ class MeshTable:
         """Mesh force [N] at mesh position [mesh cycles] and mesh deflection [m] (the FDF), >= 0."""
         return np.maximum(self.interpolate(self.force_N, position, deflection), 0.0)
 
-    def pressure(self, position: Any, deflection: Any) -> np.ndarray:
-        """Maximum contact pressure over all tooth pairs [Pa], >= 0."""
-        return np.maximum(self.interpolate(self.peak_pressure_Pa, position, deflection), 0.0)
+    def pressure(self, position: Any, deflection: Any, part: str = "peak") -> np.ndarray:
+        """Maximum contact pressure over all tooth pairs [Pa], >= 0: ``part`` "peak" over every contact, "flank"
+        over the flank (Hertzian) contacts, "edge" over the tip-edge contacts (NaN where the table does not tell
+        them apart: written before the split)."""
+        data = self.pressure_data(part)
+        if data is None:
+            return np.full(np.broadcast(np.asarray(position), np.asarray(deflection)).shape, np.nan)
+        return np.maximum(self.interpolate(data, position, deflection), 0.0)
+
+    def pressure_data(self, part: str = "peak", twist: bool = False) -> np.ndarray | None:
+        """The tabulated pressure of ``part`` (see :meth:`pressure`; ``twist``: the twist axis's), or None."""
+        if part not in PRESSURE_PARTS:
+            raise TableError(f"pressure part {part!r}; allowed: {' | '.join(PRESSURE_PARTS)}")
+        owner = self.twist if twist else self
+        return getattr(owner, f"{part}_pressure_Pa")
 
     def strain_at(self, gauge: str, position: Any, deflection: Any, tooth_offset: int = 0) -> np.ndarray:
         """Strain [-] at ``gauge`` ("<gear>/<gauge>") on the tooth of pair ``tooth_offset`` at mesh

@@ -1237,3 +1237,32 @@ def test_kernel_preparation_is_logged_through_the_fmi_logger(built, monkeypatch)
         assert inst.do_step(0.0, 1e-4) == OK
     finally:
         low.close()
+
+
+def test_bench_raises_the_fmu_error_not_the_refused_terminate(monkeypatch):
+    """After an FMU error in the drivetrain bench, closing that FMU (fmi2Terminate refused in its error state)
+    raised on top of the real error; the real error is raised alone and every component is still closed."""
+    from types import SimpleNamespace
+
+    import hacgear_core.fmu.bench as bench
+
+    closed = []
+
+    class Refusing:
+        def __init__(self, *args):
+            pass
+
+        def close(self):
+            closed.append(1)
+            raise RuntimeError("fmi2Terminate failed with status 3 (error)")
+
+    def failing_layout(*args):
+        raise ValueError("doStep failed: input not finite")
+
+    monkeypatch.setattr(bench, "drivetrain_layout",
+                        lambda stages, cfg: SimpleNamespace(components={}, stages={"s1": ("a", {}), "s2": ("b", {})}))
+    monkeypatch.setattr(bench, "FmuComponent", Refusing)
+    monkeypatch.setattr(bench, "run_layout", failing_layout)
+    with pytest.raises(ValueError, match="doStep failed") as info:
+        bench.run_drivetrain_bench(["a", "b"])
+    assert info.value.__context__ is None and len(closed) == 2

@@ -23,7 +23,8 @@ ROOT = Path(__file__).resolve().parent.parent
 #: modelDescription.xml (FMI 2.0 and 3.0) of every shipped system before the variables were declared once: the
 #: elements with their attributes, in order (written by ``python tests/test_fmu_declarations.py --write``); written
 #: again when the outputs <mesh>.flank_pressure and <mesh>.edge_pressure were added, after a comparison by variable
-#: name showed nothing else changed (value references of later variables moved)
+#: name showed nothing else changed (value references of later variables moved); and when load_share said what it
+#: outputs while every mesh of its kind is separated (its description only)
 REFERENCE = Path(__file__).resolve().parent / "data" / "model_descriptions.json.gz"
 
 

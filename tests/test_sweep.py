@@ -247,3 +247,18 @@ def test_a_kill_while_the_results_file_is_written_leaves_it_whole(tmp_path):
     with written_whole(target) as t:
         t.write_bytes(b"new")
     assert target.read_bytes() == b"new" and not (tmp_path / "r.h5.writing").exists()
+
+
+def test_no_jumps_between_amplitudes_of_numerical_noise():
+    """A lumped planetary sweep reported 'confirmed' jumps between two RMS amplitudes of 0.000 µm: values below
+    1 nm (JUMP_FLOOR) are noise, their relative changes no jumps; the same pattern at micrometres still jumps."""
+    f = np.arange(10.0)
+    up = np.array([1.0, 1.1, 1.2, 1.4, 1.6, 1.8, 2.0, 2.2, 2.7, 2.5])
+    down = np.array([1.0, 1.1, 1.2, 2.9, 2.85, 2.8, 2.75, 2.72, 2.7, 2.5])
+    real = detect_jumps(_branches(f, 1e-6 * up, 1e-6 * down))
+    assert sorted((x.kind, x.branch) for x in real if x.confirmed) == [("jump-down", "down"), ("jump-up", "up")]
+    assert detect_jumps(_branches(f, 1e-12 * up, 1e-12 * down)) == []
+    # tiny values beside a large response: below 1e-3 of the largest, no jump either
+    big_up, big_dn = 1e-6 * up, 1e-6 * down
+    big_up[:3], big_dn[:3] = [1e-12, 3e-12, 1e-12], [1e-12, 3e-12, 1e-12]
+    assert not [x for x in detect_jumps(_branches(f, big_up, big_dn)) if x.interval_Hz[1] <= 2.0]

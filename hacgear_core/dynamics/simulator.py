@@ -570,15 +570,15 @@ class Simulator:
 
     def load_share(self, mesh: int) -> float:
         """Load-sharing factor of mesh ``mesh`` now [-]: its force over the mean force of its group (the meshes that
-        share the load, e.g. the sun meshes of all planets); 1 for a mesh without a group, NaN when the group
-        carries no load."""
+        share the load, e.g. the sun meshes of all planets); 1 for a mesh without a group; 0 while the whole group
+        carries no load (every mesh of it separated at once: each carries nothing)."""
         sy = self.system
         grp = sy.meshes[mesh].group
         if not grp:
             return 1.0
         idx = [k for k, c in enumerate(sy.meshes) if c.group == grp]
         tot = sum(self.mesh_force_N[k] for k in idx)
-        return self.mesh_force_N[mesh] * len(idx) / tot if tot > 0 else math.nan
+        return self.mesh_force_N[mesh] * len(idx) / tot if tot > 0 else 0.0
 
     def strain(self, gauge: str, tooth: int = 0) -> float:
         """Root strain [-] now at ``gauge`` ("<gear>/<gauge>") on tooth ``tooth`` of its gear, counted in the order

@@ -519,6 +519,10 @@ def _unit(unit) -> list[BranchResult]:
     return run_lanes(ts[0][0].system, [_branch_lane(*t) for t in ts], width, systems=[t[0].system for t in ts])
 
 
+#: smallest value of a sweep metric whose changes can be jumps (below it a response is numerical noise)
+JUMP_FLOOR = {"rms_deflection_m": 1e-9}
+
+
 def detect_jumps(branches: dict, threshold: float = 0.3, metric: str = "rms_deflection_m",
                  mesh_names: tuple[str, ...] | None = None) -> list[Jump]:
     """Jumps of ``metric`` in each branch, for every mesh.
@@ -536,10 +540,11 @@ def detect_jumps(branches: dict, threshold: float = 0.3, metric: str = "rms_defl
     **Unconfirmed** (``confirmed = False``): every other change by more than ``threshold`` between adjacent speeds
     of a branch — steep flanks of a peak on a coarse grid, short subharmonic windows, or jumps of a single
     branch (``direction`` up or down only), which a fine grid may resolve into a steep flank.
-    """
-    def rel(a, b):
-        return abs(a - b) / max(abs(a), abs(b), 1e-30)
 
+    Changes between values that are both below a floor are no jumps: 1e-3 of the mesh's largest value over the
+    branches, and at least :data:`JUMP_FLOOR` of the metric (1 nm of RMS deflection) — a response of 0.000 µm is
+    numerical noise, whose relative changes are large.
+    """
     def col(r, k):
         return np.atleast_2d(np.asarray(r.metrics[metric]).T).T[:, k]
 
@@ -551,6 +556,12 @@ def detect_jumps(branches: dict, threshold: float = 0.3, metric: str = "rms_defl
     for k in range(nm):
         vals = {b: dict(zip(np.round(np.asarray(r.mesh_frequency_Hz, float), 9), map(float, col(r, k))))
                 for b, r in branches.items()}
+        finite = [abs(x) for v in vals.values() for x in v.values() if math.isfinite(x)]
+        floor = max(1e-3 * max(finite, default=0.0), JUMP_FLOOR.get(metric, 0.0), 1e-30)
+
+        def rel(a, b, floor=floor):
+            return abs(a - b) / max(abs(a), abs(b), floor)
+
         confirmed: set = set()
         if "up" in vals and "down" in vals:
             up, dn = vals["up"], vals["down"]

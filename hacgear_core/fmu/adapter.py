@@ -378,7 +378,8 @@ class Adapter:
             if mn in self.shared_meshes:
                 spec.append(V(f"{m_}.load_share", "Real", "output", "continuous", "1",
                               f"load-sharing factor of mesh {mn}: its force over the mean force of the meshes of "
-                              f"kind {c.group} (1 = equal sharing)", nominal=1.0,
+                              f"kind {c.group} (1 = equal sharing; 0 while every mesh of that kind is separated)",
+                              nominal=1.0,
                               read=by(lambda s, j: s.load_share(j))))
         f_max = max((f for f in nom["force"] if f), default=None)
         for i, g in enumerate(self.gear_names):

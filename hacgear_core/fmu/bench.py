@@ -15,6 +15,8 @@ it under fmpy or libcosim with the same results.
 """
 from __future__ import annotations
 
+import contextlib
+
 import json
 import math
 import shutil
@@ -299,9 +301,15 @@ def run_drivetrain_bench(stage_fmus, config: BenchConfig = BenchConfig()) -> dic
         for name, (path, start) in lay.stages.items():
             comps[name] = FmuComponent(path, name, start)
         res = run_layout(lay, comps, cfg.steps, cfg.step_s)
-    finally:
+    except BaseException:
+        # the failure is what the user needs to read: an FMU left in its error state refuses fmi2Terminate as well,
+        # and that second error must not be raised on top of the first
         for c in comps.values():
-            c.close()
+            with contextlib.suppress(Exception):
+                c.close()
+        raise
+    for c in comps.values():
+        c.close()
     return _named(res, lay)
 
 

@@ -20,6 +20,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from hacgear_core.cpu import vector_units
+
 ROOT = Path(__file__).resolve().parent.parent
 
 _CHILD = r"""
@@ -59,6 +61,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("names", nargs="*", default=["_table_2_1_s2"], help="specialisations (kernels module names)")
     args = ap.parse_args(argv)
+    print(f"CPU the kernels are compiled for: {vector_units().describe()}", flush=True)
     for name in args.names:
         f = cold_compile(name)
         print(f"{name}: cold compile {f['wall_s']:.1f} s wall, {f['cpu_s']:.1f} s CPU, peak RSS "

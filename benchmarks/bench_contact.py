@@ -18,6 +18,7 @@ import os
 import time
 
 import numpy as np
+from hacgear_core.cpu import vector_units
 
 
 def main() -> int:
@@ -30,6 +31,7 @@ def main() -> int:
     ap.add_argument("--slices-figure", metavar="DIR", help="instead: only the face-slice convergence study, "
                                                            "write DIR/contact_face_slices.png and print its table")
     args = ap.parse_args()
+    print(f"CPU the kernels are compiled for: {vector_units().describe()}", flush=True)
     if args.slices_figure:
         return face_slices_figure(args.slices_figure)
     if args.figures:

@@ -48,6 +48,7 @@ from hacgear_core.kinds import build_system, load_model
 from hacgear_core.tables import load_system_tables
 from hacgear_core.tables.interp import bilinear
 from hacgear_core.workers import process_pool
+from hacgear_core.cpu import vector_units
 
 FM = 1500.0  # mesh frequency of the timing runs [Hz]
 SPC = 128  # RK4 steps per mesh cycle
@@ -269,6 +270,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="fewer cycles/speeds (smoke run)")
     a = ap.parse_args()
+    print(f"CPU the kernels are compiled for: {vector_units().describe()}", flush=True)
     cycles, repeats = (100, 10) if a.quick else (100, 200)  # many short runs: catch an uncontended core
     model = load_model("spur_28t_asym")
     tables = load_system_tables(model.path)

@@ -23,6 +23,7 @@ sys.path.insert(0, str(ROOT))
 
 from hacgear_core.statics.fe import ElasticMaterial, Gauge, MeshOptions, build_gear_fe, gear_compliance  # noqa: E402
 from hacgear_core.statics.nearfield import hertz_line_contact  # noqa: E402
+from hacgear_core.cpu import vector_units
 
 TARGET_S = 10.0
 TORQUE_NM = 300.0
@@ -65,6 +66,7 @@ def main(argv=None) -> int:
                     help="cyclic-symmetry solver (default) or the whole-gear reference model")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
+    print(f"CPU the kernels are compiled for: {vector_units().describe()}", flush=True)
 
     gear, gg = _gear()
     mat = ElasticMaterial(gear.material.youngs_modulus_Pa, gear.material.poisson_ratio, "stress")

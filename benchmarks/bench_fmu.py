@@ -53,6 +53,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from hacgear_core.cpu import vector_units
+
 ROOT = Path(__file__).resolve().parent.parent
 GOAL = 1.25
 
@@ -64,6 +66,7 @@ _FRESH = r"""
 import json, resource, shutil, time
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
+
 p = {fmu!r}
 md = read_model_description(p); d = extract(p)
 vr = {{v.name: v.valueReference for v in md.modelVariables}}
@@ -171,6 +174,7 @@ def main(argv=None) -> int:
     ap.add_argument("--systems", default=",".join(KIND_SYSTEMS),
                     help="comma-separated systems of --first-step (default: one of each kind)")
     args = ap.parse_args(argv)
+    print(f"CPU the kernels are compiled for: {vector_units().describe()}", flush=True)
     if args.first_step:
         return first_step_per_kind([s for s in args.systems.split(",") if s], args.speed_rpm, args.json)
 

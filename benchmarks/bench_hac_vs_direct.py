@@ -33,6 +33,7 @@ from hacgear_core.studies.direct_compare import compare_at_speed, hac_at_speed, 
 from hacgear_core.kinds import load_model
 from hacgear_core.statics.grid import compute_statics
 from hacgear_core.tables import load_system_tables, read_tables
+from hacgear_core.cpu import vector_units
 
 ROOT = Path(__file__).resolve().parents[1]
 #: (label, f_m / f_n) per pair: off-resonance, resonance with contact loss, 1/2 super-harmonic resonance
@@ -63,6 +64,7 @@ def main() -> None:
     ap.add_argument("--json", default="", help="write all numbers here")
     ap.add_argument("--traces", default="", help="write the recorded periods here (.npz)")
     args = ap.parse_args()
+    print(f"CPU the kernels are compiled for: {vector_units().describe()}", flush=True)
     speeds = SPEEDS if not args.ratios else tuple((f"f_m/f_n = {r}", float(r)) for r in args.ratios.split(","))
     opts = Level1Options(rtol=args.rtol, max_cycles=args.max_cycles)
     rows, traces = [], {}

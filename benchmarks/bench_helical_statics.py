@@ -21,6 +21,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from hacgear_core.cpu import vector_units
+
 TARGET_S = 600.0
 REPO = Path(__file__).resolve().parent.parent
 MODEL = REPO / "models" / "helical_28_33" / "model.toml"
@@ -32,6 +34,7 @@ def main() -> int:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", default=None, help="tables file to write (default: a temporary file)")
     a = ap.parse_args()
+    print(f"CPU the kernels are compiled for: {vector_units().describe()}", flush=True)
     env = dict(os.environ)
     with tempfile.TemporaryDirectory() as tmp:
         if a.cold:

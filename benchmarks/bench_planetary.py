@@ -3,8 +3,11 @@
 Prints, measured in one run (best of repeats; the kernel is judged by its CPU time per mesh cycle, its own cost
 whatever else runs on a shared machine; wall time is printed beside it and equals it on a quiet machine):
   1. the kernel per mesh cycle [us] at 128 RK4 steps per cycle on the committed FE tables of planetary_65_55_175
-     with 3 planets (14 DOFs, 6 meshes; target <= 150 us) and 5 planets (20 DOFs, 10 meshes; target <= 250 us),
-     and the speed-up over the dissertation's HAC (0.5 s per mesh cycle, Section 4.4.3);
+     with 3 planets (14 DOFs, 6 meshes) and 5 planets (20 DOFs, 10 meshes), judged by its ratio to the spur pair's
+     4-DOF kernel (spur_28t_asym, k_y = 200 N/um, both flanks) timed in the same run: targets 21x and 36x (the
+     absolute targets of 150 and 250 us were set on a machine whose spur 4-DOF kernel took 7.0 us; an absolute
+     time judges the machine, the ratio the kernel), and the speed-up over the dissertation's HAC (0.5 s per mesh
+     cycle, Section 4.4.3);
   2. the linearised modes of the 5-planet set (gyroscopic quadratic eigenproblem at the carrier speed of 1600 Hz
      mesh frequency, classified; target <= 50 ms), also with the system build from its tables;
   3. one steady state at 1600 Hz for 3 and 5 planets (cycles and wall time).
@@ -19,6 +22,7 @@ import time
 
 import numpy as np
 
+from hacgear_core.cpu import vector_units
 from hacgear_core.kinds import build_system
 from hacgear_core.dynamics.equilibrium import static_state
 from hacgear_core.dynamics.modes import gyroscopic_modes
@@ -28,7 +32,8 @@ from hacgear_core.tables import load_system_tables
 
 FM = 1600.0  # mesh frequency of the timing runs [Hz]
 SPC = 128  # RK4 steps per mesh cycle
-TARGET_US = {3: 150.0, 5: 250.0}
+#: planetary kernel per mesh cycle over the spur 4-DOF kernel's, measured in one run (150 and 250 us over 7.0 us)
+TARGET_RATIO = {3: 21.0, 5: 36.0}
 TARGET_MODES_MS = 50.0
 DISSERTATION_S_PER_CYCLE = 0.5
 
@@ -56,16 +61,21 @@ def main(argv=None) -> int:
     cycles, repeats = (200, 3) if args.quick else (1000, 7)
     model = load_model("planetary_65_55_175")
     tables = load_system_tables("planetary_65_55_175")
+    print(f"CPU the kernels are compiled for: {vector_units().describe()}")
     print(f"planetary_65_55_175, FE tables, {SPC} RK4 steps per mesh cycle at {FM:g} Hz, best of {repeats}:")
+    spur = build_system(load_model("spur_28t_asym"), load_system_tables("spur_28t_asym"),
+                        bearing_stiffness_N_per_m=2e8)
     ok = True
     for n in (3, 5):
         sy = build_system(model, tables, planet_count=n)
         wall, cpu = kernel_us_per_cycle(sy, cycles, repeats)
-        ratio = cpu / TARGET_US[n]
-        ok &= ratio <= 1.0
+        _, ref = kernel_us_per_cycle(spur, cycles, repeats)   # the reference, right after, in the same process
+        ratio = cpu / ref
+        ok &= ratio <= TARGET_RATIO[n]
         print(f"  {n} planets ({sy.n} DOFs, {sy.m} meshes): {cpu:7.1f} us CPU per mesh cycle ({wall:.1f} us wall); "
-              f"target {TARGET_US[n]:g} us -> ratio {ratio:.2f} (wall {wall / TARGET_US[n]:.2f}); dissertation's HAC "
-              f"0.5 s per cycle -> {DISSERTATION_S_PER_CYCLE / (cpu * 1e-6):,.0f}x faster")
+              f"spur 4-DOF kernel {ref:.2f} us -> ratio {ratio:.1f} (target <= {TARGET_RATIO[n]:g}: "
+              f"{'met' if ratio <= TARGET_RATIO[n] else 'MISSED'}); dissertation's HAC 0.5 s per cycle -> "
+              f"{DISSERTATION_S_PER_CYCLE / (cpu * 1e-6):,.0f}x faster")
     sy5 = build_system(model, tables, planet_count=5)
     wc = sy5.carrier_ratio * sy5.reference_speed(FM)
     gyroscopic_modes(sy5, wc)

@@ -23,6 +23,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from hacgear_core.cpu import vector_units
+
 TARGET_S = 120.0
 REPO = Path(__file__).resolve().parent.parent
 MODEL = REPO / "models" / "spur_28t_asym" / "model.toml"
@@ -37,6 +39,7 @@ def main() -> int:
     ap.add_argument("--warm-cache", action="store_true",
                     help="keep the on-disk FE cache ($HACGEAR_CACHE_DIR); default: an empty cache (cold start)")
     a = ap.parse_args()
+    print(f"CPU the kernels are compiled for: {vector_units().describe()}", flush=True)
     if a.solver == "fe":
         try:
             from hacgear_core.statics import make_mesh_solver  # noqa: F401

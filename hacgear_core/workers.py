@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import sys
 import threading
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -21,6 +22,17 @@ __all__ = ["process_pool", "executor_slots", "ORPHAN_EXIT_STATUS"]
 
 #: exit status of a worker that ended because its parent died
 ORPHAN_EXIT_STATUS = 70
+
+#: warning filter handed to multiprocessing's resource tracker: after a killed parent the tracker unlinks the pool's
+#: semaphores itself and then warns "There appear to be N leaked semaphore objects" on the user's terminal, about a
+#: clean-up that succeeded.  The tracker is started with this interpreter's -W options (sys.warnoptions).
+_TRACKER_QUIET = "ignore:resource_tracker:UserWarning"
+
+
+def _quiet_resource_tracker() -> None:
+    """Make the resource tracker (started with the first pool's first lock) silent about what it cleans up."""
+    if _TRACKER_QUIET not in sys.warnoptions:
+        sys.warnoptions.append(_TRACKER_QUIET)
 
 
 def _parent_alive(parent_pid: int, reparent_check: bool) -> bool:
@@ -69,6 +81,7 @@ def process_pool(max_workers: int | None = None, *, mp_context: Any = None, star
     """
     if mp_context is None and start_method is not None:
         mp_context = multiprocessing.get_context(start_method)
+    _quiet_resource_tracker()
     return ProcessPoolExecutor(max_workers=max_workers, mp_context=mp_context, initializer=_init_worker,
                                initargs=(os.getpid(), float(period_s), initializer, tuple(initargs)))
 

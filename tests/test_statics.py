@@ -453,6 +453,23 @@ def test_worker_pool_ends_when_its_parent_is_killed(tmp_path):
         assert not orphans, f"{method}: processes left behind: {orphans}"
 
 
+def test_a_killed_pool_leaves_no_leaked_semaphore_warning():
+    """After kill -9 of a process that ran a pool, multiprocessing's resource tracker cleaned up the pool's
+    semaphores and printed 'There appear to be 5 leaked semaphore objects to clean up at shutdown' on the user's
+    terminal; the tracker is now started quiet about a clean-up that succeeded."""
+    script = (
+        "import os, signal, sys, time\n"
+        "from hacgear_core.workers import process_pool\n"
+        "ex = process_pool(2, start_method='spawn')\n"
+        "print(sum(ex.map(abs, range(-4, 4))), flush=True)\n"
+        "futs = [ex.submit(time.sleep, 30) for _ in range(2)]\n"
+        "time.sleep(1)\n"
+        "os.kill(os.getpid(), signal.SIGKILL)\n")
+    r = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert r.returncode == -signal.SIGKILL
+    assert "leaked semaphore" not in r.stderr and "resource_tracker" not in r.stderr, r.stderr
+
+
 @pytest.mark.slow
 def test_fe_contact_solver_small_grid(tmp_path):
     """The real FE contact solver through the grid: process pool equals serial, monotone FDF, the FDF

@@ -413,3 +413,19 @@ def test_example_study_reproduces_the_committed_results(tmp_path):
                     for x in new[k].ravel()] == key
         else:
             assert np.array_equal(new[k], v), k
+
+
+def test_a_problem_of_every_variant_is_one_study_error(tmp_path):
+    """A study whose every variant fails the same way before any computation (a mesh the model lacks) is refused
+    once, naming the problem, before any results file is written (the error was repeated per variant); a study
+    where only some variants fail still runs the others."""
+    from hacgear_core.studies.design import _study_wide_problem
+    bad = tmp_path / "bad.toml"
+    bad.write_text(QUICK.format(relief=[0.0, 30.0], speeds=3).replace('base_model = "spur_28t_asym"',
+                                                                       'base_model = "spur_28t_asym"\nmesh = "m99"'))
+    spec = load_study(bad)
+    assert _study_wide_problem(spec, [0, 1]).startswith("[study] mesh = 'm99' is not a mesh")
+    with pytest.raises(ModelError, match=r"every variant fails before any computation with the same problem.*m99"):
+        run_study(spec, tmp_path / "bad.h5", workers=1, progress=False)
+    assert not (tmp_path / "bad.h5").exists()
+    assert _study_wide_problem(load_study(_quick(tmp_path, relief=(0.0, 30.0), speeds=3)), [0, 1]) == ""

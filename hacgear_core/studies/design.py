@@ -176,6 +176,18 @@ def _grid_digest(model: Any, solver: str) -> str:
 
 
 def _prepare(spec: StudySpec, values: tuple, tables_dir: Path) -> tuple[Path, Path, Any]:
+    text, model = _checked_variant(spec, values)
+    folder = tables_dir / model_values_sha256(model)[:16]
+    folder.mkdir(parents=True, exist_ok=True)
+    mpath = folder / "model.toml"
+    if not mpath.exists() or mpath.read_text(encoding="utf-8") != text:
+        mpath.write_text(text, encoding="utf-8")
+    return mpath, folder / f"tables_{_grid_digest(model, spec.solver)}.h5", model
+
+
+def _checked_variant(spec: StudySpec, values: tuple) -> tuple[str, Any]:
+    """A variant's model file text and model, with every check that needs no computation (its values in range,
+    gears that can be made, the study's mesh present, the study's torques within its tables' load range)."""
     text, base = variant_model_text(spec, values)
     model = parse_model(text, file=f"variant of {base}")
     if model.lumped:
@@ -197,12 +209,21 @@ def _prepare(spec: StudySpec, values: tuple, tables_dir: Path) -> tuple[Path, Pa
                              f"(max_torque_factor {model.statics.max_torque_factor:g} x the operating torque "
                              f"{model.operating.torque_Nm:g} N*m on {model.operating.torque_gear}); raise [statics] "
                              "max_torque_factor or lower the torques")
-    folder = tables_dir / model_values_sha256(model)[:16]
-    folder.mkdir(parents=True, exist_ok=True)
-    mpath = folder / "model.toml"
-    if not mpath.exists() or mpath.read_text(encoding="utf-8") != text:
-        mpath.write_text(text, encoding="utf-8")
-    return mpath, folder / f"tables_{_grid_digest(model, spec.solver)}.h5", model
+    return text, model
+
+
+def _study_wide_problem(spec: StudySpec, pending: list[int]) -> str:
+    """The one problem every variant of ``pending`` has before any computation ('' when none is shared by all):
+    then the study file itself is wrong, and is refused once instead of failing every variant the same way."""
+    found = set()
+    for i in pending:
+        try:
+            _checked_variant(spec, spec.variants[i])
+        except HacgearError as exc:
+            found.add(str(exc))
+        else:
+            return ""
+    return found.pop() if len(found) == 1 else ""
 
 
 def _mesh_index(spec: StudySpec, system: Any) -> int:
@@ -372,6 +393,10 @@ def run_study(spec: StudySpec, out: str | Path, *, tables_dir: str | Path | None
 
     t0 = time.perf_counter()
     out = Path(out)
+    shared = _study_wide_problem(spec, list(range(len(spec.variants))))   # before any file is written
+    if shared:
+        raise ModelError(f"study {spec.name!r}: every variant fails before any computation with the same problem, "
+                         f"so the study file is to be fixed: {shared}")
     tables_dir = Path(tables_dir) if tables_dir is not None else out.with_name(out.stem + "_tables")
     tables_dir.mkdir(parents=True, exist_ok=True)
     note = _open_results(out, spec, fresh)

@@ -28,13 +28,16 @@ class VectorUnits:
 
 def vector_units() -> VectorUnits:
     """The target numba compiles the kernels for: ``NUMBA_CPU_NAME`` / ``NUMBA_CPU_FEATURES`` where set (the
-    generic target has SSE2 only), else the host as LLVM detects it."""
+    generic target has SSE2 only; a named CPU should come with its features, as numba's documentation advises for
+    portable caches: without them the host's are assumed), else the host as LLVM detects it."""
     name = numba.config.CPU_NAME
-    if name:
+    if name and (name == "generic" or numba.config.CPU_FEATURES):
         feats = numba.config.CPU_FEATURES or ""
         on = {f[1:] for f in feats.split(",") if f.startswith("+")}
         if name == "generic":
             on |= {"sse2"}   # x86-64 baseline
+    elif name:   # a named CPU without its features: LLVM derives them from the name; take the host's as the best guess
+        on = {k for k, v in ll.get_host_cpu_features().items() if v}
     else:
         name = ll.get_host_cpu_name()
         on = {k for k, v in ll.get_host_cpu_features().items() if v}

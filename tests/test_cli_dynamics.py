@@ -335,7 +335,9 @@ def test_simulate_helical_beyond_the_coast_table_warns_once(capsys):
                "2"])
     err = capsys.readouterr().err
     assert rc == 0
-    assert err.count("WARNING") == 1 and "m12:" in err and "coast grid" in err
+    assert err.count("WARNING: the state left the tables' range") == 1 and "m12:" in err and "coast grid" in err
+    # a pressure read at states beyond the tables is extrapolated, and its warning says so
+    assert all("extrapolated" in line for line in err.splitlines() if "contact pressure" in line)
 
 
 def test_compile_notices_go_to_stderr_not_into_json(monkeypatch, capsys):

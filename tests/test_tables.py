@@ -73,7 +73,8 @@ def test_root_attributes(h5):
 EXPECTED_UNITS = {
     "position": "1", "load_N": "N", "deflection_m": "m", "no_load_deflection_m": "m", "static_deflection_m": "m",
     "force_N": "N", "tooth_offsets": "1", "tooth_load_N": "N", "contact_roll_deg": "deg", "half_width_m": "m",
-    "peak_pressure_Pa": "Pa", "done_loads": "1", "done_deflections": "1",
+    "peak_pressure_Pa": "Pa", "flank_pressure_Pa": "Pa", "edge_pressure_Pa": "Pa", "done_loads": "1",
+    "done_deflections": "1",
 }
 
 
@@ -83,7 +84,7 @@ def test_every_dataset_has_unit_description_and_shape(h5):
         "position": (NP,), "load_N": (NL,), "deflection_m": (ND,), "no_load_deflection_m": (NP,),
         "static_deflection_m": (NP, NL), "force_N": (NP, ND), "tooth_offsets": (nw,), "tooth_load_N": (NP, ND, nw),
         "contact_roll_deg": (NP, ND, nw), "half_width_m": (NP, ND, nw), "peak_pressure_Pa": (NP, ND),
-        "done_loads": (NP,), "done_deflections": (NP,),
+        "flank_pressure_Pa": (NP, ND), "edge_pressure_Pa": (NP, ND), "done_loads": (NP,), "done_deflections": (NP,),
     }
     seen = []
     with h5py.File(h5, "r") as f:

@@ -93,18 +93,21 @@ def pressure_warnings(mesh: str, s: dict) -> list[str]:
     """Warnings for contact pressures beyond what gear steel carries (:data:`STEEL_PRESSURE_LIMIT_PA`)."""
     lim = STEEL_PRESSURE_LIMIT_PA
     out = []
+    beyond = (" (read at states beyond the tables: extrapolated, see the WARNING on the tables' range)"
+              if s["steps_beyond_tables"] else "")
     if s["max_flank_pressure_Pa"] > lim:
         out.append(f"mesh {mesh}: flank contact pressure {s['max_flank_pressure_Pa'] / 1e9:.2f} GPa exceeds the "
                    f"{lim / 1e9:g} GPa no gear steel carries (static capacity of case-hardened steel, ISO 6336-2/-5: "
-                   "about 2.6 GPa): the flanks would pit or crush")
+                   f"about 2.6 GPa): the flanks would pit or crush{beyond}")
     if s["max_edge_pressure_Pa"] > lim:
         out.append(f"mesh {mesh}: tip-edge contact at {s['max_edge_pressure_Pa'] / 1e9:.2f} GPa (a tip corner on the "
                    "mating flank, off the line of action): its value is set by the edge radius (tip_edge_radius_mm, "
-                   "0.1 mm taken for a sharp corner), not a flank stress; tip relief or a rounded tip edge avoids it")
+                   f"0.1 mm taken for a sharp corner), not a flank stress; tip relief or a rounded tip edge avoids it"
+                   f"{beyond}")
     if math.isnan(s["max_flank_pressure_Pa"]) and s["max_peak_pressure_Pa"] > lim:
         out.append(f"mesh {mesh}: contact pressure {s['max_peak_pressure_Pa'] / 1e9:.2f} GPa exceeds {lim / 1e9:g} "
                    "GPa; these tables do not tell flank from tip-edge contact (regenerate them: `hacgear statics "
-                   "MODEL --fresh`)")
+                   f"MODEL --fresh`){beyond}")
     return out
 
 

@@ -38,6 +38,7 @@ from numba import njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
+from hacgear_core.cpu import vector_units
 from hacgear_core.dynamics import kernels
 from hacgear_core.dynamics.kernels import (LAW_LINEAR, LAW_TABLE, REC, REC_COAST_APPROACH, REC_COAST_FORCE,
                                            REC_DEFLECTION, REC_DTE, REC_FORCE, REC_POSITION, VARIANT_SPARSE,
@@ -80,12 +81,22 @@ def batch_supported(system) -> bool:
     return system.mesh_law.kernel_law in (LAW_TABLE, LAW_LINEAR)
 
 
+#: whether the CPU the loops are compiled for has fused multiply-add: the single-state loop's compiler contracts
+#: multiply-adds into FMA instructions only where it has; without them (a CPU before FMA3, numba's generic target)
+#: it rounds the product and the sum apart, and so must the batched loop (an llvm.fma there would also become a
+#: slow library call)
+TARGET_FMA = "fma" in vector_units().features
+
+
 @intrinsic
 def _fma(typingctx, a, b, c):
-    """``a * b + c`` rounded once (``llvm.fma.f64``): the contraction the single-state loop's compiler chooses, made
-    explicit where the vectorised lane loops would otherwise contract the other product."""
+    """``a * b + c`` as the single-state loop's compiler forms it: rounded once (``llvm.fma.f64``) on a CPU with
+    fused multiply-add (the contraction made explicit where the vectorised lane loops would otherwise contract the
+    other product), the product and the sum rounded apart on one without (:data:`TARGET_FMA`)."""
     def codegen(context, builder, sig, args):
         d = ir.DoubleType()
+        if not TARGET_FMA:
+            return builder.fadd(builder.fmul(args[0], args[1]), args[2])
         fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(d, [d, d, d]), "llvm.fma.f64")
         return builder.call(fn, args)
     return types.float64(types.float64, types.float64, types.float64), codegen

@@ -389,6 +389,9 @@ spec = importlib.util.spec_from_file_location("hacgear_fmu_boot_build", res / "{
 boot = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(boot)
 info = json.loads((res / boot.INFO_FILE).read_text(encoding="utf-8"))
+# assemble the system in this run, so that its functions are compiled and shipped: a pickle of it kept from an
+# earlier build (the same GUID, another CPU target) would skip the assembly and leave them out of the FMU
+(boot.cache_root() / "systems" / (str(info["guid"]).strip("{}") + ".pickle")).unlink(missing_ok=True)
 inst = boot.instantiate("build", str(res), info["guid"], False, info["fmi_version"])
 ok = (inst.enter_initialization_mode(0.0) == 0 and inst.exit_initialization_mode() == 0
       and inst.do_step(0.0, 1e-4) == 0)

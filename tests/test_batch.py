@@ -136,7 +136,16 @@ def _assert_sweeps_equal(a, b):
         assert [dataclasses.asdict(j) for j in x.jumps] == [dataclasses.asdict(j) for j in y.jumps]
 
 
-def test_batched_sweeps_equal_serial(spur, tmp_path):
+@pytest.fixture
+def wide_vectors(monkeypatch):
+    """The sweeps' planner sees a CPU with AVX2 vectors (4 float64), whatever this one has: the tests of the
+    default planning hold on a machine (or numba target) with SSE2 only, where it batches nothing."""
+    import hacgear_core.dynamics.sweep as sweep_module
+    from hacgear_core.cpu import VectorUnits
+    monkeypatch.setattr(sweep_module, "vector_units", lambda: VectorUnits("test-avx2", ("avx", "avx2", "fma"), 4))
+
+
+def test_batched_sweeps_equal_serial(spur, tmp_path, wide_vectors):
     """Sweeps at two torques, up and down (4 branches of one system): by default (``batched=None``) they run as the
     4 lanes of one batched task, and give the serial sweeps' rows bit for bit (continuation in each branch, records
     across calls of unequal length), jumps included; the results file holds the same rows.  Three branches with
@@ -161,7 +170,7 @@ def test_batched_sweeps_equal_serial(spur, tmp_path):
     assert np.array_equal(part[1].branches["up"].state, up.state)
 
 
-def test_batched_sweeps_on_a_process_pool(spur):
+def test_batched_sweeps_on_a_process_pool(spur, wide_vectors):
     """Four torques x up/down on a pool of 2 processes: two batched tasks of 4 lanes (one per worker), the rows
     of the serial sweeps bit for bit."""
     model, tables = spur
@@ -175,7 +184,7 @@ def test_batched_sweeps_on_a_process_pool(spur):
     _assert_sweeps_equal(run_sweeps(specs, progress=False, batched=False), pooled)
 
 
-def test_plan_lanes_splits_each_system_over_the_slots():
+def test_plan_lanes_splits_each_system_over_the_slots(wide_vectors):
     """How the branches become tasks: per system (same kernel arrays, any torque), split over the executor's slots,
     at most 8 lanes per task, compiled lane counts 2, 4 or 8; by default only tasks of >= 4 lanes are batched; an
     executor of unknown size gets no batched tasks by default; ``batched=False`` none; helical systems none."""
@@ -218,3 +227,17 @@ def test_a_fresh_process_loads_the_batched_loop_from_the_cache():
             for _ in range(2)]
     assert all(r.returncode == 0 for r in runs), [r.stderr[-2000:] for r in runs]
     assert runs[1].stdout.split() == ["False"], runs[1].stdout
+
+
+def test_narrow_vectors_batch_nothing_by_default(monkeypatch):
+    """With SSE2 only (2 float64 per vector, numba's generic target) the batched loop gained nothing (0.67-0.97 x
+    the single-state speed): by default the branches then run one by one; ``batched=True`` still batches them."""
+    import hacgear_core.dynamics.sweep as sweep_module
+    from hacgear_core.cpu import VectorUnits
+    a = system(params(torque_Nm=100.0), linear_fdf_table(K))
+    t = [(SweepSpec(a, (1000.0, 1100.0), "up", torque_Nm=50.0 + i), "up") for i in range(8)]
+    monkeypatch.setattr(sweep_module, "vector_units", lambda: VectorUnits("generic", ("sse2",), 2))
+    assert plan_lanes(t, None, 1) == [([i], 0) for i in range(8)]
+    assert plan_lanes(t, True, 1) == [(list(range(8)), 8)]
+    monkeypatch.setattr(sweep_module, "vector_units", lambda: VectorUnits("test-avx512", ("avx512f",), 8))
+    assert plan_lanes(t, None, 1) == [(list(range(8)), 8)]

@@ -14,6 +14,7 @@ import h5py
 import numpy as np
 import pytest
 
+from hacgear_core.cpu import VectorUnits
 from hacgear_core.errors import GeometryError, ModelError
 from hacgear_core.geometry.gear import gear_geometry
 from hacgear_core.model import shipped_systems, resolve_model_path
@@ -210,6 +211,8 @@ def test_sweeps_at_several_torques_run_as_batched_lanes(tmp_path, monkeypatch):
 
     run_lanes = sweep_module.run_lanes
     monkeypatch.setattr(sweep_module, "run_lanes", spy)
+    # the planner batches by default on CPUs with vectors of 4+ float64 (AVX and wider): seen as one here
+    monkeypatch.setattr(sweep_module, "vector_units", lambda: VectorUnits("test-avx2", ("avx2", "fma"), 4))
     rep = run_study(two, tmp_path / "two.h5", workers=1, progress=False)
     assert calls == [(4, 4), (4, 4)]                     # per variant: its 4 branches as one batched task
     assert [v.status for v in rep.variants] == ["computed"] * 2

@@ -37,6 +37,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from hacgear_core.cpu import vector_units
 from hacgear_core.dynamics.batch import Lanes, batch_supported, lanes_compatible, run_lanes
 from hacgear_core.dynamics.steady import METRIC_NAMES, SteadyStateOptions, drive, steady_run
 from hacgear_core.dynamics.system import LumpedSystem
@@ -61,6 +62,7 @@ __all__ = [
     "plan_lanes",
     "LANE_WIDTHS",
     "BATCH_MIN_LANES",
+    "BATCH_MIN_VECTOR_DOUBLES",
 ]
 
 DIRECTIONS = ("up", "down", "both")
@@ -380,6 +382,11 @@ LANE_WIDTHS = (2, 4, 8)
 #: loop advances a lane in half the time of the single-state kernel (docs/dynamics.md, "Batched kernel"); at 2 the
 #: gain within a sweep is ~10 %, less than the loop's compilation is worth to a first run
 BATCH_MIN_LANES = 4
+#: fewest float64 per vector register (:func:`hacgear_core.cpu.vector_units`) for which ``batched=None`` batches at
+#: all: with AVX2 (4) the loop at 8 lanes advances a lane in 0.43 of the single-state time, with AVX-512 (8) in
+#: 0.34-0.40; with SSE2 only (2; numba's generic target) it gained nothing (0.67-0.97 x the single-state speed at
+#: 2-8 lanes), so there the branches run one by one unless ``batched=True`` (docs/dynamics.md, "Batched kernel")
+BATCH_MIN_VECTOR_DOUBLES = 4
 
 
 def run_sweeps(specs, *, out: str | Path | None = None, executor: Executor | None = None,
@@ -406,8 +413,9 @@ def run_sweeps(specs, *, out: str | Path | None = None, executor: Executor | Non
         several torques, whose damping may differ) as lanes of the batched kernel
         (:func:`hacgear_core.dynamics.batch.run_lanes`; the same numbers bit for bit).  The branches of each such
         system are split over the executor's slots (``workers``; one without an executor), at most 8 lanes per task.
-        None (default): only where a task gets at least :data:`BATCH_MIN_LANES` branches; True: wherever a task gets
-        two or more; False: never.  Branches of helical systems always run one by one.
+        None (default): only where a task gets at least :data:`BATCH_MIN_LANES` branches and the CPU's vectors hold
+        at least :data:`BATCH_MIN_VECTOR_DOUBLES` float64 (AVX and wider); True: wherever a task gets two or more;
+        False: never.  Branches of helical systems always run one by one.
     workers : int, optional
         How many tasks the executor runs at once (default: asked from a process pool or a Dask client,
         :func:`hacgear_core.workers.executor_slots`; an executor that cannot say gets no batched tasks unless
@@ -486,6 +494,8 @@ def plan_lanes(tasks, batched: bool | None, slots: int | None) -> list[tuple[lis
     ``slots`` tasks (the executor's; None: unknown), at most 8 lanes each; ``batched`` as in :func:`run_sweeps`."""
     units: list[tuple[list[int], int]] = []
     groups: list[list[int]] = []
+    if batched is None and vector_units().doubles < BATCH_MIN_VECTOR_DOUBLES:
+        batched = False   # vectors too narrow for the batched loop to pay (BATCH_MIN_VECTOR_DOUBLES)
     for i, t in enumerate(tasks):
         if batched is False or not batch_supported(t[0].system):
             units.append(([i], 0))

@@ -12,7 +12,7 @@ from typing import Iterator
 from hacgear_core.errors import HacgearError
 from hacgear_core.model import shipped_systems_dir
 
-__all__ = ["check_out_path", "check_out_dir", "check_not_shipped", "written_whole", "WRITING_SUFFIX"]
+__all__ = ["check_out_path", "check_out_dir", "check_not_shipped", "written_whole", "save_figure", "WRITING_SUFFIX"]
 
 #: suffix of the temporary file a result is written to before it replaces its target (a kill leaves only this)
 WRITING_SUFFIX = ".writing"
@@ -90,3 +90,11 @@ def check_out_dir(path: str | Path, option: str = "--out") -> Path:
     if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
         raise HacgearError(f"{what}: the folder cannot be created ({parent} is not a writable folder)")
     return p
+
+
+def save_figure(fig, path: str | Path, **kwargs) -> Path:
+    """``fig.savefig`` written whole (:func:`written_whole`; the format from the suffix of ``path``)."""
+    path = Path(path)
+    with written_whole(path) as tmp:
+        fig.savefig(tmp, format=path.suffix.lstrip(".").lower() or "png", **kwargs)
+    return path

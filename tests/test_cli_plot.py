@@ -4,6 +4,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from hacgear_core.cli import main
 from hacgear_core.kinds import spur_pair_system
@@ -249,3 +250,20 @@ def test_study_figures_of_two_variables_read_well(tmp_path):
             assert all(len(t) <= 5 for t in ticks), ticks   # no '20003000'
         _check(fig, name)
         plt.close(fig)
+
+
+def test_figures_are_written_whole(tmp_path):
+    """A figure goes to its file by one rename (outpaths.save_figure): the format follows the suffix, no
+    temporary file stays, and a failing save leaves an existing file as it was."""
+    from hacgear_core.outpaths import save_figure
+    fig, ax = plt.subplots()
+    ax.plot([0, 1], [0, 1])
+    for name in ("a.png", "a.svg", "a.pdf"):
+        save_figure(fig, tmp_path / name)
+    assert _png(tmp_path / "a.png") and (tmp_path / "a.svg").read_bytes().lstrip().startswith(b"<?xml")
+    assert (tmp_path / "a.pdf").read_bytes()[:4] == b"%PDF" and not list(tmp_path.glob("*.writing"))
+    before = (tmp_path / "a.png").read_bytes()
+    with pytest.raises(TypeError):
+        save_figure(fig, tmp_path / "a.png", dpi="not a number")
+    assert (tmp_path / "a.png").read_bytes() == before and not list(tmp_path.glob("*.writing"))
+    plt.close(fig)

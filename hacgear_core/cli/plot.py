@@ -25,7 +25,7 @@ from hacgear_core.cli._help import plain_text
 from hacgear_core.dynamics.sweep import missing_branches
 from hacgear_core.errors import TableError
 from hacgear_core.h5files import file_kind
-from hacgear_core.outpaths import check_out_path
+from hacgear_core.outpaths import check_out_path, save_figure
 from hacgear_core.plots.helical import write_helical_figures
 from hacgear_core.plots.study import plot_study_file
 from hacgear_core.plots.sweep import plot_sweep_file
@@ -62,11 +62,11 @@ def run(args) -> int:
         if args.gauge is not None and args.gauge not in table.strain:   # before any figure is written
             raise TableError(f"--gauge {args.gauge!r} not in {path}; gauges: {sorted(table.strain)}")
         fig = plot_fdf(table)
-        fig.savefig(out, dpi=110)
+        save_figure(fig, out, dpi=110)
         print(f"FDF of mesh '{table.name}': {out}")
         if args.gauge is not None:
             sdf = out.with_name(out.stem + "_sdf.png")
-            plot_sdf(table, args.gauge).savefig(sdf, dpi=110)
+            save_figure(plot_sdf(table, args.gauge), sdf, dpi=110)
             print(f"strain-deflection function of {args.gauge}: {sdf}")
         if table.twist is not None:
             for p in write_helical_figures(path, out.parent, table.name):

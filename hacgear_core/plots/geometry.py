@@ -21,6 +21,7 @@ import numpy as np  # noqa: E402
 
 from hacgear_core.geometry import REGION_INVOLUTE, SIDES, gear_geometry, mesh_geometry  # noqa: E402
 from hacgear_core.geometry.train import place_mesh  # noqa: E402
+from hacgear_core.outpaths import save_figure  # noqa: E402
 
 __all__ = ["plot_mesh_geometry", "mesh_geometry_figure", "mesh_position"]
 
@@ -81,7 +82,7 @@ def plot_mesh_geometry(model: Any, mesh_name: str | None, out: str | Path, exagg
     fig = mesh_geometry_figure(model, mesh_name, exaggerate)
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=110)
+    save_figure(fig, out, dpi=110)
     plt.close(fig)
     return out
 

@@ -14,6 +14,7 @@ from matplotlib.patches import Patch  # noqa: E402
 from matplotlib.ticker import MaxNLocator  # noqa: E402
 
 from hacgear_core.errors import TableError  # noqa: E402
+from hacgear_core.outpaths import save_figure  # noqa: E402
 from hacgear_core.studies import best_variants, read_study  # noqa: E402
 from hacgear_core.studies.design import StudyResults  # noqa: E402
 
@@ -203,7 +204,7 @@ def plot_study_file(path: str | Path, out: str | Path) -> list[Path]:
         if fig_fn is dynamic_map and not res.dynamic:
             continue
         fig = fig_fn(res)
-        fig.savefig(target, dpi=110)
+        save_figure(fig, target, dpi=110)
         plt.close(fig)
         written.append(target)
     return written

@@ -14,6 +14,7 @@ import numpy as np  # noqa: E402
 
 from hacgear_core.dynamics.sweep import detect_jumps, missing_branches, read_sweep, sweep_mesh_names  # noqa: E402
 from hacgear_core.errors import TableError  # noqa: E402
+from hacgear_core.outpaths import save_figure  # noqa: E402
 
 __all__ = ["plot_sweep_file", "sweep_figure", "mark_jump"]
 
@@ -48,7 +49,7 @@ def plot_sweep_file(path: str | Path, out: str | Path, run_id: str | None = None
     """Plot every run (or ``run_id``) of a sweep results file into one image file (:func:`sweep_figure`); returns
     the confirmed jumps."""
     fig, jumps = sweep_figure(path, run_id)
-    fig.savefig(out, dpi=110)
+    save_figure(fig, out, dpi=110)
     plt.close(fig)
     return jumps
 

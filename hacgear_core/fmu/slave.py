@@ -313,9 +313,11 @@ class FmuInstance:
         return OK
 
     def reset(self) -> int:
-        """Back to the state after instantiation, with the start values."""
+        """Back to the state after instantiation, with the start values: the next initialization builds the
+        simulator at its initial state even where the parameters are the ones it ran with."""
         self.values.clear()
         self.values.update(self.start_values)
+        self._configured_key = None
         self.state = INSTANTIATED
         self.time = 0.0
         self.stop_time = None

@@ -1268,13 +1268,14 @@ def test_bench_raises_the_fmu_error_not_the_refused_terminate(monkeypatch):
     assert info.value.__context__ is None and len(closed) == 2
 
 
+@pytest.mark.parametrize("system", SYSTEMS)
 @pytest.mark.parametrize("version", ("fmu", "fmu3"))
-def test_reset_returns_the_native_fmu_to_its_initial_state(built, version):
+def test_reset_returns_the_native_fmu_to_its_initial_state(built, version, system):
     """Issue #50 item 1: after Reset and an initialization with the same parameters, the native FMU continued
     from its previous end state (mesh forces up to 94 % off a fresh instance); now the rerun equals a fresh
-    instance's run bit for bit, FMI 2.0 and 3.0."""
-    fmu = built[version]["spur_28t_asym"]
-    names = ("m12.force", "pinion.speed", "m12.deflection")
+    instance's run bit for bit, FMI 2.0 and 3.0, spur pair and idler chain."""
+    fmu = built[version][system]
+    names = ("m12.force", "m12.deflection", "m12.dte")
     h, n = 5e-5, 60
 
     def run(low):

@@ -3,6 +3,7 @@ how many float64 values one of its vector registers holds."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import llvmlite.binding as ll
 import numba
@@ -26,10 +27,12 @@ class VectorUnits:
         return f"{self.cpu} ({', '.join(shown) or 'no SIMD extension'}; {self.doubles} float64 per vector)"
 
 
+@lru_cache(maxsize=1)
 def vector_units() -> VectorUnits:
     """The target numba compiles the kernels for: ``NUMBA_CPU_NAME`` / ``NUMBA_CPU_FEATURES`` where set (the
     generic target has SSE2 only; a named CPU should come with its features, as numba's documentation advises for
-    portable caches: without them the host's are assumed), else the host as LLVM detects it."""
+    portable caches: without them the host's are assumed), else the host as LLVM detects it.  Asked once per
+    process (numba fixes its target when it starts)."""
     name = numba.config.CPU_NAME
     if name and (name == "generic" or numba.config.CPU_FEATURES):
         feats = numba.config.CPU_FEATURES or ""

@@ -78,7 +78,7 @@ def _nice_ceil(x: float) -> float:
 
 
 
-def split_pressure(coupling) -> bool:
+def tells_flank_from_edge(coupling) -> bool:
     """Whether the tables of a mesh (drive and, where present, coast side) tell flank from tip-edge contact."""
     tabs = [getattr(coupling, "table", None), getattr(coupling, "coast_table", None)]
     tabs = [t for t in tabs if t is not None]
@@ -334,7 +334,7 @@ class Adapter:
                   "(table lookup)", display_unit="MPa",
                   nominal=pressure[k], read=by(lambda s, j: s.peak_pressure_Pa(j), fallible=True)),
             ]
-            if split_pressure(c):   # tables that tell flank from tip-edge contact
+            if tells_flank_from_edge(c):   # tables that tell flank from tip-edge contact
                 spec += [
                     V(f"{m_}.flank_pressure", "Real", "output", "continuous", "Pa",
                       f"maximum flank (Hertzian) contact pressure over all teeth of mesh {mn} on the flanks in "

@@ -21,8 +21,10 @@ from typing import Any
 from hacgear_core.cli._commands import command_help
 from hacgear_core.errors import GeometryError, ModelError
 from hacgear_core.geometry import SIDES, model_geometry
+from hacgear_core.geometry.gear import normal_thickness_at_radius_m
 from hacgear_core.jsonio import json_safe
 from hacgear_core.kinds import kind_of, load_model
+from hacgear_core.model import iso21771 as _iso
 from hacgear_core.statics import nominal_mesh_forces
 
 __all__ = ["register", "run", "info_dict"]
@@ -38,6 +40,75 @@ def register(subparsers: Any) -> None:
     p.add_argument("--lenient", action="store_true",
                    help="report interference / contact ratio < 1 as warnings instead of errors")
     p.set_defaults(func=run)
+
+
+def _iso_gear(gear: Any, g: Any) -> dict:
+    """ISO 21771 terms of one gear (SI), normal and transverse, from its geometry ``g``
+    (:class:`~hacgear_core.geometry.GearGeometry`) and, for a gear of the ISO form, the data it was given in
+    (``gear.iso``).  ``profile_shift``: x in the normal section with ISO 21771's sign (an internal gear's x is positive
+    towards its tooth tips); for the ISO form the given x, for the transverse form x from the tooth thickness;
+    ``generating_profile_shift``: x from the modelled tooth thickness (the given x plus the mean thickness allowance
+    / (2 m_n tan alpha_n))."""
+    beta = abs(g.helix_angle_rad)
+    cos_b = math.cos(beta)
+    iso = getattr(gear, "iso", None)
+    m_n = g.module_m * cos_b
+    sign = -1.0 if g.internal else 1.0   # the geometry's internal x is the tool's displacement away from the axis
+    x_gen = sign * g.profile_shift["drive"] / cos_b
+    s_t = g.pitch_radius_m * float(g._form.thickness_angle(g.pitch_radius_m))
+    out = {
+        "form": "iso21771" if iso is not None else "transverse",
+        "normal_module_m": m_n, "transverse_module_m": g.module_m,
+        "normal_pressure_angle_deg": {s: math.degrees(math.atan(math.tan(g.pressure_angle_rad[s]) * cos_b))
+                                      for s in SIDES},
+        "transverse_pressure_angle_deg": {s: math.degrees(g.pressure_angle_rad[s]) for s in SIDES},
+        "helix_angle_deg": math.degrees(beta),
+        "hand": "" if beta == 0 else ("right" if g.helix_angle_rad > 0 else "left"),
+        "reference_diameter_m": 2.0 * g.pitch_radius_m, "tip_diameter_m": 2.0 * g.tip_radius_m,
+        "root_diameter_m": 2.0 * g.root_radius_m,
+        "base_diameter_m": {s: 2.0 * g.base_radius_m[s] for s in SIDES},
+        "profile_shift": x_gen if iso is None else iso.profile_shift,
+        "generating_profile_shift": x_gen,
+        "tip_alteration": None if iso is None else iso.tip_alteration,
+        "tip_alteration_m": None if iso is None else iso.tip_alteration * iso.normal_module_m,
+        "normal_tooth_thickness_m": s_t * cos_b, "transverse_tooth_thickness_m": s_t,
+        "nominal_normal_tooth_thickness_m": None if iso is None else iso.nominal_normal_tooth_thickness_m,
+        "thickness_allowance_upper_m": None if iso is None else iso.thickness_allowance_upper_m,
+        "thickness_allowance_lower_m": None if iso is None else iso.thickness_allowance_lower_m,
+        "tip_normal_thickness_m": normal_thickness_at_radius_m(g._form, g.helix_angle_rad, g.tip_radius_m),
+        "basic_rack": None if iso is None else iso.basic_rack,
+        "rack_addendum_coefficient": None if iso is None else iso.addendum_coefficient,
+        "rack_dedendum_coefficient": None if iso is None else iso.dedendum_coefficient,
+        "rack_root_radius_coefficient": None if iso is None else iso.root_radius_coefficient,
+    }
+    return out
+
+
+def _iso_mesh(model: Any, mg: Any, iso_gears: dict) -> dict:
+    """ISO 21771 terms of one mesh (SI): operating centre distance a_w and transverse pressure angle alpha_wt (from
+    the geometry: cos(alpha_wt) = (r_b1 +- r_b2) / a_w), the sum of the profile shifts (ISO sign) and the centre distance
+    it gives without backlash (inv(alpha_wt) = inv(alpha_t) + 2 tan(alpha_n) (x1 + x2) / (z1 + z2); symmetric teeth
+    only), the contact ratios eps_alpha, eps_beta, eps_gamma and the circumferential backlash (modelled teeth, and its
+    range over the thickness allowances)."""
+    a, b = iso_gears[mg.gear_a], iso_gears[mg.gear_b]
+    ga, gb = model.gear(mg.gear_a), model.gear(mg.gear_b)
+    sum_x = a["profile_shift"] + b["profile_shift"]
+    a_x = None
+    alpha_n = {a["normal_pressure_angle_deg"][s] for s in SIDES} | {b["normal_pressure_angle_deg"][s] for s in SIDES}
+    if len(alpha_n) == 1 and abs(a["normal_module_m"] - b["normal_module_m"]) <= 1e-12 * a["normal_module_m"]:
+        a_x = _iso.working_center_distance(
+            a["normal_module_m"], math.radians(alpha_n.pop()), math.radians(a["helix_angle_deg"]),
+            _iso.mesh_tooth_count(ga.teeth, ga.internal), _iso.mesh_tooth_count(gb.teeth, gb.internal),
+            a["profile_shift"], b["profile_shift"])
+    lo, hi = mg.backlash_circular_range_m
+    return {
+        "center_distance_m": mg.center_distance_m,
+        "operating_transverse_pressure_angle_deg": math.degrees(mg.operating_pressure_angle_rad),
+        "sum_profile_shift": sum_x, "center_distance_from_profile_shifts_m": a_x,
+        "transverse_contact_ratio": mg.contact_ratio, "overlap_ratio": mg.face_contact_ratio,
+        "total_contact_ratio": mg.total_contact_ratio,
+        "backlash_circular_m": mg.backlash_circular_m, "backlash_circular_min_m": lo, "backlash_circular_max_m": hi,
+    }
 
 
 def info_dict(model: Any, *, strict: bool = True) -> dict:
@@ -69,6 +140,7 @@ def info_dict(model: Any, *, strict: bool = True) -> dict:
             "mass_source": "model" if model.gear(g.name).mass_kg is not None else "blank",
             "inertia_source": "model" if model.gear(g.name).inertia_kgm2 is not None else "blank",
             "shaper_teeth": g.shaper_teeth,
+            "iso": _iso_gear(model.gear(g.name), g),
         }
     try:
         forces = nominal_mesh_forces(model, {m.name: (m.base_radius_m[m.gear_a], m.base_radius_m[m.gear_b])
@@ -101,6 +173,7 @@ def info_dict(model: Any, *, strict: bool = True) -> dict:
             "phase": None if train is None else train.meshes[mg.name].phase,
             "nominal_force_N": forces.get(mg.name),
             "nominal_torque_Nm": None if mg.name not in forces else forces[mg.name] * mg.base_radius_m[mg.gear_a],
+            "iso": _iso_mesh(model, mg, {n: out["gears"][n]["iso"] for n in (mg.gear_a, mg.gear_b)}),
         }
     warns: list[str] = []
     for g in gears.values():
@@ -131,6 +204,21 @@ def _text(d: dict) -> str:
             f"{2e3 * g['form_radius_m']['drive']:>12.3f}/{2e3 * g['form_radius_m']['coast']:<10.3f}"
             f"{g['mass_kg']:>11.4f}{g['inertia_kgm2']:>13.4e}"
             + ("" if g["mass_source"] == "blank" and g["inertia_source"] == "blank" else "  (model override)"))
+    lines += ["", "Gears in ISO 21771 terms (x: normal, ISO sign; s_n: normal tooth thickness modelled; s_an: at the tip)"]
+    lines.append(f"  {'gear':<10}{'form':>11}{'m_n [mm]':>10}{'a_n [deg]':>11}{'beta [deg]':>16}{'x [-]':>9}"
+                 f"{'k m_n [mm]':>11}{'d [mm]':>11}{'d_a [mm]':>11}{'d_f [mm]':>11}{'d_b [mm]':>11}{'s_n [mm]':>10}"
+                 f"{'s_an [mm]':>10}")
+    for n, g in d["gears"].items():
+        i = g["iso"]
+        an = i["normal_pressure_angle_deg"]
+        an_txt = f"{an['drive']:.4f}" if an["drive"] == an["coast"] else f"{an['drive']:.2f}/{an['coast']:.2f}"
+        beta = f"{i['helix_angle_deg']:.4f} {i['hand']:<5}"
+        lines.append(
+            f"  {n:<10}{i['form']:>11}{i['normal_module_m'] * 1e3:>10.4f}{an_txt:>11}{beta:>16}"
+            f"{i['profile_shift']:>9.4f}{_f(None if i['tip_alteration_m'] is None else i['tip_alteration_m'] * 1e3, '.4f'):>11}"
+            f"{i['reference_diameter_m'] * 1e3:>11.4f}{i['tip_diameter_m'] * 1e3:>11.4f}{i['root_diameter_m'] * 1e3:>11.4f}"
+            f"{i['base_diameter_m']['drive'] * 1e3:>11.4f}{i['normal_tooth_thickness_m'] * 1e3:>10.4f}"
+            f"{i['tip_normal_thickness_m'] * 1e3:>10.4f}")
     lines += ["", "Meshes"]
     for n, m in d["meshes"].items():
         ga, gb = m["gear_a"], m["gear_b"]
@@ -152,6 +240,18 @@ def _text(d: dict) -> str:
         for g in (ga, gb):
             r = m["roll_angle_deg"]
             lines.append(f"      {g:<20} " + "".join(f"{_f(r[k][g], '9.3f'):>9}" for k in ("SAP", "LPSTC", "HPSTC", "EAP")))
+        i = m["iso"]
+        rng = ""
+        if i["backlash_circular_min_m"] is not None and i["backlash_circular_min_m"] != i["backlash_circular_max_m"]:
+            rng = (f" ({i['backlash_circular_min_m'] * 1e6:.1f} .. {i['backlash_circular_max_m'] * 1e6:.1f} µm over the "
+                   "thickness allowances)")
+        a_x = i["center_distance_from_profile_shifts_m"]
+        lines.append(f"    ISO 21771              a_w {i['center_distance_m'] * 1e3:.4f} mm, alpha_wt "
+                     f"{i['operating_transverse_pressure_angle_deg']:.6f} deg, sum x {i['sum_profile_shift']:.4f}"
+                     + ("" if a_x is None else f" (a_w from sum x: {a_x * 1e3:.4f} mm)"))
+        lines.append(f"                           eps_alpha {i['transverse_contact_ratio']:.4f}, eps_beta "
+                     f"{i['overlap_ratio']:.4f}, eps_gamma {i['total_contact_ratio']:.4f}, backlash j_t "
+                     f"{i['backlash_circular_m'] * 1e6:.1f} µm{rng}")
         lines.append("    tip clearance          " + ", ".join(f"{g}: {v * 1e3:.4f} mm" for g, v in m["tip_clearance_m"].items()))
         if m["phase"] is not None:
             lines.append(f"    mesh phase             {m['phase']:10.4f} mesh cycles (line of centres "

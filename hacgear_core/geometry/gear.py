@@ -14,7 +14,7 @@ import numpy as np
 from hacgear_core.errors import GeometryError, ModelError
 
 from hacgear_core.geometry.tooth import (
-    REGION_FILLET, REGION_INVOLUTE, REGION_ROOT_LAND, REGION_TIP_LAND, REGION_TIP_ROUNDING, SHAPER_TEETH, SIDES,
+    _brentq, REGION_FILLET, REGION_INVOLUTE, REGION_ROOT_LAND, REGION_TIP_LAND, REGION_TIP_ROUNDING, SHAPER_TEETH, SIDES,
     _FILLET_DENSE, Boundary, FlankProfile, _build_flank, _check_side, _Flank, _involute_local, _jay, _max_tool_tip_radius,
     _rot, _ToothForm, fillet_root_curvature_radius_rack, fillet_root_curvature_radius_shaper,
 )
@@ -369,6 +369,41 @@ def _polygon_area_j(xy: np.ndarray) -> tuple[float, float]:
 
 
 
+def normal_thickness_at_radius_m(form: _ToothForm, helix_angle_rad: float, R: float) -> float:
+    """Normal circular tooth thickness [m] at radius ``R`` [m]: the transverse arc thickness ``R Theta(R)`` times
+    ``cos(beta_R)``, ``tan(beta_R) = tan(beta) R / r`` (the helix angle at that radius)."""
+    beta_r = math.atan(abs(math.tan(helix_angle_rad)) * R / form.r)
+    return R * float(form.thickness_angle(R)) * math.cos(beta_r)
+
+
+def _check_iso_tip_thickness(gear: Any, iso: Any, form: _ToothForm, r_a: float) -> None:
+    """Refuse an ISO-form gear whose normal tooth thickness at the tip circle is below
+    :data:`~hacgear_core.model.iso21771.MIN_TIP_THICKNESS_FACTOR` x m_n, naming the tip diameter that reaches it."""
+    from hacgear_core.model.iso21771 import MIN_TIP_THICKNESS_FACTOR, tip_alteration
+
+    m_n = iso.normal_module_m
+    s_min = MIN_TIP_THICKNESS_FACTOR * m_n
+    beta = gear.helix_angle_rad
+    s_an = normal_thickness_at_radius_m(form, beta, r_a)
+    if s_an >= s_min:
+        return
+    lo, hi = sorted((form.r, r_a))
+    f = lambda R: normal_thickness_at_radius_m(form, beta, R) - s_min  # noqa: E731
+    fix = ""
+    if f(form.r) > 0 > f(r_a):
+        r_ok = float(_brentq(f, lo, hi, xtol=1e-12))
+        k_ok = tip_alteration(iso.teeth, m_n, iso.helix_angle_rad, iso.addendum_coefficient, iso.profile_shift,
+                              2 * r_ok, iso.internal)
+        rel = ">=" if iso.internal else "<="   # the tip circle moves towards the reference circle
+        fix = (f"; fix: tip_alteration_mm <= {k_ok * m_n * 1e3:.6f} (tip_diameter_mm {rel} {2e3 * r_ok:.6f}; now "
+               f"{iso.tip_alteration * m_n * 1e3:.6f} mm, tip diameter {2e3 * r_a:.6f} mm), or a smaller "
+               "profile_shift")
+    raise GeometryError(
+        f"gear '{gear.name}': tooth too thin at the tip circle: normal tip thickness s_an = {s_an * 1e3:.6f} mm < "
+        f"{MIN_TIP_THICKNESS_FACTOR:g} m_n = {s_min * 1e3:.6f} mm (the usual design minimum; profile_shift "
+        f"{iso.profile_shift:g}, tip alteration k = {iso.tip_alteration:.6g}){fix}")
+
+
 def gear_geometry(gear: Any, *, shaper_teeth: int | None = None) -> GearGeometry:
     """Build the geometry of one :class:`hacgear_core.model.Gear` (a few ms).
 
@@ -414,6 +449,16 @@ def gear_geometry(gear: Any, *, shaper_teeth: int | None = None) -> GearGeometry
     land = 2 * math.pi / z - th_d - th_c
     if land < -1e-9 / z:
         rho_max = _max_tool_tip_radius(gear, form, r_f, r_a, m, z0)
+        iso = getattr(gear, "iso", None)
+        if iso is not None:
+            raise GeometryError(
+                f"gear '{gear.name}': the basic rack's root radius rho_fP = rho_fP* m_n = "
+                f"{iso.root_radius_coefficient:g} x {iso.normal_module_m * 1e3:g} = {gear.hob_tip_radius_m * 1e3:g} mm "
+                f"is too large for the {'shaper' if internal else 'hob'} that cuts this gear: the two tip circles of "
+                f"the tool tooth overlap (root land {math.degrees(land):.4f} deg < 0); allowed: "
+                f"rack_root_radius_coefficient <= {rho_max / iso.normal_module_m:.6f} (rho_fP <= {rho_max * 1e3:.4f} "
+                f"mm) for this gear{'' if iso.basic_rack == 'custom' else f', in place of basic_rack = {iso.basic_rack!r}'}"
+                "; or a deeper root (rack_dedendum_coefficient)")
         raise GeometryError(
             f"gear '{gear.name}': hob_tip_radius_mm = {gear.hob_tip_radius_m * 1e3:g} mm too large: the two tip "
             f"circles of the tool tooth overlap (root land {math.degrees(land):.4f} deg < 0); allowed: "
@@ -438,6 +483,9 @@ def gear_geometry(gear: Any, *, shaper_teeth: int | None = None) -> GearGeometry
             f"{getattr(gear, 'lead_crowning_m', 0.0) * 1e6:g} um = {removed * 1e6:.1f} um remove more than the "
             f"tooth thickness at the tip circle, {s_tip * 1e6:.1f} um: no tooth is left at the tip corners of the "
             f"face ends; allowed: a sum below {s_tip * 1e6:.1f} um")
+    iso = getattr(gear, "iso", None)
+    if iso is not None:
+        _check_iso_tip_thickness(gear, iso, form, r_a)
     if s_tip < 0.2 * m:
         warnings.append(f"gear '{gear.name}': thin tip, tooth thickness at the tip circle {s_tip * 1e3:.3f} mm < "
                         f"0.2 m = {0.2 * m * 1e3:.3f} mm")

@@ -11,6 +11,7 @@ from hacgear_core.errors import GeometryError
 
 from hacgear_core.geometry.gear import GearGeometry, gear_geometry
 from hacgear_core.geometry.tooth import zero_backlash_center_distance
+from hacgear_core.model import iso21771 as _iso
 
 __all__ = ["MeshGeometry", "mesh_backlash", "mesh_geometry", "model_geometry", "zero_backlash_center_distance"]
 
@@ -27,7 +28,9 @@ class MeshGeometry:
     approach of those flanks from the loaded-flank kinematic position (loaded flanks touching) to their
     contact.  ``coast_position_offset`` [mesh cycles]: the unloaded flanks' own mesh position is
     ``coast_position_offset - tau`` at loaded-flank mesh position ``tau`` (``docs/tables.md``, coast side).
-    ``backlash_m`` is ``backlash_circular_m``.
+    ``backlash_m`` is ``backlash_circular_m``.  ``backlash_circular_range_m``: ``j_t`` at the thickest and the
+    thinnest teeth the ISO-form gears' thickness allowances admit (upper, lower allowance; the modelled teeth sit
+    at the mean; transverse-form gears: both equal ``backlash_circular_m``).
     """
 
     name: str
@@ -64,6 +67,7 @@ class MeshGeometry:
     tip_clearance_m: Mapping[str, float]
     warnings: tuple[str, ...]
     _aff: Mapping[str, tuple] = field(default_factory=dict, repr=False, compare=False)
+    backlash_circular_range_m: tuple[float, float] = (math.nan, math.nan)
 
     @property
     def backlash_m(self) -> float:
@@ -185,6 +189,51 @@ def mesh_backlash(ga: GearGeometry, gb: GearGeometry, r_wa: float, r_wb: float,
     return j_t, j_t * cos_alpha_w_unloaded, (s_a - s_b - p_w) / (2 * p_w)
 
 
+def _iso_pair(model: Any, mesh: Any) -> tuple[Any, Any] | None:
+    """The ISO data (:class:`~hacgear_core.model.schema.IsoGear`) of both gears of ``mesh``, or None when either
+    gear was given in the transverse form."""
+    ia = getattr(model.gear(mesh.gear_a), "iso", None)
+    ib = getattr(model.gear(mesh.gear_b), "iso", None)
+    return None if ia is None or ib is None else (ia, ib)
+
+
+def _iso_center_distance(ia: Any, ib: Any) -> float:
+    """ISO 21771 a_w [m] of two ISO-form gears from their profile shifts (inv(alpha_wt) = inv(alpha_t) + 2 tan(alpha_n)
+    (x1 + x2) / (z1 + z2), signed tooth counts): the centre distance at which the nominal teeth mesh without
+    backlash."""
+    return _iso.working_center_distance(ia.normal_module_m, ia.normal_pressure_angle_rad, ia.helix_angle_rad,
+                                        ia.mesh_teeth, ib.mesh_teeth, ia.profile_shift, ib.profile_shift)
+
+
+def _thickness_to_backlash(ga: GearGeometry, r_wa: float, model: Any, mesh: Any) -> float:
+    """d j_t / d (s_n,a + s_n,b) [-]: the change of the circumferential backlash on the operating pitch circle per unit
+    increase of the two gears' normal tooth thicknesses on their reference cylinders (``-(r_w / r) / cos(beta)``,
+    the same ratio ``r_w / r`` for both gears of a mesh)."""
+    cos_beta = math.cos(model.gear(mesh.gear_a).helix_angle_rad)
+    return -(r_wa / ga.pitch_radius_m) / cos_beta
+
+
+def _backlash_fix(model: Any, mesh: Any, ga: GearGeometry, r_wa: float, j_t: float, a0: float | None) -> str:
+    """What would make a mesh with negative backlash ``j_t`` [m] mesh: thinner teeth (ISO form: the sum of the
+    upper thickness allowances; transverse form: the tooth thicknesses) or a larger centre distance (``a0`` [m], the
+    zero-backlash one, where known)."""
+    ds_n = -j_t / _thickness_to_backlash(ga, r_wa, model, mesh)   # < 0: the change of the normal thickness sum
+    planetary = getattr(model, "planetary", None) is not None and mesh.center_distance_m is None
+    cd = f"{'carrier_radius_mm' if planetary else 'center_distance_mm'} >= " + (
+        f"{a0 * 1e3:.6f} mm (zero backlash)" if a0 is not None else "a larger value")
+    pair = _iso_pair(model, mesh)
+    if pair is not None:
+        ia, ib = pair
+        cur = ia.thickness_allowance_upper_m + ib.thickness_allowance_upper_m
+        return (f"fix: thickness_allowance_upper_mm of '{mesh.gear_a}' + '{mesh.gear_b}' <= {(cur + ds_n) * 1e3:.6f} mm "
+                f"(now {cur * 1e3:.6f} mm; e.g. thickness_allowance_upper_mm = "
+                f"{(ia.thickness_allowance_upper_m + ds_n) * 1e3:.6f} on '{mesh.gear_a}' and its lower allowance at "
+                f"most that), or {cd}")
+    cos_beta = math.cos(model.gear(mesh.gear_a).helix_angle_rad)
+    return (f"fix: tooth_thickness_mm of '{mesh.gear_a}' + '{mesh.gear_b}' thinner by {-ds_n / cos_beta * 1e3:.6f} mm "
+            f"(transverse, reference circle), or {cd}")
+
+
 def _standard_pitch_radii(ga: GearGeometry, gb: GearGeometry, a: float) -> tuple[float, float]:
     if ga.internal or gb.internal:
         k = a / abs(gb.z - ga.z)
@@ -254,16 +303,31 @@ def _mesh_geometry(model: Any, mesh_name: str | None = None, *, gears: Mapping[s
         a_std = 0.5 * ga.module_m * (abs(gb.z - ga.z) if internal else ga.z + gb.z)
         a = min(max(a_std, lo_a), hi_a)
         src = "planetary: standard clamped to zero-backlash limits"
+    elif _iso_pair(model, mesh) is not None:
+        a = _iso_center_distance(*_iso_pair(model, mesh))
+        src = "ISO 21771 a_w from the profile shifts"
     else:
         a = a0
         src = "zero backlash"
     r_wa, r_wb = _standard_pitch_radii(ga, gb, a)
     sa, sb = mesh.flank_a, mesh.flank_b
-    # backlash on the operating pitch circle (circumferential)
+    # backlash on the operating pitch circle (circumferential), of the modelled teeth and, for ISO-form gears, of the
+    # thickest and thinnest teeth their thickness allowances admit (j_t is linear in the reference thicknesses)
     backlash, _, _ = mesh_backlash(ga, gb, r_wa, r_wb, 1.0)
-    if backlash < -1e-7:
-        raise GeometryError(f"mesh '{mesh.name}': negative backlash {backlash * 1e6:.2f} um at centre distance "
-                            f"{a * 1e3:.4f} mm (zero-backlash centre distance {a0 * 1e3:.4f} mm): the teeth overlap")
+    j_range = (backlash, backlash)
+    pair = _iso_pair(model, mesh)
+    up = 0.0
+    if pair is not None:
+        dj = _thickness_to_backlash(ga, r_wa, model, mesh)
+        up = sum(i.thickness_allowance_upper_m - i.thickness_allowance_mean_m for i in pair)
+        lo = sum(i.thickness_allowance_lower_m - i.thickness_allowance_mean_m for i in pair)
+        j_range = (backlash + dj * up, backlash + dj * lo)
+    if j_range[0] < -1e-7:
+        at = "" if up == 0.0 else f" at the upper thickness allowances (modelled mean: {backlash * 1e6:.2f} um)"
+        raise GeometryError(f"mesh '{mesh.name}': negative backlash {j_range[0] * 1e6:.2f} um{at} at centre distance "
+                            f"{a * 1e3:.4f} mm (zero-backlash centre distance {a0 * 1e3:.4f} mm): the teeth of "
+                            f"'{ga.name}' and '{gb.name}' overlap; "
+                            + _backlash_fix(model, mesh, ga, r_wa, j_range[0], a0 if up == 0.0 else None))
     loaded = _line_of_action(ga, gb, sa, sb, a, mesh.name, strict, warnings)
     try:
         coast = _line_of_action(ga, gb, _other(sa), _other(sb), a, mesh.name, False, warnings)
@@ -325,7 +389,7 @@ def _mesh_geometry(model: Any, mesh_name: str | None = None, *, gears: Mapping[s
         total_contact_ratio=total, roll_angle_deg=loaded["roll"], roll_angle_coast_deg=coast["roll"],
         line_of_action_length_m=loaded["hi"] - loaded["lo"], tangent_length_m=loaded["L"],
         contact_start_m=loaded["lo"], contact_end_m=loaded["hi"], tip_clearance_m=clear, warnings=tuple(warnings),
-        _aff=loaded["aff"])
+        _aff=loaded["aff"], backlash_circular_range_m=j_range)
     return mg
 
 

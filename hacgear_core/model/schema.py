@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from hacgear_core.errors import ModelError
+from hacgear_core.model import iso21771 as _iso
 
 __all__ = [
     "FLANKS",
@@ -23,6 +24,8 @@ __all__ = [
     "Support",
     "Web",
     "Gear",
+    "IsoGear",
+    "HANDS",
     "Mesh",
     "Damping",
     "Operating",
@@ -271,6 +274,151 @@ class Web:
         return 0.5 * self.outer_diameter_m
 
 
+#: helix hands of the ISO form; a right-hand helix is a positive ``Gear.helix_angle_rad`` (the transverse section
+#: turns counter-clockwise, seen from +z, as z grows)
+HANDS = ("right", "left")
+
+
+@dataclass(frozen=True)
+class IsoGear:
+    """The ISO 21771 / ISO 53 data a gear of the ISO form was given in (SI), kept beside the transverse form it was
+    converted to (:attr:`Gear.iso`; the geometry reads the transverse form only, ``hacgear info`` reports both).
+
+    ``normal_module_m`` m_n; ``normal_pressure_angle_rad`` alpha_n; ``helix_angle_rad`` beta >= 0 at the reference
+    cylinder and its ``hand`` (``right`` | ``left``; ``""`` for spur gears); ``profile_shift`` x (normal, ISO sign:
+    an internal gear's x is positive towards its tooth tips, i.e. towards the axis); ``tip_alteration`` k (tip
+    diameter d_a = d +- 2 m_n (h_aP* + x + k)), ``tip_source`` the key it came from (``tip_alteration_mm`` or
+    ``tip_diameter_mm``); ``basic_rack`` an ISO 53 profile name (``A`` .. ``D``) or ``custom``, with its
+    ``addendum_coefficient`` h_aP*, ``dedendum_coefficient`` h_fP*, ``root_radius_coefficient`` rho_fP*;
+    ``thickness_allowance_upper_m`` / ``thickness_allowance_lower_m`` A_sne / A_sni (normal, on the reference
+    cylinder; the teeth are modelled at their mean); ``internal`` as the gear.  Equations:
+    :mod:`hacgear_core.model.iso21771`.
+    """
+
+    teeth: int
+    normal_module_m: float
+    normal_pressure_angle_rad: float
+    helix_angle_rad: float = 0.0
+    hand: str = ""
+    profile_shift: float = 0.0
+    tip_alteration: float = 0.0
+    tip_source: str = "tip_alteration_mm"
+    basic_rack: str = "A"
+    addendum_coefficient: float = 1.0
+    dedendum_coefficient: float = 1.25
+    root_radius_coefficient: float = 0.38
+    thickness_allowance_upper_m: float = 0.0
+    thickness_allowance_lower_m: float = 0.0
+    internal: bool = False
+
+    def __post_init__(self) -> None:
+        if isinstance(self.teeth, bool) or not isinstance(self.teeth, int) or not 6 <= self.teeth <= 1000:
+            raise _fail("teeth", "-", "integer in [6, 1000]", self.teeth)
+        _check_range("normal_module_m", self.normal_module_m, "m", 1e-4, 0.1)
+        _check_range("normal_pressure_angle_rad", self.normal_pressure_angle_rad, "rad", math.radians(5),
+                     math.radians(40))
+        _check_range("helix_angle_rad", self.helix_angle_rad, "rad", 0.0, math.radians(45))
+        if self.helix_angle_rad > 0 and self.hand not in HANDS:
+            raise _fail("hand", "", " | ".join(HANDS) + " (a helical gear)", self.hand)
+        if self.helix_angle_rad == 0 and self.hand:
+            raise _fail("hand", "", "'' (a spur gear has no hand)", self.hand)
+        _check_range("profile_shift", self.profile_shift, "-", -3.0, 3.0)
+        _check_range("tip_alteration", self.tip_alteration, "-", -3.0, 3.0)
+        if self.tip_source not in ("tip_alteration_mm", "tip_diameter_mm"):
+            raise _fail("tip_source", "", "tip_alteration_mm | tip_diameter_mm", self.tip_source)
+        if self.basic_rack not in tuple(_iso.BASIC_RACKS) + ("custom",):
+            raise _fail("basic_rack", "", " | ".join(_iso.BASIC_RACKS) + " | custom", self.basic_rack)
+        _check_range("addendum_coefficient", self.addendum_coefficient, "-", 0.5, 2.0)
+        _check_range("dedendum_coefficient", self.dedendum_coefficient, "-", 0.5, 2.5)
+        _check_range("root_radius_coefficient", self.root_radius_coefficient, "-", 0.0, 1.0, lo_open=True)
+        if not self.dedendum_coefficient > self.addendum_coefficient:
+            raise ModelError(f"dedendum_coefficient h_fP* = {self.dedendum_coefficient:g} must exceed "
+                             f"addendum_coefficient h_aP* = {self.addendum_coefficient:g} (the mate's tip needs a "
+                             "root clearance)")
+        lim = 0.5 * self.normal_module_m
+        for name in ("thickness_allowance_upper_m", "thickness_allowance_lower_m"):
+            _check_range(name, getattr(self, name), "m", -lim, lim)
+        if self.thickness_allowance_lower_m > self.thickness_allowance_upper_m:
+            raise ModelError(
+                f"thickness_allowance_lower [mm] = {self.thickness_allowance_lower_m * 1e3:g} exceeds "
+                f"thickness_allowance_upper [mm] = {self.thickness_allowance_upper_m * 1e3:g}; allowed: lower <= upper")
+        h_a = self.addendum_coefficient + self.profile_shift + self.tip_alteration
+        if not h_a > 0:
+            raise ModelError(
+                f"tip addendum h_aP* + x + k = {self.addendum_coefficient:g} + {self.profile_shift:g} + "
+                f"{self.tip_alteration:.6g} = {h_a:.6g} puts the tip circle inside the reference circle; allowed: > 0 "
+                f"(a larger tip_alteration_mm or tip diameter, or a larger profile_shift)")
+        h_f = self.dedendum_coefficient - self.profile_shift
+        if not h_f > 0:
+            raise ModelError(
+                f"root dedendum h_fP* - x = {self.dedendum_coefficient:g} - {self.profile_shift:g} = {h_f:.6g} puts "
+                f"the root circle beyond the reference circle; allowed: profile_shift < {self.dedendum_coefficient:g}")
+        s_n, p_n = self.normal_tooth_thickness_m, math.pi * self.normal_module_m
+        if not 0.1 * p_n < s_n < 0.9 * p_n:
+            raise ModelError(
+                f"normal tooth thickness s_n = m_n (pi/2 + 2 x tan(alpha_n)) + mean allowance = {s_n * 1e3:.6g} mm "
+                f"must lie within (0.1, 0.9) x pi m_n = ({0.1e3 * p_n:.6g}, {0.9e3 * p_n:.6g}) mm (profile_shift "
+                f"{self.profile_shift:g}, thickness allowances {self.thickness_allowance_upper_m * 1e3:g} / "
+                f"{self.thickness_allowance_lower_m * 1e3:g} mm)")
+
+    # -- ISO 21771 closed forms (SI) -----------------------------------------------------------
+    @property
+    def signed_helix_angle_rad(self) -> float:
+        """The helix angle with the sign of the transverse form: + right hand, - left hand."""
+        return -self.helix_angle_rad if self.hand == "left" else self.helix_angle_rad
+
+    @property
+    def transverse_module_m(self) -> float:
+        return _iso.transverse_module(self.normal_module_m, self.helix_angle_rad)
+
+    @property
+    def transverse_pressure_angle_rad(self) -> float:
+        return _iso.transverse_pressure_angle(self.normal_pressure_angle_rad, self.helix_angle_rad)
+
+    @property
+    def reference_diameter_m(self) -> float:
+        return _iso.reference_diameter(self.teeth, self.normal_module_m, self.helix_angle_rad)
+
+    @property
+    def tip_diameter_m(self) -> float:
+        return _iso.tip_diameter(self.teeth, self.normal_module_m, self.helix_angle_rad, self.addendum_coefficient,
+                                 self.profile_shift, self.tip_alteration, self.internal)
+
+    @property
+    def root_diameter_m(self) -> float:
+        return _iso.root_diameter(self.teeth, self.normal_module_m, self.helix_angle_rad, self.dedendum_coefficient,
+                                  self.profile_shift, self.internal)
+
+    @property
+    def thickness_allowance_mean_m(self) -> float:
+        return 0.5 * (self.thickness_allowance_upper_m + self.thickness_allowance_lower_m)
+
+    @property
+    def nominal_normal_tooth_thickness_m(self) -> float:
+        """s_n without allowance [m] (reference cylinder)."""
+        return _iso.normal_tooth_thickness(self.normal_module_m, self.normal_pressure_angle_rad, self.profile_shift)
+
+    @property
+    def normal_tooth_thickness_m(self) -> float:
+        """s_n at the mean allowance [m]: the tooth the geometry models."""
+        return self.nominal_normal_tooth_thickness_m + self.thickness_allowance_mean_m
+
+    @property
+    def transverse_tooth_thickness_m(self) -> float:
+        """s_t = s_n / cos(beta) [m] at the mean allowance (the transverse form's ``tooth_thickness_m``)."""
+        return self.normal_tooth_thickness_m / math.cos(self.helix_angle_rad)
+
+    @property
+    def tool_tip_radius_m(self) -> float:
+        """rho_fP = rho_fP* m_n [m], the transverse form's ``hob_tip_radius_m`` (the tool's normal-section radius)."""
+        return self.root_radius_coefficient * self.normal_module_m
+
+    @property
+    def mesh_teeth(self) -> int:
+        """The tooth count of the mesh relations: negative for an internal gear (ISO 21771)."""
+        return _iso.mesh_tooth_count(self.teeth, self.internal)
+
+
 @dataclass(frozen=True)
 class Gear:
     """One gear (SI).  For helical gears, module, pressure angles and tooth thickness are transverse.
@@ -282,7 +430,8 @@ class Gear:
     internal gears the outer rim diameter); ``mass_kg``/``inertia_kgm2``: lumped values overriding the
     values computed from the blank (None: computed); ``web``: a :class:`Web` (webbed blank: hub from the
     bore to ``web.inner_diameter_m``, web of ``web.thickness_m``, full-width rim from ``web.outer_diameter_m``
-    to the root) or None (solid blank from the bore to the root).
+    to the root) or None (solid blank from the bore to the root); ``iso``: the :class:`IsoGear` data a gear of the
+    ISO 21771 form was converted from (None: the gear was given in this transverse form).
     """
 
     name: str
@@ -306,6 +455,7 @@ class Gear:
     gauges: tuple[Gauge, ...] = ()
     support: Support = field(default_factory=Support)
     web: Web | None = None
+    iso: IsoGear | None = None
 
     def __post_init__(self) -> None:
         where = f"gear '{self.name}'"
@@ -337,6 +487,12 @@ class Gear:
                     raise ModelError(f"{where}: {exc}") from None
         if set(self.flanks) != set(FLANKS):
             raise ModelError(f"{where}: flanks must be exactly {FLANKS}, got {tuple(self.flanks)}")
+        if self.iso is not None:
+            if not isinstance(self.iso, IsoGear):
+                raise ModelError(f"{where}: iso must be an IsoGear or None, got {type(self.iso).__name__}")
+            if self.iso.teeth != self.teeth or self.iso.internal != self.internal:
+                raise ModelError(f"{where}: its ISO data (teeth {self.iso.teeth}, internal {self.iso.internal}) "
+                                 f"disagree with the gear (teeth {self.teeth}, internal {self.internal})")
         d_ref = self.module_m * self.teeth
         ref_txt = (f"reference diameter (module_mm x teeth = {self.module_m * 1e3:g} x {self.teeth}) "
                    f"{d_ref * 1e3:.3f} mm")
@@ -614,6 +770,26 @@ class LumpedGear:
         return False
 
 
+def _check_iso_pair(mesh: str, ga: Gear, gb: Gear) -> None:
+    """Refuse two gears of the ISO form that cannot mesh, naming their ISO keys: the same normal module, normal
+    pressure angle and helix angle, and hands opposite for an external pair, equal for an internal one."""
+    ia, ib = ga.iso, gb.iso
+    for key, unit, va, vb, scale in (
+            ("normal_module_mm", "mm", ia.normal_module_m, ib.normal_module_m, 1e3),
+            ("normal_pressure_angle_deg", "deg", ia.normal_pressure_angle_rad, ib.normal_pressure_angle_rad,
+             180.0 / math.pi),
+            ("helix_angle_deg", "deg", ia.helix_angle_rad, ib.helix_angle_rad, 180.0 / math.pi)):
+        if abs(va - vb) > 1e-12 * max(abs(va), abs(vb), 1e-300):
+            raise ModelError(f"mesh '{mesh}': {key} [{unit}] differs between '{ga.name}' ({va * scale:g}) and "
+                             f"'{gb.name}' ({vb * scale:g}); meshing gears need the same value")
+    if ia.helix_angle_rad > 0:
+        internal = ga.internal or gb.internal
+        if (ia.hand == ib.hand) != internal:
+            need = "the same hand (internal pair)" if internal else "opposite hands (external pair)"
+            raise ModelError(f"mesh '{mesh}': hand = '{ia.hand}' on '{ga.name}' and '{ib.hand}' on '{gb.name}'; "
+                             f"allowed: {need}")
+
+
 @dataclass(frozen=True)
 class Model:
     """A whole gear system (SI).  ``path``/``sha256`` identify the model file it came from;
@@ -660,6 +836,8 @@ class Model:
             ga, gb = self.gear(m.gear_a), self.gear(m.gear_b)
             if ga.internal and gb.internal:
                 raise ModelError(f"mesh '{m.name}': two internal gears cannot mesh")
+            if ga.iso is not None and gb.iso is not None:
+                _check_iso_pair(m.name, ga, gb)
             if abs(ga.module_m - gb.module_m) > 1e-9:
                 raise ModelError(
                     f"mesh '{m.name}': module_mm differs between '{ga.name}' ({ga.module_m * 1e3:g} mm) and "

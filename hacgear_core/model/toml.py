@@ -99,9 +99,10 @@ from pathlib import Path
 from typing import Any, Callable
 
 from hacgear_core.errors import ModelError
+from hacgear_core.model import iso21771 as _iso
 from hacgear_core.model.schema import (
-    FLANKS, PLANETARY_MEMBERS, RELIEF_SHAPES, WEB_MIN_RIM_M, Damping, Flank, Gauge, Gear, LumpedGear,
-    RANGES, Material, Mesh, Model, Operating, PinError, Planetary, StaticsGrid, Support, Web,
+    FLANKS, HANDS, PLANETARY_MEMBERS, RELIEF_SHAPES, WEB_MIN_RIM_M, Damping, Flank, Gauge, Gear, IsoGear,
+    LumpedGear, RANGES, Material, Mesh, Model, Operating, PinError, Planetary, StaticsGrid, Support, Web,
 )
 
 __all__ = ["read_model", "parse_model", "SectionReader", "TOP_LEVEL_KEYS", "model_sha256", "resolve_model_path", "shipped_systems", "shipped_systems_dir",
@@ -245,6 +246,23 @@ _GEAR_KEYS = (
     "lead_crowning_um", "tip_edge_radius_mm", "mass_kg", "inertia_kgm2", "drive", "coast", "gauges", "support",
     "web",
 )
+#: the ISO 21771 form of [[gears]] (marked by normal_module_mm)
+_ISO_GEAR_KEYS = (
+    "name", "teeth", "internal", "normal_module_mm", "normal_pressure_angle_deg", "helix_angle_deg", "hand",
+    "profile_shift", "tip_alteration_mm", "tip_diameter_mm", "basic_rack", "rack_addendum_coefficient",
+    "rack_dedendum_coefficient", "rack_root_radius_coefficient", "thickness_allowance_upper_mm",
+    "thickness_allowance_lower_mm", "face_width_mm", "bore_diameter_mm", "material", "axial_position_mm",
+    "lead_crowning_um", "tip_edge_radius_mm", "mass_kg", "inertia_kgm2", "drive", "coast", "gauges", "support", "web",
+)
+#: keys of the transverse (dissertation) form that the ISO form derives, and from what
+_TRANSVERSE_ONLY = {
+    "module_mm": "normal_module_mm and helix_angle_deg (m_t = m_n / cos beta)",
+    "root_diameter_mm": "the basic rack's dedendum and profile_shift (d_f = d - 2 m_n (h_fP* - x))",
+    "tooth_thickness_mm": "profile_shift and the thickness allowances (s_n = m_n (pi/2 + 2 x tan alpha_n) + A_sn)",
+    "hob_tip_radius_mm": "the basic rack's root radius (rho_fP = rho_fP* m_n)",
+}
+_ISO_FLANK_KEYS = ("tip_relief_um", "tip_relief_start_roll_deg", "tip_relief_shape")
+_RACK_KEYS = ("rack_addendum_coefficient", "rack_dedendum_coefficient", "rack_root_radius_coefficient")
 _WEB_KEYS = ("thickness_mm", "inner_diameter_mm", "outer_diameter_mm")
 _MESH_KEYS = ("name", "gear_a", "gear_b", "flank_a", "flank_b", "center_distance_mm", "line_of_centres_deg")
 _LUMPED_GEAR_KEYS = ("name", "teeth", "internal", "mass_kg", "inertia_kgm2", "base_radius_mm", "support")
@@ -257,7 +275,8 @@ _STATICS_KEYS = ("positions", "loads", "deflections", "max_torque_factor", "face
                  "max_twist_mrad")
 _SYSTEM_KEYS = ("name", "kind", "title", "source", "lumped")
 #: every key a model file may hold: a missing required key next to an unknown key close to it is a misspelling
-_KNOWN_KEYS = frozenset(_MATERIAL_KEYS + _FLANK_KEYS + _GAUGE_KEYS + _SUPPORT_KEYS + _GEAR_KEYS + _WEB_KEYS + _MESH_KEYS
+_KNOWN_KEYS = frozenset(_MATERIAL_KEYS + _FLANK_KEYS + _GAUGE_KEYS + _SUPPORT_KEYS + _GEAR_KEYS + _ISO_GEAR_KEYS
+                        + _WEB_KEYS + _MESH_KEYS
                         + _LUMPED_GEAR_KEYS + _LUMPED_MESH_KEYS + _PLANETARY_KEYS + _PIN_ERROR_KEYS + _TOP_KEYS
                         + _STATICS_KEYS + _SYSTEM_KEYS + ("torque_Nm", "torque_gear", "modal_damping_ratio"))
 
@@ -349,6 +368,8 @@ def _read_web(wsec: "_Section | None", face_mm: float, bore_mm: float, root_mm: 
 
 
 def _read_gear(sec: _Section, materials: dict[str, Material]) -> Gear:
+    if "normal_module_mm" in sec.data:
+        return _read_iso_gear(sec, materials)
     name = sec.string("name")
     teeth = sec.integer("teeth", 6, 1000)
     module = sec.number("module_mm", "mm", 0.1, 100.0)
@@ -390,6 +411,125 @@ def _read_gear(sec: _Section, materials: dict[str, Material]) -> Gear:
         internal=internal, helix_angle_rad=math.radians(helix), axial_position_m=axial * 1e-3,
         lead_crowning_m=crown * 1e-6, tip_edge_radius_m=tip_edge * 1e-3, mass_kg=mass, inertia_kgm2=inertia,
         gauges=tuple(gauges), support=support, web=web,
+    ))
+
+
+def _read_iso_flank(sec: "_Section | None", alpha_t: float) -> Flank:
+    """``[gears.drive]`` / ``[gears.coast]`` of an ISO-form gear: tip relief only (the flank's transverse pressure
+    angle ``alpha_t`` [rad] follows from normal_pressure_angle_deg and helix_angle_deg)."""
+    if sec is None:
+        return Flank(alpha_t)
+    if "pressure_angle_deg" in sec.data:
+        raise sec.error(sec.key("pressure_angle_deg"), "deg", "no pressure_angle_deg in an ISO-form gear's flank "
+                        "tables", sec.data["pressure_angle_deg"],
+                        problem="the ISO form's flanks take the gear's normal_pressure_angle_deg (transverse "
+                                f"{math.degrees(alpha_t):.6f} deg here)")
+    relief = sec.number("tip_relief_um", "um", 0.0, 1000.0, required=False, default=0.0)
+    start = sec.number("tip_relief_start_roll_deg", "deg", 0.0, 89.0, required=False, default=0.0)
+    shape = sec.string("tip_relief_shape", RELIEF_SHAPES, required=False,
+                       default="parabolic" if relief > 0 else "none")
+    sec.done(_ISO_FLANK_KEYS)
+    if relief > 0 and start <= 0:
+        raise sec.error(sec.key("tip_relief_start_roll_deg"), "deg", "(0, 89]", start,
+                        problem="missing or zero while tip_relief_um > 0")
+    if relief > 0 and shape == "none":
+        raise sec.error(sec.key("tip_relief_shape"), "", "linear | parabolic", shape,
+                        problem="'none' while tip_relief_um > 0")
+    return _wrap(sec, sec.path, lambda: Flank(alpha_t, relief * 1e-6, math.radians(start), shape))
+
+
+def _read_iso_gear(sec: _Section, materials: dict[str, Material]) -> Gear:
+    """``[[gears]]`` in the ISO 21771 form (marked by ``normal_module_mm``) → :class:`Gear` in the transverse form,
+    its ISO data kept in :attr:`Gear.iso` (equations: :mod:`hacgear_core.model.iso21771`)."""
+    for key, derived in _TRANSVERSE_ONLY.items():
+        if key in sec.data:
+            raise sec.error(sec.key(key), "", "the keys of one form: ISO 21771 (normal_module_mm ...) or transverse "
+                            "(module_mm, root_diameter_mm, tooth_thickness_mm, hob_tip_radius_mm ...)",
+                            sec.data[key], problem=f"a transverse-form key in an ISO-form gear (normal_module_mm "
+                            f"given): the ISO form derives it from {derived}")
+    name = sec.string("name")
+    teeth = sec.integer("teeth", 6, 1000)
+    internal = sec.boolean("internal", default=False)
+    m_n = sec.number("normal_module_mm", "mm", 0.1, 100.0)
+    alpha_n_deg = sec.number("normal_pressure_angle_deg", "deg", 5.0, 40.0)
+    beta_deg = sec.number("helix_angle_deg", "deg", 0.0, 45.0, required=False, default=0.0)
+    hand = sec.string("hand", HANDS, required=beta_deg > 0, default=None) or ""
+    if beta_deg == 0 and hand:
+        raise sec.error(sec.key("hand"), "", "absent for a spur gear (helix_angle_deg = 0)", hand,
+                        problem="a spur gear has no hand")
+    x = sec.number("profile_shift", "-", -3.0, 3.0, required=False, default=0.0)
+    rack = sec.string("basic_rack", tuple(_iso.BASIC_RACKS), required=False, default=None)
+    given = [k for k in _RACK_KEYS if k in sec.data]
+    if rack is not None:
+        if given:
+            raise sec.error(sec.key(given[0]), "-", f"absent when basic_rack = '{rack}' is given", sec.data[given[0]],
+                            problem=f"the ISO 53 profile {rack} fixes h_aP*, h_fP*, rho_fP* = "
+                                    f"{', '.join(f'{v:g}' for v in _iso.BASIC_RACKS[rack])}; give basic_rack or the "
+                                    "three rack_*_coefficient keys")
+        h_ap, h_fp, rho_fp = _iso.BASIC_RACKS[rack]
+    else:
+        if not given:
+            raise sec.error(sec.key("basic_rack"), "", f"basic_rack = {' | '.join(_iso.BASIC_RACKS)} (ISO 53) or the "
+                            "three keys " + ", ".join(_RACK_KEYS), None,
+                            problem="missing: the basic rack profile (h_aP*, h_fP*, rho_fP*) has no natural default")
+        rack = "custom"
+        h_ap = sec.number("rack_addendum_coefficient", "-", 0.5, 2.0)
+        h_fp = sec.number("rack_dedendum_coefficient", "-", 0.5, 2.5)
+        rho_fp = sec.number("rack_root_radius_coefficient", "-", 0.0, 1.0, lo_open=True)
+    if "tip_alteration_mm" in sec.data and "tip_diameter_mm" in sec.data:
+        raise sec.error(sec.key("tip_diameter_mm"), "mm", "tip_alteration_mm (k m_n) or tip_diameter_mm, not both",
+                        sec.data["tip_diameter_mm"], problem="both tip keys given")
+    beta = math.radians(beta_deg)
+    alpha_n = math.radians(alpha_n_deg)
+    if "tip_diameter_mm" in sec.data:
+        d_a = sec.number("tip_diameter_mm", "mm", 1.0, 20000.0)
+        k = _iso.tip_alteration(teeth, m_n, beta, h_ap, x, d_a, internal)
+        tip_source = "tip_diameter_mm"
+    else:
+        k = sec.number("tip_alteration_mm", "mm", -3.0 * m_n, 3.0 * m_n, required=False, default=0.0) / m_n
+        tip_source = "tip_alteration_mm"
+    a_up = sec.number("thickness_allowance_upper_mm", "mm", -0.5 * m_n, 0.5 * m_n, required=False, default=0.0)
+    a_lo = sec.number("thickness_allowance_lower_mm", "mm", -0.5 * m_n, 0.5 * m_n, required=False, default=a_up)
+    face = sec.number("face_width_mm", "mm", 0.1, 2000.0)
+    bore = sec.number("bore_diameter_mm", "mm", 0.0, 40000.0)
+    mat_name = sec.string("material")
+    if mat_name not in materials:
+        raise sec.error(sec.key("material"), "", " | ".join(sorted(materials)) or "(no [materials] defined)",
+                        mat_name, problem=f"unknown material {mat_name!r}")
+    iso = _wrap(sec, sec.path, lambda: IsoGear(
+        teeth=teeth, normal_module_m=m_n * 1e-3, normal_pressure_angle_rad=alpha_n, helix_angle_rad=beta, hand=hand,
+        profile_shift=x, tip_alteration=k, tip_source=tip_source, basic_rack=rack, addendum_coefficient=h_ap,
+        dedendum_coefficient=h_fp, root_radius_coefficient=rho_fp, thickness_allowance_upper_m=a_up * 1e-3,
+        thickness_allowance_lower_m=a_lo * 1e-3, internal=internal))
+    axial = sec.number("axial_position_mm", "mm", -1000.0, 1000.0, required=False, default=0.0)
+    crown = sec.number("lead_crowning_um", "um", 0.0, 1000.0, required=False, default=0.0)
+    tip_edge = sec.number("tip_edge_radius_mm", "mm", 0.0, 10.0, required=False, default=0.0)
+    mass = sec.number("mass_kg", "kg", 0.0, None, required=False, default=None)
+    inertia = sec.number("inertia_kgm2", "kg*m^2", 0.0, None, required=False, default=None)
+    alpha_t = iso.transverse_pressure_angle_rad
+    drive = _read_iso_flank(sec.table("drive", required=False), alpha_t)
+    coast_sec = sec.table("coast", required=False)
+    coast = _read_iso_flank(coast_sec, alpha_t) if coast_sec is not None else drive
+    gauges = []
+    for gsec in sec.array_of_tables("gauges", required=False):
+        gname = gsec.string("name")
+        gflank = gsec.string("flank", FLANKS)
+        grad = gsec.number("radius_mm", "mm", 0.0, 10000.0, lo_open=True)
+        gface = gsec.number("face_fraction", "-", 0.0, 1.0, required=False, default=0.5)
+        gsec.done(_GAUGE_KEYS)
+        gauges.append(_wrap(gsec, gsec.path, lambda: Gauge(gname, gflank, grad * 1e-3, gface)))
+    support = _read_support(sec.table("support", required=False))
+    root_mm = iso.root_diameter_m * 1e3
+    web = _read_web(sec.table("web", required=False), face, bore, root_mm, internal)
+    sec.done(_ISO_GEAR_KEYS)
+    return _wrap(sec, sec.path, lambda: Gear(
+        name=name, teeth=teeth, module_m=iso.transverse_module_m, tip_diameter_m=iso.tip_diameter_m,
+        root_diameter_m=iso.root_diameter_m, tooth_thickness_m=iso.transverse_tooth_thickness_m,
+        hob_tip_radius_m=iso.tool_tip_radius_m, face_width_m=face * 1e-3, bore_diameter_m=bore * 1e-3,
+        material=materials[mat_name], flanks={"drive": drive, "coast": coast}, internal=internal,
+        helix_angle_rad=iso.signed_helix_angle_rad, axial_position_m=axial * 1e-3, lead_crowning_m=crown * 1e-6,
+        tip_edge_radius_m=tip_edge * 1e-3, mass_kg=mass, inertia_kgm2=inertia, gauges=tuple(gauges), support=support,
+        web=web, iso=iso,
     ))
 
 
@@ -462,6 +602,11 @@ DEFAULT_MEANINGS = {
     "lumped": "gears with tooth geometry (not a lumped model)", "fixed_member": "the ring is held",
     "pin_errors": "no planet pin position errors", "planet_positions_deg": "equally spaced planets",
     "face_fraction": "gauge at mid face", "max_twist_mrad": "statics grid (mesh twist range, helical pairs)",
+    "hand": "spur gear (no hand)", "profile_shift": "no profile shift (x = 0)",
+    "tip_alteration_mm": "no tip alteration (k = 0)", "basic_rack": "the three rack_*_coefficient keys",
+    "thickness_allowance_upper_mm": "nominal tooth thickness (no allowance)",
+    "thickness_allowance_lower_mm": "equal to thickness_allowance_upper_mm",
+    "drive": "no tip relief (ISO form: the flank follows normal_pressure_angle_deg)",
 }
 
 

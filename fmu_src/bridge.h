@@ -9,9 +9,10 @@
  * any master loads it.  The C API functions it calls are function pointers (hg_fn_*), resolved at the first
  * instantiation by hg_ensure_python(): from the process when a Python interpreter is already in it (a Python
  * master: fmpy, libcosimpy), else from the libpython this binary loads itself (dlopen RTLD_GLOBAL, so that the
- * extension modules numpy and numba load find the symbols too) and starts with the configured interpreter as its
- * program name.  The configured interpreter is the one recorded at build (HG_PYTHON_EXECUTABLE, HG_LIBPYTHON
- * from the generated hg_config.h), or the one named by the environment variable HACGEAR_FMU_PYTHON.
+ * extension modules numpy and numba load find the symbols too) and starts with the chosen interpreter as its
+ * program name.  The chosen interpreter is the first that can run the FMU of: the one named by the environment
+ * variable HACGEAR_FMU_PYTHON (where set, the only one), the one recorded at build (HG_PYTHON_EXECUTABLE from the
+ * generated hg_config.h), a python3, then a python, on PATH (hg_discover).
  */
 #ifndef HACGEAR_BRIDGE_H
 #define HACGEAR_BRIDGE_H
@@ -23,16 +24,23 @@
 #define Py_LIMITED_API 0x030B0000
 #include <Python.h>
 #include <dlfcn.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <poll.h>
 #include <pthread.h>
+#include <signal.h>
 #include <spawn.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
+#include <time.h>
 #include <unistd.h>
 
-#include "hg_config.h" /* HG_PYTHON_EXECUTABLE, HG_LIBPYTHON, HG_LIBPYTHON_QUERY (written by the FMU build) */
+/* HG_PYTHON_EXECUTABLE, HG_PROBE, HG_PYTHON_MINIMUM, HG_REQUIREMENTS, HG_INSTALL (written by the FMU build) */
+#include "hg_config.h"
 
 /* ------------------------------------------------------------------ the Python C API, resolved at run time */
 /* Every C API symbol the bridge uses (the ones Python.h's macros expand to included). */
@@ -112,36 +120,9 @@ static PyObject *hg_py_none;                                   /* &_Py_NoneStruc
 
 static pthread_mutex_t hg_py_lock = PTHREAD_MUTEX_INITIALIZER;
 static int hg_py_ready;
-static char hg_py_origin[1200];  /* where the interpreter came from, for the log */
-static char hg_py_error[2400];   /* why it could not be had */
-
-/* The shared libpython of the interpreter ``exe``: it prints it (HG_LIBPYTHON_QUERY, run with -I); "" on failure. */
-static void hg_query_libpython(const char *exe, char *out, size_t n) {
-    int fd[2];
-    out[0] = '\0';
-    if (pipe(fd) != 0) return;
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_adddup2(&fa, fd[1], 1);
-    posix_spawn_file_actions_addclose(&fa, fd[0]);
-    char *argv[] = {(char *)exe, "-I", "-c", (char *)HG_LIBPYTHON_QUERY, NULL};
-    extern char **environ;
-    pid_t pid;
-    int rc = posix_spawnp(&pid, exe, &fa, NULL, argv, environ);
-    posix_spawn_file_actions_destroy(&fa);
-    close(fd[1]);
-    size_t len = 0;
-    if (rc == 0) {
-        ssize_t r;
-        while (len + 1 < n && (r = read(fd[0], out + len, n - 1 - len)) > 0) len += (size_t)r;
-        int wst;
-        waitpid(pid, &wst, 0);
-        if (!WIFEXITED(wst) || WEXITSTATUS(wst) != 0) len = 0;
-    }
-    close(fd[0]);
-    out[len] = '\0';
-    while (len && (out[len - 1] == '\n' || out[len - 1] == '\r')) out[--len] = '\0';
-}
+static int hg_py_chosen;         /* the interpreter was chosen and started by this binary (not the master's own) */
+static char hg_py_origin[2400];  /* where the interpreter came from, for the log */
+static char hg_py_error[12000];  /* why none could be had */
 
 /* Resolve every C API function from ``lib`` (a dlopen handle or RTLD_DEFAULT); 0 and hg_py_error if one lacks. */
 static int hg_resolve(void *lib, const char *where) {
@@ -162,21 +143,247 @@ static int hg_resolve(void *lib, const char *where) {
     return 1;
 }
 
+/* ------------------------------------------------------------------ the interpreter to start */
+/* In a master that is not a Python program the binary starts one interpreter, the first of the candidates that can
+ * run this FMU: HACGEAR_FMU_PYTHON where set (an explicit choice: used alone, never passed over for another), else
+ * the interpreter recorded at build (HG_PYTHON_EXECUTABLE) where it exists, else the python3, then the python, found
+ * first on PATH.  Each candidate is asked by running HG_PROBE in it (written by the FMU build: its version,
+ * sys.executable, shared libpython and the FMU's own loader's requirement check, bootstrap.probe), with the
+ * environment the started interpreter will have.  When none can, one error names every candidate, why it cannot,
+ * and the command that fixes it. */
+
+/* A candidate interpreter and what its probe said. */
+typedef struct {
+    char tried[1024];   /* the path (or name) that was run */
+    char exe[1024];     /* its sys.executable: the program name it is started with (a pyenv shim names the real one) */
+    char lib[1024];     /* its shared libpython */
+    char version[64];
+    char why[4096];     /* why it cannot run this FMU, as a predicate ("is not a Python interpreter (...)"); "" if it can */
+    char fix[1024];     /* the pip command that installs what it lacks, where that suffices */
+} HgCandidate;
+
+/* Append to a string of capacity n (truncated where full). */
+static void hg_cat(char *buf, size_t n, const char *fmt, ...) {
+    size_t len = strlen(buf);
+    if (len + 1 >= n) return;
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(buf + len, n - len, fmt, ap);
+    va_end(ap);
+}
+
+/* Whether the version "3.11.7" is at least major.minor "3.11". */
+static int hg_version_at_least(const char *have, const char *need) {
+    int a1 = 0, a2 = 0, b1 = 0, b2 = 0;
+    if (sscanf(have, "%d.%d", &a1, &a2) < 1) return 0;
+    if (sscanf(need, "%d.%d", &b1, &b2) < 1) return 1;
+    return a1 > b1 || (a1 == b1 && a2 >= b2);
+}
+
+enum { HG_PROBE_TIMEOUT_S = 120 };
+
+/* Run HG_PROBE in the interpreter ``exe`` (a path, or a name looked up on PATH) for the FMU whose resources are at
+ * ``location``; fill c.  Returns 1 when the interpreter can run this FMU. */
+static int hg_probe(const char *exe, const char *location, HgCandidate *c) {
+    memset(c, 0, sizeof *c);
+    snprintf(c->tried, sizeof c->tried, "%s", exe);
+    int fd[2];
+    if (pipe2(fd, O_CLOEXEC) != 0) {
+        snprintf(c->why, sizeof c->why, "could not be asked (pipe: %s)", strerror(errno));
+        return 0;
+    }
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addopen(&fa, 0, "/dev/null", O_RDONLY, 0);
+    posix_spawn_file_actions_adddup2(&fa, fd[1], 1); /* the duplicates are not close-on-exec */
+    posix_spawn_file_actions_adddup2(&fa, fd[1], 2);
+    char *argv[] = {(char *)exe, "-c", (char *)HG_PROBE, (char *)location, NULL};
+    extern char **environ;
+    pid_t pid;
+    int rc = posix_spawnp(&pid, exe, &fa, NULL, argv, environ);
+    posix_spawn_file_actions_destroy(&fa);
+    close(fd[1]);
+    if (rc != 0) {
+        close(fd[0]);
+        snprintf(c->why, sizeof c->why, "is not a Python interpreter (cannot run it: %s)", strerror(rc));
+        return 0;
+    }
+    static char out[16384];
+    size_t len = 0;
+    int timed_out = 0;
+    time_t deadline = time(NULL) + HG_PROBE_TIMEOUT_S;
+    for (;;) {
+        long left = (long)(deadline - time(NULL));
+        if (left <= 0) {
+            kill(pid, SIGKILL);
+            timed_out = 1;
+            break;
+        }
+        struct pollfd p = {fd[0], POLLIN, 0};
+        int r = poll(&p, 1, (int)(left * 1000));
+        if (r < 0 && errno != EINTR) break;
+        if (r <= 0) continue;
+        char buf[4096];
+        ssize_t k = read(fd[0], buf, sizeof buf);
+        if (k < 0 && errno == EINTR) continue;
+        if (k <= 0) break;
+        size_t take = (size_t)k < sizeof out - 1 - len ? (size_t)k : sizeof out - 1 - len;
+        memcpy(out + len, buf, take);
+        len += take;
+    }
+    close(fd[0]);
+    out[len] = '\0';
+    int wst = 0, exit_ok = 1; /* unknown (SIGCHLD ignored by the master): judged by the output */
+    pid_t w;
+    while ((w = waitpid(pid, &wst, 0)) < 0 && errno == EINTR) {
+    }
+    if (w == pid) exit_ok = WIFEXITED(wst) && WEXITSTATUS(wst) == 0;
+    char need[2048] = "", other[512] = "";
+    for (char *line = out, *next; line && *line; line = next) {
+        next = strchr(line, '\n');
+        if (next) *next++ = '\0';
+        size_t n = strlen(line);
+        if (n && line[n - 1] == '\r') line[--n] = '\0';
+        if (!strncmp(line, "HG-VER ", 7)) snprintf(c->version, sizeof c->version, "%s", line + 7);
+        else if (!strncmp(line, "HG-EXE ", 7)) snprintf(c->exe, sizeof c->exe, "%s", line + 7);
+        else if (!strncmp(line, "HG-LIB ", 7)) snprintf(c->lib, sizeof c->lib, "%s", line + 7);
+        else if (!strncmp(line, "HG-FIX ", 7)) snprintf(c->fix, sizeof c->fix, "%s", line + 7);
+        else if (!strncmp(line, "HG-NEED ", 8)) hg_cat(need, sizeof need, "%s%s", need[0] ? "; " : "", line + 8);
+        else if (n) snprintf(other, sizeof other, "%s", line); /* the last line of anything else (a traceback's) */
+    }
+    if (!c->exe[0]) snprintf(c->exe, sizeof c->exe, "%s", exe);
+    if (timed_out)
+        snprintf(c->why, sizeof c->why, "did not answer within %d s (stopped)", (int)HG_PROBE_TIMEOUT_S);
+    else if (!c->version[0])
+        snprintf(c->why, sizeof c->why, "is not a Python interpreter (running it failed%s%s)", other[0] ? ": " : "",
+                 other);
+    else if (!hg_version_at_least(c->version, HG_PYTHON_MINIMUM))
+        snprintf(c->why, sizeof c->why, "is Python %s, older than %s", c->version, HG_PYTHON_MINIMUM);
+    else if (!c->lib[0])
+        snprintf(c->why, sizeof c->why, "is Python %s without a shared libpython (a static build), which a master "
+                 "that is not a Python program cannot load", c->version);
+    else if (need[0])
+        snprintf(c->why, sizeof c->why, "is Python %s, which lacks what the FMU needs: %s", c->version, need);
+    else if (!exit_ok)
+        snprintf(c->why, sizeof c->why, "is Python %s, but checking the FMU's requirements in it failed%s%s",
+                 c->version, other[0] ? ": " : "", other);
+    return c->why[0] == '\0';
+}
+
+/* The first executable file ``name`` in a directory of PATH (into out); 0 when there is none. */
+static int hg_which(const char *name, char *out, size_t n) {
+    const char *p = getenv("PATH");
+    if (!p || !*p) return 0;
+    for (;;) {
+        const char *end = strchr(p, ':');
+        size_t len = end ? (size_t)(end - p) : strlen(p);
+        if (len) snprintf(out, n, "%.*s/%s", (int)len, p, name);
+        else snprintf(out, n, "./%s", name);
+        struct stat st;
+        if (stat(out, &st) == 0 && S_ISREG(st.st_mode) && access(out, X_OK) == 0) return 1;
+        if (!end) return 0;
+        p = end + 1;
+    }
+}
+
+/* Whether two paths name the same file. */
+static int hg_same_file(const char *a, const char *b) {
+    struct stat sa, sb;
+    return stat(a, &sa) == 0 && stat(b, &sb) == 0 && sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+}
+
+/* The interpreter to start for the FMU at ``location`` (into *use, *how saying where it came from); 0 and the
+ * reason in hg_py_error when no candidate can run the FMU. */
+static int hg_discover(const char *location, HgCandidate *use, const char **how) {
+    static HgCandidate env_c, rec_c, path_c[2];
+    static const char *names[2] = {"python3", "python"};
+    const char *env = getenv("HACGEAR_FMU_PYTHON");
+    int have_env = env && *env, rec_ok = 0, path_ok[2] = {0, 0}, path_found[2] = {0, 0};
+    if (have_env && hg_probe(env, location, &env_c)) {
+        *use = env_c;
+        *how = "from HACGEAR_FMU_PYTHON";
+        return 1;
+    }
+    /* without HACGEAR_FMU_PYTHON: the first that can run the FMU; with a failing one: every other one is asked too,
+     * for the message only */
+    memset(&rec_c, 0, sizeof rec_c);
+    snprintf(rec_c.tried, sizeof rec_c.tried, "%s", HG_PYTHON_EXECUTABLE);
+    if (access(HG_PYTHON_EXECUTABLE, X_OK) != 0)
+        snprintf(rec_c.why, sizeof rec_c.why, "does not exist here (%s): the FMU was built on another machine, or in a "
+                 "virtual environment since removed", strerror(errno));
+    else
+        rec_ok = hg_probe(HG_PYTHON_EXECUTABLE, location, &rec_c);
+    if (rec_ok && !have_env) {
+        *use = rec_c;
+        *how = "configured when the FMU was built";
+        return 1;
+    }
+    for (int i = 0; i < 2; i++) {
+        char found[1024];
+        memset(&path_c[i], 0, sizeof path_c[i]);
+        if (!hg_which(names[i], found, sizeof found)) continue;
+        path_found[i] = 1;
+        if (i == 1 && path_found[0] && hg_same_file(found, path_c[0].tried)) {
+            snprintf(path_c[i].tried, sizeof path_c[i].tried, "%s", found);
+            snprintf(path_c[i].why, sizeof path_c[i].why, "is the same file as the python3");
+            path_ok[i] = path_ok[0];
+            continue;
+        }
+        path_ok[i] = hg_probe(found, location, &path_c[i]);
+        if (path_ok[i] && !have_env) {
+            *use = path_c[i];
+            *how = i == 0 ? "found as python3 on PATH" : "found as python on PATH";
+            return 1;
+        }
+    }
+    /* none: one message naming every candidate, why it cannot, and the fix */
+    char *e = hg_py_error;
+    size_t n = sizeof hg_py_error;
+    e[0] = '\0';
+    if (have_env)
+        hg_cat(e, n, "HACGEAR_FMU_PYTHON='%s' %s. A set HACGEAR_FMU_PYTHON is used alone (an explicit choice wins); "
+               "the other candidates would be: ", env, env_c.why);
+    else
+        hg_cat(e, n, "found no Python that can run this FMU. In a master that is not a Python program the FMU starts "
+               "a Python %s+ with a shared libpython and %s, the first that has them of: (1) HACGEAR_FMU_PYTHON: not "
+               "set; ", HG_PYTHON_MINIMUM, HG_REQUIREMENTS);
+    hg_cat(e, n, "(2) the interpreter recorded when the FMU was built, %s: %s; (3) ", rec_c.tried,
+           rec_ok ? "can run it" : rec_c.why);
+    for (int i = 0; i < 2; i++) {
+        if (i) hg_cat(e, n, "; ");
+        if (!path_found[i]) hg_cat(e, n, "%s on PATH: none found", names[i]);
+        else hg_cat(e, n, "%s on PATH, %s: %s", names[i], path_c[i].tried, path_ok[i] ? "can run it" : path_c[i].why);
+    }
+    hg_cat(e, n, ". To fix: ");
+    if (have_env) {
+        if (env_c.fix[0]) hg_cat(e, n, "install the packages into it: %s; or ", env_c.fix);
+        hg_cat(e, n, "export HACGEAR_FMU_PYTHON=/path/to/python (a Python %s+ with a shared libpython and %s)",
+               HG_PYTHON_MINIMUM, HG_REQUIREMENTS);
+        const char *other = rec_ok ? rec_c.exe : path_ok[0] ? path_c[0].exe : path_ok[1] ? path_c[1].exe : NULL;
+        if (other) hg_cat(e, n, "; or unset HACGEAR_FMU_PYTHON to use %s", other);
+        return 0;
+    }
+    const char *fix = NULL, *into = NULL;
+    for (int i = 0; i < 2 && !fix; i++)
+        if (path_found[i] && path_c[i].fix[0]) fix = path_c[i].fix, into = names[i];
+    if (!fix && rec_c.fix[0]) fix = rec_c.fix, into = "recorded interpreter";
+    if (fix) hg_cat(e, n, "install the packages into the %s%s: %s", into, into[0] == 'p' ? " on PATH" : "", fix);
+    else hg_cat(e, n, "install a Python %s+ with a shared libpython and the packages: %s", HG_PYTHON_MINIMUM,
+                HG_INSTALL);
+    hg_cat(e, n, "; or name a Python that has them: export HACGEAR_FMU_PYTHON=/path/to/python");
+    return 0;
+}
+
 /* Make Python available: NULL, or why not (also in hg_py_error).  A Python interpreter already running in the
- * process (a Python master) is used as it is; otherwise the configured interpreter's libpython is loaded (unless
- * one is in the process already) and started, and never finalized (numba and numpy do not survive a
- * re-initialization). */
-static const char *hg_ensure_python(void) {
+ * process (a Python master) is used as it is; otherwise the interpreter hg_discover() finds is started: its
+ * libpython loaded (unless one is in the process already), and never finalized (numba and numpy do not survive a
+ * re-initialization).  ``location``: the FMU's resources (URI or path), for the candidates' requirement check. */
+static const char *hg_ensure_python(const char *location) {
     const char *result = NULL;
     pthread_mutex_lock(&hg_py_lock);
     if (hg_py_ready) goto done;
-    const char *env = getenv("HACGEAR_FMU_PYTHON");
-    const char *exe = HG_PYTHON_EXECUTABLE, *how = "configured when the FMU was built";
-    if (env && *env) {
-        exe = env;
-        how = "from HACGEAR_FMU_PYTHON";
-    }
     char lib[1024];
+    int in_process = 0;
     if (dlsym(RTLD_DEFAULT, "Py_IsInitialized")) {
         if (!hg_resolve(RTLD_DEFAULT, "the master's process")) { result = hg_py_error; goto done; }
         if (Py_IsInitialized()) {
@@ -184,33 +391,22 @@ static const char *hg_ensure_python(void) {
             hg_py_ready = 1;
             goto done;
         }
+        in_process = 1;
+    }
+    static HgCandidate use;
+    const char *how = "";
+    if (!hg_discover(location ? location : "", &use, &how)) { result = hg_py_error; goto done; }
+    if (in_process) {
         snprintf(lib, sizeof lib, "the libpython already in the master's process");
     } else {
-        snprintf(lib, sizeof lib, "%s", env && *env ? "" : HG_LIBPYTHON);
-        if (env && *env) {
-            hg_query_libpython(exe, lib, sizeof lib);
-            if (!lib[0]) {
-                snprintf(hg_py_error, sizeof hg_py_error,
-                         "HACGEAR_FMU_PYTHON='%s' is not a Python interpreter with a shared libpython (asking it for "
-                         "its libpython failed or gave none); set it to the python executable (3.11+, with numpy, "
-                         "scipy, h5py, numba) of a build with a shared libpython", exe);
-                result = hg_py_error;
-                goto done;
-            }
-        } else if (!lib[0]) {
-            snprintf(hg_py_error, sizeof hg_py_error,
-                     "the Python this FMU was built with (%s) has no shared libpython, so a master that is not a "
-                     "Python program cannot run it: set HACGEAR_FMU_PYTHON to the python executable (3.11+, with "
-                     "numpy, scipy, h5py, numba) of a build with a shared libpython", exe);
-            result = hg_py_error;
-            goto done;
-        }
+        snprintf(lib, sizeof lib, "%s", use.lib);
         void *h = dlopen(lib, RTLD_NOW | RTLD_GLOBAL);
         if (!h) {
             const char *e = dlerror();
             snprintf(hg_py_error, sizeof hg_py_error,
                      "cannot load libpython %s of the Python %s (%s): %s; set HACGEAR_FMU_PYTHON to a python "
-                     "executable (3.11+, with numpy, scipy, h5py, numba)", lib, exe, how, e ? e : "unknown error");
+                     "executable (%s+, with a shared libpython and %s)", lib, use.exe, how, e ? e : "unknown error",
+                     HG_PYTHON_MINIMUM, HG_REQUIREMENTS);
             result = hg_py_error;
             goto done;
         }
@@ -218,14 +414,16 @@ static const char *hg_ensure_python(void) {
     }
     if (!Py_IsInitialized()) {
         /* the program name is the interpreter's path: Python finds its prefix (standard library) and a venv's
-         * site-packages from it, not from whichever python3 comes first on PATH */
+         * site-packages from it */
         if (hg_fn_Py_SetProgramName) {
-            wchar_t *w = hg_fn_Py_DecodeLocale(exe, NULL); /* kept: Python holds the pointer */
+            wchar_t *w = hg_fn_Py_DecodeLocale(use.exe, NULL); /* kept: Python holds the pointer */
             if (w) hg_fn_Py_SetProgramName(w);
         }
         hg_fn_Py_InitializeEx(0);
         PyEval_SaveThread();
-        snprintf(hg_py_origin, sizeof hg_py_origin, "started by the FMU binary: program %s, %s (%s)", exe, lib, how);
+        hg_py_chosen = 1;
+        snprintf(hg_py_origin, sizeof hg_py_origin, "started by the FMU binary: program %s, %s (%s)", use.exe, lib,
+                 how);
     } else {
         snprintf(hg_py_origin, sizeof hg_py_origin, "the Python interpreter already running in the process");
     }
@@ -351,7 +549,7 @@ static int hg_status(HgInstance *h, PyObject *res, const char *call) {
 /* Create the FmuInstance: run resources/hacgear_fmu_boot.py's instantiate(); NULL and *error (malloc'ed) on
  * failure. */
 static const char hg_boot_source[] =
-    "def _hacgear_boot(name, location, token, logging_on, version, origin):\n"
+    "def _hacgear_boot(name, location, token, logging_on, version, origin, chosen):\n"
     "    import sys\n"
     "    import os, urllib.parse, urllib.request\n"
     "    if location.startswith('file:'):\n"
@@ -362,7 +560,7 @@ static const char hg_boot_source[] =
     "    ns = {'__name__': 'hacgear_fmu_boot', '__file__': boot, '__builtins__': __builtins__}\n"
     "    with open(boot, encoding='utf-8') as f:\n"
     "        exec(compile(f.read(), boot, 'exec'), ns)\n"
-    "    inst = ns['instantiate'](name, location, token, bool(logging_on), version)\n"
+    "    inst = ns['instantiate'](name, location, token, bool(logging_on), version, chosen_by_binary=bool(chosen))\n"
     "    inst.log(0, f'hacgear FMU: Python {sys.version.split()[0]} at {sys.executable} ({origin})')\n"
     "    return inst\n";
 
@@ -379,8 +577,8 @@ static PyObject *hg_create(const char *name, const char *location, const char *t
     if (!res) goto fail;
     fn = PyDict_GetItemString(globals, "_hacgear_boot"); /* borrowed */
     if (!fn) goto fail;
-    inst = PyObject_CallFunction(fn, "sssiis", name ? name : "", location ? location : "", token ? token : "",
-                                 logging_on, version, hg_py_origin);
+    inst = PyObject_CallFunction(fn, "sssiisi", name ? name : "", location ? location : "", token ? token : "",
+                                 logging_on, version, hg_py_origin, hg_py_chosen);
     if (!inst) goto fail;
     Py_XDECREF(res);
     Py_XDECREF(code);
@@ -425,7 +623,7 @@ static PyObject *hg_instantiate(HgInstance *h, const char *name, const char *loc
                                 int *gil_held) {
     *error = NULL;
     *gil_held = 0;
-    const char *no_python = hg_ensure_python();
+    const char *no_python = hg_ensure_python(location);
     if (no_python) {
         *error = hg_strdup(no_python);
         return NULL;

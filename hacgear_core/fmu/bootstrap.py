@@ -4,7 +4,8 @@
 1. It checks the importer's Python and the third-party packages the model needs (numpy, scipy, h5py, numba, with
    the minimum versions in ``hacgear_fmu.json``) and raises :class:`ImportError` naming every missing or too old
    package and the ``pip`` command that installs them (the binary passes the message to the master's logger and to
-   stderr and fails the instantiation).
+   stderr and fails the instantiation).  In a master that is not a Python program the native binary asks each
+   candidate interpreter the same before it starts one (:func:`probe`, run in the candidate by the binary).
 2. It copies the FMU's bundled hacgear code (``resources/<package>/``: hacgear_core under a name unique to its
    contents) once to a stable per-user folder, :func:`cache_root`, and imports it from there: numba caches the
    compiled kernels next to their source, so every later process loads them instead of compiling them.  FMUs of
@@ -21,6 +22,7 @@ import hashlib
 import importlib
 import json
 import os
+import shlex
 import shutil
 import sys
 import tempfile
@@ -29,8 +31,8 @@ import urllib.request
 from importlib import metadata
 from pathlib import Path
 
-__all__ = ["cache_root", "tree_digest", "check_requirements", "stable_copy", "resources_folder", "instantiate",
-           "INFO_FILE", "BOOT_FILE"]
+__all__ = ["cache_root", "tree_digest", "check_requirements", "install_command", "probe", "stable_copy",
+           "resources_folder", "instantiate", "INFO_FILE", "BOOT_FILE"]
 
 INFO_FILE = "hacgear_fmu.json"
 BOOT_FILE = "hacgear_fmu_boot.py"
@@ -93,6 +95,33 @@ def check_requirements(requirements: dict[str, str], python: str = "") -> list[s
     return problems
 
 
+def install_command(requirements: dict[str, str], executable: str | None = None) -> str:
+    """The shell command that installs ``requirements`` (distribution name -> minimum version) into the Python
+    ``executable`` (default this one): ``'<executable>' -m pip install 'numpy>=1.26' ...``."""
+    reqs = " ".join(shlex.quote(f"{k}>={v}") for k, v in requirements.items())
+    return f"{shlex.quote(executable or sys.executable)} -m pip install {reqs}"
+
+
+def _read_info(res: Path) -> dict:
+    try:
+        return json.loads((res / INFO_FILE).read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise ImportError(f"hacgear FMU: resource {res / INFO_FILE} missing or unreadable: {exc}") from None
+
+
+def probe(location: str) -> list[str]:
+    """What this Python lacks to run the FMU at ``location`` (resources folder or its ``file:`` URI), as the lines the
+    native FMU binary reads when it probes a candidate interpreter (``HG_PROBE``, written by the FMU build): one
+    ``HG-NEED <unmet requirement>`` per :func:`check_requirements` message and, where installing packages fixes
+    them (the Python version suffices), ``HG-FIX <command>`` (:func:`install_command`).  No lines: it has all."""
+    info = _read_info(resources_folder(location))
+    python = info.get("python", "")
+    lines = [f"HG-NEED {p}" for p in check_requirements(info["requirements"], python)]
+    if lines and not (python and sys.version_info[:3] < _vtuple(python)):
+        lines.append(f"HG-FIX {install_command(info['requirements'])}")
+    return lines
+
+
 def stable_copy(src: Path, package: str, digest: str) -> tuple[Path, list[str]]:
     """Copy the bundled package ``src`` (folder named ``package``, contents hashing to ``digest``) to
     ``cache_root()/package`` unless an intact copy is there; returns (folder to put on ``sys.path``, notes).
@@ -136,20 +165,31 @@ def resources_folder(location: str) -> Path:
     return Path(location)
 
 
-def instantiate(instance_name: str, location: str, token: str, logging_on: bool, fmi_version: int):
-    """The FMU instance for the binary's ``fmiInstantiate``; raises with a message for the master's logger."""
+def instantiate(instance_name: str, location: str, token: str, logging_on: bool, fmi_version: int,
+                chosen_by_binary: bool = False):
+    """The FMU instance for the binary's ``fmiInstantiate``; raises with a message for the master's logger.
+
+    ``chosen_by_binary``: this interpreter was started by the native FMU binary in a master that is not a Python
+    program (found by its discovery: ``HACGEAR_FMU_PYTHON``, the interpreter recorded at build, ``python3`` on
+    ``PATH``), not the master's own; the message for unmet requirements then points to ``HACGEAR_FMU_PYTHON``.
+    """
     res = resources_folder(location)
-    try:
-        info = json.loads((res / INFO_FILE).read_text(encoding="utf-8"))
-    except (OSError, ValueError) as exc:
-        raise ImportError(f"hacgear FMU: resource {res / INFO_FILE} missing or unreadable: {exc}") from None
+    info = _read_info(res)
     problems = check_requirements(info["requirements"], info.get("python", ""))
     if problems:
-        reqs = " ".join(f"'{k}>={v}'" for k, v in info["requirements"].items())
+        version = ".".join(map(str, sys.version_info[:3]))
+        install = install_command(info["requirements"])
+        if chosen_by_binary:
+            raise ImportError(
+                f"hacgear FMU '{info.get('system')}' runs its model in the Python the FMU binary started "
+                f"({sys.executable}, {version}), which lacks what it needs: " + "; ".join(problems)
+                + f". Install with: {install}; or point the FMU to a Python that has them: "
+                "export HACGEAR_FMU_PYTHON=/path/to/python")
         raise ImportError(
-            f"hacgear FMU '{info.get('system')}' runs its model in the importer's Python ({sys.executable}, "
-            f"{'.'.join(map(str, sys.version_info[:3]))}), which lacks what it needs: " + "; ".join(problems)
-            + f". Install with: {Path(sys.executable).name} -m pip install {reqs}")
+            f"hacgear FMU '{info.get('system')}' runs its model in the Python already running in the master's "
+            f"process ({sys.executable}, {version}), which lacks what it needs: " + "; ".join(problems)
+            + f". Install with: {install} (HACGEAR_FMU_PYTHON does not apply here: the FMU uses the interpreter "
+            "running in the process, so run the master with a Python that has the packages)")
     bundle = info["bundle"]
     package = bundle["package"]
     notes: list[str] = []

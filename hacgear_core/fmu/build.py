@@ -8,8 +8,9 @@ An FMU holds:
   Outputs and InitialUnknowns, a DefaultExperiment at the mesh resonance);
 * ``binaries/<platform>/<system>.so``, compiled from ``fmu_src/fmi2.c`` or ``fmu_src/fmi3.c`` with the system's C
   compiler against Python's stable ABI and the FMI headers shipped with fmpy, linking no libpython: in a master
-  that is not a Python program it loads the libpython of the interpreter recorded here (:func:`python_runtime`,
-  overridden by ``HACGEAR_FMU_PYTHON``) itself;
+  that is not a Python program it loads a libpython itself: of ``HACGEAR_FMU_PYTHON`` where set, else of the
+  interpreter recorded here (:func:`python_runtime`) where it exists and has the requirements, else of a ``python3``
+  (then ``python``) on ``PATH`` that has them (``fmu_src/bridge.h``);
 * ``resources/``: the model file and its tables, ``hacgear_fmu.json`` (system, GUID, variables, minimum versions
   of the importer's packages, ports), the loader ``hacgear_fmu_boot.py`` (:mod:`.bootstrap`) and the hacgear code
   itself as a package whose name is unique to its contents (``hacgear_fmu_<version>_<digest>``), so that the
@@ -127,10 +128,37 @@ def _fmi_headers() -> Path:
 
 #: Python code (run as ``python -I -c``) printing the path of that interpreter's shared libpython, or an empty
 #: line where it has none (a static build without the library).  The FMU build records the building interpreter's
-#: with it; the FMU binary asks the interpreter named by ``HACGEAR_FMU_PYTHON`` with the same code.
+#: with it; the FMU binary asks each candidate interpreter with the same code (:data:`PROBE`).
 LIBPYTHON_QUERY = ("import os, sysconfig as s; d = s.get_config_var('LIBDIR') or ''; "
                    "print(next((p for p in (os.path.join(d, s.get_config_var(k) or '') "
                    "for k in ('INSTSONAME', 'LDLIBRARY')) if '.so' in os.path.basename(p) and os.path.isfile(p)), ''))")
+
+#: Python code the FMU binary runs in each candidate interpreter (``python -c PROBE <resource location>``; the
+#: candidates: ``HACGEAR_FMU_PYTHON``, the interpreter recorded at build, ``python3`` then ``python`` on ``PATH``),
+#: with the flags and environment of the interpreter it would start (user site-packages and ``PYTHONPATH`` count).
+#: It prints ``HG-VER <version>``, ``HG-EXE <sys.executable>``, ``HG-LIB <shared libpython or empty>`` and the
+#: lines of the FMU's own loader's :func:`.bootstrap.probe` (unmet requirements, the pip command that installs
+#: them), so that the requirement check is the loader's, whatever hacgear version built the FMU.
+PROBE = ("import sys\n"
+         "if sys.path and sys.path[0] == '':\n"
+         "    del sys.path[0]\n"
+         "print('HG-VER ' + sys.version.split()[0])\n"
+         "print('HG-EXE ' + (sys.executable or ''))\n"
+         "import contextlib, io, os\n"
+         "out = io.StringIO()\n"
+         "with contextlib.redirect_stdout(out):\n"
+         f"    exec({LIBPYTHON_QUERY!r}, {{}})\n"
+         "print('HG-LIB ' + out.getvalue().strip())\n"
+         "loc = sys.argv[1]\n"
+         "if loc.startswith('file:'):\n"
+         "    import urllib.parse, urllib.request\n"
+         "    loc = urllib.request.url2pathname(urllib.parse.urlparse(loc).path)\n"
+         f"boot = os.path.join(loc, {bootstrap.BOOT_FILE!r})\n"
+         "ns = {'__name__': 'hacgear_fmu_probe', '__file__': boot}\n"
+         "with open(boot, encoding='utf-8') as f:\n"
+         "    exec(compile(f.read(), boot, 'exec'), ns)\n"
+         "for line in ns['probe'](loc):\n"
+         "    print(line)\n")
 
 
 def python_runtime(executable: str | None = None) -> dict[str, str]:
@@ -166,7 +194,9 @@ def compile_binary(fmi_version: int, out: str | Path, runtime: dict[str, str] | 
     """Compile the FMU binary of ``fmi_version`` (2 or 3) into ``out`` (a shared library).
 
     The binary links no libpython; ``runtime`` (default :func:`python_runtime` of this interpreter) is the
-    interpreter it starts in a master that is not a Python program (``fmu_src/bridge.h``).
+    interpreter it records: in a master that is not a Python program it starts that one unless
+    ``HACGEAR_FMU_PYTHON`` names another, or it is missing or lacks the requirements (then a ``python3`` or
+    ``python`` on ``PATH`` that has them; ``fmu_src/bridge.h``).
 
     Raises
     ------
@@ -190,10 +220,13 @@ def compile_binary(fmi_version: int, out: str | Path, runtime: dict[str, str] | 
     out.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="hacgear_cc_") as cfg:
         (Path(cfg) / "hg_config.h").write_text(
-            "/* written by hacgear_core.fmu.build: the interpreter this FMU binary starts (bridge.h) */\n"
+            "/* written by hacgear_core.fmu.build: how this FMU binary finds the interpreter it starts (bridge.h) */\n"
             f"#define HG_PYTHON_EXECUTABLE {_c_string(runtime['executable'])}\n"
-            f"#define HG_LIBPYTHON {_c_string(runtime['libpython'])}\n"
-            f"#define HG_LIBPYTHON_QUERY {_c_string(LIBPYTHON_QUERY)}\n", encoding="ascii")
+            f"#define HG_PROBE {_c_string(PROBE)}\n"
+            f"#define HG_PYTHON_MINIMUM {_c_string(PYTHON_REQUIREMENT)}\n"
+            f"#define HG_REQUIREMENTS {_c_string(', '.join(f'{k}>={v}' for k, v in REQUIREMENTS.items()))}\n"
+            f"#define HG_INSTALL {_c_string(bootstrap.install_command(REQUIREMENTS, 'python3'))}\n",
+            encoding="ascii")
         cmd = [cc, "-shared", "-fPIC", "-O2", "-std=c99", "-Wall", "-fvisibility=hidden", f"-I{native}",
                f"-I{_fmi_headers()}", f"-I{py_inc}", f"-I{cfg}", "-o", str(out), str(src), "-pthread", "-ldl"]
         try:

@@ -158,7 +158,7 @@ typedef struct {
     char exe[1024];     /* its sys.executable: the program name it is started with (a pyenv shim names the real one) */
     char lib[1024];     /* its shared libpython */
     char version[64];
-    char why[4096];     /* why it cannot run this FMU, as a predicate ("is not a Python interpreter (...)"); "" if it can */
+    char why[4096];     /* why it cannot run this FMU, a predicate ("is not a Python interpreter ..."); "" if it can */
     char fix[1024];     /* the pip command that installs what it lacks, where that suffices */
 } HgCandidate;
 

@@ -138,3 +138,100 @@ def test_a_closed_pipe_ends_the_command_quietly():
     err = p.stderr.read().decode()
     assert p.wait(timeout=120) == 141
     assert "Traceback" not in err and "BrokenPipe" not in err, err
+
+
+ISO_STAGE = """
+[system]
+name = "iso_stage"
+kind = "helical_pair"
+[materials.steel]
+density_kg_per_m3 = 7830.0
+youngs_modulus_GPa = 206.0
+poisson_ratio = 0.3
+[[gears]]
+name = "pinion"
+teeth = 24
+normal_module_mm = 14.0
+normal_pressure_angle_deg = 20.0
+helix_angle_deg = 10.0
+hand = "right"
+profile_shift = 0.480
+tip_alteration_mm = -0.938
+basic_rack = "A"
+thickness_allowance_upper_mm = -0.1
+thickness_allowance_lower_mm = -0.2
+face_width_mm = 360.0
+bore_diameter_mm = 150.0
+material = "steel"
+[[gears]]
+name = "wheel"
+teeth = 95
+normal_module_mm = 14.0
+normal_pressure_angle_deg = 20.0
+helix_angle_deg = 10.0
+hand = "left"
+profile_shift = 0.669
+tip_alteration_mm = -0.938
+basic_rack = "A"
+thickness_allowance_upper_mm = -0.1
+thickness_allowance_lower_mm = -0.2
+face_width_mm = 360.0
+bore_diameter_mm = 400.0
+material = "steel"
+[[meshes]]
+name = "m12"
+gear_a = "pinion"
+gear_b = "wheel"
+center_distance_mm = 861.0
+[damping]
+modal_damping_ratio = 0.02
+[operating]
+torque_Nm = 1.0e5
+"""
+
+
+def test_info_reports_iso_form_gears_in_iso_terms(tmp_path, capsys):
+    """`hacgear info --json` of an ISO-form model (NREL 5 MW stage 3 with thickness allowances): each gear's ISO
+    block (normal and transverse), each mesh's a_w, alpha_wt, contact ratios and backlash range; the text output
+    prints the same in an ISO table."""
+    import math
+
+    (tmp_path / "model.toml").write_text(ISO_STAGE)
+    assert main(["info", str(tmp_path), "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    p = d["gears"]["pinion"]["iso"]
+    assert p["form"] == "iso21771" and p["profile_shift"] == 0.48 and p["hand"] == "right"
+    assert p["normal_module_m"] == 0.014 or abs(p["normal_module_m"] - 0.014) < 1e-15
+    assert p["tip_alteration_m"] == -0.938e-3 or abs(p["tip_alteration_m"] + 0.938e-3) < 1e-15
+    # the modelled teeth sit at the mean allowance: x_E = x + A_mean / (2 m_n tan(alpha_n))
+    assert abs(p["generating_profile_shift"] - (0.48 - 0.15 / (2 * 14 * math.tan(math.radians(20))))) < 1e-12
+    assert abs(p["nominal_normal_tooth_thickness_m"] - p["normal_tooth_thickness_m"] - 0.15e-3) < 1e-15
+    m = d["meshes"]["m12"]["iso"]
+    assert m["center_distance_m"] == 0.861
+    assert m["backlash_circular_min_m"] < m["backlash_circular_m"] < m["backlash_circular_max_m"]
+    assert abs(m["total_contact_ratio"] - m["transverse_contact_ratio"] - m["overlap_ratio"]) < 1e-12
+    assert main(["info", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "Gears in ISO 21771 terms" in out and "iso21771" in out and "10.0000 right" in out
+    assert "ISO 21771              a_w 861.0000 mm, alpha_wt" in out and "over the thickness allowances" in out
+
+
+def test_info_refuses_a_set_that_cannot_mesh_naming_the_fix(tmp_path, capsys):
+    """Thicker teeth (positive allowances) at the same centre distance overlap: refused, naming the gears, the key and
+    the allowance that gives zero backlash; the named allowance then loads."""
+    import re
+
+    bad = ISO_STAGE.replace("thickness_allowance_upper_mm = -0.1\nthickness_allowance_lower_mm = -0.2",
+                            "thickness_allowance_upper_mm = 0.1\nthickness_allowance_lower_mm = 0.0")
+    (tmp_path / "model.toml").write_text(bad)
+    assert main(["info", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "mesh 'm12': negative backlash" in err and "the teeth of 'pinion' and 'wheel' overlap" in err
+    fix = re.search(r"thickness_allowance_upper_mm = (-?[0-9.]+) on 'pinion'", err)
+    assert fix and "thickness_allowance_upper_mm of 'pinion' + 'wheel' <= " in err
+    (tmp_path / "model.toml").write_text(bad.replace(
+        "thickness_allowance_upper_mm = 0.1\nthickness_allowance_lower_mm = 0.0",
+        f"thickness_allowance_upper_mm = {fix.group(1)}\nthickness_allowance_lower_mm = -0.2", 1))
+    assert main(["info", str(tmp_path), "--json"]) == 0
+    j = json.loads(capsys.readouterr().out)["meshes"]["m12"]["iso"]["backlash_circular_min_m"]
+    assert 0.0 <= j < 2e-9

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 
 import numpy as np
 import pytest
@@ -866,3 +867,259 @@ def test_backlash_and_coast_offset_match_placed_flanks(system, mesh, gear, thick
         x, touching = brute.close(tau)
         assert x == pytest.approx(mg.backlash_normal_m, abs=0.05e-6)
     assert min(np.linalg.norm(pt - brute.P) for pt, _ in touching.values()) < 20e-6
+
+
+# ---------------------------------------------------------------------------------------------
+# ISO 21771 gear input (the ISO form of [[gears]]): closed forms against `info`, published pairs
+# ---------------------------------------------------------------------------------------------
+def _iso_model(gears, meshes, kind="spur_pair", planetary=""):
+    """A model of ISO-form gears: ``gears`` = [(name, {key: value})], ``meshes`` = [(name, a, b, {key: value})]."""
+    from hacgear_core.model import parse_model
+
+    def val(v):
+        return f'"{v}"' if isinstance(v, str) else ("true" if v is True else repr(v))
+
+    lines = ['[system]', 'name = "iso"', f'kind = "{kind}"', '[materials.steel]', 'density_kg_per_m3 = 7830.0',
+             'youngs_modulus_GPa = 206.0', 'poisson_ratio = 0.3']
+    for name, kv in gears:
+        kv = {"normal_pressure_angle_deg": 20.0, "basic_rack": "A", "face_width_mm": 20.0, "bore_diameter_mm": 0.0,
+              "material": "steel", **kv}
+        lines += ["[[gears]]", f'name = "{name}"'] + [f"{k} = {val(v)}" for k, v in kv.items()]
+    for name, a, b, kv in meshes:
+        lines += ["[[meshes]]", f'name = "{name}"', f'gear_a = "{a}"', f'gear_b = "{b}"'] + \
+                 [f"{k} = {val(v)}" for k, v in kv.items()]
+    lines += ["[damping]", "modal_damping_ratio = 0.02", "[operating]", "torque_Nm = 100.0", planetary]
+    return parse_model("\n".join(lines), file="iso.toml")
+
+
+def _iso_closed_forms(z, m_n, alpha_n_deg, beta_deg, x, k, h_ap=1.0, h_fp=1.25, internal=False):
+    """ISO 21771 d, d_a, d_f, d_b, alpha_t [rad] of one gear (diameters positive, internal gears too)."""
+    beta, alpha_n = math.radians(beta_deg), math.radians(alpha_n_deg)
+    alpha_t = math.atan(math.tan(alpha_n) / math.cos(beta))
+    d = z * m_n / math.cos(beta)
+    sgn = -1.0 if internal else 1.0
+    return dict(d=d, d_a=d + sgn * 2 * m_n * (h_ap + x + k), d_f=d - sgn * 2 * m_n * (h_fp - x),
+                d_b=d * math.cos(alpha_t), alpha_t=alpha_t)
+
+
+def _iso_check_pair(info, model, names, z, x, m_n, alpha_n_deg, beta_deg, internal=(False, False), b=None):
+    """Assert the ISO 21771 closed forms (per gear and for the mesh) equal ``info`` within 1e-9 relative."""
+    from hacgear_core.model.iso21771 import involute
+
+    rel = 1e-9
+    cf = []
+    for name, zi, xi, inte in zip(names, z, x, internal):
+        g = info["gears"][name]["iso"]
+        iso = model.gear(name).iso
+        c = _iso_closed_forms(zi, m_n, alpha_n_deg, beta_deg, xi, iso.tip_alteration, iso.addendum_coefficient,
+                              iso.dedendum_coefficient, inte)
+        cf.append(c)
+        assert g["profile_shift"] == xi                      # ISO sign, internal gears included
+        assert g["reference_diameter_m"] == pytest.approx(c["d"], rel=rel)
+        assert g["tip_diameter_m"] == pytest.approx(c["d_a"], rel=rel)
+        assert g["root_diameter_m"] == pytest.approx(c["d_f"], rel=rel)
+        assert g["base_diameter_m"]["drive"] == pytest.approx(c["d_b"], rel=rel)
+        assert g["transverse_pressure_angle_deg"]["drive"] == pytest.approx(math.degrees(c["alpha_t"]), rel=rel)
+        assert g["normal_module_m"] == pytest.approx(m_n, rel=rel)
+        assert g["transverse_module_m"] == pytest.approx(m_n / math.cos(math.radians(beta_deg)), rel=rel)
+        s_n = m_n * (math.pi / 2 + 2 * xi * math.tan(math.radians(alpha_n_deg))) + iso.thickness_allowance_mean_m
+        assert g["normal_tooth_thickness_m"] == pytest.approx(s_n, rel=rel)
+    mg = next(iter(info["meshes"].values()))
+    mi = mg["iso"]
+    zs = [-zi if inte else zi for zi, inte in zip(z, internal)]
+    alpha_t, alpha_n = cf[0]["alpha_t"], math.radians(alpha_n_deg)
+    # a_w from the sum of the profile shifts: inv(alpha_wt) = inv(alpha_t) + 2 tan(alpha_n) (x1 + x2) / (z1 + z2)
+    inv_wt = involute(alpha_t) + 2 * math.tan(alpha_n) * sum(x) / sum(zs)
+    a_ref = 0.5 * m_n / math.cos(math.radians(beta_deg)) * abs(sum(zs))
+    a_w_x = a_ref * math.cos(alpha_t) / math.cos(brent_inv(inv_wt))
+    assert mi["center_distance_from_profile_shifts_m"] == pytest.approx(a_w_x, rel=rel)
+    assert mg["zero_backlash_center_distance_m"] == pytest.approx(a_w_x, rel=rel)   # the geometry's own solve
+    a_w = mi["center_distance_m"]
+    alpha_wt = math.acos(a_ref * math.cos(alpha_t) / a_w)
+    assert math.radians(mi["operating_transverse_pressure_angle_deg"]) == pytest.approx(alpha_wt, rel=rel)
+    # contact ratios: eps_alpha from the tip and base diameters, eps_beta = b sin(beta) / (pi m_n)
+    ga, gb = cf
+    la = 0.5 * math.sqrt(ga["d_a"] ** 2 - ga["d_b"] ** 2)
+    lb = 0.5 * math.sqrt(gb["d_a"] ** 2 - gb["d_b"] ** 2)
+    p_bt = math.pi * m_n / math.cos(math.radians(beta_deg)) * math.cos(alpha_t)
+    if any(internal):
+        eps_a = (la - lb + a_w * math.sin(alpha_wt)) / p_bt if internal[1] else (lb - la + a_w * math.sin(alpha_wt)) / p_bt
+    else:
+        eps_a = (la + lb - a_w * math.sin(alpha_wt)) / p_bt
+    assert mi["transverse_contact_ratio"] == pytest.approx(eps_a, rel=rel)
+    eps_b = (b or 0.0) * math.sin(math.radians(beta_deg)) / (math.pi * m_n)
+    assert mi["overlap_ratio"] == pytest.approx(eps_b, rel=rel, abs=1e-15)
+    assert mi["total_contact_ratio"] == pytest.approx(eps_a + eps_b, rel=rel)
+    return mi
+
+
+def test_iso_form_spur_pair_khk_example_matches_closed_forms_and_published_values():
+    """KHK Gear Technical Reference (also SDP/SI 'Elements of Metric Gear Technology', Table 4-4): profile-shifted
+    spur pair m = 3 mm, alpha = 20 deg, z = 12 / 24, x = 0.6 / 0.36: inv alpha_w = 0.034316, alpha_w = 26.0886 deg,
+    a = 56.4999 mm; tip diameters 44.840 / 79.400 mm, root 32.100 / 66.660 mm, base 33.8289 / 67.6579 mm,
+    contact ratio 1.202."""
+    from hacgear_core.cli.info import info_dict
+    from hacgear_core.model.iso21771 import involute
+
+    model = _iso_model([("pinion", dict(teeth=12, normal_module_mm=3.0, profile_shift=0.6, tip_diameter_mm=44.840)),
+                        ("wheel", dict(teeth=24, normal_module_mm=3.0, profile_shift=0.36, tip_diameter_mm=79.400))],
+                       [("m12", "pinion", "wheel", {})])
+    info = info_dict(model)
+    mi = _iso_check_pair(info, model, ("pinion", "wheel"), (12, 24), (0.6, 0.36), 3e-3, 20.0, 0.0)
+    assert info["meshes"]["m12"]["center_distance_source"].startswith("ISO 21771")
+    assert mi["center_distance_m"] * 1e3 == pytest.approx(56.4999, abs=5e-5)
+    assert mi["operating_transverse_pressure_angle_deg"] == pytest.approx(26.0886, abs=5e-5)
+    assert involute(math.radians(mi["operating_transverse_pressure_angle_deg"])) == pytest.approx(0.034316, abs=5e-7)
+    g = {n: info["gears"][n]["iso"] for n in ("pinion", "wheel")}
+    assert [round(g[n]["root_diameter_m"] * 1e3, 3) for n in g] == [32.100, 66.660]
+    assert [round(g[n]["base_diameter_m"]["drive"] * 1e3, 4) for n in g] == [33.8289, 67.6579]
+    assert round(mi["transverse_contact_ratio"], 3) == 1.202
+    assert mi["backlash_circular_m"] == pytest.approx(0.0, abs=1e-12)   # nominal teeth at a_w from sum x
+
+
+def test_iso_form_helical_pair_iso21771_example():
+    """ISO 21771:2007 worked example (Eq. 62; as tabulated in 'Gear Generating Profile Shift Calculations'): z = 31 / 30,
+    m_n = 3.5 mm, alpha_n = 20 deg, beta = 21 deg, a_w = 116.5 mm: reference centre distance 114.3447280708 mm,
+    alpha_t = 21.2990642859 deg, alpha_wt = 23.8707609654 deg, sum of profile shifts 0.651877131252 (x1 = 0.291)."""
+    from hacgear_core.cli.info import info_dict
+
+    sum_x, x1 = 0.651877131252, 0.291
+    x2 = sum_x - x1
+    y = (116.5 - 114.3447280708) / 3.5        # tip alteration k = y - sum x keeps the standard tip clearance
+    common = dict(normal_module_mm=3.5, helix_angle_deg=21.0, tip_alteration_mm=(y - sum_x) * 3.5, face_width_mm=40.0)
+    model = _iso_model([("pinion", dict(teeth=31, hand="right", profile_shift=x1, **common)),
+                        ("wheel", dict(teeth=30, hand="left", profile_shift=x2, **common))],
+                       [("m12", "pinion", "wheel", dict(center_distance_mm=116.5))], kind="helical_pair")
+    assert model.gear("pinion").helix_angle_rad == pytest.approx(math.radians(21.0))   # right hand: positive
+    assert model.gear("wheel").helix_angle_rad == pytest.approx(-math.radians(21.0))
+    info = info_dict(model)
+    mi = _iso_check_pair(info, model, ("pinion", "wheel"), (31, 30), (x1, x2), 3.5e-3, 20.0, 21.0, b=0.040)
+    g = info["gears"]["pinion"]["iso"]
+    assert g["transverse_pressure_angle_deg"]["drive"] == pytest.approx(21.2990642859, abs=1e-10)
+    assert 0.5 * (g["reference_diameter_m"] + info["gears"]["wheel"]["iso"]["reference_diameter_m"]) * 1e3 == \
+        pytest.approx(114.3447280708, abs=1e-10)
+    assert mi["operating_transverse_pressure_angle_deg"] == pytest.approx(23.8707609654, abs=1e-10)
+    assert mi["center_distance_from_profile_shifts_m"] == pytest.approx(0.1165, rel=1e-10)
+    assert mi["sum_profile_shift"] == pytest.approx(sum_x, rel=1e-12)
+
+
+def test_iso_form_internal_pair_takes_the_iso_sign():
+    """Internal pair z = 17 / 96, m = 14 mm, alpha = 20 deg, x_pinion = 0.2, ring shift 0.5 in the tool's sign
+    ('Centre distance of profile shifted internal gear calculation', inv alpha_w from (x2 - x1) / (z2 - z1)):
+    alpha_w = 21.1251 deg, a_w = 557.0887 mm.  In ISO 21771's sign the ring's x is -0.5 (z_ring counts negative),
+    and the geometry's own zero-backlash centre distance agrees (the ring's tip shortened by k m_n = -1.4 mm keeps it
+    out of the pinion's fillet)."""
+    from hacgear_core.cli.info import info_dict
+
+    model = _iso_model([("pinion", dict(teeth=17, normal_module_mm=14.0, profile_shift=0.2, face_width_mm=100.0,
+                                        bore_diameter_mm=60.0)),
+                        ("ring", dict(teeth=96, normal_module_mm=14.0, profile_shift=-0.5, internal=True,
+                                      tip_alteration_mm=-1.4, face_width_mm=100.0, bore_diameter_mm=1600.0,
+                                      basic_rack="C"))],
+                       [("m12", "pinion", "ring", {})])
+    info = info_dict(model)
+    mi = _iso_check_pair(info, model, ("pinion", "ring"), (17, 96), (0.2, -0.5), 14e-3, 20.0, 0.0,
+                         internal=(False, True))
+    assert mi["center_distance_m"] * 1e3 == pytest.approx(557.0887, abs=5e-5)
+    assert mi["operating_transverse_pressure_angle_deg"] == pytest.approx(21.1251, abs=5e-5)
+    ring = info["gears"]["ring"]
+    assert ring["iso"]["profile_shift"] == -0.5 and ring["iso"]["generating_profile_shift"] == pytest.approx(-0.5)
+    assert ring["profile_shift"] == pytest.approx(0.5)   # the geometry's tool-displacement value keeps its sign
+    # a negative ISO shift thins the ring's teeth: s_n = m_n (pi/2 + 2 x tan(alpha_n))
+    assert ring["iso"]["normal_tooth_thickness_m"] < 0.5 * math.pi * 14e-3
+
+
+def test_iso_sign_of_a_transverse_form_ring():
+    """`info` reports a ring given in the transverse form with ISO 21771's sign: x_ISO = -(x of the tool's
+    displacement) / cos(beta), from its tooth thickness s = m (pi/2 + 2 x_ISO tan(alpha))."""
+    from hacgear_core.cli.info import info_dict
+
+    model = load_model("planetary_65_55_175")
+    info = info_dict(model)
+    ring = model.gear("ring")
+    alpha = ring.flanks["drive"].pressure_angle_rad
+    x_iso = (ring.tooth_thickness_m / ring.module_m - math.pi / 2) / (2 * math.tan(alpha))
+    assert info["gears"]["ring"]["iso"]["profile_shift"] == pytest.approx(x_iso, rel=1e-12)
+    assert info["gears"]["ring"]["iso"]["profile_shift"] == pytest.approx(-info["gears"]["ring"]["profile_shift"],
+                                                                          rel=1e-12)
+    assert info["gears"]["ring"]["iso"]["form"] == "transverse"
+
+
+def test_nrel_5mw_stage3_in_iso_form():
+    """NREL 5 MW reference gearbox stage 3 (Nejad et al. 2016, issue #51 table): m_n = 14 mm, beta = 10 deg, z = 24 / 95,
+    x = 0.480 / 0.669, k m_n = -0.938 mm, b = 360 mm, a_w = 861 mm: m_t = 14.215973 mm, alpha_t = 20.283559 deg."""
+    from hacgear_core.cli.info import info_dict
+
+    common = dict(normal_module_mm=14.0, helix_angle_deg=10.0, tip_alteration_mm=-0.938, face_width_mm=360.0)
+    model = _iso_model([("pinion", dict(teeth=24, hand="right", profile_shift=0.480, bore_diameter_mm=150.0, **common)),
+                        ("wheel", dict(teeth=95, hand="left", profile_shift=0.669, bore_diameter_mm=400.0, **common))],
+                       [("m12", "pinion", "wheel", dict(center_distance_mm=861.0))], kind="helical_pair")
+    info = info_dict(model)
+    mi = _iso_check_pair(info, model, ("pinion", "wheel"), (24, 95), (0.480, 0.669), 14e-3, 20.0, 10.0, b=0.360)
+    g = info["gears"]["pinion"]["iso"]
+    assert round(g["transverse_module_m"] * 1e3, 6) == 14.215973
+    assert round(g["transverse_pressure_angle_deg"]["drive"], 6) == 20.283559
+    assert info["gears"]["pinion"]["profile_shift"] == pytest.approx(0.480 * math.cos(math.radians(10.0)))  # x_t
+    assert mi["center_distance_m"] == 0.861 and mi["backlash_circular_m"] > 0
+
+
+def test_nrel_5mw_stage1_planet_set_has_no_common_carrier_radius_at_nominal_thickness():
+    """NREL stage 1 (m = 45 mm, z = 19 / 17 / 56, x = 0.617 / 0.802 / -0.501, k m_n = -10.861 / -10.861 / 0): with
+    nominal ISO thicknesses the sun-planet mesh needs a_w >= 862.9956 mm, the ring-planet mesh a_w <= 862.9909 mm
+    (the issue's numbers); at the paper's 863 mm the ring-planet teeth overlap and the refusal names the allowance
+    that fixes it; with that allowance the set meshes with zero backlash there."""
+    from hacgear_core.cli.info import info_dict
+    from hacgear_core.model.iso21771 import working_center_distance
+
+    r = math.radians(20.0)
+    assert round(working_center_distance(45e-3, r, 0.0, 19, 17, 0.617, 0.802) * 1e3, 4) == 862.9956
+    assert round(working_center_distance(45e-3, r, 0.0, 17, -56, 0.802, -0.501) * 1e3, 4) == 862.9909
+
+    def model(ring_upper=None):
+        extra = {} if ring_upper is None else {"thickness_allowance_upper_mm": ring_upper}
+        return _iso_model(
+            [("sun", dict(teeth=19, normal_module_mm=45.0, profile_shift=0.617, tip_alteration_mm=-10.861,
+                          bore_diameter_mm=200.0, face_width_mm=491.0)),
+             ("planet", dict(teeth=17, normal_module_mm=45.0, profile_shift=0.802, tip_alteration_mm=-10.861,
+                             bore_diameter_mm=200.0, face_width_mm=491.0)),
+             ("ring", dict(teeth=56, normal_module_mm=45.0, profile_shift=-0.501, internal=True, basic_rack="C",
+                           bore_diameter_mm=2900.0, face_width_mm=491.0, **extra))],
+            [("sun_planet", "sun", "planet", {}), ("planet_ring", "planet", "ring", {})], kind="planetary",
+            planetary="[planetary]\nplanet_count = 3\ncarrier_radius_mm = 863.0")
+
+    with pytest.raises(GeometryError, match="negative backlash") as exc:
+        info_dict(model())
+    msg = str(exc.value)
+    assert "'planet' and 'ring'" in msg and "thickness_allowance_upper_mm" in msg
+    fix = float(re.search(r"thickness_allowance_upper_mm = (-?[0-9.]+) on 'planet'", msg).group(1))
+    assert fix < 0
+    # the named allowance (on the other gear of the pair, the same sum) meshes: backlash >= 0, ~0 at its rounding
+    info = info_dict(model(ring_upper=fix))
+    j = info["meshes"]["planet_ring"]["iso"]["backlash_circular_min_m"]
+    assert 0.0 <= j < 2e-9
+
+
+def test_iso_tip_too_thin_is_refused_with_the_tip_alteration_that_fixes_it():
+    from hacgear_core.cli.info import info_dict
+
+    def model(k_mm):
+        return _iso_model([("pinion", dict(teeth=12, normal_module_mm=3.0, profile_shift=0.8, tip_alteration_mm=k_mm)),
+                           ("wheel", dict(teeth=40, normal_module_mm=3.0))], [("m12", "pinion", "wheel", {})])
+
+    with pytest.raises(GeometryError, match="too thin at the tip") as exc:
+        info_dict(model(0.0))
+    msg = str(exc.value)
+    k_fix = float(re.search(r"tip_alteration_mm <= (-?[0-9.]+)", msg).group(1))
+    g = info_dict(model(k_fix - 1e-6))["gears"]["pinion"]["iso"]
+    assert g["tip_normal_thickness_m"] == pytest.approx(0.2 * 3e-3, rel=1e-5)
+
+
+def test_iso_rack_root_radius_too_large_names_the_rack_key():
+    from hacgear_core.geometry import gear_geometry
+
+    model = _iso_model([("pinion", dict(teeth=20, normal_module_mm=3.0)),
+                        ("ring", dict(teeth=56, normal_module_mm=3.0, profile_shift=-0.5, internal=True,
+                                      bore_diameter_mm=200.0))], [("m12", "pinion", "ring", {})])
+    with pytest.raises(GeometryError, match="rack_root_radius_coefficient <= ") as exc:
+        gear_geometry(model.gear("ring"))
+    assert "basic_rack = 'A'" in str(exc.value)

@@ -541,3 +541,152 @@ def test_a_byte_order_mark_is_read(tmp_path):
     bom.write_bytes(b"\xef\xbb\xbf" + src.read_bytes())
     a, b = load_model(bom), load_model(src)
     assert a.gears == b.gears and a.meshes == b.meshes and a.sha256 != b.sha256
+
+
+# ----------------------------------------------------------------------------------------------
+# ISO 21771 form of [[gears]] (normal_module_mm ...): converted once, at load, to the transverse form
+# ----------------------------------------------------------------------------------------------
+ISO_PAIR = '''
+[system]
+name = "iso_pair"
+kind = "helical_pair"
+
+[materials.steel]
+density_kg_per_m3 = 7830.0
+youngs_modulus_GPa = 206.0
+poisson_ratio = 0.3
+
+[[gears]]
+name = "pinion"
+teeth = 24
+normal_module_mm = 14.0
+normal_pressure_angle_deg = 20.0
+helix_angle_deg = 10.0
+hand = "right"
+profile_shift = 0.48
+tip_alteration_mm = -0.938
+basic_rack = "A"
+thickness_allowance_upper_mm = -0.1
+thickness_allowance_lower_mm = -0.3
+face_width_mm = 360.0
+bore_diameter_mm = 150.0
+material = "steel"
+
+[[gears]]
+name = "ring"
+teeth = 95
+internal = true
+normal_module_mm = 14.0
+normal_pressure_angle_deg = 20.0
+helix_angle_deg = 10.0
+hand = "right"
+profile_shift = -0.3
+tip_diameter_mm = 1330.0
+rack_addendum_coefficient = 1.0
+rack_dedendum_coefficient = 1.4
+rack_root_radius_coefficient = 0.2
+face_width_mm = 360.0
+bore_diameter_mm = 1500.0
+material = "steel"
+
+[[meshes]]
+name = "m12"
+gear_a = "pinion"
+gear_b = "ring"
+
+[damping]
+modal_damping_ratio = 0.02
+
+[operating]
+torque_Nm = 1.0e4
+'''
+
+
+def test_iso_form_is_converted_to_the_transverse_form_by_iso21771():
+    m = parse_model(ISO_PAIR, file="iso.toml")
+    p, r = m.gear("pinion"), m.gear("ring")
+    m_n, beta, alpha_n = 14e-3, math.radians(10.0), math.radians(20.0)
+    m_t = m_n / math.cos(beta)
+    alpha_t = math.atan(math.tan(alpha_n) / math.cos(beta))
+    rel = 1e-12
+    for g in (p, r):
+        assert g.module_m == pytest.approx(m_t, rel=rel)
+        assert g.flanks["drive"].pressure_angle_rad == pytest.approx(alpha_t, rel=rel)
+        assert g.flanks["coast"] == g.flanks["drive"] and not g.flanks["drive"].has_relief
+        assert g.helix_angle_rad == pytest.approx(beta, rel=rel)                  # right hand: positive
+    # external: d_a = d + 2 m_n (h_aP* + x + k), d_f = d - 2 m_n (h_fP* - x), s_t = (s_n + mean allowance) / cos(beta)
+    d = 24 * m_t
+    assert p.tip_diameter_m == pytest.approx(d + 2 * m_n * (1.0 + 0.48) - 2 * 0.938e-3, rel=rel)
+    assert p.root_diameter_m == pytest.approx(d - 2 * m_n * (1.25 - 0.48), rel=rel)
+    s_n = m_n * (math.pi / 2 + 2 * 0.48 * math.tan(alpha_n)) - 0.2e-3
+    assert p.tooth_thickness_m == pytest.approx(s_n / math.cos(beta), rel=rel)
+    assert p.hob_tip_radius_m == pytest.approx(0.38 * m_n, rel=rel)               # ISO 53 rack A
+    assert p.iso.basic_rack == "A" and p.iso.thickness_allowance_lower_m == pytest.approx(-0.3e-3)
+    # internal, ISO sign: x > 0 towards the tips (the axis); d_f = d + 2 m_n (h_fP* - x); k from the tip diameter
+    d = 95 * m_t
+    assert r.root_diameter_m == pytest.approx(d + 2 * m_n * (1.4 - (-0.3)), rel=rel)
+    assert r.tip_diameter_m == pytest.approx(1.330, rel=rel)
+    assert r.iso.tip_alteration == pytest.approx((d - 1.330) / (2 * m_n) - 1.0 + 0.3, rel=rel)
+    assert r.tooth_thickness_m == pytest.approx(m_n * (math.pi / 2 - 2 * 0.3 * math.tan(alpha_n)) / math.cos(beta),
+                                                rel=rel)
+    assert r.hob_tip_radius_m == pytest.approx(0.2 * m_n, rel=rel) and r.iso.basic_rack == "custom"
+    d = {k: (v, meaning) for k, v, meaning in m.defaults_applied}
+    assert d["gears[1] (ring).thickness_allowance_upper_mm"][0] == "0"
+
+
+def test_iso_form_flank_tables_hold_tip_relief_only():
+    """An ISO-form gear's [gears.drive] holds tip relief; its pressure angle is the transverse one of alpha_n, beta."""
+    m = parse_model(ISO_PAIR.replace('material = "steel"\n\n[[gears]]\nname = "ring"',
+                                     'material = "steel"\n  [gears.drive]\n  tip_relief_um = 20.0\n'
+                                     '  tip_relief_start_roll_deg = 25.0\n\n[[gears]]\nname = "ring"', 1),
+                    file="iso.toml")
+    p = m.gear("pinion")
+    assert p.flanks["drive"].tip_relief_m == pytest.approx(20e-6) and p.flanks["coast"] == p.flanks["drive"]
+    assert p.flanks["drive"].tip_relief_shape == "parabolic"
+    assert p.flanks["drive"].pressure_angle_rad == pytest.approx(math.atan(math.tan(math.radians(20.0)) /
+                                                                           math.cos(math.radians(10.0))), rel=1e-12)
+
+
+ISO_MALFORMED = [
+    ("a transverse-form key in an ISO-form gear",
+     lambda t: _replace_once(t, "profile_shift = 0.48\n", "profile_shift = 0.48\nroot_diameter_mm = 300.0\n"),
+     r"key 'gears\[0\]\.root_diameter_mm'.*a transverse-form key in an ISO-form gear.*d_f = d - 2 m_n"),
+    ("neither a named rack nor the rack coefficients",
+     lambda t: _replace_once(t, 'basic_rack = "A"\n', ""),
+     r"key 'gears\[0\]\.basic_rack'.*missing.*A \| B \| C \| D"),
+    ("a named rack and a rack coefficient",
+     lambda t: _replace_once(t, 'basic_rack = "A"\n', 'basic_rack = "A"\nrack_root_radius_coefficient = 0.3\n'),
+     r"rack_root_radius_coefficient.*ISO 53 profile A fixes"),
+    ("an unknown rack", lambda t: _replace_once(t, 'basic_rack = "A"', 'basic_rack = "E"'),
+     r"key 'gears\[0\]\.basic_rack': unknown value 'E'; allowed: A \| B \| C \| D"),
+    ("both tip keys",
+     lambda t: _replace_once(t, "tip_alteration_mm = -0.938\n", "tip_alteration_mm = -0.938\ntip_diameter_mm = 380.0\n"),
+     r"tip_diameter_mm.*both tip keys"),
+    ("a helical gear without hand", lambda t: _replace_once(t, 'hand = "right"\n', ""),
+     r"key 'gears\[0\]\.hand': missing required key; allowed: right \| left"),
+    ("an internal pair of opposite hands", lambda t: t.replace('hand = "right"\nprofile_shift = -0.3',
+                                                               'hand = "left"\nprofile_shift = -0.3'),
+     r"mesh 'm12': hand = 'right' on 'pinion' and 'left' on 'ring'; allowed: the same hand \(internal pair\)"),
+    ("lower allowance above the upper one",
+     lambda t: _replace_once(t, "thickness_allowance_lower_mm = -0.3", "thickness_allowance_lower_mm = 0.0"),
+     r"thickness_allowance_lower \[mm\] = 0 exceeds thickness_allowance_upper \[mm\] = -0.1"),
+    ("a pressure angle in an ISO-form flank table",
+     lambda t: _replace_once(t, 'material = "steel"\n', 'material = "steel"\n  [gears.drive]\n  pressure_angle_deg = 25.0\n'),
+     r"key 'gears\[0\]\.drive\.pressure_angle_deg'.*normal_pressure_angle_deg"),
+    ("a tip inside the reference circle",
+     lambda t: _replace_once(t, "tip_alteration_mm = -0.938", "tip_alteration_mm = -21.0"),
+     r"tip addendum h_aP\* \+ x \+ k = .* puts the tip circle inside the reference circle"),
+    ("different normal modules",
+     lambda t: _replace_once(t, "normal_module_mm = 14.0", "normal_module_mm = 12.0"),
+     r"mesh 'm12': normal_module_mm \[mm\] differs between 'pinion' \(12\) and 'ring' \(14\)"),
+    ("a tip diameter far from the reference circle",
+     lambda t: _replace_once(t, "tip_diameter_mm = 1330.0", "tip_diameter_mm = 1000.0"),
+     r"key 'gears\[1\]\.tip_diameter_mm' \[mm\]: value 1000 gives the tip alteration k = 11\.8185; allowed: "
+     r"\[1246\.92, 1414\.92\] \(k in \[-3, 3\]\)"),
+]
+
+
+@pytest.mark.parametrize("what,transform,pattern", ISO_MALFORMED, ids=[m[0] for m in ISO_MALFORMED])
+def test_iso_form_errors_name_the_key(what, transform, pattern):
+    with pytest.raises(ModelError, match=pattern):
+        parse_model(transform(ISO_PAIR), file="iso.toml")

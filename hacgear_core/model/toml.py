@@ -484,6 +484,10 @@ def _read_iso_gear(sec: _Section, materials: dict[str, Material]) -> Gear:
     if "tip_diameter_mm" in sec.data:
         d_a = sec.number("tip_diameter_mm", "mm", 1.0, 20000.0)
         k = _iso.tip_alteration(teeth, m_n, beta, h_ap, x, d_a, internal)
+        if not -3.0 <= k <= 3.0:
+            lo, hi = sorted(_iso.tip_diameter(teeth, m_n, beta, h_ap, x, kk, internal) for kk in (-3.0, 3.0))
+            raise sec.error(sec.key("tip_diameter_mm"), "mm", f"[{lo:.6g}, {hi:.6g}] (k in [-3, 3])", d_a,
+                            problem=f"value {d_a:g} gives the tip alteration k = {k:.6g}")
         tip_source = "tip_diameter_mm"
     else:
         k = sec.number("tip_alteration_mm", "mm", -3.0 * m_n, 3.0 * m_n, required=False, default=0.0) / m_n

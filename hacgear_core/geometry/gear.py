@@ -470,6 +470,8 @@ def gear_geometry(gear: Any, *, shaper_teeth: int | None = None) -> GearGeometry
         sector_offset = 0.5 * (th_d - th_c)  # cut in the middle of the off-centre root land
     # tooth thickness at the tip
     s_tip = r_a * float(form.thickness_angle(r_a))
+    if getattr(gear, "iso", None) is not None:   # the ISO form's limit, in its keys (a pointed tip included)
+        _check_iso_tip_thickness(gear, gear.iso, form, r_a)
     if s_tip <= 0:
         raise GeometryError(f"gear '{gear.name}': pointed tooth, thickness at the tip circle {s_tip * 1e3:.4f} mm "
                             f"<= 0 (tip_diameter_mm {gear.tip_diameter_m * 1e3:g} too large for tooth_thickness_mm "
@@ -483,9 +485,6 @@ def gear_geometry(gear: Any, *, shaper_teeth: int | None = None) -> GearGeometry
             f"{getattr(gear, 'lead_crowning_m', 0.0) * 1e6:g} um = {removed * 1e6:.1f} um remove more than the "
             f"tooth thickness at the tip circle, {s_tip * 1e6:.1f} um: no tooth is left at the tip corners of the "
             f"face ends; allowed: a sum below {s_tip * 1e6:.1f} um")
-    iso = getattr(gear, "iso", None)
-    if iso is not None:
-        _check_iso_tip_thickness(gear, iso, form, r_a)
     if s_tip < 0.2 * m:
         warnings.append(f"gear '{gear.name}': thin tip, tooth thickness at the tip circle {s_tip * 1e3:.3f} mm < "
                         f"0.2 m = {0.2 * m * 1e3:.3f} mm")

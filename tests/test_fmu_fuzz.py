@@ -50,6 +50,8 @@ VALUES = {
     "wheel.torque_in": [None, -400.0, 1e6, -2e6] + NASTY,
 }
 MODES = [0, 1, 2, -1, 7, 2**31 - 1]
+#: outputs compared after every successful initialization (the reference model's initial states)
+INITIAL_OUTPUTS = ("m12.force", "m12.deflection", "m12.dte", "pinion.speed", "wheel.angle")
 STEPS = [1e-5, 1e-4, 1e-3, 0.0, -1e-4, math.nan, math.inf, 1e300]
 OFFSETS = [0.0, 0.0, 0.0, 1e-3, -1e-3, math.nan]
 
@@ -64,15 +66,25 @@ class Model:
     state: str = "instantiated"
     time: float = 0.0
     values: dict = field(default_factory=dict)
+    #: pythonfmu FMI 3.0: the next doStep's communication point becomes the start time (pythonfmu3 passes none)
+    start_pending: bool = False
+    #: outputs right after a successful initialization, by the parameters and inputs it had (kept across resets
+    #: and sequences: an initialization with the same values must give the same initial state, bit for bit)
+    initial: dict = field(default_factory=dict)
+
+    def key(self) -> tuple:
+        return tuple(sorted((k, float(v)) for k, v in self.values.items()))
 
     def reset(self):
         self.state, self.time, self.values = "instantiated", 0.0, dict(self.start)
+        self.start_pending = False
 
     def snapshot(self):
         return (self.state, self.time, dict(self.values))
 
     def restore(self, snap):
         self.state, self.time, self.values = snap[0], snap[1], dict(snap[2])
+        self.start_pending = False
 
     def fail(self):
         self.state = "error"
@@ -275,17 +287,31 @@ def run_sequence(drv: Driver, model: Model, seq, counter: Counter) -> None:
                 want = model.fail()
             else:
                 model.state, want = "step", OK
+                model.start_pending = drv.backend == "pythonfmu" and drv.v3
             expect(got, want, "exit initialization")
+            if want == OK:  # the initial state depends on the parameters and inputs only (not on earlier runs)
+                got, vals = _status(drv.get_real, [vr[n] for n in INITIAL_OUTPUTS])
+                expect(got, OK, "getReal after initialization")
+                prev = model.initial.setdefault(model.key(), vals)
+                assert np.array_equal(vals, prev, equal_nan=True), (
+                    f"initialized with values it had before, the FMU starts from {vals}, not from {prev} "
+                    "(a reset did not reset?)")
+                counter.statuses[("initial state", "repeated")] = counter.statuses.get(
+                    ("initial state", "repeated"), 0) + (prev is not vals)
         elif kind == "step":
             h, off, repeat = op[1], op[2], op[3]
             for _ in range(repeat):
-                t = model.time + off
+                t, o = model.time + off, off
+                if model.start_pending:  # pythonfmu FMI 3.0: the first doStep's communication point is the start
+                    model.start_pending = False
+                    if math.isfinite(t):
+                        model.time, o = t, 0.0
                 if drv.v3:
                     got = _status(drv.fmu.doStep, t, h)[0]
                 else:
                     got = _status(drv.fmu.doStep, t, h)[0]
-                if model.state != "step" or not (0 < h < math.inf) or not (off == 0.0) or not model.inputs_ok():
-                    expect(got, model.fail(), f"doStep(t + {off!r}, {h!r})")
+                if model.state != "step" or not (0 < h < math.inf) or not (o == 0.0) or not model.inputs_ok():
+                    expect(got, model.fail(), f"doStep(t + {o!r}, {h!r})")
                 elif h == 1e300:
                     expect(got, DISCARD, "doStep of 1e300 s")  # needs too many internal steps
                     model.state = "step failed"
@@ -428,7 +454,7 @@ def test_fuzzed_call_sequences(fmus, spec, capsys, version, n):
     # the sequences reach every part of the state machine: successful and refused initializations and steps
     for key in (("exit", OK), ("exit", ERROR), ("doStep", OK), ("doStep(t", ERROR), ("set", OK), ("set", ERROR),
                 ("getReal", OK), ("getReal", ERROR), ("doStep", DISCARD), ("terminate", OK), ("terminate", ERROR),
-                ("set", OK), ("deserialize", OK), ("deserialize", ERROR)):
+                ("set", OK), ("deserialize", OK), ("deserialize", ERROR), ("initial state", "repeated")):
         assert c.statuses.get(key, 0) > 0, (key, c.statuses)
 
 

@@ -16,6 +16,7 @@ import pytest
 fmpy = pytest.importorskip("fmpy")
 
 from _bench import assert_final_hold  # noqa: E402
+from _fmi_reset import assert_reset_equals_fresh  # noqa: E402
 from hacgear_core.kinds import build_system  # noqa: E402
 from hacgear_core.dynamics.simulator import Simulator  # noqa: E402
 from hacgear_core.fmu.bench import BenchConfig, run_drivetrain_bench  # noqa: E402
@@ -210,3 +211,10 @@ def test_drive_only_helical_fmu_flags_the_backlash_crossing(drive_only_fmu, fmi)
         assert len(warn) == 1 and "m12" in warn[0]
     finally:
         low.close()
+
+
+@pytest.mark.parametrize("key", ["path", "path3"])
+def test_helical_fmu_reset_equals_a_fresh_instance(fmu, key):
+    """Issue #50 item 1, helical pair (FMI 2.0 and 3.0): Reset, then the same parameters again: every Real output
+    of every step equals a fresh instance's bit for bit."""
+    assert_reset_equals_fresh(fmu[key], h=5e-5, n=40)

@@ -13,6 +13,7 @@ fmpy = pytest.importorskip("fmpy")
 
 import hacgear_core.fmu as hf  # noqa: E402
 from _bench import assert_final_hold, assert_reversed_torque_run  # noqa: E402
+from _fmi_reset import assert_reset_equals_fresh  # noqa: E402
 from hacgear_core.kinds import build_system  # noqa: E402
 from hacgear_core.dynamics.simulator import Simulator  # noqa: E402
 from hacgear_core.fmu.bench import BenchConfig, run_drivetrain_bench  # noqa: E402
@@ -106,3 +107,12 @@ def test_planetary_fmu_with_the_torque_reversed(fmu, version):
     (tests/_bench.py)."""
     path = fmu["path"].with_name(f"{SYSTEM}{version}.fmu")
     assert_reversed_torque_run(fmpy, path, SYSTEM, speed_rad_s=150.0, planet_count=3)
+
+
+@pytest.mark.parametrize("version", ["", "_fmi3"])
+def test_planetary_fmu_reset_equals_a_fresh_instance(fmu, version):
+    """Issue #50 item 1, planetary set: Reset, then the same parameters again: every
+    Real output of every step equals a fresh instance's bit for bit (before the fix the rerun continued from the
+    previous end state)."""
+    path = fmu["path"].with_name(f"{SYSTEM}{version}.fmu")
+    assert_reset_equals_fresh(path, h=1e-4, n=30, settings={"sun.speed_start": 150.0})

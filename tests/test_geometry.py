@@ -1123,3 +1123,36 @@ def test_iso_rack_root_radius_too_large_names_the_rack_key():
     with pytest.raises(GeometryError, match="rack_root_radius_coefficient <= ") as exc:
         gear_geometry(model.gear("ring"))
     assert "basic_rack = 'A'" in str(exc.value)
+
+
+def test_iso_tip_fillet_interference_names_the_tip_alteration_that_removes_it():
+    """The internal pair of the published example with the ring's tip unshortened (k = 0): its tip reaches 0.03 mm
+    into the pinion's fillet; the refusal names the ring's tip alteration that ends contact at the pinion's form
+    diameter, and with it the pair meshes without interference."""
+    from hacgear_core.cli.info import info_dict
+
+    def model(k_mm, **pinion):
+        return _iso_model([("pinion", {**dict(teeth=17, normal_module_mm=14.0, profile_shift=0.2, face_width_mm=100.0,
+                                              bore_diameter_mm=60.0), **pinion}),
+                           ("ring", dict(teeth=96, normal_module_mm=14.0, profile_shift=-0.5, internal=True,
+                                         tip_alteration_mm=k_mm, face_width_mm=100.0, bore_diameter_mm=1600.0,
+                                         basic_rack="C"))], [("m12", "pinion", "ring", {})])
+
+    with pytest.raises(GeometryError, match="tip-fillet interference, the tip of 'ring'") as exc:
+        info_dict(model(0.0))
+    k = float(re.search(r"tip_alteration_mm of 'ring' <= (-?[0-9.]+)", str(exc.value)).group(1))
+    assert -0.2 < k < 0
+    # the pinion's rack is the other fix named (rack B: rho_fP* 0.30 < rack A's 0.38); a larger profile shift of the
+    # pinion is not named, since it does not remove this interference (x = 0.3 is refused as well)
+    assert "smaller rack_root_radius_coefficient / larger rack_dedendum_coefficient of 'pinion'" in str(exc.value)
+    assert "profile_shift" not in str(exc.value)
+    assert not info_dict(model(0.0, basic_rack="B"))["warnings"]
+    with pytest.raises(GeometryError, match="tip-fillet interference, the tip of 'ring'"):
+        info_dict(model(0.0, profile_shift=0.3))
+    info = info_dict(model(k - 1e-6))
+    assert not info["warnings"]
+    # the contact now starts at the pinion's form point: r = r_b sqrt(1 + u^2) at the SAP roll angle u
+    u = math.radians(info["meshes"]["m12"]["roll_angle_deg"]["SAP"]["pinion"])
+    g = info["gears"]["pinion"]
+    r_sap = g["base_radius_m"]["drive"] * math.sqrt(1 + u * u)
+    assert 0.0 <= r_sap - g["form_radius_m"]["drive"] < 1e-7

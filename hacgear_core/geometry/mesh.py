@@ -85,9 +85,35 @@ def _other(side: str) -> str:
     return "coast" if side == "drive" else "drive"
 
 
+def _tip_fix(mate: GearGeometry, mate_iso: Any, aff: Mapping[str, tuple], g: GearGeometry, g_iso: Any,
+             l_target: float, fillet: bool) -> str:
+    """``; fix: ...`` naming the tip alteration of the ISO-form gear ``mate`` whose tip circle would meet the flank of
+    ``g`` at roll length ``l_target`` [m] (its involute form point), or ``""`` for a gear of the transverse form.
+    ``g_iso``: ``g``'s ISO data or ``None``.  ``fillet``: the contact reaches into ``g``'s root fillet, so the fix
+    also names ``g``'s rack (or hob tip radius): a smaller root radius or a deeper dedendum lowers its form point.
+    A larger profile shift of ``g`` is not named: it raises the form point about as far as the contact start."""
+    if mate_iso is None:
+        return ""
+    c, d, _ = aff[g.name]
+    cm, dm, rbm = aff[mate.name]
+    l_m = cm + dm * (l_target - c) / d          # the mate's roll length where g's flank starts
+    d_a = 2.0 * math.sqrt(rbm * rbm + l_m * l_m)
+    k = _iso.tip_alteration(mate_iso.teeth, mate_iso.normal_module_m, mate_iso.helix_angle_rad,
+                            mate_iso.addendum_coefficient, mate_iso.profile_shift, d_a, mate_iso.internal)
+    rel = ">=" if mate.internal else "<="
+    return (f"; fix: tip_alteration_mm of '{mate.name}' <= {k * mate_iso.normal_module_m * 1e3:.6f} (tip_diameter_mm "
+            f"{rel} {d_a * 1e3:.6f}; now {mate_iso.tip_alteration * mate_iso.normal_module_m * 1e3:.6f} mm, "
+            f"{2e3 * mate.tip_radius_m:.6f} mm)"
+            + ("" if not fillet else
+               f", or a smaller rack_root_radius_coefficient / larger rack_dedendum_coefficient of '{g.name}'"
+               if g_iso is not None else f", or a smaller hob_tip_radius_mm of '{g.name}'"))
+
+
 def _line_of_action(ga: GearGeometry, gb: GearGeometry, sa: str, sb: str, a: float, name: str,
-                    strict: bool, warnings: list[str]) -> dict:
-    """Contact geometry along the line of action of flanks sa (gear a) / sb (gear b)."""
+                    strict: bool, warnings: list[str], isos: Mapping[str, Any] | None = None) -> dict:
+    """Contact geometry along the line of action of flanks sa (gear a) / sb (gear b); ``isos``: the ISO data
+    (``Gear.iso``) by gear name, so that an interference of ISO-form gears names the tip alteration that removes it."""
+    isos = isos or {}
     internal = ga.internal or gb.internal
     rba, rbb = ga.base_radius_m[sa], gb.base_radius_m[sb]
     if not internal:
@@ -130,9 +156,11 @@ def _line_of_action(ga: GearGeometry, gb: GearGeometry, sa: str, sb: str, a: flo
         l1, l2 = sorted((c + d * lo, c + d * hi))
         l_form = rb * g.form_roll_rad[s]
         mate = gb.name if g is ga else ga.name
+        mg_ = gb if g is ga else ga
         if l1 < -1e-9:
             msg = (f"mesh '{name}': involute interference, the tip of '{mate}' reaches inside the base circle of "
-                   f"'{g.name}' ({s} flank, {-l1 * 1e3:.4f} mm beyond the tangent point of the line of action)")
+                   f"'{g.name}' ({s} flank, {-l1 * 1e3:.4f} mm beyond the tangent point of the line of action)"
+                   + _tip_fix(mg_, isos.get(mate), aff, g, isos.get(g.name), max(l_form, 0.0), False))
             if strict:
                 raise GeometryError(msg)
             warnings.append(msg)
@@ -140,13 +168,15 @@ def _line_of_action(ga: GearGeometry, gb: GearGeometry, sa: str, sb: str, a: flo
             r_sap = rb * math.sqrt(1 + (max(l1, 0) / rb) ** 2)
             msg = (f"mesh '{name}': tip-fillet interference, the tip of '{mate}' reaches below the true involute form "
                    f"diameter of '{g.name}' ({s} flank): contact diameter {2e3 * r_sap:.4f} mm < form diameter "
-                   f"{2e3 * g.form_radius_m[s]:.4f} mm")
+                   f"{2e3 * g.form_radius_m[s]:.4f} mm"
+                   + _tip_fix(mg_, isos.get(mate), aff, g, isos.get(g.name), l_form, True))
             if strict:
                 raise GeometryError(msg)
             warnings.append(msg)
         if g.internal and l2 > l_form + 1e-6:
             msg = (f"mesh '{name}': the tip of '{mate}' reaches beyond the involute form diameter of the internal gear "
-                   f"'{g.name}' ({s} flank) into its root fillet")
+                   f"'{g.name}' ({s} flank) into its root fillet"
+                   + _tip_fix(mg_, isos.get(mate), aff, g, isos.get(g.name), l_form, True))
             if strict:
                 raise GeometryError(msg)
             warnings.append(msg)
@@ -328,9 +358,10 @@ def _mesh_geometry(model: Any, mesh_name: str | None = None, *, gears: Mapping[s
                             f"{a * 1e3:.4f} mm (zero-backlash centre distance {a0 * 1e3:.4f} mm): the teeth of "
                             f"'{ga.name}' and '{gb.name}' overlap; "
                             + _backlash_fix(model, mesh, ga, r_wa, j_range[0], a0 if up == 0.0 else None))
-    loaded = _line_of_action(ga, gb, sa, sb, a, mesh.name, strict, warnings)
+    isos = {g.name: getattr(model.gear(g.name), "iso", None) for g in (ga, gb)}
+    loaded = _line_of_action(ga, gb, sa, sb, a, mesh.name, strict, warnings, isos)
     try:
-        coast = _line_of_action(ga, gb, _other(sa), _other(sb), a, mesh.name, False, warnings)
+        coast = _line_of_action(ga, gb, _other(sa), _other(sb), a, mesh.name, False, warnings, isos)
         if abs(ga.base_radius_m[_other(sa)] / ga.z - gb.base_radius_m[_other(sb)] / gb.z) > 1e-9 * ga.pitch_radius_m:
             warnings.append(f"mesh '{mesh.name}': the unloaded flanks have different base pitches (pressure angles "
                             "differ); coast contact ratio is approximate")

@@ -6,12 +6,15 @@ Solves the static contact (finite-element far field + Hertz near field, :mod:`ha
 times its base radius...), and reports per mesh the static transmission error (mesh deflection), the local-slope
 mesh stiffness ``dF/dx`` at that load at every position and its mean, and the secant stiffness
 (:func:`hacgear_core.statics.studies.mesh_stiffness_report`).  ``--side coast``: the torque reversed, loading the
-other flank of each gear (the coast side of the tables).
+other flank of each gear (the coast side of the tables).  ``--out FILE.json``: the JSON result is written to FILE
+after each mesh (whole, in one rename); a run killed and started again with the same inputs takes the meshes
+FILE already holds and solves only the rest (:mod:`hacgear_core.statics.stiffness_file`).
 """
 from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 from typing import Any
 
 from tqdm import tqdm
@@ -21,6 +24,8 @@ from hacgear_core.cli._options import check_option
 from hacgear_core.errors import ModelError
 from hacgear_core.jsonio import dumps
 from hacgear_core.kinds import load_model
+from hacgear_core.outpaths import check_out_path
+from hacgear_core.statics.stiffness_file import read_done, stiffness_inputs, write_results
 from hacgear_core.statics.studies import mesh_stiffness_report, model_variant
 
 __all__ = ["register", "run"]
@@ -50,6 +55,12 @@ def register(subparsers: Any) -> None:
     p.add_argument("--no-relief", action="store_true", help="remove all tip relief (study)")
     p.add_argument("--no-crowning", action="store_true", help="remove all lead crowning (study)")
     p.add_argument("--json", action="store_true", help="print JSON (SI units, unit in the key name)")
+    p.add_argument("--out", type=Path, default=None, metavar="FILE.json",
+                   help="also write the JSON result to FILE.json, after each mesh (written whole); run again with "
+                        "the same inputs after a kill, it takes the meshes the file holds and solves the rest "
+                        "(a file of other inputs is refused and kept)")
+    p.add_argument("--fresh", action="store_true",
+                   help="with --out: ignore and replace what FILE.json holds, solving every mesh again")
     p.set_defaults(func=run)
 
 
@@ -70,10 +81,37 @@ def _position_progress():
     return on_position
 
 
+def _result_file(args: argparse.Namespace, model: Any, torque: float) -> tuple[dict, Any]:
+    """``(done, on_mesh)`` for :func:`mesh_stiffness_report` from ``--out``/``--fresh``: the meshes ``--out`` holds
+    for these inputs (said on stderr) and a callback writing the file after each mesh; ``({}, None)`` without
+    ``--out``."""
+    if args.out is None:
+        return {}, None
+    out = args.out
+    inputs = stiffness_inputs(model, torque_Nm=torque, side=args.side, positions=args.positions,
+                              face_slices=args.slices, face_coupling=args.face_coupling, twist_rad=args.twist,
+                              mesh=args.mesh, tip_relief=not args.no_relief, lead_crowning=not args.no_crowning)
+    done = {} if args.fresh else read_done(out, inputs)
+    names = [m.name for m in model.meshes if args.mesh is None or m.name == args.mesh]
+    if done:
+        rest = [n for n in names if n not in done]
+        print(f"hacgear stiffness: resumed: {len(done)} mesh{'es' if len(done) != 1 else ''} from {out} "
+              f"({', '.join(done)}); " + (f"solving {', '.join(rest)}" if rest else "nothing left to solve"),
+              file=sys.stderr, flush=True)
+
+    def on_mesh(report: dict) -> None:
+        write_results(out, report, inputs, [n for n in names if n not in report["meshes"]])
+    return done, on_mesh
+
+
 def run(args: argparse.Namespace) -> int:
     check_option("--torque", args.torque, "torque_Nm", signed=True)
     check_option("--positions", args.positions, "statics.positions")
     check_option("--slices", args.slices, "statics.face_slices")
+    if args.out is not None:
+        check_out_path(args.out, "--out", suffixes=(".json",))
+    elif args.fresh:
+        raise ModelError("--fresh replaces the result file of --out; give --out FILE.json with it")
     model = load_model(args.model)
     if args.no_relief or args.no_crowning:
         model = model_variant(model, tip_relief=not args.no_relief, lead_crowning=not args.no_crowning)
@@ -86,10 +124,11 @@ def run(args: argparse.Namespace) -> int:
         print(f"hacgear stiffness: torque {torque:g} N*m < 0 loads the coast flanks: --side coast at "
               f"{-torque:g} N*m", file=sys.stderr)
         torque, args.side = -torque, "coast"
+    done, on_mesh = _result_file(args, model, torque)
     d = mesh_stiffness_report(model, torque, mesh=args.mesh, positions=args.positions, slices=args.slices,
                               face_coupling=args.face_coupling, twist_rad=args.twist, side=args.side,
                               progress=lambda msg: print(f"hacgear stiffness: {msg}", file=sys.stderr, flush=True),
-                              on_position=_position_progress())
+                              on_position=_position_progress(), done=done, on_mesh=on_mesh)
     if args.json:
         print(dumps(d, indent=1))
         return 0

@@ -297,7 +297,7 @@ def helical_mesh_report(solver: HelicalMeshContactSolver, mesh_force_N: float, p
 
 def mesh_stiffness_report(model: Any, torque_Nm: float, *, mesh: str | None = None, positions: int = 64,
                           slices: int | None = None, face_coupling: str | None = None, twist_rad: float = 0.0,
-                          side: str = "drive", progress=None, on_position=None) -> dict:
+                          side: str = "drive", progress=None, on_position=None, done=None, on_mesh=None) -> dict:
     """Static transmission error and mesh stiffness of every mesh (or of ``mesh``) of ``model`` under ``torque_Nm``
     [N m] on ``model.operating.torque_gear``: each mesh is loaded with the force that the torque flow through the
     train gives it (the model's kind: :func:`hacgear_core.statics.grid.nominal_mesh_forces`), reported as the torque on its gear_a.
@@ -309,7 +309,10 @@ def mesh_stiffness_report(model: Any, torque_Nm: float, *, mesh: str | None = No
     approach from the drive kinematic position, the coast tables' deflection axis).  ``twist_rad``: mesh twist of
     helical meshes.  ``progress(message)``, if given, is called before each mesh's two long stages (building its
     finite-element model, solving the contact at the positions), ``on_position(done, total)`` after each position
-    (:func:`mesh_stiffness_curve`).
+    (:func:`mesh_stiffness_curve`).  ``done`` {mesh name: its entry of ``meshes``}: results of an earlier run of
+    the same inputs (:mod:`hacgear_core.statics.stiffness_file`), taken as they are and not solved again;
+    ``on_mesh(report)``, if given, is called with the report so far (solved and reused meshes, in model order)
+    after each mesh it solves, so the caller can write it before the next mesh starts.
 
     Returns a dict (SI, unit in the key names): ``model``, ``torque_Nm``, ``torque_gear``, ``side`` and ``meshes``
     {name: mesh force, base radii, flanks, mean (local-slope), secant and average-slope stiffness, STE over the
@@ -325,6 +328,11 @@ def mesh_stiffness_report(model: Any, torque_Nm: float, *, mesh: str | None = No
     names = [m.name for m in model.meshes]
     if mesh is not None and mesh not in names:
         raise ModelError(f"mesh {mesh!r} is not a mesh of the model; allowed: {', '.join(names)}")
+    done = dict(done or {})
+    extra = sorted(set(done) - {n for n in names if mesh is None or n == mesh})
+    if extra:
+        raise ModelError(f"done: results of mesh(es) {', '.join(extra)} that this run does not solve; allowed: "
+                         f"{mesh or ', '.join(names)}")
     helical = any(g.is_helical for g in model.gears)
     if helical and side == "coast":
         raise ModelError("side = 'coast': this report covers the drive side of helical meshes only (their coast side "
@@ -343,6 +351,9 @@ def mesh_stiffness_report(model: Any, torque_Nm: float, *, mesh: str | None = No
         coast_forces = nominal_mesh_forces(model, radii, torque_Nm=torque_Nm)
     for m in model.meshes:
         if mesh is not None and m.name != mesh:
+            continue
+        if m.name in done:
+            out["meshes"][m.name] = done[m.name]
             continue
         if progress is not None:
             progress(f"mesh {m.name}: building the finite-element model of its gears")
@@ -383,6 +394,8 @@ def mesh_stiffness_report(model: Any, torque_Nm: float, *, mesh: str | None = No
             out["meshes"][m.name]["torque_Nm"] = force * lever[0]
             out["meshes"][m.name]["helical"] = helical_mesh_report(solver, force, positions=positions,
                                                                    twist_rad=twist_rad)
+        if on_mesh is not None:
+            on_mesh(out)
     return out
 
 

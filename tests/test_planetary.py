@@ -109,13 +109,21 @@ def test_kinematics_and_torque_flow(model):
 
 def test_driven_gear_a_is_refused(model):
     """The tables' positions advance as gear_a drives: a ring mesh named ring -> planet (the ring is driven relative
-    to the carrier) is refused with the fix."""
+    to the carrier with the sun in and the ring fixed) is refused with the fix; a ring mesh whose gear_a names its
+    trailing flank is refused naming the flank."""
     from hacgear_core.model import Mesh
 
     m2 = dataclasses.replace(model, meshes=(model.meshes[0], Mesh("ring_planet", "ring", "planet", "drive", "coast",
                                                                   96.54e-3, math.pi)))
-    with pytest.raises(ModelError, match=r"mesh 'ring_planet'.*'ring' turns clockwise.*driven, not driving"):
+    with pytest.raises(ModelError, match=r"mesh 'ring_planet': with sun in, carrier out, ring fixed .*'ring' is "
+                                         r"driven, not driving.*gear_a = \"planet\", gear_b = \"ring\", flank_a = "
+                                         r"\"coast\", flank_b = \"drive\""):
         planetary_geometry(m2)
+    m3 = dataclasses.replace(model, meshes=(model.meshes[0], Mesh("ring_planet", "planet", "ring", "drive", "drive",
+                                                                  96.54e-3, math.pi)))
+    with pytest.raises(ModelError, match=r"mesh 'ring_planet': relative to the carrier 'planet' turns clockwise.*"
+                                         r"drive flank trails.*flank_a = \"coast\""):
+        planetary_geometry(m3)
 
 
 # ------------------------------------------------------------------------------------------- the system
@@ -337,3 +345,239 @@ def test_load_share_is_zero_while_every_mesh_of_its_kind_is_separated(model, tab
     for k in sun:
         sim.mesh_force_N[k] = 0.0
     assert [sim.load_share(k) for k in sun] == [0.0, 0.0, 0.0]
+
+
+# ------------------------------------------------------------------------------------------- power flow
+#: (input, output, fixed): every arrangement of the three members
+ARRANGEMENTS = [("sun", "carrier", "ring"), ("carrier", "sun", "ring"), ("sun", "ring", "carrier"),
+                ("ring", "sun", "carrier"), ("ring", "carrier", "sun"), ("carrier", "ring", "sun")]
+
+
+def _willis_closed_form(inp: str, out: str, fixed: str, zs: int, zr: int) -> float:
+    """omega_in / omega_out from Willis' equation omega_s - omega_c = -(z_r / z_s) (omega_r - omega_c) with the fixed
+    member at rest: ring fixed sun/carrier = 1 + z_r/z_s, carrier fixed sun/ring = -z_r/z_s, sun fixed
+    ring/carrier = 1 + z_s/z_r."""
+    k = zr / zs
+    ratio = {("sun", "carrier"): 1 + k, ("sun", "ring"): -k, ("ring", "carrier"): 1 + 1 / k}
+    return ratio[(inp, out)] if (inp, out) in ratio else 1.0 / ratio[(out, inp)]
+
+
+def _torque_magnitudes(inp: str, torque: float, zs: int, zr: int) -> dict:
+    """|T_j| of the torque balance T_s : T_r : T_c = 1 : z_r/z_s : -(1 + z_r/z_s) with |T_in| = torque."""
+    k = zr / zs
+    r = {"sun": 1.0, "ring": k, "carrier": 1.0 + k}
+    return {j: torque * v / r[inp] for j, v in r.items()}
+
+
+def _with_rotation(model, member: str, k: float):
+    """``model`` with the rotational support stiffness of ``member`` (a gear or the carrier) set to ``k``."""
+    if member == "carrier":
+        pl = model.planetary
+        return dataclasses.replace(model, planetary=dataclasses.replace(pl, carrier_support=dataclasses.replace(
+            pl.carrier_support, rotational_stiffness_Nm_per_rad=k)))
+    gears = tuple(dataclasses.replace(g, support=dataclasses.replace(g.support, rotational_stiffness_Nm_per_rad=k))
+                  if g.name == member else g for g in model.gears)
+    return dataclasses.replace(model, gears=gears)
+
+
+def _arranged(model, inp: str, out: str, fixed: str):
+    """``model`` run as ``inp`` in, ``out`` out, ``fixed`` fixed: the input and output members free (torque ports),
+    the fixed one held."""
+    m = dataclasses.replace(model, operating=dataclasses.replace(model.operating, torque_gear=inp),
+                            planetary=dataclasses.replace(model.planetary, fixed_member=fixed, output_member=out))
+    for member, k in ((inp, 0.0), (out, 0.0), (fixed, math.inf)):
+        m = _with_rotation(m, member, k)
+    return m
+
+
+def _assembled_rigid_mode(sy, inp: str) -> np.ndarray:
+    """The rotation of the assembled system that loads no mesh and no support: the null vector of ``K + V^T k V``
+    (supports and mean mesh stiffnesses) with the input's rotation 1."""
+    k = sy.K + (sy.V.T * sy.mesh_stiffness_N_per_m) @ sy.V
+    i = sy.gears[inp].rotation
+    rest = [j for j in range(sy.n) if j != i]
+    u = np.zeros(sy.n)
+    u[i] = 1.0
+    u[rest] = np.linalg.solve(k[np.ix_(rest, rest)], -k[rest, i])
+    return u
+
+
+def _check_power_flow(sy, inp: str, out: str, fixed: str, zs: int, zr: int, rbs: float, rbr: float, n: int) -> None:
+    """Willis from the assembled rigid-body mode, the builder's rigid mode, the power balance of the nominal
+    torques and the static mesh forces of the torque balance."""
+    u = _assembled_rigid_mode(sy, inp)
+    i_in, i_out = sy.gears[inp].rotation, sy.gears[out].rotation
+    i_cf = _willis_closed_form(inp, out, fixed, zs, zr)
+    assert u[i_in] / u[i_out] == pytest.approx(i_cf, rel=1e-12, abs=0.0)
+    # the builder's rigid mode is the assembled one
+    uref = sy.rigid_mode / sy.rigid_mode[i_in]
+    np.testing.assert_allclose(uref, u, rtol=1e-12, atol=1e-12 * float(np.max(np.abs(u))))
+    # the constant-speed experiment's torques: the power enters by the input, leaves by the output, sums to 0
+    # (the rigid mode holds counter-clockwise rotations per counter-clockwise one of the input, which turns in its
+    # operating sense)
+    fe = sy.fext_speed()
+    w = sy.rigid_mode * sy.gears[inp].sense
+    p_in, p_out = fe[i_in] * w[i_in], fe[i_out] * w[i_out]
+    assert p_in > 0 > p_out and p_in + p_out == pytest.approx(0.0, abs=1e-12 * p_in)
+    # static mesh forces: F_s = |T_s| / (N r_b,s) on every sun mesh, F_r = |T_r| / (N r_b,r) on every ring mesh
+    eq = static_equilibrium(sy, 0.0)
+    t = _torque_magnitudes(inp, abs(sy.torque_Nm), zs, zr)
+    sun = np.array([c.group == "sun_planet" for c in sy.meshes])
+    assert sun.sum() == n and (~sun).sum() == n
+    np.testing.assert_allclose(eq.mesh_forces_N[sun], t["sun"] / (n * rbs), rtol=1e-12)
+    np.testing.assert_allclose(eq.mesh_forces_N[~sun], t["ring"] / (n * rbr), rtol=1e-12)
+
+
+#: base radius per tooth of the lumped example's set [mm] (its sun: 50.2743 mm, 65 teeth)
+_RB_PER_TOOTH_MM = 50.2743 / 65
+
+
+def _lumped_text(inp: str, out: str, fixed: str) -> str:
+    """The lumped example as ``inp`` in, ``out`` out, ``fixed`` fixed, its base radii made exactly proportional to
+    the tooth counts and its carrier radius exactly (r_b,s + r_b,p) / cos(alpha) (the example's are rounded to
+    0.1 um: Willis' ratios of its geometry differ from the tooth counts' by 4e-7)."""
+    text = LUMPED.read_text()
+    for old, z in (("50.2743", 65), ("42.5398", 55), ("135.3539", 175)):
+        text = text.replace(f"base_radius_mm = {old}", f"base_radius_mm = {z * _RB_PER_TOOTH_MM!r}", 1)
+    rc = (65 + 55) * _RB_PER_TOOTH_MM / math.cos(math.radians(15.97))
+    text = text.replace("carrier_radius_mm = 96.54", f"carrier_radius_mm = {rc!r}", 1)
+    text = text.replace('fixed_member = "ring"', f'fixed_member = "{fixed}"\noutput_member = "{out}"', 1)
+    return text.replace('torque_gear = "sun"', f'torque_gear = "{inp}"', 1)
+
+
+@pytest.mark.parametrize("inp, out, fixed", ARRANGEMENTS)
+def test_power_flow_lumped_willis_and_static_forces(inp, out, fixed):
+    """Any member in, any out, any fixed (lumped set, 3 planets, the input and output members free, the fixed one
+    held): the assembled system's rigid-body mode turns the input and output members at Willis' ratio (1 + z_r/z_s,
+    -z_r/z_s, 1 + z_s/z_r or their inverses) to 1e-12; the power enters by the input and leaves by the output; the
+    static solve at 200 N m carries |T_s| / (N r_b,s) on every sun mesh and |T_r| / (N r_b,r) on every ring mesh, on
+    the loaded flanks (F > 0); the sun drives the planets relative to the carrier exactly when it is the input or the
+    ring the output."""
+    m = _arranged(parse_model(_lumped_text(inp, out, fixed), file="l.toml"), inp, out, fixed)
+    assert m.planetary.output_member == out
+    geo = planetary_geometry(m)
+    assert geo.power_flow.sun_drives == (inp == "sun" or out == "ring")
+    assert geo.sun_mesh(1).gear_a == "sun" and geo.ring_mesh(1).gear_a == "planet_1"   # the file's order, either way
+    sy = build_system(m, None)
+    _check_power_flow(sy, inp, out, fixed, 65, 175, m.gear("sun").base_radius_m, m.gear("ring").base_radius_m, 3)
+
+
+def _swapped(model):
+    """``model`` with every mesh named by the other member first (planet -> sun, ring -> planet), the same flanks
+    loaded: the drivers relative to the carrier when the ring drives the planets (carrier in, sun out, ring fixed)."""
+    from hacgear_core.model import Mesh
+
+    sm, rm = model.mesh("sun_planet"), model.mesh("ring_planet")
+    return dataclasses.replace(model, meshes=(
+        Mesh("sun_planet", "planet", "sun", sm.flank_b, sm.flank_a, sm.center_distance_m, math.pi),
+        Mesh("ring_planet", "ring", "planet", rm.flank_b, rm.flank_a, rm.center_distance_m, 0.0)))
+
+
+def test_carrier_input_places_the_mirror_image(model):
+    """Carrier in, sun out, ring fixed (the wind-turbine stage) with the tooth geometry: the meshes named by their
+    drivers (planet -> sun, ring -> planet) place sun and ring on the central axis, and the set is the mirror image
+    of sun in / carrier out in time (the same flanks in contact, every member turning the other way relative to
+    the carrier): the same pitch points, lines of action and moment arms reversed, phases and Parker's delays
+    negated; Willis' sun / carrier = 1 + z_r/z_s; the carrier's torque presses the loaded flanks with |T_s| /
+    (N r_b,s), T_s = T_c / (1 + z_r/z_s)."""
+    w = dataclasses.replace(_swapped(model), operating=dataclasses.replace(model.operating, torque_gear="carrier"))
+    for n in (3, 4):
+        a, b = planetary_geometry(model, n), planetary_geometry(w, n)
+        assert b.power_flow.arrangement == "carrier in, sun out, ring fixed" and not b.power_flow.sun_drives
+        assert {k: -v for k, v in a.relative_sense.items()} == b.relative_sense
+        for name, pa in a.meshes.items():
+            pb = b.meshes[name]
+            assert (pb.gear_a, pb.gear_b) == (pa.gear_b, pa.gear_a)
+            np.testing.assert_allclose(pb.pitch_point_m, pa.pitch_point_m, atol=1e-15)
+            np.testing.assert_allclose(pb.line_of_action, -pa.line_of_action, atol=1e-15)
+            for g, arm in pa.moment_arm_m.items():
+                assert pb.moment_arm_m[g] == pytest.approx(-arm, abs=1e-15)
+            d = (pa.phase + pb.phase) % 1.0
+            assert min(d, 1.0 - d) < 1e-12
+            d = (pa.delay + pb.delay) % 1.0
+            assert min(d, 1.0 - d) < 1e-12
+        assert b.absolute_ratio["sun"] / b.absolute_ratio["carrier"] == pytest.approx(1 + 175 / 65, rel=1e-12)
+        assert b.absolute_ratio["ring"] == 0.0
+        fl = planetary_torques(w, b, 200.0)
+        rbs = b.sun_mesh(1).base_radius_m[1]
+        assert fl["flanks"] == "drive" and fl["power_flow"].input == "carrier"
+        assert fl["torque_ccw_Nm"]["carrier"] * b.absolute_ratio["carrier"] > 0 > \
+            fl["torque_ccw_Nm"]["sun"] * b.absolute_ratio["sun"]                       # power in, power out
+        for f in fl["force_N"].values():
+            assert f == pytest.approx(200.0 / (1 + 175 / 65) / (n * rbs), rel=1e-12)
+
+
+def test_gear_order_against_the_power_flow_is_refused_with_the_fix(model):
+    """The shipped order (sun -> planet, planet -> ring) with the carrier as input and the sun as output is refused
+    naming the arrangement and the mesh lines that fix it; the fixed file loads; an output that is the input or the
+    fixed member is refused naming the key."""
+    m = dataclasses.replace(model, operating=dataclasses.replace(model.operating, torque_gear="carrier"))
+    with pytest.raises(ModelError, match=r"mesh 'sun_planet': with carrier in, sun out, ring fixed .*'sun' is driven, "
+                                         r"not driving.*'planet' drives 'sun'.*gear_a = \"planet\", gear_b = \"sun\", "
+                                         r"flank_a = \"drive\", flank_b = \"drive\""):
+        planetary_geometry(m)
+    planetary_geometry(dataclasses.replace(_swapped(model), operating=m.operating))
+    with pytest.raises(ModelError, match=r"planetary.output_member = 'carrier' with the input 'carrier'.*allowed: "
+                                         r"'sun'"):
+        planetary_geometry(dataclasses.replace(m, planetary=dataclasses.replace(model.planetary,
+                                                                                output_member="carrier")))
+    text = (ROOT / "models" / "planetary_65_55_175" / "model.toml").read_text()
+    with pytest.raises(ModelError, match=r"output_member = 'ring' is out of range; allowed: a member other than "
+                                         r"fixed_member = 'ring'"):
+        parse_model(text.replace('fixed_member = "ring"', 'fixed_member = "ring"\noutput_member = "ring"'),
+                    file="p.toml")
+    with pytest.raises(ModelError, match=r"planetary.output_member.*unknown value 'planet'"):
+        parse_model(text.replace('fixed_member = "ring"', 'fixed_member = "ring"\noutput_member = "planet"'),
+                    file="p.toml")
+
+
+def _constant_tables(model, k: float, torque: float) -> dict:
+    """Constant-stiffness tables of ``model``'s two meshes (gear order and base radii of the model), the nominal force
+    at ``torque`` on the 3 planets three deflection steps above contact and within the static load grid: exact
+    linear force laws for the tooth geometry's placement (no statics run)."""
+    from hacgear_core.kinds.planetary import constant_stiffness_table
+
+    geo = planetary_geometry(model, 3)
+    fmax = max(planetary_torques(model, geo, torque)["force_N"].values())
+    out = {}
+    for kind in ("sun_planet", "ring_planet"):
+        mm = geo.meshes[f"{kind}_1"]
+        names = tuple("planet" if g.startswith("planet_") else g for g in (mm.gear_a, mm.gear_b))
+        t = constant_stiffness_table(kind, names, mm.teeth, mm.base_radius_m, k, 2.0 * fmax / k)
+        loads = np.array([0.0, 2.0 * fmax])
+        out[kind] = dataclasses.replace(t, load_N=loads, static_deflection_m=np.repeat(loads[None, :] / k, 4, axis=0))
+    return out
+
+
+@pytest.mark.parametrize("inp, out, fixed", ARRANGEMENTS[:4])
+def test_power_flow_tooth_geometry_willis_and_static_forces(model, inp, out, fixed):
+    """The four arrangements of the issue with our tooth geometry's placement (65/55/175, 3 planets; constant-
+    stiffness tables in the gear order each needs: sun -> planet, planet -> ring where the sun drives the planets,
+    planet -> sun, ring -> planet where the ring does): Willis' ratio from the assembled rigid-body mode to 1e-12,
+    the power balance, and the static mesh forces of the torque balance."""
+    m = model if (inp == "sun" or out == "ring") else _swapped(model)
+    m = _arranged(m, inp, out, fixed)
+    sy = build_system(m, _constant_tables(m, 2e8, 200.0))
+    geo = planetary_geometry(m, 3)
+    rbs = geo.sun_mesh(1).base_radius_m[0 if geo.sun_mesh(1).gear_a == "sun" else 1]
+    rbr = geo.ring_mesh(1).base_radius_m[0 if geo.ring_mesh(1).gear_a == "ring" else 1]
+    _check_power_flow(sy, inp, out, fixed, 65, 175, rbs, rbr, 3)
+    np.testing.assert_allclose(sy.mesh_stiffness_N_per_m, 2e8, rtol=1e-12)
+
+
+def test_carrier_input_system_is_the_sun_input_one_run_backwards(model):
+    """Carrier in / sun out with the lines planet -> sun, ring -> planet loads the same flanks as sun in / carrier
+    out with the shipped lines: the assembled systems (constant-stiffness tables) have the same mesh deflection
+    vectors, supports and masses, so the same natural frequencies at rest; only the reference member and its
+    sense of rotation differ (the carrier turns clockwise)."""
+    from hacgear_core.dynamics.modes import gyroscopic_modes
+
+    a = _arranged(model, "sun", "carrier", "ring")
+    b = _arranged(_swapped(model), "carrier", "sun", "ring")
+    sa, sb = build_system(a, _constant_tables(a, 2e8, 200.0)), build_system(b, _constant_tables(b, 2e8, 200.0))
+    assert sa.dof_names == sb.dof_names and sb.reference_gear == "carrier" and sb.gears["carrier"].sense == -1.0
+    np.testing.assert_allclose(sb.V, sa.V, atol=1e-12)
+    np.testing.assert_array_equal(sb.K, sa.K)
+    np.testing.assert_array_equal(sb.M, sa.M)
+    np.testing.assert_allclose(gyroscopic_modes(sb).natural_frequencies_Hz, gyroscopic_modes(sa).natural_frequencies_Hz,
+                               rtol=1e-9, atol=1e-6)

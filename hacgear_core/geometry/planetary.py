@@ -16,13 +16,20 @@ With the sun turning counter-clockwise relative to the carrier and the planets n
 ``gamma_ri = -z_r psi_i / (2 pi)`` mod 1; a planet can only be assembled where ``(z_s + z_r) psi_i / (2 pi)`` is an
 integer.
 
-Kinematics.  Relative to the carrier the members turn with the train's speed ratios ``rho_j`` (sun: the sense of
-its loaded flank, planets and ring from the tooth counts); with the fixed member ``f`` held, the absolute speeds
-are ``omega_j = (rho_j - rho_f) Omega`` and the carrier's ``-rho_f Omega`` (``Omega`` the sun's speed relative to the
-carrier, > 0 when the meshes run forwards: mesh frequency ``z_s Omega / 2 pi``).
+Power flow (:func:`planetary_power_flow`).  The input (``[operating] torque_gear``), the fixed member and the output
+(``[planetary] output_member``, default the remaining one) decide which member drives each mesh relative to the
+carrier: the sun drives the planets when it is the input or the ring the output, otherwise the ring drives the
+planets and the planets drive the sun.  Each mesh names its driver gear_a (the tables' mesh positions advance as
+gear_a drives; a model whose gear order contradicts the power flow is refused with the mesh lines that fix it) and
+the sun is moved to the origin of the placement whichever gear the first mesh names first.
+
+Kinematics.  Relative to the carrier the members turn with the train's speed ratios ``rho_j`` (senses from the
+loaded flank of the first mesh's driver, magnitudes from the tooth counts); with the fixed member ``f`` held, the
+absolute speeds are ``omega_j = (rho_j - rho_f) Omega`` and the carrier's ``-rho_f Omega`` (``Omega`` the sun's
+speed relative to the carrier, > 0 when the meshes run forwards: mesh frequency ``z_s Omega / 2 pi``).
 
 Torque flow.  External torques (counter-clockwise) ``T_s : T_r : T_c = 1 : z_r/z_s : -(1 + z_r/z_s)``; each of the
-``N`` planets carries ``F_s = T_s / (N r_bs)`` on its sun mesh and ``F_r = F_s r_bps / r_bpr`` on its ring mesh
+``N`` planets carries ``F_s = |T_s| / (N r_bs)`` on its sun mesh and ``F_r = F_s r_bps / r_bpr`` on its ring mesh
 (equal load sharing, the nominal forces of the tables and the linearisation).
 
 Lumped models (no tooth geometry) are placed analytically: line of action from the operating pressure angle
@@ -47,6 +54,8 @@ from hacgear_core.geometry.train import train_geometry
 
 __all__ = [
     "PlanetaryMembers",
+    "PlanetaryPowerFlow",
+    "planetary_power_flow",
     "PlanetMesh",
     "PlanetaryGeometry",
     "planetary_members",
@@ -100,6 +109,80 @@ def planetary_members(model: Any) -> PlanetaryMembers:
     sun_mesh = m1.name if ring_mesh == m2.name else m2.name
     return PlanetaryMembers(sun=others[sun_mesh], planet=planet, ring=others[ring_mesh], sun_mesh=sun_mesh,
                             ring_mesh=ring_mesh)
+
+
+@dataclass(frozen=True)
+class PlanetaryPowerFlow:
+    """The power flow of a planetary set: the ``input``, ``output`` and ``fixed`` members (roles ``sun``, ``ring``,
+    ``carrier``) and the member that drives each mesh relative to the carrier: ``sun_mesh_driver`` (``sun`` or
+    ``planet``) and ``ring_mesh_driver`` (``planet`` or ``ring``), gear names of the model.  ``sun_drives``: the
+    sun drives the planets relative to the carrier (the sun is the input or the ring the output)."""
+
+    input: str
+    output: str
+    fixed: str
+    sun_drives: bool
+    sun_mesh_driver: str
+    ring_mesh_driver: str
+
+    @property
+    def arrangement(self) -> str:
+        return f"{self.input} in, {self.output} out, {self.fixed} fixed"
+
+
+def planetary_power_flow(model: Any, input_member: str | None = None,
+                         members: PlanetaryMembers | None = None) -> PlanetaryPowerFlow:
+    """The power flow of ``model``'s planetary set: input ``[operating] torque_gear`` (or ``input_member``: a gear
+    name of the sun or the ring, or ``carrier``), ``[planetary] fixed_member`` and ``[planetary] output_member``
+    (default: the remaining member).
+
+    Relative to the carrier only the sun and the ring turn, and their powers ``T_s (w_s - w_c)`` and ``T_r (w_r -
+    w_c)`` add to 0: one of them drives the planets, the other is driven.  With the torques ``T_s : T_r : T_c = 1 :
+    z_r/z_s : -(1 + z_r/z_s)`` and Willis' kinematics the sun drives exactly when it is the input or the ring is
+    the output (sun in, carrier or ring out; carrier in, ring out with the sun fixed); otherwise the ring drives
+    the planets and the planets drive the sun (carrier in, sun out with the ring fixed: a wind turbine's stage;
+    ring in, sun or carrier out).
+
+    Raises
+    ------
+    ModelError
+        An input that is not a member of the set, an input that is fixed, an output equal to the input.
+    """
+    mem = planetary_members(model) if members is None else members
+    role = {mem.sun: "sun", mem.ring: "ring", "carrier": "carrier"}
+    inp = model.operating.torque_gear if input_member is None else input_member
+    if inp not in role:
+        raise ModelError(f"operating.torque_gear = {inp!r}: the torque of a planetary set acts on a central member "
+                         f"({mem.sun}, {mem.ring} or carrier)")
+    pl = model.planetary
+    i, f = role[inp], pl.fixed_member
+    if i == f:
+        raise ModelError(f"operating.torque_gear = {inp!r} is the fixed member (planetary.fixed_member = '{f}', zero "
+                         "speed): the input torque must act on a turning member")
+    rest = next(r for r in ("sun", "ring", "carrier") if r not in (i, f))
+    o = rest if getattr(pl, "output_member", None) is None else pl.output_member
+    if o != rest:
+        raise ModelError(f"planetary.output_member = '{o}' with the input '{i}' (operating.torque_gear = {inp!r}) "
+                         f"and '{f}' fixed; allowed: '{rest}' (input, output and fixed are the three members)")
+    sun_drives = i == "sun" or o == "ring"
+    return PlanetaryPowerFlow(input=i, output=o, fixed=f, sun_drives=sun_drives,
+                              sun_mesh_driver=mem.sun if sun_drives else mem.planet,
+                              ring_mesh_driver=mem.planet if sun_drives else mem.ring)
+
+
+def _check_drivers(model: Any, mem: PlanetaryMembers, flow: PlanetaryPowerFlow) -> None:
+    """Refuse a mesh whose gear_a is not the member that drives it relative to the carrier (the tables' mesh
+    positions advance as gear_a drives), naming the arrangement and the mesh lines that fix it."""
+    for kind, driver in ((mem.sun_mesh, flow.sun_mesh_driver), (mem.ring_mesh, flow.ring_mesh_driver)):
+        m = model.mesh(kind)
+        if m.gear_a == driver:
+            continue
+        raise ModelError(
+            f"mesh '{kind}': with {flow.arrangement} (operating.torque_gear = {model.operating.torque_gear!r}, "
+            f"planetary.fixed_member, planetary.output_member) '{m.gear_a}' is driven, not driving, relative to the "
+            f"carrier: '{driver}' drives '{m.gear_a}'.  Name the driving member gear_a: gear_a = \"{m.gear_b}\", "
+            f"gear_b = \"{m.gear_a}\", flank_a = \"{m.flank_b}\", flank_b = \"{m.flank_a}\" (the same flanks carry "
+            "the load; the tables' mesh positions advance as gear_a drives, so regenerate them: `hacgear statics`)")
 
 
 def assembly_step_rad(z_sun: int, z_ring: int) -> float:
@@ -187,7 +270,8 @@ class PlanetaryGeometry:
     {member: rho_j}; ``absolute_ratio`` {sun, ring, carrier, planet_i: omega_j / Omega};
     ``meshes`` {instance name: :class:`PlanetMesh`} in the order sun_planet_1, ring_planet_1, sun_planet_2, ...;
     ``sun_delays``/``ring_delays`` (N,) [cycles] and ``ring_sun_phase`` [cycles] (position of ring_planet_1 when
-    sun_planet_1 is at 0); ``lumped`` (placed without tooth geometry)."""
+    sun_planet_1 is at 0); ``lumped`` (placed without tooth geometry); ``power_flow``
+    (:class:`PlanetaryPowerFlow`: input, output, fixed member, the driver of each mesh)."""
 
     members: PlanetaryMembers
     planet_count: int
@@ -204,6 +288,7 @@ class PlanetaryGeometry:
     ring_delays: tuple[float, ...]
     ring_sun_phase: float
     lumped: bool
+    power_flow: PlanetaryPowerFlow | None = None
 
     @property
     def mesh_cycles_per_relative_rad(self) -> float:
@@ -302,9 +387,11 @@ def planetary_geometry(model: Any, planet_count: int | None = None) -> Planetary
     mem = planetary_members(model)
     pos = planet_positions(model, planet_count)
     n = len(pos)
+    flow = planetary_power_flow(model, members=mem)
     lumped = bool(getattr(model, "lumped", False))
     if lumped:
-        return _lumped_geometry(model, mem, pos)
+        return _lumped_geometry(model, mem, pos, flow)
+    _check_drivers(model, mem, flow)
     gg = {g.name: gear_geometry(g) for g in model.gears}
     mg = {m.name: mesh_geometry(model, m.name, gears=gg) for m in model.meshes}
     rc = _carrier_radius(model, mg[mem.sun_mesh])
@@ -325,15 +412,21 @@ def planetary_geometry(model: Any, planet_count: int | None = None) -> Planetary
     for m in dup.meshes:
         if flank_sense[m.flank_a] != tg.sense[m.gear_a]:
             kind = m.name.rsplit("_", 1)[0]
+            other = "coast" if m.flank_a == "drive" else "drive"
+            first = model.mesh(mem.sun_mesh)
             raise ModelError(f"mesh '{kind}': relative to the carrier '{m.gear_a.rsplit('_', 1)[0]}' turns "
-                             f"{'counter-' if tg.sense[m.gear_a] > 0 else ''}clockwise, so its {m.flank_a} flank "
-                             "trails: it is driven, not driving.  Name the driving member of each mesh gear_a (sun "
-                             "input with the ring fixed: sun -> planet, planet (coast) -> ring (drive)); the tables' "
-                             "mesh positions advance as gear_a drives")
-    for g, c in tg.centre_m.items():
-        if g in (mem.sun, mem.ring) and np.linalg.norm(c) > 1e-9:
-            raise ModelError(f"{model.name}: '{g}' is placed off the central axis at {c} m (check the meshes' "
-                             "gear order: the planet must be placed on the carrier radius around sun and ring)")
+                             f"{'counter-' if tg.sense[m.gear_a] > 0 else ''}clockwise (mesh '{mem.sun_mesh}': "
+                             f"'{first.gear_a}' drives with its {first.flank_a} flank), so its {m.flank_a} flank "
+                             f"trails and cannot drive '{m.gear_b.rsplit('_', 1)[0]}': flank_a = \"{other}\" "
+                             "(with the sun driving and the ring fixed: sun -> planet, planet (coast) -> ring (drive); "
+                             "the planet's two meshes load its two flanks)")
+    # the first mesh's gear_a sits at the origin of the placement: move the sun there
+    c0 = np.asarray(tg.centre_m[mem.sun], float)
+    for g in (mem.sun, mem.ring):
+        c = np.asarray(tg.centre_m[g], float) - c0
+        if np.linalg.norm(c) > 1e-9:
+            raise ModelError(f"{model.name}: '{g}' is placed off the central axis at {c} m from the sun (check the "
+                             "meshes' gear order: the planet must be placed on the carrier radius around sun and ring)")
     teeth = {mem.sun: gg[mem.sun].z, mem.ring: gg[mem.ring].z, **{p: gg[mem.planet].z for p in planets}}
     meshes = {}
     for mn in [f"{k}_{i}" for i in range(1, n + 1) for k in (mem.sun_mesh, mem.ring_mesh)]:
@@ -345,17 +438,17 @@ def planetary_geometry(model: Any, planet_count: int | None = None) -> Planetary
                           tooth_passage={pl.gear_a: tg.tooth_passage[pl.gear_a][mn],
                                          pl.gear_b: tg.tooth_passage[pl.gear_b][mn]},
                           base_radius_m=tuple(pl.base_radius_m), teeth=tuple(pl.teeth),
-                          pitch_point_m=np.asarray(pl.pitch_point_m, float),
+                          pitch_point_m=np.asarray(pl.pitch_point_m, float) - c0,
                           coast_line_of_action=None if pl.coast_line_of_action is None
                           else np.asarray(pl.coast_line_of_action, float),
                           coast_moment_arm_m=None if pl.coast_moment_arm_m is None else dict(pl.coast_moment_arm_m),
                           coast_base_radius_m=tuple(inst_mg[mn].base_radius_coast_m[mem.planet if g in planets else g]
                                                     for g in (pl.gear_a, pl.gear_b)),
                           backlash_normal_m=float(pl.backlash_normal_m))
-    return _finish(model, mem, pos, rc, planets, teeth, dict(tg.sense), meshes, lumped=False)
+    return _finish(model, mem, pos, rc, planets, teeth, dict(tg.sense), meshes, lumped=False, flow=flow)
 
 
-def _finish(model, mem, pos, rc, planets, teeth, sense, meshes, *, lumped):
+def _finish(model, mem, pos, rc, planets, teeth, sense, meshes, *, lumped, flow):
     n = len(pos)
     for kind in (mem.sun_mesh, mem.ring_mesh):
         p1 = meshes[f"{kind}_1"]["phase"]
@@ -369,19 +462,25 @@ def _finish(model, mem, pos, rc, planets, teeth, sense, meshes, *, lumped):
         fixed_member=model.planetary.fixed_member, meshes={k: PlanetMesh(**v) for k, v in meshes.items()},
         sun_delays=tuple(meshes[f"{mem.sun_mesh}_{i}"]["delay"] for i in range(1, n + 1)),
         ring_delays=tuple(meshes[f"{mem.ring_mesh}_{i}"]["delay"] for i in range(1, n + 1)),
-        ring_sun_phase=meshes[f"{mem.ring_mesh}_1"]["phase"], lumped=lumped)
+        ring_sun_phase=meshes[f"{mem.ring_mesh}_1"]["phase"], lumped=lumped, power_flow=flow)
 
 
-def _lumped_geometry(model: Any, mem: PlanetaryMembers, pos: tuple[float, ...]) -> PlanetaryGeometry:
-    """Analytic placement of a lumped model (module docstring): the sun turns counter-clockwise relative to the
-    carrier, the planets and the ring clockwise."""
+def _lumped_geometry(model: Any, mem: PlanetaryMembers, pos: tuple[float, ...],
+                     flow: PlanetaryPowerFlow) -> PlanetaryGeometry:
+    """Analytic placement of a lumped model (module docstring).  The driver of the sun mesh turns counter-clockwise
+    relative to the carrier: with the sun driving the planets (``flow.sun_drives``) the sun turns counter-clockwise,
+    the planets and the ring clockwise; with the ring driving the planets and the planets the sun, the mirror image
+    (the sun clockwise, the planets and the ring counter-clockwise: what a tooth model whose gear_a drive flanks
+    are loaded gives).  Either gear order of a mesh is accepted (no flanks to name)."""
     rc = _carrier_radius(model, None)
     g = {x.name: x for x in model.gears}
     zs, zp, zr = g[mem.sun].teeth, g[mem.planet].teeth, g[mem.ring].teeth
     planets = tuple(f"{mem.planet}_{i}" for i in range(1, len(pos) + 1))
-    sense = {mem.sun: 1.0, mem.ring: -1.0, **{p: -1.0 for p in planets}}
+    s = 1.0 if flow.sun_drives else -1.0          # the sun's sense relative to the carrier
+    sense = {mem.sun: s, mem.ring: -s, **{p: -s for p in planets}}
     teeth = {mem.sun: zs, mem.ring: zr, **{p: zp for p in planets}}
     msun, mring = model.mesh(mem.sun_mesh), model.mesh(mem.ring_mesh)
+    rbs, rbp, rbr = g[mem.sun].base_radius_m, g[mem.planet].base_radius_m, g[mem.ring].base_radius_m
     meshes = {}
     for i, psi in enumerate(pos, start=1):
         pname = planets[i - 1]
@@ -391,38 +490,36 @@ def _lumped_geometry(model: Any, mem: PlanetaryMembers, pos: tuple[float, ...]) 
             a = float(m.pressure_angle_rad)
             ring_mesh = mesh_name == mem.ring_mesh
             if not ring_mesh:
-                # sun (CCW) pushes the planet: velocity of the sun at the pitch point +perp, separation +e
-                ga, gb = (mem.sun, pname) if m.gear_a == mem.sun else (pname, mem.sun)
-                drv = mem.sun
-                t, d = perp, e
-                rb_drv, rb_drn = g[mem.sun].base_radius_m, g[mem.planet].base_radius_m
-                arm_drv, arm_drn = rb_drv, -rb_drn
-                pp = rc * e * rb_drv / (rb_drv + rb_drn)
+                # the driver's material at the pitch point moves along s perp (both gears roll there); the driven
+                # gear is pushed away from the driver: the planet along +e (sun driving), the sun along -e
+                drv, drn = (mem.sun, pname) if flow.sun_drives else (pname, mem.sun)
+                nvec = s * (math.cos(a) * perp + math.sin(a) * e)
+                arms_of = {mem.sun: s * rbs, pname: -s * rbp}
+                pp = rc * e * rbs / (rbs + rbp)
             else:
-                # the planet (CW) pushes the ring at its outer side: velocity -perp, separation +e
-                ga, gb = (pname, mem.ring) if m.gear_a == mem.planet else (mem.ring, pname)
-                drv = pname
-                t, d = -perp, e
-                rb_drv, rb_drn = g[mem.planet].base_radius_m, g[mem.ring].base_radius_m
-                arm_drv, arm_drn = -rb_drv, -rb_drn
-                pp = rc * e * rb_drn / (rb_drn - rb_drv)
-            nvec = math.cos(a) * t + math.sin(a) * d
+                # the planet pushes the ring outwards at the planet's outer side (velocity -perp), or the ring
+                # (velocity +perp) pushes the planet inwards
+                drv, drn = (pname, mem.ring) if flow.sun_drives else (mem.ring, pname)
+                nvec = s * (-math.cos(a) * perp + math.sin(a) * e)
+                arms_of = {pname: -s * rbp, mem.ring: -s * rbr}
+                pp = rc * e * rbr / (rbr - rbp)
+            ga = pname if m.gear_a == mem.planet else m.gear_a
+            gb = pname if m.gear_b == mem.planet else m.gear_b
+            arms = {drv: arms_of[drv], drn: arms_of[drn]}
             if ga != drv:  # the model names the driven member first: gear_a pushes gear_b along -n
                 nvec = -nvec
-            arms = {drv: arm_drv, (gb if ga == drv else ga): arm_drn}
-            if ga != drv:
                 arms = {k: -v for k, v in arms.items()}
             if not ring_mesh:
-                ph = _snap(-zs * psi / (2 * math.pi))
+                ph = _snap(-s * zs * psi / (2 * math.pi))
             else:
-                ph = _snap(zr * psi / (2 * math.pi))
+                ph = _snap(s * zr * psi / (2 * math.pi))
             meshes[f"{mesh_name}_{i}"] = dict(
                 name=f"{mesh_name}_{i}", kind=mesh_name, planet=i, gear_a=ga, gear_b=gb, internal=ring_mesh,
                 line_of_action=nvec, moment_arm_m=arms, phase=ph, tooth_passage={ga: 0, gb: 0},
                 base_radius_m=(g[ga if ga in g else mem.planet].base_radius_m,
                                g[gb if gb in g else mem.planet].base_radius_m),
                 teeth=(teeth[ga], teeth[gb]), pitch_point_m=pp)
-    return _finish(model, mem, pos, rc, planets, teeth, sense, meshes, lumped=True)
+    return _finish(model, mem, pos, rc, planets, teeth, sense, meshes, lumped=True, flow=flow)
 
 
 def planetary_torques(model: Any, geometry: PlanetaryGeometry, torque_Nm: float | None = None,
@@ -430,24 +527,27 @@ def planetary_torques(model: Any, geometry: PlanetaryGeometry, torque_Nm: float 
     """Nominal torques and mesh forces of the constant-speed experiment (equal load sharing).
 
     Returns ``{"torque_ccw_Nm": {sun, ring, carrier: T_j counter-clockwise}, "force_N": {mesh instance: F},
-    "flanks": "drive" | "coast", "input": member}``; ``torque_Nm`` [N m] (default ``[operating] torque_Nm``) acts on
-    ``input_member`` (default ``[operating] torque_gear``) in that member's sense of rotation.  A positive torque
-    presses the flanks the model loads (``flank_a``/``flank_b``, "drive"), a negative one the opposite flanks
-    ("coast"); ``F`` is the magnitude of the force on the pressed flanks at the drive flanks' base radii (the
-    builder converts it to the coast base radii, as the spur and idler builders do).
+    "flanks": "drive" | "coast", "input": member, "power_flow": PlanetaryPowerFlow}``; ``torque_Nm`` [N m] (default
+    ``[operating] torque_Nm``) acts on ``input_member`` (default ``[operating] torque_gear``) in that member's
+    sense of rotation: the power enters there.  A positive torque presses the flanks the model loads
+    (``flank_a``/``flank_b``, "drive"), a negative one the opposite flanks ("coast"); ``F`` is the magnitude of the
+    force on the pressed flanks at the drive flanks' base radii (the builder converts it to the coast base radii,
+    as the spur and idler builders do).
+
+    The sun's torque balance gives the sun-mesh force per planet, ``F_s = T_s / (N c_s)`` with ``c_s`` the sun's
+    signed moment arm in the mesh deflection (``+m_sun`` as gear_a, ``-m_sun`` as gear_b: ``|c_s| = r_b,s``); each
+    planet's balance the ring-mesh force ``F_r = F_s r_b,p(sun mesh) / r_b,p(ring mesh)``.
 
     Raises
     ------
     ModelError
         The input member is the fixed one, the torque is 0, or a positive torque would press the flanks the model
-        does not load.
+        does not load (the meshes' gear order does not follow the power flow of ``input_member``).
     """
     mem = geometry.members
     T = model.operating.torque_Nm if torque_Nm is None else float(torque_Nm)
+    flow = planetary_power_flow(model, input_member, members=mem)
     inp = model.operating.torque_gear if input_member is None else input_member
-    if inp not in (mem.sun, mem.ring, "carrier"):
-        raise ModelError(f"operating.torque_gear = {inp!r}: the torque of a planetary set acts on a central member "
-                         f"({mem.sun}, {mem.ring} or carrier)")
     w_in = geometry.absolute_ratio[inp]
     if abs(w_in) < 1e-12:
         raise ModelError(f"operating.torque_gear = {inp!r} is the fixed member (zero speed): the input torque must "
@@ -459,22 +559,29 @@ def planetary_torques(model: Any, geometry: PlanetaryGeometry, torque_Nm: float 
     torque = {k: v * scale for k, v in ratio.items()}
     n = geometry.planet_count
     sm, rm = geometry.sun_mesh(1), geometry.ring_mesh(1)
-    rbs = sm.base_radius_m[0 if sm.gear_a == mem.sun else 1]
     rbps = sm.base_radius_m[1 if sm.gear_a == mem.sun else 0]
     rbpr = rm.base_radius_m[0 if rm.gear_a != mem.ring else 1]
     if not (math.isfinite(T) and T != 0.0):
         raise ModelError(f"torque [N*m] = {T!r} on '{inp}'; allowed: finite and not 0 (negative loads the coast "
                          "flanks)")
-    # sun-mesh force per planet on the flanks the model loads: > 0 presses them, < 0 the coast flanks
-    fs = geometry.relative_sense[mem.sun] * torque[mem.sun] / (n * rbs)
+    # the sun's signed arm in the sun mesh's deflection x = ... + m_a th_a - m_b th_b; the mesh force F (> 0 on the
+    # flanks the model loads) puts -F c_s on the sun's rotation, which the sun's external torque balances
+    # (|c_s| is the sun's base radius r_b,s: the arm's sign times r_b,s keeps the force exact)
+    c_sign = math.copysign(1.0, sm.moment_arm_m[mem.sun]) * (1.0 if sm.gear_a == mem.sun else -1.0)
+    rbs = sm.base_radius_m[0 if sm.gear_a == mem.sun else 1]
+    fs = c_sign * torque[mem.sun] / (n * rbs)
     if fs * T <= 0:
-        raise ModelError(f"with the torque on '{inp}' and '{geometry.fixed_member}' fixed, a positive torque loads the "
-                         "sun on the flanks the model does not load (the sun is driven, not driving, relative to the "
-                         "carrier): swap the loaded flanks of the meshes (flank_a/flank_b) and their gear order")
+        m = model.mesh(mem.sun_mesh)
+        raise ModelError(f"with {flow.arrangement} (torque on '{inp}'), a positive torque loads the flanks the model "
+                         f"does not load: '{flow.sun_mesh_driver}' drives mesh '{mem.sun_mesh}' relative to the "
+                         f"carrier, the model names '{m.gear_a}' (gear_a); swap the meshes' gear order together "
+                         "with their loaded flanks (flank_a/flank_b) and regenerate the tables, or apply the "
+                         "torque with the opposite sign (the coast flanks)")
     fs = abs(fs)
     fr = fs * rbps / rbpr
     forces = {}
     for i in range(1, n + 1):
         forces[geometry.sun_mesh(i).name] = fs
         forces[geometry.ring_mesh(i).name] = fr
-    return {"torque_ccw_Nm": torque, "force_N": forces, "flanks": "drive" if T > 0 else "coast", "input": inp}
+    return {"torque_ccw_Nm": torque, "force_N": forces, "flanks": "drive" if T > 0 else "coast", "input": inp,
+            "power_flow": flow}

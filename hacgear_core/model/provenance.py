@@ -41,7 +41,9 @@ EXCLUDED: dict[type, frozenset[str]] = {
                       "sections", "section"}),
     Gear: frozenset({"support", "mass_kg", "inertia_kgm2"}),
     Material: frozenset({"name", "density_kg_per_m3"}),
-    Planetary: frozenset({"planet_count", "carrier_mass_kg", "carrier_inertia_kgm2", "carrier_support"}),
+    # the power flow's output member names the driver of each mesh, which the meshes' own gear order already holds
+    Planetary: frozenset({"planet_count", "carrier_mass_kg", "carrier_inertia_kgm2", "carrier_support",
+                          "output_member"}),
 }
 
 

@@ -684,7 +684,10 @@ class Planetary:
     rotational stiffness ``inf`` = the carrier follows the kinematics (prescribed, the default), ``0`` = free
     (a torque port), finite = sprung to the kinematic motion).  ``fixed_member``: the member held at zero
     speed (``ring`` by default; its rotational support stiffness: ``inf`` held, finite a sprung reaction
-    mount, ``0`` a free reaction port).  ``pin_errors``: planet pin position errors.
+    mount, ``0`` a free reaction port).  ``output_member``: the member the power leaves by (None: the one that is
+    neither the input, ``[operating] torque_gear``, nor fixed); with the input and the fixed member it sets the
+    power flow (:func:`hacgear_core.geometry.planetary.planetary_power_flow`).  ``pin_errors``: planet pin
+    position errors.
     """
 
     planet_count: int
@@ -695,6 +698,7 @@ class Planetary:
     planet_positions_rad: tuple[float, ...] | None = None
     fixed_member: str = "ring"
     pin_errors: tuple[PinError, ...] = ()
+    output_member: str | None = None
 
     def __post_init__(self) -> None:
         RANGES["planet_count"].check("planet_count", self.planet_count)
@@ -704,6 +708,11 @@ class Planetary:
         _check_range("carrier_inertia_kgm2", self.carrier_inertia_kgm2, "kg*m^2", 0.0, None)
         if self.fixed_member not in PLANETARY_MEMBERS:
             raise _fail("fixed_member", "", " | ".join(PLANETARY_MEMBERS), self.fixed_member)
+        if self.output_member is not None and self.output_member not in PLANETARY_MEMBERS:
+            raise _fail("output_member", "", " | ".join(PLANETARY_MEMBERS), self.output_member)
+        if self.output_member == self.fixed_member:
+            raise _fail("output_member", "", f"a member other than fixed_member = '{self.fixed_member}' (the fixed "
+                        "member does not turn: no power leaves by it)", self.output_member)
         if self.planet_positions_rad is not None:
             pos = tuple(float(a) for a in self.planet_positions_rad)
             if len(pos) != self.planet_count:

@@ -75,6 +75,10 @@ that drives it relative to the carrier)::
     fixed_member = "ring"                        # ring | carrier | sun, held at zero speed (its rotational support
                                                  # stiffness: inf held, finite sprung reaction, 0 a free port); a
                                                  # fixed member without [gears.support] is held (ring fixed)
+    output_member = "carrier"                    # optional: ring | carrier | sun, the member the power leaves by
+                                                 # (default: the one neither [operating] torque_gear, the input,
+                                                 # nor fixed); input, output and fixed set which member drives
+                                                 # each mesh relative to the carrier (its gear_a)
     [planetary.carrier_support]                  # absent: rotation prescribed (follows the kinematics), rigid
     translational_stiffness_N_per_m = 1e8; rotational_stiffness_Nm_per_rad = inf   # inf prescribed, 0 free
     [[planetary.pin_errors]]                     # optional: planet pin position errors
@@ -268,7 +272,7 @@ _MESH_KEYS = ("name", "gear_a", "gear_b", "flank_a", "flank_b", "center_distance
 _LUMPED_GEAR_KEYS = ("name", "teeth", "internal", "mass_kg", "inertia_kgm2", "base_radius_mm", "support")
 _LUMPED_MESH_KEYS = ("name", "gear_a", "gear_b", "mesh_stiffness_N_per_m", "pressure_angle_deg")
 _PLANETARY_KEYS = ("planet_count", "planet_positions_deg", "carrier_radius_mm", "carrier_mass_kg",
-                   "carrier_inertia_kgm2", "carrier_support", "fixed_member", "pin_errors")
+                   "carrier_inertia_kgm2", "carrier_support", "fixed_member", "output_member", "pin_errors")
 _PIN_ERROR_KEYS = ("planet", "radial_um", "tangential_um")
 _TOP_KEYS = ("system", "materials", "gears", "meshes", "damping", "operating", "statics", "planetary")
 _STATICS_KEYS = ("positions", "loads", "deflections", "max_torque_factor", "face_slices", "twist_points",
@@ -569,6 +573,7 @@ def _read_planetary(psec: _Section) -> Planetary:
     # absent: the carrier follows the kinematics (prescribed rotation) on rigid bearings
     cs = Support(_INF, _INF) if csec is None else _read_support(csec)
     fixed = psec.string("fixed_member", PLANETARY_MEMBERS, required=False, default="ring")
+    output = psec.string("output_member", PLANETARY_MEMBERS, required=False, default=None)
     errors = []
     for esec in psec.array_of_tables("pin_errors", required=False):
         planet = esec.ranged("planet", "planet_count")
@@ -579,7 +584,7 @@ def _read_planetary(psec: _Section) -> Planetary:
     psec.done(_PLANETARY_KEYS)
     return _wrap(psec, psec.path, lambda: Planetary(
         pc, None if cr is None else cr * 1e-3, cm, ci, cs, planet_positions_rad=positions, fixed_member=fixed,
-        pin_errors=tuple(errors)))
+        pin_errors=tuple(errors), output_member=output))
 
 
 #: what a default means, by key name (the last part of the TOML key)
@@ -604,6 +609,7 @@ DEFAULT_MEANINGS = {
     "carrier_radius_mm": "the sun-planet centre distance", "carrier_mass_kg": "massless carrier",
     "carrier_inertia_kgm2": "carrier without inertia", "carrier_support": "rigid carrier bearings, carrier rotation prescribed by the kinematics",
     "lumped": "gears with tooth geometry (not a lumped model)", "fixed_member": "the ring is held",
+    "output_member": "the member neither the input (torque_gear) nor fixed",
     "pin_errors": "no planet pin position errors", "planet_positions_deg": "equally spaced planets",
     "face_fraction": "gauge at mid face", "max_twist_mrad": "statics grid (mesh twist range, helical pairs)",
     "hand": "spur gear (no hand)", "profile_shift": "no profile shift (x = 0)",

@@ -581,3 +581,62 @@ def test_carrier_input_system_is_the_sun_input_one_run_backwards(model):
     np.testing.assert_array_equal(sb.M, sa.M)
     np.testing.assert_allclose(gyroscopic_modes(sb).natural_frequencies_Hz, gyroscopic_modes(sa).natural_frequencies_Hz,
                                rtol=1e-9, atol=1e-6)
+
+
+def _carrier_in_text(grid: str) -> str:
+    """The shipped 65/55/175 file run as carrier in, sun out, ring fixed: its meshes named by their drivers
+    (planet -> sun, ring -> planet, the same flanks loaded), the carrier free, the sun's torque port free, the
+    statics grid ``grid``."""
+    src = (ROOT / "models" / "planetary_65_55_175" / "model.toml").read_text()
+    meshes = src[src.index("[[meshes]]"):src.index("[planetary]")]
+    swapped = ('[[meshes]]\nname = "sun_planet"\ngear_a = "planet"\ngear_b = "sun"\nflank_a = "drive"\n'
+               'flank_b = "drive"\ncenter_distance_mm = 96.54\nline_of_centres_deg = 180.0\n\n'
+               '[[meshes]]\nname = "ring_planet"\ngear_a = "ring"\ngear_b = "planet"\nflank_a = "drive"\n'
+               'flank_b = "coast"\ncenter_distance_mm = 96.54\n\n')
+    text = src.replace(meshes, swapped).replace('fixed_member = "ring"', 'fixed_member = "ring"\noutput_member = "sun"')
+    text = text.replace('torque_gear = "sun"', 'torque_gear = "carrier"')
+    text = text.replace("rotational_stiffness_Nm_per_rad = inf   # prescribed", "rotational_stiffness_Nm_per_rad = 0.0 #")
+    return text.replace("positions = 64\nloads = 32\ndeflections = 64", grid)
+
+
+def test_carrier_input_tables_are_the_sun_input_tables_mirrored(tmp_path):
+    """Our statics on the carrier-in file (planet -> sun, ring -> planet; smallest grid: 8 positions, 4 loads, 16
+    deflections, drive side) give the sun-in file's tables (same nominal mesh force) mirrored in mesh position,
+    ``T_b(p) = T_a(-p)``: the same flanks in contact, the motion reversed (static deflections to 1e-15 m, FDF to
+    1e-9 of its largest force); the carrier-in system on these tables turns the sun at Willis' ratio (1e-12) and its
+    static sun and ring mesh forces sum to the torque balance's |T_s| / r_b,s and |T_r| / r_b,r (1e-9: the planets
+    share the load by their phases at a frozen position)."""
+    from hacgear_core.statics.grid import compute_statics
+
+    grid = "positions = 8\nloads = 4\ndeflections = 16"
+    (tmp_path / "b").mkdir()
+    (tmp_path / "b" / "model.toml").write_text(_carrier_in_text(grid))
+    (tmp_path / "a").mkdir()
+    src = (ROOT / "models" / "planetary_65_55_175" / "model.toml").read_text()
+    (tmp_path / "a" / "model.toml").write_text(src.replace("positions = 64\nloads = 32\ndeflections = 64", grid)
+                                               .replace("torque_Nm = 200.0", f"torque_Nm = {200.0 * 65 / 240!r}"))
+    tabs = {}
+    for k in ("a", "b"):
+        compute_statics(tmp_path / k / "model.toml", sides=("drive",), workers=1, progress=False)
+        m = load_model(tmp_path / k / "model.toml")
+        tabs[k] = (m, read_tables(m.tables_path, m.path))
+    (ma, ta), (mb, tb) = tabs["a"], tabs["b"]
+    for kind in ("sun_planet", "ring_planet"):
+        a, b = ta.mesh(kind), tb.mesh(kind)
+        assert b.gear_names == a.gear_names[::-1] and tuple(b.teeth) == tuple(a.teeth)[::-1]
+        mirror = [(-i) % a.position.size for i in range(a.position.size)]
+        np.testing.assert_array_equal(b.load_N, a.load_N)
+        np.testing.assert_allclose(b.static_deflection_m, a.static_deflection_m[mirror], rtol=0, atol=1e-15)
+        np.testing.assert_allclose(b.no_load_deflection_m, a.no_load_deflection_m[mirror], rtol=0, atol=1e-15)
+        np.testing.assert_allclose(b.force_N, a.force_N[mirror], rtol=0, atol=1e-9 * float(np.max(a.force_N)))
+    sy = build_system(mb, tb)
+    geo = planetary_geometry(mb)
+    u = _assembled_rigid_mode(sy, "carrier")
+    assert u[sy.gears["sun"].rotation] / u[sy.gears["carrier"].rotation] == pytest.approx(1 + 175 / 65, rel=1e-12)
+    eq = static_equilibrium(sy, 0.3)
+    t = _torque_magnitudes("carrier", 200.0, 65, 175)
+    sun = np.array([c.group == "sun_planet" for c in sy.meshes])
+    rbs, rbr = geo.sun_mesh(1).base_radius_m[1], geo.ring_mesh(1).base_radius_m[0]
+    assert np.all(eq.mesh_forces_N > 0)
+    assert float(np.sum(eq.mesh_forces_N[sun])) * rbs == pytest.approx(t["sun"], rel=1e-9)
+    assert float(np.sum(eq.mesh_forces_N[~sun])) * rbr == pytest.approx(t["ring"], rel=1e-9)

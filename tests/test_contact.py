@@ -500,3 +500,233 @@ def test_tip_edge_and_flank_pressures_are_told_apart():
     np.testing.assert_array_equal(np.maximum(sol.flank_pressure_Pa, sol.edge_pressure_Pa), sol.peak_pressure_Pa)
     mid = s.solve_load(0.5, 2412.0)
     assert np.all(mid.edge_pressure_Pa == 0.0) and np.all(mid.flank_pressure_Pa == mid.peak_pressure_Pa)
+
+
+# ------------------------------------------------------------------------------ pitch point off a flank
+# NREL 5 MW reference gearbox, stage 2 (Nejad et al. 2016, Wind Energy 19, doi 10.1002/we.1884) in the ISO form:
+# m_n 21 mm, z 18 / 36 / 93 (ring internal), x 0.389 / 0.504 / 0.117, k m_n -1.75 / -1.75 / 0 mm, a_w 584 mm.  The
+# ring's tip circle (d_a 1906.086 mm) lies outside the ring-planet operating pitch circle (d_w 1905.684 mm): the
+# pitch point is off the ring's flank.  Thickness allowances (-0.1 / -0.2 mm on the sun and the planet) give the
+# set its backlash (with nominal thicknesses the sun-planet teeth overlap at 584 mm).
+_NREL2 = """
+[system]
+name = "nrel_stage2_ring_planet"
+kind = "planetary"
+[materials.steel]
+density_kg_per_m3 = 7830.0
+youngs_modulus_GPa = 206.0
+poisson_ratio = 0.3
+{gears}
+[[meshes]]
+name = "sun_planet"
+gear_a = "sun"
+gear_b = "planet"
+[[meshes]]
+name = "ring_planet"
+gear_a = "planet"
+gear_b = "ring"
+flank_a = "coast"
+flank_b = "drive"
+[planetary]
+planet_count = 3
+carrier_radius_mm = 584.0
+fixed_member = "ring"
+[damping]
+modal_damping_ratio = 0.02
+[operating]
+torque_Nm = 100000.0
+torque_gear = "sun"
+"""
+_NREL2_GEARS = (("sun", 18, 0.389, -1.75, 100.0, ""), ("planet", 36, 0.504, -1.75, 95.0, ""),
+                ("ring", 93, 0.117, 0.0, 2200.0, "internal = true\n"))
+
+
+def _nrel2_toml(ring_tip_alteration_mm: float = 0.0) -> str:
+    gears = ""
+    for name, z, x, k, bore, extra in _NREL2_GEARS:
+        k = ring_tip_alteration_mm if name == "ring" else k
+        gears += (f'[[gears]]\nname = "{name}"\nteeth = {z}\n{extra}normal_module_mm = 21.0\n'
+                  f'normal_pressure_angle_deg = 20.0\nbasic_rack = "A"\nprofile_shift = {x}\n'
+                  f'tip_alteration_mm = {k}\nface_width_mm = 550.0\nbore_diameter_mm = {bore}\nmaterial = "steel"\n')
+        if name != "ring":
+            gears += "thickness_allowance_upper_mm = -0.1\nthickness_allowance_lower_mm = -0.2\n"
+    return _NREL2.format(gears=gears)
+
+
+def _coarse_fe(factor: float = 20.0):
+    """The default finite-element sizes x ``factor`` (all five lengths: a module-21 gear meshed like a module-1 one)."""
+    from hacgear_core.statics.fe import MeshOptions
+
+    o = MeshOptions()
+    return replace(o, **{k: getattr(o, k) * factor for k in ("flank_size_m", "fillet_size_m", "body_size_m",
+                                                              "fine_layer_m", "growth_length_m")})
+
+
+def _nrel2_model(folder, ring_tip_alteration_mm: float = 0.0):
+    path = folder / "model.toml"
+    path.write_text(_nrel2_toml(ring_tip_alteration_mm))
+    return load_model(path)
+
+
+def _nrel2_ring_force(model) -> float:
+    """Nominal ring-mesh force [N]: the sun torque over 3 planets and the sun's base radius (planet base radius
+    alike in both meshes)."""
+    return model.operating.torque_Nm / (3 * mesh_geometry(model, "sun_planet").base_radius_m["sun"])
+
+
+@pytest.fixture(scope="module")
+def nrel2(tmp_path_factory):
+    return _nrel2_model(tmp_path_factory.mktemp("nrel2"))
+
+
+@pytest.fixture(scope="module")
+def nrel2_solver(nrel2):
+    return make_mesh_solver(nrel2, "ring_planet", fe_options=_coarse_fe(), options=ContactOptions(face_slices=1))
+
+
+def test_pitch_point_off_the_ring_flank_statics_completes(nrel2, nrel2_solver, tmp_path):
+    """NREL stage 2's ring-planet mesh (the pitch point 0.2 mm inside the ring's tip circle; the statics stopped
+    with 'operating pitch radius 0.952842 m lies outside the involute'): the solver places the gears by the ring's
+    involute continued to the pitch point, and `statics` on a tiny grid (4 positions, both sides) completes.  The
+    contact path lies wholly after the pitch point, from the ring's tip circle (closed form) over the contact ratio
+    of the geometry; with no load the drive flanks touch at 0 and the coast flanks at the normal backlash of the
+    geometry (which takes each tooth's thickness on the operating pitch circle from the involute function)."""
+    import functools
+
+    from hacgear_core.statics.coast import make_coast_solver
+    from hacgear_core.statics.grid import load_grid, run_statics
+
+    s = nrel2_solver
+    mg = mesh_geometry(nrel2, "ring_planet")
+    assert s.pitch_point_off_flank == ("ring",)
+    rb_r, rw_r = s.base_radius_m[1], s.operating_pitch_radius_m[1]
+    ra_r = 0.5 * (93 * 21e-3 - 2 * 21e-3 * (1.0 + 0.117))            # ISO 21771 internal tip diameter / 2
+    assert ra_r > rw_r
+    p_b = 2 * math.pi * rb_r / 93
+    lo, hi = s.active_path_phases()
+    assert lo == pytest.approx((math.sqrt(ra_r**2 - rb_r**2) - math.sqrt(rw_r**2 - rb_r**2)) / p_b, rel=1e-6)
+    assert 0.0 < lo < 0.02
+    assert hi - lo == pytest.approx(mg.contact_ratio, rel=1e-9)
+    F = _nrel2_ring_force(nrel2)
+    fac = {"ring_planet": functools.partial(make_mesh_solver, nrel2, "ring_planet", fe_options=_coarse_fe(),
+                                            options=ContactOptions(face_slices=1)),
+           "ring_planet/coast": functools.partial(make_coast_solver, nrel2, "ring_planet", fe_options=_coarse_fe(),
+                                                  options=ContactOptions(face_slices=1))}
+    rep = run_statics(fac, tmp_path / "tables.h5", n_positions=4, n_deflections=4,
+                      loads_N={k: load_grid(3 * F, 3) for k in fac}, workers=1, progress=False)
+    assert rep.success, rep.message
+    drive, coast = rep.meshes["ring_planet"], rep.meshes["ring_planet/coast"]
+    assert abs(drive["no_load_deflection_min_m"]) < 0.05e-6
+    assert coast["no_load_deflection_min_m"] == pytest.approx(mg.backlash_normal_m, abs=0.05e-6)
+    assert drive["fdf_max_decrease_N"] == 0.0 and coast["fdf_max_decrease_N"] == 0.0
+
+
+def test_pitch_point_off_the_flank_is_the_continued_involute(nrel2, nrel2_solver, tmp_path):
+    """The reference (mesh position 0: tooth pair 0 at the pitch point) off the ring's flank is the ring's exact
+    involute continued (the geometry's involute point at the pitch radius), and the contacts then follow the
+    conjugate kinematics: at a light load the ring's contact roll angle of pair k at position tau is
+    tan(alpha_w) + (tau - k) p_b / r_b (within the flank sampling); the same positions of a ring whose tip
+    alteration (+0.3 mm) brings its tip inside the pitch circle (pitch point on its flank: the unchanged path) give
+    the same rolls (1e-5 deg) and, at the nominal load at positions away from the tip, the same pair loads within
+    0.2 % of the mesh force and the same mesh deflection within 0.2 % (measured 0.15 % and 0.08 %: the ring teeth
+    differ by the 0.3 mm)."""
+    from hacgear_core.geometry import gear_geometry
+    from hacgear_core.statics.contact import _extended_involute_polar
+
+    s = nrel2_solver
+    fl = s._flank[1]
+    rb_r, rw_r = s.base_radius_m[1], s.operating_pitch_radius_m[1]
+    u = math.sqrt(rw_r**2 / rb_r**2 - 1.0)
+    xy, _, _ = gear_geometry(nrel2.gear("ring")).involute_point("drive", u)
+    exact = math.atan2(-xy[1] if s._mirror else xy[1], xy[0])
+    inv = fl.region == 2
+    o = np.argsort(fl.radius[inv])
+    rr, ang = fl.radius[inv][o], np.arctan2(fl.xy0[inv, 1], fl.xy0[inv, 0])[o]
+    assert rr[0] > rw_r
+    assert _extended_involute_polar(rr, ang, rb_r, rw_r) == pytest.approx(exact, abs=1e-12)
+    assert s._theta_P_b - s._phi0[1] == pytest.approx(exact, abs=1e-12)
+    # inside the samples the continuation is the involute too (the sampled polar angles, 1e-12 rad)
+    mid = len(rr) // 2
+    assert _extended_involute_polar(rr[:mid], ang[:mid], rb_r, float(rr[-1])) == pytest.approx(ang[-1], abs=1e-12)
+    # conjugate kinematics at a light load; the same positions with the pitch point on the ring's flank
+    alpha_w = math.acos(rb_r / rw_r)
+    p_b = 2 * math.pi * rb_r / 93
+    k = list(s.tooth_offsets)
+    light, nominal = 0.05 * _nrel2_ring_force(nrel2), _nrel2_ring_force(nrel2)
+    control = make_mesh_solver(_nrel2_model(tmp_path, ring_tip_alteration_mm=0.3), "ring_planet",
+                               fe_options=_coarse_fe(), options=ContactOptions(face_slices=1))
+    assert control.pitch_point_off_flank == ()
+    assert control.operating_pitch_radius_m == s.operating_pitch_radius_m
+    for tau in (0.25, 0.5):
+        sol = s.solve_load(tau, light)
+        for kk in (-1, 0):
+            roll = math.tan(alpha_w) + (tau - kk) * p_b / rb_r
+            # within 0.02 deg (0.3 mm on the ring, 5 flank samples; measured <= 0.009 deg).  A reference clamped to
+            # the ring's tip circle instead of the continued involute turns the ring by 0.0034 deg: the exact
+            # involute point above (1e-12 rad) and the on-flank ring below (1e-5 deg) tell it apart
+            assert sol.contact_roll_deg[k.index(kk)] == pytest.approx(math.degrees(roll), abs=0.02)
+        a, b = s.solve_load(tau, nominal), control.solve_load(tau, nominal)
+        assert np.count_nonzero(a.tooth_load_N) == 2
+        np.testing.assert_allclose(a.contact_roll_deg, b.contact_roll_deg, atol=1e-5)     # measured 2e-7 deg
+        np.testing.assert_allclose(a.tooth_load_N, b.tooth_load_N, rtol=0, atol=2e-3 * nominal)
+        assert a.mesh_deflection_m == pytest.approx(b.mesh_deflection_m, rel=2e-3)
+
+
+def test_contact_path_beyond_the_pair_window_is_refused_naming_the_fix(nrel2):
+    """With the pitch point off a flank the contact path lies to one side of it; a path reaching beyond the pairs
+    the solver examines on each side (here pair_window = 1 < 1.63 base pitches) is refused, naming the gear, the
+    keys and the diameter that puts the pitch point on its flank."""
+    from hacgear_core.errors import GeometryError
+
+    with pytest.raises(GeometryError) as exc:
+        make_mesh_solver(nrel2, "ring_planet", fe_options=_coarse_fe(),
+                         options=ContactOptions(face_slices=1, pair_window=1))
+    msg = str(exc.value)
+    assert "'ring_planet'" in msg and "off the involute of 'ring'" in msg and "pair_window = 1" in msg
+    assert "tip circle of 'ring' (d = 1906.0860 mm)" in msg and "d_w = 1905.6842 mm" in msg
+    assert "tip_alteration_mm" in msg and "1.630 base pitches" in msg
+
+
+# the models whose tables were computed before the contact solver continued an involute to an off-flank pitch point
+_TABLED_MODELS = ("gear_train_2stage", "helical_28_33", "idler_28_33_39", "planetary_65_55_175",
+                  "planetary_65_55_175_unmodified", "spur_28t_asym", "spur_50t_icr137", "spur_50t_icr18")
+
+
+@pytest.mark.parametrize("system", _TABLED_MODELS)
+def test_shipped_meshes_have_the_pitch_point_on_both_flanks(system):
+    """Every mesh of the models with committed tables, both sides, has its operating pitch point strictly inside
+    both loaded flanks' sampled involutes, so the solver takes the interpolation it always took (their tables stay
+    bit for bit); only an off-flank pitch point reaches the continued involute."""
+    from hacgear_core.geometry import gear_geometry
+    from hacgear_core.statics.contact import _canonical_flank
+
+    other = {"drive": "coast", "coast": "drive"}
+    model = load_model(system)
+    opts = ContactOptions()
+    gears = {g.name: g for g in model.gears}
+    for mesh in model.meshes:
+        ga, gb = gear_geometry(gears[mesh.gear_a]), gear_geometry(gears[mesh.gear_b])
+        C = mesh_geometry(model, mesh.name).center_distance_m
+        for flanks in ((mesh.flank_a, mesh.flank_b), (other[mesh.flank_a], other[mesh.flank_b])):
+            rb_a, rb_b = ga.base_radius_m[flanks[0]], gb.base_radius_m[flanks[1]]
+            internal = ga.internal or gb.internal
+            rw_a = C * rb_a / (abs(rb_b - rb_a) if internal else rb_a + rb_b)
+            rw_b = C * rb_b / abs(rb_b - rb_a) if internal else C - rw_a
+            for gg, side, rw in ((ga, flanks[0], rw_a), (gb, flanks[1], rw_b)):
+                fl = _canonical_flank(gg, side, opts.n_profile, opts.corner_radius_m, (0.0, 1.0), flanks[0] == "coast")
+                rr = fl.radius[fl.region == 2]
+                assert rr.min() < rw < rr.max(), (system, mesh.name, flanks, gg.name)
+
+
+def test_pitch_point_on_the_flanks_keeps_the_interpolated_reference(solver_unmod):
+    """The 28-tooth pair (pitch point on both flanks): no gear is off its flank and the frame angles are the
+    sampled involutes' polar angles interpolated at the pitch radii, bit for bit (the code path of every shipped
+    table)."""
+    s = solver_unmod
+    assert s.pitch_point_off_flank == ()
+    ref = []
+    for fl, rw in zip(s._flank, s.operating_pitch_radius_m):
+        inv = fl.region == 2
+        o = np.argsort(fl.radius[inv])
+        ref.append(float(np.interp(rw, fl.radius[inv][o], np.arctan2(fl.xy0[inv, 1], fl.xy0[inv, 0])[o])))
+    assert s._phi0 == (-ref[0], s._theta_P_b - ref[1])

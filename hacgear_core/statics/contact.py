@@ -209,6 +209,36 @@ def _canonical_flank(gg: Any, side: str, n: int, corner_radius_m: float, s_range
                   region=region, curvature=curv, contact=contact, s_min=s_range[0], s_max=s_range[1])
 
 
+def _extended_involute_polar(radius_m: np.ndarray, polar_rad: np.ndarray, base_radius_m: float, r: float) -> float:
+    """Polar angle [rad] at radius ``r`` [m] of the involute sampled by (``radius_m``, ``polar_rad``), continued
+    beyond its samples.
+
+    An involute of base radius ``r_b`` has the polar angle ``theta(r) = theta_0 + s inv(arccos(r_b / r))`` with
+    ``s = +-1`` its winding sense (the sign of the samples' angle change with radius), at every ``r >= r_b``;
+    the continuation starts from the sample nearest ``r`` (an end of the ascending ``radius_m``), so it meets the
+    sampled curve there.
+
+    Parameters
+    ----------
+    radius_m, polar_rad : numpy.ndarray
+        Samples of the involute, ``radius_m`` ascending [m], their polar angles [rad].
+    base_radius_m : float
+        Base radius of the involute [m].
+    r : float
+        Radius [m] (>= ``base_radius_m``).
+    """
+    if not r >= base_radius_m:
+        raise GeometryError(f"radius {r:.6g} m lies inside the base circle (r_b = {base_radius_m:.6g} m)")
+
+    def inv(R: float) -> float:
+        a = math.acos(min(base_radius_m / R, 1.0))
+        return math.tan(a) - a
+
+    end = 0 if r < radius_m[0] else len(radius_m) - 1
+    sense = 1.0 if polar_rad[-1] >= polar_rad[0] else -1.0
+    return float(polar_rad[end] + sense * (inv(r) - inv(float(radius_m[end]))))
+
+
 def _project(P: np.ndarray, Q: np.ndarray, NQ: np.ndarray, tree: Any = None):
     """Closest point on the polyline ``Q`` for each point ``P``.
 
@@ -322,6 +352,13 @@ class MeshContactSolver:
     materials : ((E, nu), (E, nu))
     gauges : sequence of (gear index 0|1, gauge index in that gear's compliance, public name)
     options : ContactOptions
+
+    Mesh position 0 places tooth pair 0 with both loaded flanks' involutes through the operating pitch point
+    (the geometry's and the dynamics' convention, :func:`hacgear_core.geometry.train.place_mesh`).  Where the pitch
+    point lies off a flank (its tip circle short of the operating pitch circle: tip-shortened or profile-shifted
+    teeth), that flank's involute is continued to it (:func:`_extended_involute_polar`; the gear is named in
+    ``pitch_point_off_flank``); the contact path then lies wholly to one side of the pitch point, and a path that
+    reaches ``options.pair_window`` base pitches from it is refused (:meth:`active_path_phases`).
     """
 
     #: True for solvers that resolve the face (3D face coupling, helix): :mod:`hacgear_core.statics.helical`
@@ -340,6 +377,7 @@ class MeshContactSolver:
         if all(internal):
             raise GeometryError(f"mesh '{mesh_name}': two internal gears cannot mesh")
         self.internal = any(internal)
+        self.gear_internal = tuple(internal)
         if (flanks[0] == flanks[1]) == self.internal:
             raise SolverError(
                 f"mesh '{mesh_name}': an {'internal' if self.internal else 'external'} mesh loads "
@@ -405,17 +443,80 @@ class MeshContactSolver:
         self._theta_P_b = 0.0 if self.internal else math.pi
         self._O = (np.zeros(2), np.array([rw_a - rw_b * math.cos(self._theta_P_b), 0.0]))
 
-        def polar_at(fl: _Flank, r: float) -> float:
+        off_flank = []
+
+        def polar_at(g: int, r: float) -> float:
+            fl = self._flank[g]
             inv = fl.region == 2
             rr = fl.radius[inv]
             ang = np.arctan2(fl.xy0[inv, 1], fl.xy0[inv, 0])
             o = np.argsort(rr)
-            if not (rr.min() <= r <= rr.max()):
-                raise GeometryError(f"operating pitch radius {r:.6g} m lies outside the involute "
-                                    f"({rr.min():.6g}..{rr.max():.6g} m)")
-            return float(np.interp(r, rr[o], ang[o]))
+            if rr.min() <= r <= rr.max():
+                return float(np.interp(r, rr[o], ang[o]))
+            # the pitch point lies beyond this flank's involute (a tip-shortened or profile-shifted tooth whose
+            # tip circle does not reach the operating pitch circle): the involute extended to r
+            off_flank.append((g, r, float(rr.min()), float(rr.max())))
+            return _extended_involute_polar(rr[o], ang[o], self.base_radius_m[g], r)
 
-        self._phi0 = (-polar_at(self._flank[0], rw_a), self._theta_P_b - polar_at(self._flank[1], rw_b))
+        self._phi0 = (-polar_at(0, rw_a), self._theta_P_b - polar_at(1, rw_b))
+        self.pitch_point_off_flank = tuple(self.gear_names[g] for g, *_ in off_flank)
+        if off_flank:
+            self._check_path_window(off_flank)
+
+    def active_path_phases(self) -> tuple[float, float]:
+        """Ends of the involute contact path on the line of action [base pitches], from the operating pitch point.
+
+        The path is where both loaded flanks' involutes (their sampled involute radii) overlap on the line of
+        action, ``xi`` the roll length of gear_a (``xi_P = sqrt(r_wa^2 - r_ba^2)`` at the pitch point) and
+        ``L_b = (t_wa + t_wb) - xi`` (external) or ``L_b = xi + (t_wb - t_wa)`` (internal) that of gear_b, with
+        ``t_w = sqrt(r_w^2 - r_b^2)``.  Returns ``((xi_lo - xi_P) / p_b, (xi_hi - xi_P) / p_b)``, ``p_b`` the base
+        pitch; both of one sign when the pitch point lies off a flank."""
+        t_w = [math.sqrt(max(rw * rw - rb * rb, 0.0)) for rw, rb in zip(self.operating_pitch_radius_m,
+                                                                         self.base_radius_m)]
+        roll = []
+        for fl, rb in zip(self._flank, self.base_radius_m):
+            rr = fl.radius[fl.region == 2]
+            roll.append((math.sqrt(max(float(rr.min()) ** 2 - rb * rb, 0.0)),
+                         math.sqrt(max(float(rr.max()) ** 2 - rb * rb, 0.0))))
+        (a0, a1), (b0, b1) = roll
+        if self.internal:
+            d = t_w[1] - t_w[0]
+            lo, hi = max(a0, b0 - d), min(a1, b1 - d)
+        else:
+            t = t_w[0] + t_w[1]
+            lo, hi = max(a0, t - b1), min(a1, t - b0)
+        p_b = 2 * math.pi * self.base_radius_m[0] / self.teeth[0]
+        return (lo - t_w[0]) / p_b, (hi - t_w[0]) / p_b
+
+    def _check_path_window(self, off_flank: Sequence[tuple[int, float, float, float]]) -> None:
+        """With the pitch point off a flank the contact path lies to one side of it: refuse a path that reaches
+        beyond the ``pair_window`` tooth pairs examined (and reported) on each side of the reference pair."""
+        lo, hi = self.active_path_phases()
+        W = self.options.pair_window
+        if not lo < hi:
+            raise GeometryError(f"mesh '{self.mesh_name}': the involutes of '{self.gear_names[0]}' and "
+                                f"'{self.gear_names[1]}' do not overlap on the line of action (no contact path)")
+        reach = max(abs(lo), abs(hi))
+        if reach < W:
+            return
+        fixes = []
+        for g, r, r_min, r_max in off_flank:
+            name = self.gear_names[g]
+            internal = self.gear_internal[g]
+            tip_side = (r < r_min) == internal
+            if tip_side:
+                fixes.append(f"the tip circle of '{name}' (d = {2e3 * (r_min if internal else r_max):.4f} mm) "
+                             f"brought to the operating pitch circle (d_w = {2e3 * r:.4f} mm) by its tip alteration "
+                             f"(tip_alteration_mm / tip_diameter_mm) or profile shift")
+            else:
+                fixes.append(f"the involute form circle of '{name}' (d = {2e3 * (r_max if internal else r_min):.4f} "
+                             f"mm) brought to the operating pitch circle (d_w = {2e3 * r:.4f} mm) by its profile shift "
+                             f"or basic rack (smaller dedendum or root radius)")
+        raise GeometryError(
+            f"mesh '{self.mesh_name}': the operating pitch point lies off the involute of "
+            f"{' and '.join(repr(self.gear_names[g]) for g, *_ in off_flank)} and the contact path reaches "
+            f"{reach:.3f} base pitches from it ({lo:.3f} .. {hi:.3f}), beyond the {W} tooth pairs the contact solver "
+            f"examines on each side of it (ContactOptions.pair_window = {W}); fix: {'; '.join(fixes)}")
 
     def frame_angles(self, position: float) -> tuple[float, float]:
         """Rotation angles [rad] of the canonical frames of gear_a (CCW) and gear_b (CW external, CCW

@@ -44,7 +44,7 @@ def test_cli_user_errors_are_reported_without_traceback(capsys):
     assert main(["modes", "synthetic:29t", "--torque", "100"]) == 2
     assert "synthetic:28t" in capsys.readouterr().err
     assert main(["modes", "synthetic:28t", "--torque", "0"]) == 2  # the option, its value and range
-    assert "--torque [N*m] = 0.0 is out of range; allowed: magnitude (0, 1e+06], either sign" in capsys.readouterr().err
+    assert "--torque [N*m] = 0.0 is out of range; allowed: magnitude (0, 1e+08], either sign" in capsys.readouterr().err
     assert main(["modes", "synthetic:28t", "--torque", "-5"]) == 2  # the coast flanks: drive-only tables
     assert "coast" in capsys.readouterr().err
 

@@ -51,8 +51,8 @@ def test_torque_and_torques_exclude_each_other(capsys):
     (["sweep", "spur_28t_asym", "--fm", "-1000:4000:31"],
      "--fm START and STOP [Hz] = '-1000:4000:31' are out of range; allowed: (0, 100000] each"),
     (["simulate", "spur_28t_asym", "--fm", "-5"], "--fm [Hz] = -5.0 is out of range; allowed: (0, 100000]"),
-    (["sweep", "spur_28t_asym", "--fm", "1000:2000:3", "--torque", "-2e7"],
-     "--torque [N*m] = -20000000.0 is out of range; allowed: magnitude (0, 1e+06], either sign"),
+    (["sweep", "spur_28t_asym", "--fm", "1000:2000:3", "--torque", "-2e9"],
+     "--torque [N*m] = -2000000000.0 is out of range; allowed: magnitude (0, 1e+08], either sign"),
 ])
 def test_a_negative_value_reaches_its_option_and_its_range_check(argv, message, capsys):
     """argparse took '-1000:4000:31' for an option ('expected one argument'); now the option gets it and says
@@ -230,8 +230,8 @@ def test_statics_with_other_grid_options_keeps_a_finished_table(tmp_path, capsys
     (["modes", "spur_28t_asym", "--bearing-stiffness", "-1"],
      "--bearing-stiffness [N/m] = -1.0 is out of range; allowed: [0, 1e+15] or inf"),
     (["modes", "planetary_65_55_175", "--planets", "13"], "--planets [-] = 13 is out of range; allowed: integer in [1, 12]"),
-    (["sweep", "spur_28t_asym", "--fm", "1000:2000:3", "--torques", "100,2e7"],
-     "--torques [N*m] = 20000000.0 is out of range; allowed: magnitude (0, 1e+06], either sign"),
+    (["sweep", "spur_28t_asym", "--fm", "1000:2000:3", "--torques", "100,2e9"],
+     "--torques [N*m] = 2000000000.0 is out of range; allowed: magnitude (0, 1e+08], either sign"),
     (["stiffness", "spur_28t_asym", "--positions", "2"], "--positions [-] = 2 is out of range; allowed: integer in [4, 4096]"),
 ])
 def test_out_of_range_options_name_option_value_and_range(argv, message, capsys):

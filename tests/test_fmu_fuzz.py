@@ -46,8 +46,8 @@ VALUES = {
     "wheel.bearing_stiffness": [None, -5.0] + NASTY,
     "pinion.speed_start": [None, 300.0, -300.0, 3e4] + NASTY,
     "pinion.speed_in": [None, 300.0, -700.0, 2e4, 0.0, 3e4] + NASTY,
-    "pinion.torque_in": [None, 400.0, -1e6, 2e6] + NASTY,
-    "wheel.torque_in": [None, -400.0, 1e6, -2e6] + NASTY,
+    "pinion.torque_in": [None, 400.0, -1e8, 2e8] + NASTY,
+    "wheel.torque_in": [None, -400.0, 1e8, -2e8] + NASTY,
 }
 MODES = [0, 1, 2, -1, 7, 2**31 - 1]
 #: outputs compared after every successful initialization (the reference model's initial states)
@@ -466,10 +466,12 @@ def test_fuzzed_call_sequences_pythonfmu(pyfmus, spec, capsys, version, n):
     assert c.sequences >= n and c.calls > 3 * n
     refused = DISCARD if version == 2 else ERROR
     for key in (("exit", OK), ("doStep", OK), ("doStep(t", refused), ("set", OK), ("getReal", OK),
-                ("doStep", DISCARD), ("terminate", OK), ("deserialize", OK), ("set", OK), ("getReal", OK)):
+                ("doStep", DISCARD), ("terminate", OK), ("deserialize", OK), ("set", OK), ("getReal", OK),
+                ("initial state", "repeated")):
         assert c.statuses.get(key, 0) > 0, (key, c.statuses)
-    assert not any(s_ not in (OK, DISCARD, ERROR) for _, s_ in c.statuses)
-    assert not any(s_ != OK for (op, s_) in c.statuses if not op.startswith("doStep"))
+    statuses = [(op, s_) for op, s_ in c.statuses if op != "initial state"]
+    assert not any(s_ not in (OK, DISCARD, ERROR) for _, s_ in statuses)
+    assert not any(s_ != OK for (op, s_) in statuses if not op.startswith("doStep"))
 
 
 @pytest.mark.slow

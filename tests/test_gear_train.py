@@ -386,14 +386,16 @@ def test_one_gear_train_fmu_against_the_two_stage_bench_of_two_fmus(tmp_path):
 
 
 def test_readme_lists_the_fmu_variables_of_the_spec():
-    """models/gear_train_2stage/readme.md shows the variables its FMU declares (shaft2.torque included)."""
-    from hacgear_core.fmu import variables_for
-    from hacgear_core.fmu.spec import readme_with_variables, variables_table
+    """models/gear_train_2stage/readme.md shows the coupling diagram and the variables its FMU declares
+    (shaft2.torque included)."""
+    from hacgear_core.fmu.adapter import make_adapter
+    from hacgear_core.fmu.documentation import readme_block
+    from hacgear_core.fmu.spec import readme_with_variables
 
     folder = resolve_model_path(SYSTEM).parent
     text = (folder / "readme.md").read_text(encoding="utf-8")
     assert "`shaft2.torque`" in text
-    assert readme_with_variables(text, variables_table(variables_for(folder))) == text, \
+    assert readme_with_variables(text, readme_block(make_adapter(folder))) == text, \
         f"run `python build_fmu.py --system {SYSTEM} --readme`"
 
 

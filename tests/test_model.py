@@ -120,7 +120,7 @@ MALFORMED = [
      r"key 'damping\.modal_damping_ratio' \[-\]: value 1 out of range; allowed: \[0, 1\)"),
     ("zero torque",
      lambda t: _replace_once(t, "torque_Nm = 300.0", "torque_Nm = 0.0"),
-     r"key 'operating\.torque_Nm' \[N\*m\]: value 0 out of range; allowed: \(0, 1e\+06\]"),
+     r"key 'operating\.torque_Nm' \[N\*m\]: value 0 out of range; allowed: \(0, 1e\+08\]"),
     ("nan value",
      lambda t: _replace_once(t, "face_width_mm = 15.0", "face_width_mm = nan"),
      r"key 'gears\[0\]\.face_width_mm' \[mm\]: value nan out of range"),

@@ -29,9 +29,10 @@ from hacgear_core.cli._commands import command_help
 from hacgear_core.cli._help import plain_text
 from hacgear_core.errors import HacgearError, ModelError
 from hacgear_core.fmu import build_fmu
-from hacgear_core.fmu.adapter import variables_for
+from hacgear_core.fmu.adapter import make_adapter
+from hacgear_core.fmu.documentation import readme_block
 from hacgear_core.fmu.pythonfmu_backend import choose_backend
-from hacgear_core.fmu.spec import readme_with_variables, variables_table
+from hacgear_core.fmu.spec import readme_with_variables
 from hacgear_core.model import resolve_model_path, shipped_systems_dir
 
 __all__ = ["register", "run", "validate_fmu", "FMUTOOL_MISSING"]
@@ -115,7 +116,7 @@ def run(args: argparse.Namespace) -> int:
             continue
         if args.readme:
             try:
-                table = variables_table(variables_for(d))
+                table = readme_block(make_adapter(d))
             except HacgearError as exc:
                 print(f"hacgear fmu: {d.name}: no FMU, readme unchanged ({exc})")
                 continue

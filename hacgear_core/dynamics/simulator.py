@@ -525,6 +525,30 @@ class Simulator:
         self.speed_rad_s = [g.sense * (g.speed_ratio * w + (st[n + g.rotation] if g.rotation >= 0 else 0.0))
                             for g in self._gears]
 
+    # ------------------------------------------------------------------ energy (drivetrain coupling)
+    def kinetic_energy_J(self) -> float:
+        """Kinetic energy [J] of the system now (absolute motion: the reference motion and the deviations)."""
+        sy = self.system
+        return sy.kinetic_energy_J(self.s[sy.n:], self.kin[2])
+
+    def elastic_energy_J(self) -> float:
+        """Potential energy [J] of the system now: supports, shafts and meshes
+        (:meth:`~hacgear_core.dynamics.system.LumpedSystem.elastic_energy_J`)."""
+        sy = self.system
+        q = self.s[:sy.n]
+        return sy.elastic_energy_J(q, self.kin[0] + sy.phase + sy.W @ q, self.kin[2])
+
+    def dissipated_power_W(self) -> float:
+        """Power [W] the modal damping dissipates now."""
+        sy = self.system
+        return sy.dissipated_power_W(self.s[sy.n:])
+
+    def port_power_W(self, gear: str) -> float:
+        """Power [W] into the system at port ``gear``: the torque on it during the last step (drivetrain coupling:
+        its shaft torque input; constant speed: the torque set-point's load on it, 0 on a gear held by its shaft)
+        times its speed now, each in the gear's sense of rotation (negative: power leaves, e.g. into a load)."""
+        return float(self.port_torques_Nm.get(gear, 0.0) * self.speed_rad_s[self.gear_index(gear)])
+
     def gear_index(self, gear: str) -> int:
         """Index of ``gear`` in :attr:`gear_names` (and in ``angle_rad``, ``speed_rad_s``)."""
         try:

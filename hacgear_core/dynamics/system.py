@@ -201,6 +201,10 @@ class LumpedSystem:
     bearing_maps : mapping, optional
         {gear: (A (2, n), b (2,), c (2,))}: the force [N] the gear puts on its bearing is ``A q + b + W_c^2 c`` in
         the system's frame (default: its support springs, or the sum of its mesh forces on a rigid bearing).
+    reference_motion : (n,) array, optional
+        DOF motion per radian of the reference motion (the train's rigid rotation, also where supports hold it):
+        the absolute DOF velocities are ``q' + omega_ref * reference_motion`` (default: ``rigid_mode``, else each
+        gear's speed ratio on its rotation).
     """
 
     def __init__(self, *, name: str, kind: str, dof_names: Sequence[str], mass: np.ndarray, stiffness: np.ndarray,
@@ -210,7 +214,8 @@ class LumpedSystem:
                  carrier_ratio: float = 0.0, rigid_mode: np.ndarray | None = None,
                  mesh_cycles_per_rad: float | None = None, nominal_torques_per_Nm: Mapping[str, float] | None = None,
                  static_forces: np.ndarray | None = None,
-                 bearing_maps: Mapping[str, tuple[np.ndarray, np.ndarray]] | None = None) -> None:
+                 bearing_maps: Mapping[str, tuple[np.ndarray, np.ndarray]] | None = None,
+                 reference_motion: np.ndarray | None = None) -> None:
         n = len(dof_names)
         self.name = name
         self.kind = kind
@@ -258,6 +263,14 @@ class LumpedSystem:
             if g not in self.gears or self.gears[g].rotation < 0:
                 raise ModelError(f"{name}: nominal torque on '{g}', which has no rotation DOF")
         self.static_forces = np.zeros(n) if static_forces is None else np.ascontiguousarray(static_forces, float)
+        if reference_motion is None and self.rigid_mode is not None:
+            reference_motion = self.rigid_mode
+        if reference_motion is None:
+            reference_motion = np.zeros(n)
+            for g in self.gears.values():
+                if g.rotation >= 0:
+                    reference_motion[g.rotation] = g.speed_ratio
+        self.reference_motion = np.ascontiguousarray(reference_motion, dtype=float)
         if self.static_forces.shape != (n,):
             raise ModelError(f"{name}: static_forces must have shape ({n},), got {self.static_forces.shape}")
         self.bearing_maps = {} if bearing_maps is None else {
@@ -390,6 +403,9 @@ class LumpedSystem:
 
     def __setstate__(self, st: dict) -> None:
         self.__dict__.update(st)
+        if "reference_motion" not in st:  # pickled before the attribute existed
+            self.reference_motion = self.rigid_mode if self.rigid_mode is not None else np.array(
+                [next((g.speed_ratio for g in self.gears.values() if g.rotation == i), 0.0) for i in range(self.n)])
         self.kernel = self._select_kernel()
 
     def fingerprint(self) -> str:
@@ -547,6 +563,31 @@ class LumpedSystem:
         """Local slope dFc/dxc [N/m] of mesh ``k``'s coast table (0 without one)."""
         return self.mesh_law.coast_slope(k, tau, xc)
 
+    # ------------------------------------------------------------------ energy
+    def kinetic_energy_J(self, v: np.ndarray, omega_ref: float) -> float:
+        """Kinetic energy [J] ``1/2 u'^T M u'`` of the absolute DOF velocities ``u' = v + omega_ref
+        reference_motion`` (``v`` (n,) the deviation velocities, ``omega_ref`` [rad/s] the reference speed)."""
+        u = np.asarray(v, float) + float(omega_ref) * self.reference_motion
+        return 0.5 * float(u @ self.M @ u)
+
+    def elastic_energy_J(self, q: np.ndarray, tau: np.ndarray, omega_ref: float) -> float:
+        """Potential energy [J] at deviations ``q`` (n,), mesh positions ``tau`` (m,) and reference speed
+        ``omega_ref`` [rad/s]: the supports' and shafts' ``1/2 q^T K q`` less the work of the static spring forces
+        ``f_s . q``, the centrifugal potential ``-1/2 W_c^2 q^T K_W q`` of a rotating frame, and the meshes' strain
+        energy (:meth:`~hacgear_core.dynamics.laws.MeshLaw.elastic_energy`)."""
+        q = np.asarray(q, float)
+        wc = self.carrier_ratio * float(omega_ref)
+        e = 0.5 * float(q @ self.K @ q) - float(self.static_forces @ q)
+        if wc:
+            e -= 0.5 * wc * wc * float(q @ self.K_W @ q)
+        return e + self.mesh_law.elastic_energy(self, q, np.asarray(tau, float))
+
+    def dissipated_power_W(self, v: np.ndarray) -> float:
+        """Power [W] the modal damping dissipates at deviation velocities ``v`` (n,): ``v^T C v`` (>= 0; the rigid
+        rotation is undamped, ``C u = 0``)."""
+        v = np.asarray(v, float)
+        return float(v @ self.C @ v)
+
     # ------------------------------------------------------------------ modal facts
     def natural_frequencies_Hz(self) -> np.ndarray:
         """Elastic natural frequencies of the linearisation used for damping [Hz], ascending."""
@@ -621,7 +662,8 @@ class LumpedSystem:
                   force_law=self.force_law_name, reference_gear=self.reference_gear, gyroscopic=self.G,
                   centripetal=self.K_W, carrier_ratio=self.carrier_ratio, rigid_mode=self.rigid_mode,
                   mesh_cycles_per_rad=self.zref_2pi, nominal_torques_per_Nm=self.nominal_torques_per_Nm,
-                  static_forces=self.static_forces, bearing_maps=self.bearing_maps)
+                  static_forces=self.static_forces, bearing_maps=self.bearing_maps,
+                  reference_motion=self.reference_motion)
         if "torque_Nm" in changes and "meshes" not in changes:
             t = float(changes["torque_Nm"])
             r = abs(t / self.torque_Nm)  # nominal forces are magnitudes; the torque's sign picks the flanks

@@ -49,6 +49,9 @@ from hacgear_core.tables.check import STEEL_PRESSURE_LIMIT_PA
 __all__ = ["MODEL_FILE", "TABLES_FILE", "Adapter", "make_adapter", "variables_for"]
 
 MODEL_FILE = "model.toml"
+#: a mode counts for the recommended communication step when a port's rotation holds at least this share of its
+#: modal mass (the shipped systems: 0.009 to 0.5 for the modes that move a port, below 1e-4 for the others)
+PORT_MODE_SHARE = 1e-3
 TABLES_FILE = "tables.h5"
 
 
@@ -141,6 +144,7 @@ class Adapter:
         #: per mesh: the integration steps beyond its tables so far (the slave warns once per mesh)
         self.out_of_range_reported: set = set()
         self.mode = Experiment.SPEED
+        self._start_speed = self.nominal["resonance_speed_rad_s"]
         self.input_checks: tuple = ()
         self.step_floor_s = 0.0
 
@@ -293,9 +297,12 @@ class Adapter:
         ]
         for g in self.ports:
             role = "driving (positive)" if g == inp else "a braking load is negative"
+            # the torque range of the input gear, carried through the train: a slower port holds more torque
+            t_port = t_max * max(1.0, 1.0 / abs(self.speed_ratio(g)))
             spec.append(V(f"{ident(g)}.torque_in", "Real", "input", "continuous", "N.m",
-                          f"drivetrain mode: shaft torque on gear {g}, positive in its sense of rotation ({role})",
-                          port_t[g], -t_max, t_max, nominal=abs(port_t[g]) or None))
+                          f"drivetrain mode: shaft torque on gear {g}, positive in its sense of rotation ({role}); "
+                          f"range: the torque range times the gear's speed ratio to the input where it turns slower",
+                          port_t[g], -t_port, t_port, nominal=abs(port_t[g]) or None))
         pressure = nom["pressure"]
         for k, mn in enumerate(self.mesh_names):
             c = sy.meshes[k]
@@ -429,10 +436,112 @@ class Adapter:
         for extra in kind_of(self.kind).extra_outputs(self.model, sy):
             spec.append(V(extra.name, "Real", "output", "continuous", extra.unit, extra.description,
                           read=Reading(call=lambda s, _, read=extra.read: float(read(s)))))
+        spec += self._coupling_spec()
         names = [v.name for v in spec]
         if len(set(names)) != len(names):
             raise ModelError(f"FMU variable names are not unique: {names}")
         return tuple(spec)
+
+    def _coupling_spec(self) -> list[FmuVariable]:
+        """What a drivetrain coupling needs: per port its speed ratio, own and train inertia (calculated
+        parameters), the recommended communication step, and the energy flows (port powers, dissipated power,
+        kinetic and elastic energy) that close the balance ``sum of port powers - dissipated power = d(kinetic +
+        elastic energy)/dt``."""
+        sy = self.spec_system
+        V = FmuVariable
+        inp = sy.input_gear
+        w_res = self.nominal["resonance_speed_rad_s"]
+        p_nom = abs(self.port_torques_Nm[inp] * w_res) or None
+        out = []
+        for g in self.ports:
+            g_ = ident(g)
+            rot = sy.gears[g].rotation
+            out += [
+                V(f"{g_}.speed_ratio", "Real", "calculatedParameter", "fixed", "1",
+                  f"speed of gear {g} over the speed of the input gear {inp}, each in its own sense of rotation "
+                  "(rigid train)", read=Reading(call=lambda s, _, g=g: self.speed_ratio(g))),
+                V(f"{g_}.inertia", "Real", "calculatedParameter", "fixed", "kg.m2",
+                  f"moment of inertia of gear {g} about its axis (its own body, as the lumped model holds it)",
+                  nominal=float(sy.M[rot, rot]), read=Reading(call=lambda s, _, g=g: self.inertia(self.free_system(), g))),
+                V(f"{g_}.train_inertia", "Real", "calculatedParameter", "fixed", "kg.m2",
+                  f"moment of inertia of the whole rigid train referred to gear {g}: sum of J_i (w_i/w_{g_})^2 "
+                  f"(what a shaft on {g} accelerates)", nominal=self.train_inertia(sy, g),
+                  read=Reading(call=lambda s, _, g=g: self.train_inertia(self.free_system(), g))),
+            ]
+        if len(self.ports) == 2:
+            o = next(g for g in self.ports if g != inp)
+            out.append(V("gear_ratio", "Real", "calculatedParameter", "fixed", "1",
+                         f"gear ratio i = w_{ident(inp)} / w_{ident(o)} (input over output speed, rigid train)",
+                         read=Reading(call=lambda s, _, o=o: 1.0 / self.speed_ratio(o))))
+        out.append(V("drivetrain_step", "Real", "calculatedParameter", "fixed", "s",
+                     "recommended largest communication step in drivetrain mode: 1/20 of the period of the highest "
+                     "natural frequency of the free train in which a port moves and 1/10 of the mesh period at "
+                     f"{self.ref_ident}.speed_start, rounded down to 1, 2 or 5 x 10^k (a coarser step samples the "
+                     "port motion too seldom: spurious force peaks, states beyond the tables)",
+                     read=Reading(call=lambda s, _: self.drivetrain_step())))
+        for g in self.ports:
+            g_ = ident(g)
+            out.append(V(f"{g_}.power", "Real", "output", "continuous", "W",
+                         f"power into the FMU at gear {g}: the torque on it during the last step ({g_}.torque_in in "
+                         "drivetrain mode; at constant speed the torque set-point's load on it, 0 where its shaft "
+                         "holds it) times its speed at the step's end (negative: power leaves, e.g. into a load)", display_unit="kW",
+                         nominal=p_nom, read=Reading(call=lambda s, _, g=g: s.port_power_W(g))))
+        out += [
+            V("dissipated_power", "Real", "output", "continuous", "W",
+              "power dissipated by the modal damping at the step's end (>= 0)", display_unit="kW", nominal=p_nom,
+              read=Reading(call=lambda s, _: s.dissipated_power_W())),
+            V("kinetic_energy", "Real", "output", "continuous", "J",
+              "kinetic energy of the gears (absolute motion) at the step's end", display_unit="kJ",
+              read=Reading(call=lambda s, _: s.kinetic_energy_J())),
+            V("elastic_energy", "Real", "output", "continuous", "J",
+              "potential energy at the step's end: mesh strain energy, bearing and shaft springs (and the "
+              "centrifugal potential of a rotating carrier frame); in drivetrain mode sum of <port>.power - "
+              "dissipated_power = d(kinetic_energy + elastic_energy)/dt",
+              read=Reading(call=lambda s, _: s.elastic_energy_J())),
+        ]
+        return out
+
+    def speed_ratio(self, gear: str) -> float:
+        """Speed of ``gear`` over the input gear's, each in its own sense of rotation (rigid train)."""
+        gs = self.spec_system.gears
+        g, i = gs[gear], gs[self.spec_system.input_gear]
+        return (g.sense * g.speed_ratio) / (i.sense * i.speed_ratio)
+
+    def free_system(self):
+        """The free train (no shafts: the system that runs in drivetrain mode) of the parameters configured now."""
+        k = self._built_key
+        return self.sim.system if not k[4] else self._system(k[:4] + (False,) + k[5:])
+
+    @staticmethod
+    def inertia(system, gear: str) -> float:
+        """Moment of inertia [kg m^2] of ``gear`` about its axis in ``system``."""
+        r = system.gears[gear].rotation
+        return float(system.M[r, r])
+
+    @staticmethod
+    def train_inertia(system, gear: str) -> float:
+        """Moment of inertia [kg m^2] of the rigid train of ``system`` referred to ``gear``: ``u^T M u / u_g^2``
+        with ``u`` the reference motion."""
+        u = system.reference_motion
+        ug = u[system.gears[gear].rotation]
+        return float(u @ system.M @ u / (ug * ug))
+
+    def drivetrain_step(self) -> float:
+        """The recommended largest communication step [s] in drivetrain mode (see ``drivetrain_step``) of the
+        parameters configured now."""
+        sy = self.free_system()
+        f = 0.0
+        phi = sy.modal_shapes
+        rots = [sy.gears[g].rotation for g in self.ports if g in sy.gears]
+        for j in np.flatnonzero(~sy.rigid_modes):
+            share = max(sy.M[r, r] * phi[r, j] ** 2 for r in rots)   # modal mass share of a port's rotation
+            if share >= PORT_MODE_SHARE:
+                f = max(f, float(sy.modal_omega[j]) / (2 * math.pi))
+        bounds = [1.0 / (20.0 * f)] if f > 0 else []
+        w0 = abs(float(self._start_speed))
+        if w0 > 0:
+            bounds.append(1.0 / (10.0 * w0 * sy.zref_2pi))
+        return _nice_floor(min(bounds)) if bounds else 1e-4
 
     @staticmethod
     def _static_pressures(sy) -> list:
@@ -483,28 +592,14 @@ class Adapter:
         structure = tuple((p.name, int(values[p.name])) for p in self.structural)
         key = self._key(float(values["torque"]), float(values["modal_damping_ratio"]), bearings, h, shafts, structure)
         if key != self._built_key:
-            skey = key[:3] + key[4:]  # the lumped system does not depend on the internal step
-            system = self._systems.pop(skey, None)
-            if system is None:
-                model = self.model
-                if bearings != self._model_bearings(model):
-                    model = self._with_bearings(bearings)
-                try:
-                    system = build_system(model, self.tables, torque_Nm=float(values["torque"]),
-                                          modal_damping_ratio=float(values["modal_damping_ratio"]), shafts=shafts,
-                                          **dict(structure))
-                except ModelError as exc:  # the builder's field names -> this FMU's parameter names
-                    raise ModelError(_FMU_NAMES.sub(lambda mt: _FMU_NAME_OF[mt.group(0)], str(exc))) from None
-            # keep the last few systems: masters that reset and re-initialize do not assemble them again
-            self._systems[skey] = system
-            while len(self._systems) > 8:
-                self._systems.pop(next(iter(self._systems)))
+            system = self._system(key)
             self.sim = Simulator(system, internal_step_s=h)
             self._built_key = key
             self._index()
         self.out_of_range_reported = set()
         self.mode = mode
         ref = ident(self.ref)
+        self._start_speed = float(values[f"{ref}.speed_start"])
         if self.mode == Experiment.SPEED:
             self.sim.reset(speed_rad_s=float(values[f"{ref}.speed_in"]))
         else:
@@ -522,6 +617,26 @@ class Adapter:
         fm_max = 4.0 * max(abs(v.min), abs(v.max)) * sy.zref_2pi  # mesh frequency bound, margin for vibration [Hz]
         floor = min(1.0 / (32.0 * sy.max_frequency_Hz), 1.0 / (128.0 * fm_max))
         self.step_floor_s = min(floor, h) if h else floor
+
+    def _system(self, key: tuple):
+        """The lumped system of the configuration ``key`` (:meth:`_key`), assembled or from the last few kept (masters
+        that reset and re-initialize do not assemble them again)."""
+        torque, zeta, bearings, _, shafts, structure = key
+        skey = key[:3] + key[4:]  # the lumped system does not depend on the internal step
+        system = self._systems.pop(skey, None)
+        if system is None:
+            model = self.model
+            if bearings != self._model_bearings(model):
+                model = self._with_bearings(bearings)
+            try:
+                system = build_system(model, self.tables, torque_Nm=torque, modal_damping_ratio=zeta, shafts=shafts,
+                                      **dict(structure))
+            except ModelError as exc:  # the builder's field names -> this FMU's parameter names
+                raise ModelError(_FMU_NAMES.sub(lambda mt: _FMU_NAME_OF[mt.group(0)], str(exc))) from None
+        self._systems[skey] = system
+        while len(self._systems) > 8:
+            self._systems.pop(next(iter(self._systems)))
+        return system
 
     def active_inputs(self, values: dict) -> tuple[str, ...]:
         """The inputs the experiment chosen in ``values`` reads (checked when initialization ends)."""

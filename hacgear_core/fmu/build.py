@@ -48,6 +48,7 @@ from hacgear_core.dynamics.synthetic import spur_fdf_table
 from hacgear_core.errors import HacgearError
 from hacgear_core.fmu import bootstrap
 from hacgear_core.fmu.adapter import MODEL_FILE, TABLES_FILE, make_adapter
+from hacgear_core.fmu.documentation import DOCUMENTATION_FILE, documentation_html
 from hacgear_core.fmu.components import ComponentAdapter
 from hacgear_core.fmu.numba_cache import MANIFEST_FILE, SHIPPED_DIR, machine
 from hacgear_core.fmu.pythonfmu_backend import BACKENDS, build_pythonfmu
@@ -337,19 +338,22 @@ def model_description(adapter, info: dict, fmi_version: int = 2) -> bytes:
             ET.SubElement(sv, v.type, t)
     ms = ET.SubElement(root, "ModelStructure")
     outputs = [v for v in variables if v.causality == "output"]
+    # FMI 2.0 section 2.2.8, FMI 3.0 section 2.4.8: the initial unknowns are the calculated outputs and the
+    # calculated parameters
+    initial = [v for v in variables if v.causality in ("output", "calculatedParameter")]
     index = {v.name: i + 1 for i, v in enumerate(variables)}  # FMI 2.0: ScalarVariable index
     # outputs at a communication point follow from the state: no direct feedthrough from the inputs
     if v3:
         for v in outputs:
             ET.SubElement(ms, "Output", {"valueReference": str(vrs[v.name]), "dependencies": ""})
-        for v in outputs:
+        for v in initial:
             ET.SubElement(ms, "InitialUnknown", {"valueReference": str(vrs[v.name])})
     else:
         outs = ET.SubElement(ms, "Outputs")
         for v in outputs:
             ET.SubElement(outs, "Unknown", {"index": str(index[v.name]), "dependencies": ""})
         iu = ET.SubElement(ms, "InitialUnknowns")
-        for v in outputs:
+        for v in initial:
             ET.SubElement(iu, "Unknown", {"index": str(index[v.name])})
     ET.indent(root)
     return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
@@ -510,8 +514,10 @@ def _package(adapter, info: dict, files: dict, dest: Path, fmi_version: int, bac
         (res / FMU_INFO_FILE).write_text(json.dumps(info, indent=1), encoding="utf-8")
         if compiled_code:
             ship_compiled_code(res)
+        docs = {DOCUMENTATION_FILE: documentation_html(adapter, info, fmi_version, backend).encode("utf-8")}
         if backend == "pythonfmu":
-            return build_pythonfmu(res, info, model_description(adapter, info, fmi_version), dest, fmi_version)
+            return build_pythonfmu(res, info, model_description(adapter, info, fmi_version), dest, fmi_version,
+                                   extra=docs)
         binary = compile_binary(fmi_version, td / "binaries" / _PLATFORM[fmi_version] / f"{info['system']}.so",
                                 info["python_runtime"])
         xml = model_description(adapter, info, fmi_version)
@@ -519,6 +525,8 @@ def _package(adapter, info: dict, files: dict, dest: Path, fmi_version: int, bac
         with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
             z.writestr("modelDescription.xml", xml)
             z.write(binary, binary.relative_to(td).as_posix())
+            for member, data in docs.items():
+                z.writestr(member, data)
             for p in sorted(res.rglob("*")):  # of the caches, the bundle's bytecode only (bundle_package)
                 if p.is_file() and ("__pycache__" not in p.parts
                                     or (p.is_relative_to(res / package) and p.suffix == ".pyc")):

@@ -10,8 +10,10 @@ whose value references the slave serves.
 """
 from __future__ import annotations
 
+import ast
 import os
 import shutil
+import subprocess
 import sys
 import zipfile
 from pathlib import Path
@@ -19,7 +21,7 @@ from pathlib import Path
 from hacgear_core.errors import HacgearError
 
 __all__ = ["BACKENDS", "PLATFORMS", "build_pythonfmu", "slave_source", "slave_module_name", "pythonfmu_available",
-           "choose_backend"]
+           "choose_backend", "master_env_script", "master_environment"]
 
 #: the FMU backends of :func:`~hacgear_core.fmu.build.build_fmu`
 BACKENDS = ("native", "pythonfmu")
@@ -52,6 +54,42 @@ def slave_source(fmi_version: int) -> str:
     return "".join(out)
 
 
+def master_env_script() -> str:
+    """The slave's ``MASTER_ENV_SCRIPT`` (read from its source: importing the slave imports pythonfmu): Python code
+    printing ``LD_PRELOAD=... PYTHONHOME=... PYTHONPATH=...`` for the interpreter that runs it."""
+    for node in ast.parse(SLAVE_FILE.read_text(encoding="utf-8")).body:
+        if isinstance(node, ast.Assign) and any(getattr(t, "id", "") == "MASTER_ENV_SCRIPT" for t in node.targets):
+            return ast.literal_eval(node.value)
+    raise HacgearError(f"{SLAVE_FILE.name} defines no MASTER_ENV_SCRIPT")  # pragma: no cover
+
+
+def master_environment(python: str | os.PathLike | None = None) -> dict[str, str]:
+    """The environment a master that is not a Python program needs to run a pythonfmu FMU in the Python
+    ``python`` (default: this interpreter), as :func:`master_env_script` prints it: ``LD_PRELOAD`` (its libpython
+    file), ``PYTHONHOME`` (its installation prefix, ``prefix:exec_prefix`` where they differ) and ``PYTHONPATH``
+    (its site-packages, ``os.pathsep``-separated; a virtual environment's are outside PYTHONHOME).
+
+    Raises
+    ------
+    HacgearError
+        ``python`` does not run, or has no shared libpython (a static build: pythonfmu's binaries cannot use it).
+    """
+    exe = str(python) if python is not None else sys.executable
+    try:
+        p = subprocess.run([exe, "-c", master_env_script()], capture_output=True, text=True, timeout=60)
+    except OSError as exc:
+        raise HacgearError(f"cannot run the Python {exe!r}: {exc}") from None
+    text = p.stdout.strip()
+    if p.returncode != 0 or not text.startswith("LD_PRELOAD=") or " PYTHONHOME=" not in text:
+        raise HacgearError(f"the Python {exe!r} did not print its environment: {(p.stderr or text)[-1000:]}")
+    head, path = text.split(" PYTHONPATH=", 1)
+    lib, home = head[len("LD_PRELOAD="):].split(" PYTHONHOME=", 1)
+    if not os.path.isfile(lib):
+        raise HacgearError(f"the Python {exe!r} has no shared libpython ({lib} is not a file): pythonfmu FMUs need "
+                           "one in the master's process; use a Python built with --enable-shared")
+    return {"LD_PRELOAD": lib, "PYTHONHOME": home, "PYTHONPATH": path}
+
+
 def pythonfmu_available(fmi_version: int) -> str:
     """'' when the builder of ``fmi_version`` (pythonfmu, pythonfmu3) imports, else why not."""
     try:
@@ -75,10 +113,12 @@ def choose_backend(requested: str | None = None) -> tuple[str, str]:
                          "win64 binaries")
 
 
-def build_pythonfmu(res: Path, info: dict, xml: bytes, dest: Path, fmi_version: int) -> Path:
+def build_pythonfmu(res: Path, info: dict, xml: bytes, dest: Path, fmi_version: int,
+                    extra: dict[str, bytes] | None = None) -> Path:
     """Write the FMU ``dest`` with pythonfmu's (FMI 2.0) or pythonfmu3's (FMI 3.0) builder from the resources
     folder ``res`` (complete: model, tables, ``hacgear_fmu.json``, loader, bundle; in a temporary folder whose
-    parent takes the builder's output) and the modelDescription ``xml``.
+    parent takes the builder's output), the modelDescription ``xml`` and ``extra`` members (archive name ->
+    bytes: the documentation).
 
     Raises
     ------
@@ -107,7 +147,7 @@ def build_pythonfmu(res: Path, info: dict, xml: bytes, dest: Path, fmi_version: 
         sys.modules.pop(module, None)
     if not tmp.is_file():
         raise HacgearError(f"{_BUILDER[fmi_version]}'s builder wrote no {tmp.name}")
-    _replace_model_description(tmp, xml)
+    _replace_model_description(tmp, xml, extra or {})
     with zipfile.ZipFile(tmp) as z:
         names = set(z.namelist())
     missing = [p for p in PLATFORMS[fmi_version]
@@ -120,12 +160,16 @@ def build_pythonfmu(res: Path, info: dict, xml: bytes, dest: Path, fmi_version: 
     return dest
 
 
-def _replace_model_description(zpath: Path, xml: bytes) -> None:
+def _replace_model_description(zpath: Path, xml: bytes, extra: dict[str, bytes]) -> None:
+    """Our modelDescription ``xml`` and the ``extra`` members in place of the builder's (no bytecode caches)."""
     tmp = zpath.with_name(zpath.name + ".md")
     with zipfile.ZipFile(zpath) as zin, zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zout:
         for item in zin.infolist():
-            if item.filename.endswith("/__pycache__/") or "/__pycache__/" in item.filename:
+            if (item.filename.endswith("/__pycache__/") or "/__pycache__/" in item.filename
+                    or item.filename in extra):
                 continue
             data = xml if item.filename == "modelDescription.xml" else zin.read(item.filename)
             zout.writestr(item.filename, data, compress_type=zipfile.ZIP_DEFLATED)
+        for name, data in extra.items():
+            zout.writestr(name, data, compress_type=zipfile.ZIP_DEFLATED)
     os.replace(tmp, zpath)

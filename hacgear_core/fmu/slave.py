@@ -32,11 +32,12 @@ import math
 from pathlib import Path
 
 from hacgear_core.dynamics.kernels import COMPILE_CPU_S
+from hacgear_core.encodings import Experiment
 from hacgear_core.errors import HacgearError
 from hacgear_core.fmu.adapter import make_adapter
 from hacgear_core.fmu.components import COMPONENTS, ComponentAdapter
 from hacgear_core.fmu.numba_cache import SHIPPED_DIR, install as install_shipped_code
-from hacgear_core.fmu.spec import TIME, TYPES, FmuVariable
+from hacgear_core.fmu.spec import CALCULATED, TIME, TYPES, FmuVariable
 
 __all__ = ["FMU_INFO_FILE", "FmuInstance", "fmu_info", "value_references", "MAX_SUBSTEPS_PER_STEP",
            "OK", "WARNING", "DISCARD", "ERROR", "FATAL"]
@@ -146,7 +147,7 @@ class FmuInstance:
         for vr, v in self.var.items():
             if v is TIME:
                 self._get[vr] = lambda: self.time
-            elif v.causality == "output":
+            elif v.causality in CALCULATED:
                 g = getters[v.name]
                 self._get[vr] = self._guarded(v.name, g) if v.name in self.adapter.fallible else g
             else:
@@ -154,10 +155,15 @@ class FmuInstance:
         self._real_get = {vr: g for vr, g in self._get.items() if self.var[vr].type == "Real"}
         self._real_set_step = frozenset(vr for vr, v in self.var.items()
                                         if v.type == "Real" and v.causality == "input")
+        #: inputs one of the experiments ignores (all inputs: each experiment reads some of them)
+        self._ignorable = tuple(v.name for v in variables if v.causality == "input")
         self.state = INSTANTIATED
         self.time = 0.0
         self.stop_time: float | None = None
         self._configured_key = None
+        #: inputs the chosen experiment ignores that were reported (once each) as set
+        self._ignored_reported: set = set()
+        self._watched: tuple = ()
         self._issued: dict[int, object] = {}  # FMU states handed to the binary, by address
         self._inputs_changed = True
         self._long_step_s = 0.0
@@ -302,7 +308,8 @@ class FmuInstance:
                     self.log(OK, f"loaded {label} from the compiled code shipped in this FMU (nothing compiled)")
                     self.shipped_code = (0, "")
             self.state = STEP
-            return OK
+            self._watch_ignored_inputs()
+            return WARNING if self._report_ignored_inputs("ExitInitializationMode") else OK
         except Exception as exc:
             return self._error(f"{self._fn('ExitInitializationMode')}: {type(exc).__name__}: {exc}")
 
@@ -318,6 +325,8 @@ class FmuInstance:
         self.values.clear()
         self.values.update(self.start_values)
         self._configured_key = None
+        self._ignored_reported = set()
+        self._watched = ()
         self.state = INSTANTIATED
         self.time = 0.0
         self.stop_time = None
@@ -331,6 +340,7 @@ class FmuInstance:
             if self.state != STEP:
                 return self._illegal("DoStep")
             h = step_size
+            warned = False
             if not (0.0 < h < math.inf):  # False for NaN
                 return self._error(f"{self._fn('DoStep')}: communication step size [s] must be finite and > 0, got "
                                    f"{h!r}")
@@ -347,6 +357,8 @@ class FmuInstance:
                                            f"{ad.by_name[name].check(values[name])}; step refused, state unchanged")
                 ad.apply_inputs(values)
                 self._inputs_changed = False
+                if self._watched and self._report_ignored_inputs("DoStep"):
+                    warned = True
             if h > self._long_step_s:  # only then can the step need too many internal steps: ask exactly
                 hi_ = self.adapter.internal_step()
                 if h / hi_ > MAX_SUBSTEPS_PER_STEP:
@@ -366,9 +378,36 @@ class FmuInstance:
                                   f"and strains there are extrapolated (output {mn}.out_of_range = true); extend the "
                                   "tables: raise [statics] max_torque_factor and run `hacgear statics MODEL` (which "
                                   "also builds a missing coast side: without it a state past the backlash counts)")
-            return OK
+            return WARNING if warned else OK
         except Exception as exc:
             return self._error(f"{self._fn('DoStep')} at t = {current_time!r} s failed: {type(exc).__name__}: {exc}")
+
+    def _watch_ignored_inputs(self) -> None:
+        """The inputs the configured experiment ignores and that were not reported yet (watched in every step)."""
+        active = set(self.adapter.input_names()) if self._tables_adapter else set(self._ignorable)
+        self._watched = tuple(n for n in self._ignorable if n not in active and n not in self._ignored_reported)
+
+    def _report_ignored_inputs(self, call: str) -> bool:
+        """Warn (once per input) of an input set to other than its start value that the chosen experiment ignores
+        (a shaft torque at constant speed, the imposed speed in drivetrain mode); True when a warning was logged."""
+        new = [n for n in self._watched if self.values[n] != self.start_values[n]]
+        if not new:
+            return False
+        ad = self.adapter
+        for n in new:
+            self._ignored_reported.add(n)
+            if int(self.values["mode"]) == Experiment.SPEED:
+                why = (f"parameter mode = {int(Experiment.SPEED)} (constant speed: gear {ad.ref} turns at "
+                       f"{ad.ref_ident}.speed_in and the torque set-point is parameter torque); for a drivetrain "
+                       f"coupling set mode = {int(Experiment.TORQUE)} before initialization ends")
+            else:
+                why = (f"parameter mode = {int(Experiment.TORQUE)} (drivetrain coupling: the speeds are outputs, "
+                       f"the start speed is parameter {ad.ref_ident}.speed_start)")
+            unit = self.var[self.vrs[n]].unit
+            self.log(WARNING, f"{self._fn(call)} at t = {self.time:g} s: input '{n}' = {self.values[n]!r} {unit} is "
+                              f"ignored: {why} (reported once)")
+        self._watch_ignored_inputs()
+        return True
 
     def last_successful_time(self) -> float:
         """End of the last completed step [s] (FMI 2.0 ``fmi2LastSuccessfulTime``, FMI 3.0 ``doStep``)."""
@@ -414,7 +453,7 @@ class FmuInstance:
                 return None
             if v is TIME:
                 items.append("inst.time")
-            elif v.causality == "output":
+            elif v.causality in CALCULATED:
                 items.append(exprs.get(v.name) or f"get[{vr!r}]()")
             else:
                 items.append(f"values[{v.name!r}]")
@@ -428,6 +467,8 @@ class FmuInstance:
         """Values of ``vrs`` through the access family ``kind`` (``real``, ``integer``, ``int64``, ``boolean``,
         ``string``), or None (Error, logged)."""
         call = {"real": "GetReal" if self.fmi_version < 3 else "GetFloat64"}.get(kind, f"Get{kind.capitalize()}")
+        if len(vrs) == 0:  # no values asked: nothing to refuse, in any state (as the native binary answers)
+            return []
         try:
             if self.state not in _GET_STATES:
                 self._illegal(call)
@@ -440,7 +481,7 @@ class FmuInstance:
                     self._error(f"{self._fn(call)}: value reference {vr!r} is {what}, not a variable of this call's "
                                 "type")
                     return None
-            if any(self.var[vr].causality == "output" for vr in vrs):
+            if any(self.var[vr].causality in CALCULATED for vr in vrs):
                 msg = self._outputs_ready(call)
                 if msg:
                     self._error(msg)
@@ -474,6 +515,8 @@ class FmuInstance:
     def set_values(self, kind: str, vrs, values) -> int:
         """Store the values of parameters and inputs (checked when initialization ends and in every step)."""
         call = {"real": "SetReal" if self.fmi_version < 3 else "SetFloat64"}.get(kind, f"Set{kind.capitalize()}")
+        if len(vrs) == 0 and len(values) == 0:  # nothing to set: OK in any state (as the native binary answers)
+            return OK
         try:
             if self.state not in _SET_STATES:
                 return self._illegal(call)
@@ -489,7 +532,7 @@ class FmuInstance:
                     what = "no variable" if v is None else f"'{v.name}' ({v.type})"
                     return self._error(f"{self._fn(call)}: value reference {vr!r} is {what}, not a variable of this "
                                        "call's type")
-                if v.causality in ("output", "independent"):
+                if v.causality in ("output", "calculatedParameter", "independent"):
                     return self._error(f"{self._fn(call)}: '{v.name}' is {v.causality} (calculated by the FMU); it "
                                        "cannot be set")
                 if self.state == STEP and v.causality != "input":
@@ -531,6 +574,9 @@ class FmuInstance:
                 self.adapter.set_state(snap["adapter"])
             self._inputs_changed = True
             self.state, self.time, self.stop_time = snap["state"], snap["time"], snap["stop_time"]
+            self._watched = ()
+            if self.state in (STEP, STEP_FAILED, TERMINATED) and self._configured_key is not None:
+                self._watch_ignored_inputs()
             return OK
         except Exception as exc:
             return self._error(f"{self._fn('SetFMUstate')}: {type(exc).__name__}: {exc}")

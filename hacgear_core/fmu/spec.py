@@ -12,7 +12,7 @@ from typing import Any, Callable
 from hacgear_core.encodings import CONTACT_STATE_DESCRIPTIONS, ContactState
 from hacgear_core.model.schema import RANGES
 
-__all__ = ["UNITS", "DISPLAY_UNITS", "ENUMERATIONS", "TYPES", "TIME", "FmuVariable", "Reading", "ident",
+__all__ = ["UNITS", "DISPLAY_UNITS", "ENUMERATIONS", "TYPES", "TIME", "CALCULATED", "FmuVariable", "Reading", "ident",
            "ranged", "output_getters", "output_expressions", "variables_table", "README_BEGIN", "README_END",
            "readme_with_variables"]
 
@@ -31,6 +31,8 @@ UNITS: dict[str, dict[str, int]] = {
     "kg.m2": {"kg": 1, "m": 2},
     "N.m/rad": {"kg": 1, "m": 2, "s": -2, "rad": -1},
     "N.m.s/rad": {"kg": 1, "m": 2, "s": -1, "rad": -1},
+    "W": {"kg": 1, "m": 2, "s": -3},
+    "J": {"kg": 1, "m": 2, "s": -2},
 }
 
 #: Display units per unit: name -> factor (display value = factor * SI value; FMI ``DisplayUnit``).  Names are
@@ -44,6 +46,8 @@ DISPLAY_UNITS: dict[str, dict[str, float]] = {
     "N/m": {"N/um": 1e-6},
     "Pa": {"MPa": 1e-6},
     "1": {"um/m": 1e6},
+    "W": {"kW": 1e-3},
+    "J": {"kJ": 1e-3},
 }
 
 #: Enumeration types: name -> (description, ((item name, value, description), ...)).
@@ -56,7 +60,9 @@ ENUMERATIONS: dict[str, tuple[str, tuple[tuple[str, int, str], ...]]] = {
 #: Variable types and the Python type of their values.
 TYPES = {"Real": float, "Integer": int, "Boolean": bool, "Enumeration": int}
 
-_CAUSALITIES = ("parameter", "input", "output", "independent")
+_CAUSALITIES = ("parameter", "calculatedParameter", "input", "output", "independent")
+#: causalities whose values the FMU computes (read through a :class:`Reading`)
+CALCULATED = frozenset({"output", "calculatedParameter"})
 _VARIABILITIES = ("fixed", "tunable", "continuous", "discrete")
 #: what :attr:`Reading.index` numbers: a mesh or gear of the largest structure, a gauge ("<gear>/<gauge>"), or
 #: nothing (a scalar of the simulator)
@@ -122,7 +128,8 @@ class FmuVariable:
         for one, cannot set Enumeration variables), discrete outputs such as contact states are Enumerations with
         an Integer twin of the same values (libcosim lists no Enumeration variables, Ecos reads none).
     causality : str
-        ``parameter`` | ``input`` | ``output`` | ``independent`` (time, FMI 3.0 only).
+        ``parameter`` | ``calculatedParameter`` (fixed values the FMU derives from the parameters: ratios,
+        inertias, the recommended step) | ``input`` | ``output`` | ``independent`` (time, FMI 3.0 only).
     variability : str
         ``fixed`` | ``tunable`` | ``continuous`` (Real only) | ``discrete``.
     unit : str
@@ -147,7 +154,7 @@ class FmuVariable:
     min_open, max_open : bool
         That bound is excluded (modelDescription.xml states the bound; :meth:`check` refuses it).
     read : Reading or None
-        Outputs: how the value is read from the running simulator.
+        Outputs and calculated parameters: how the value is read from the running simulator.
     """
 
     name: str
@@ -193,22 +200,28 @@ class FmuVariable:
             raise ValueError(f"FmuVariable {self.name}: description missing")
         if self.causality in ("parameter", "input") and self.start is None:
             raise ValueError(f"FmuVariable {self.name}: parameters and inputs need a start value")
-        if self.causality in ("output", "independent") and self.start is not None:
-            raise ValueError(f"FmuVariable {self.name}: outputs are calculated, they have no start value")
+        if self.causality in ("output", "calculatedParameter", "independent") and self.start is not None:
+            raise ValueError(f"FmuVariable {self.name}: outputs and calculated parameters are calculated, they have "
+                             "no start value")
+        if self.causality == "calculatedParameter" and self.variability != "fixed":
+            raise ValueError(f"FmuVariable {self.name}: calculated parameters are fixed")
         for b in (self.min, self.max):
             if b is not None and not math.isfinite(b):
                 raise ValueError(f"FmuVariable {self.name}: min/max must be finite (XML xs:double)")
         if self.allow_inf and self.type != "Real":
             raise ValueError(f"FmuVariable {self.name}: only Real variables can allow inf")
-        if self.read is not None and self.causality != "output":
-            raise ValueError(f"FmuVariable {self.name}: only outputs are read from the simulator")
+        if self.read is not None and self.causality not in CALCULATED:
+            raise ValueError(f"FmuVariable {self.name}: only outputs and calculated parameters are read from the "
+                             "simulator")
         if self.start is not None and self.check(self.start):
             raise ValueError(f"FmuVariable {self.name}: start value {self.start!r} outside its own range")
 
     @property
     def initial(self) -> str:
-        """FMI ``initial``: ``exact`` for parameters and inputs, ``calculated`` for outputs."""
-        return {"output": "calculated", "independent": ""}.get(self.causality, "exact")
+        """FMI ``initial``: ``exact`` for parameters and inputs, ``calculated`` for outputs and calculated
+        parameters."""
+        return {"output": "calculated", "calculatedParameter": "calculated", "independent": ""}.get(self.causality,
+                                                                                                   "exact")
 
     def enum_items(self) -> tuple[tuple[str, int, str], ...]:
         """Items (name, value, description) of an Enumeration variable's type."""
@@ -258,7 +271,7 @@ def output_getters(variables, adapter) -> dict[str, Callable[[], Any]]:
     index)`` the slot of a mesh, gear or gauge in its current structure (-1: absent)."""
     out: dict[str, Callable[[], Any]] = {}
     for v in variables:
-        if v.causality != "output":
+        if v.causality not in CALCULATED:
             continue
         r = v.read
         if r is None:
@@ -286,7 +299,7 @@ def output_expressions(variables, adapter) -> dict[str, str]:
     out = {}
     for v in variables:
         r = v.read
-        if v.causality != "output" or r is None or not r.attr:
+        if v.causality not in CALCULATED or r is None or not r.attr:
             continue
         k = _slot_of(adapter, r)
         out[v.name] = f"s.{r.attr}" if not r.part else (f"s.{r.attr}[{k}]" if k >= 0 else repr(r.absent))

@@ -128,6 +128,7 @@ def assemble(train: Train) -> LumpedSystem:
                                radius_m=float(b.radius_m), mass_kg=b.mass_kg, inertia_kgm2=b.inertia_kgm2,
                                support=tuple(b.support)))
     u = dm.vector(train.rigid_mode)
+    motion = u
     if u is not None:
         held = bool(np.any(np.abs(K @ u) > train.held_tolerance * max(1.0, float(np.max(np.abs(K))))))
         u = None if held else u
@@ -138,4 +139,4 @@ def assemble(train: Train) -> LumpedSystem:
         gyroscopic=G if train.gyroscopic else None, centripetal=KW if train.centripetal else None,
         carrier_ratio=train.carrier_ratio, rigid_mode=u, mesh_cycles_per_rad=train.mesh_cycles_per_rad,
         nominal_torques_per_Nm=train.nominal_torques_per_Nm, static_forces=fstat if fstat.any() else None,
-        bearing_maps=bmaps or None)
+        bearing_maps=bmaps or None, reference_motion=motion)

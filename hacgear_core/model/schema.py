@@ -126,7 +126,7 @@ class Range:
 #: One range per quantity that a model file, the command line and the FMU share (units as ``Range.unit``).
 RANGES: dict[str, Range] = {
     # magnitude: a negative torque (command line, FMU) loads the coast flanks; a model file's operating torque is > 0
-    "torque_Nm": Range("N*m", 0.0, 1e6, lo_open=True),
+    "torque_Nm": Range("N*m", 0.0, 1e8, lo_open=True),
     # an underdamped modal damping ratio: every elastic mode keeps an oscillating part
     "modal_damping_ratio": Range("-", 0.0, 1.0, hi_open=True),
     # a rigid bearing is inf (no translation DOF) everywhere: model files, --bearing-stiffness, the FMU; 0 is no

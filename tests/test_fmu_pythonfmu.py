@@ -10,8 +10,10 @@ from __future__ import annotations
 
 import math
 import os
+import shutil
 import subprocess
 import sys
+import sysconfig
 import zipfile
 from pathlib import Path
 
@@ -22,13 +24,16 @@ fmpy = pytest.importorskip("fmpy")
 pytest.importorskip("pythonfmu")
 pytest.importorskip("pythonfmu3")
 
+from fmpy import extract, read_model_description  # noqa: E402
+from _fmi_reset import assert_reset_equals_fresh  # noqa: E402
 from test_fmu import (_ISOLATED_RUN, _Low, _isolated_site, _library,  # noqa: E402
                       assert_contact_code_under_libcosim_and_ecos, assert_fmu_time_series_equals_library,
                       ecos_missing)
 
 from hacgear_core.errors import HacgearError  # noqa: E402
 from hacgear_core.fmu import build_fmu  # noqa: E402
-from hacgear_core.fmu.pythonfmu_backend import PLATFORMS, choose_backend, slave_source  # noqa: E402
+from hacgear_core.fmu.pythonfmu_backend import (PLATFORMS, choose_backend, master_env_script,  # noqa: E402
+                                                 master_environment, slave_source)
 from hacgear_core.fmu.slave import DISCARD, ERROR, OK  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -90,7 +95,7 @@ def test_validate_and_fmutool_check(built, version):
     assert names["m12.force"].unit == "N" and names["m12.force"].declaredType is None
     assert names["m12.contact"].declaredType.name == "ContactState"
     assert md.defaultExperiment.stopTime and md.coSimulation.canGetAndSetFMUstate
-    assert len(md.initialUnknowns) == sum(v.causality == "output" for v in md.modelVariables)
+    assert len(md.initialUnknowns) == sum(v.causality in ("output", "calculatedParameter") for v in md.modelVariables)
 
 
 @pytest.mark.parametrize("version", (2, 3))
@@ -193,12 +198,110 @@ def test_contact_code_under_libcosim_and_ecos(built):
     assert_contact_code_under_libcosim_and_ecos(built[2])
 
 
+@pytest.mark.parametrize("version", (2, 3))
+def test_reset_equals_a_fresh_instance(built, version):
+    """After Reset and an initialization with the same parameters every Real output of every step equals a fresh
+    instance's bit for bit (the pythonfmu wrappers forward Reset to the same instance as the native binary)."""
+    assert_reset_equals_fresh(built[version], h=5e-5, n=40)
+
+
+def test_fmi3_fmu_starts_at_any_start_time(built):
+    """pythonfmu3 0.3.4 passes no start time to Python: the FMI 3.0 FMU takes the first doStep's communication
+    point as its start time.  Started at 0.5 s under fmpy it gives the FMI 2.0 FMU's outputs at 0.5 s (<= 1e-9
+    relative) and reports time from 0.5 s on (it refused the first doStep before)."""
+    h, n, t0 = 1e-4, 40, 0.5
+    kw = dict(start_time=t0, stop_time=t0 + n * h, output_interval=h, start_values={"pinion.speed_in": 400.0})
+    a, b = fmpy.simulate_fmu(str(built[3]), **kw), fmpy.simulate_fmu(str(built[2]), **kw)
+    assert set(a.dtype.names) == set(b.dtype.names) and len(a) == len(b) == n + 1
+    assert a["time"][0] == pytest.approx(t0) and a["time"][-1] == pytest.approx(t0 + n * h)
+    for name in a.dtype.names:
+        x, y = np.asarray(a[name], float), np.asarray(b[name], float)
+        assert np.max(np.abs(x - y)) <= 1e-9 * max(np.max(np.abs(y)), 1e-300), name
+    assert np.ptp(a["m12.force"]) > 0
+
+
+def _wrong_installation(dest: Path) -> Path:
+    """A Python installation that the embedded interpreter takes for its own but whose extension modules are not
+    this libpython's (as Debian's /usr/lib/python3.X is for a pyenv or conda libpython): ``bin/python3`` and
+    ``lib/pythonX.Y`` holding this Python's standard library, an empty ``lib-dynload`` and no site-packages."""
+    ver = f"python{sys.version_info[0]}.{sys.version_info[1]}"
+    lib = dest / "lib" / ver
+    (lib / "lib-dynload").mkdir(parents=True)
+    for entry in Path(sysconfig.get_paths()["stdlib"]).iterdir():
+        if entry.name not in ("lib-dynload", "site-packages"):
+            (lib / entry.name).symlink_to(entry)
+    (dest / "bin").mkdir()
+    (dest / "bin" / "python3").write_text("#!/bin/sh\nexit 1\n")
+    (dest / "bin" / "python3").chmod(0o755)
+    return dest
+
+
+def test_c_masters_run_the_fmus_with_the_documented_environment(built, tmp_path):
+    """Masters that are not Python programs (tests/_fmi2_master.c, tests/_fmi3_master.c; no libpython in them)
+    run the FMI 2.0 and FMI 3.0 FMUs with the environment docs/fmu.md gives (LD_PRELOAD, PYTHONHOME, PYTHONPATH as
+    its one-liner prints them, here for a virtual environment holding numpy, scipy, h5py and numba): 100 doSteps
+    give fmpy's mesh force (<= 1e-9 relative; FMI 3.0 started at 0.5 s).  pythonfmu's binaries start Python
+    without a home: from the first ``python3`` on PATH (FMI 2.0) or the working folder (FMI 3.0, ``./PythonFMU``)
+    it finds another installation's standard library, here one without extension modules; with LD_PRELOAD alone
+    (what the docs said) the instantiation fails, and the FMU says on stderr which PYTHONHOME to set."""
+    cc = shutil.which("cc") or shutil.which("gcc")
+    if not cc:
+        pytest.skip("no C compiler")
+    docs = (ROOT / "docs" / "fmu.md").read_text(encoding="utf-8")
+    assert f"python3 -c '{master_env_script()}'" in docs  # the one-liner documented is the one tested
+    include = Path(fmpy.__file__).parent / "c-code"
+    masters = {}
+    for version in (2, 3):
+        masters[version] = tmp_path / f"master{version}"
+        r = subprocess.run([cc, "-O1", f"-I{include}", "-o", str(masters[version]),
+                            str(ROOT / "tests" / f"_fmi{version}_master.c"), "-ldl"], capture_output=True, text=True)
+        assert r.returncode == 0, r.stderr
+        assert "libpython" not in subprocess.run(["ldd", str(masters[version])], capture_output=True,
+                                                 text=True).stdout
+    venv = tmp_path / "venv"
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(venv)], check=True, timeout=120)
+    site = venv / "lib" / f"python{sys.version_info[0]}.{sys.version_info[1]}" / "site-packages"
+    _isolated_site(site, ["numpy", "scipy", "h5py", "numba"])
+    env_doc = master_environment(venv / "bin" / "python")
+    assert Path(env_doc["LD_PRELOAD"]).is_file() and env_doc["PYTHONHOME"] == sys.base_prefix
+    assert [Path(p).resolve() for p in env_doc["PYTHONPATH"].split(os.pathsep)] == [site.resolve()]
+    wrong = _wrong_installation(tmp_path / "wrong")
+    base = {k: v for k, v in os.environ.items()
+            if k not in ("LD_PRELOAD", "LD_LIBRARY_PATH", "PYTHONHOME", "PYTHONPATH", "HACGEAR_FMU_PYTHON")}
+    base["PATH"] = f"{wrong / 'bin'}{os.pathsep}{base.get('PATH', '')}"
+    h, n = 5e-5, 100
+    for version, t0, binary in ((2, 0.0, "linux64"), (3, 0.5, "x86_64-linux")):
+        ref = fmpy.simulate_fmu(str(built[version]), start_time=t0, stop_time=t0 + n * h, output_interval=h,
+                                output=["m12.force"])["m12.force"][-1]
+        md = read_model_description(str(built[version]))
+        unpacked = Path(extract(str(built[version]), unzipdir=str(tmp_path / f"fmu{version}")))
+        vr = {v.name: v.valueReference for v in md.modelVariables}["m12.force"]
+        res = unpacked / "resources"
+        args = [str(masters[version]), str(unpacked / "binaries" / binary / f"{SYSTEM}.so"),
+                res.as_uri() if version == 2 else f"{res}/", md.guid or md.instantiationToken, str(vr), str(n),
+                repr(h)] + ([repr(t0)] if version == 3 else [])
+        cwd = str(wrong / "bin")  # pythonfmu3 looks for its home from ./PythonFMU: here the wrong installation
+        p = subprocess.run(args, capture_output=True, text=True, timeout=900, cwd=cwd, env={**base, **env_doc})
+        assert p.returncode == 0, (version, p.stdout[-3000:] + p.stderr[-3000:])
+        value = float(p.stdout.split("VALUE")[1])
+        assert value == pytest.approx(ref, rel=1e-9) and 1e3 < value < 1e5, version
+        p = subprocess.run(args, capture_output=True, text=True, timeout=300, cwd=cwd, env=base)
+        assert p.returncode == 1 and "dlopen failed" in p.stderr and "undefined symbol" in p.stderr, version
+        p = subprocess.run(args, capture_output=True, text=True, timeout=300, cwd=cwd,
+                           env={**base, "LD_PRELOAD": env_doc["LD_PRELOAD"]})
+        null = "fmi2Instantiate returned NULL" if version == 2 else "fmi3InstantiateCoSimulation returned NULL"
+        assert p.returncode == 1 and null in p.stderr, (version, p.stdout[-2000:] + p.stderr[-3000:])
+        assert "hacgear FMU: ModuleNotFoundError: No module named '_" in p.stderr, p.stderr[-3000:]
+        assert f"it found the standard library '{wrong / 'lib'}" in p.stderr
+        assert f"set PYTHONHOME={env_doc['PYTHONHOME']};" in p.stderr
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("system", ALL_SYSTEMS)
 def test_every_system_validates_and_equals_the_native_fmu(system, tmp_path):
     """Every shipped system with tables, both FMI versions, both backends: fmpy validate + fmutool pass, and the
     pythonfmu FMU gives the native FMU's outputs in its default experiment (<= 1e-9 relative; the native ones equal
-    the library in tests/test_fmu*.py); FMI 2.0 FMUs of both backends run under libcosim and Ecos with fmpy's
+    the library in tests/test_fmu*.py); Reset of both equals a fresh instance bit for bit; FMI 2.0 FMUs of both backends run under libcosim and Ecos with fmpy's
     first mesh force."""
     sys.path.insert(0, str(ROOT))
     try:
@@ -210,6 +313,8 @@ def test_every_system_validates_and_equals_the_native_fmu(system, tmp_path):
         py = build_fmu(ROOT / "models" / system, tmp_path / "py", fmi_version=version, backend="pythonfmu")
         nat = build_fmu(ROOT / "models" / system, tmp_path / "nat", fmi_version=version, backend="native")
         assert script.validate_fmu(py) == [] and script.validate_fmu(nat) == []
+        for fmu in (py, nat):  # Reset returns every kind to its just-instantiated state, on both backends
+            assert_reset_equals_fresh(fmu, h=1e-4, n=20)
         kw = dict(stop_time=5e-3, output_interval=1e-4)
         a, b = fmpy.simulate_fmu(str(py), **kw), fmpy.simulate_fmu(str(nat), **kw)
         assert a.dtype.names == b.dtype.names

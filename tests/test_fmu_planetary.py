@@ -116,3 +116,40 @@ def test_planetary_fmu_reset_equals_a_fresh_instance(fmu, version):
     previous end state)."""
     path = fmu["path"].with_name(f"{SYSTEM}{version}.fmu")
     assert_reset_equals_fresh(path, h=1e-4, n=30, settings={"sun.speed_start": 150.0})
+
+
+def test_carrier_input_fmu_turns_the_sun_at_willis_ratio_with_power_balanced(tmp_path):
+    """Issue #51 item 3 in an FMU: the wind-turbine arrangement (carrier in, sun out, ring fixed; tables from our
+    statics on a small grid) builds an FMU whose input port is the carrier: its documentation shows the carrier on
+    the motor side, gear_ratio = 1 / (1 + z_r / z_s) (input over output speed), and a drivetrain run held at the
+    nominal torques keeps the sun at Willis' ratio with the power in at the carrier leaving at the sun (both within
+    1e-3: the meshes' elastic vibration) and equal to the library's simulator within 1e-9."""
+    from test_planetary import _carrier_in_text
+
+    from hacgear_core.fmu.documentation import coupling_diagram
+    from hacgear_core.statics.grid import compute_statics
+
+    folder = tmp_path / "planetary_carrier_in"
+    folder.mkdir()
+    (folder / "model.toml").write_text(_carrier_in_text("positions = 16\nloads = 6\ndeflections = 24"))
+    compute_statics(folder / "model.toml", sides=("drive",), workers=1, progress=False)
+    ad = hf.make_adapter(folder)
+    assert ad.spec_system.input_gear == "carrier" and set(ad.ports) == {"carrier", "sun"}
+    assert coupling_diagram(ad).splitlines()[1].startswith("shaft/motor --carrier.torque_in")
+    path = hf.build_fmu(folder, tmp_path / "out", fmi_version=2)
+    h, n = 1e-5, 400
+    res = fmpy.simulate_fmu(str(path), stop_time=n * h, output_interval=h, start_values={"mode": 1},
+                            output=["carrier.speed", "sun.speed", "carrier.power", "sun.power", "gear_ratio",
+                                    "sun_planet_1.force"])
+    willis = 1.0 + 175.0 / 65.0
+    assert res["gear_ratio"][-1] == pytest.approx(1.0 / willis, rel=1e-12)
+    assert np.allclose(res["sun.speed"] / res["carrier.speed"], willis, rtol=1e-3)
+    assert np.allclose(res["sun.power"], -res["carrier.power"], rtol=1e-3)
+    assert res["carrier.power"][-1] > 0 and np.all(res["sun_planet_1.force"] > 0)
+    m = load_model(folder / "model.toml")
+    sim = Simulator(build_system(m, read_tables(m.tables_path, m.path), shafts=False))
+    sim.reset(speed_rad_s=float(res["carrier.speed"][0]))
+    sim.set_torque_inputs({g: float(t) for g, t in ad.port_torques_Nm.items()})
+    for _ in range(n):
+        assert sim.advance(h).success
+    assert sim.speed_rad_s[sim.gear_index("sun")] == pytest.approx(res["sun.speed"][-1], rel=1e-9)

@@ -613,7 +613,17 @@ def test_generalized_stiffness_needs_a_twist_axis():
 # ----------------------------------------------------------------------------------------------
 # every shipped table passes its own check (README: `hacgear statics SYSTEM --check`)
 # ----------------------------------------------------------------------------------------------
-SHIPPED = sorted(p.parent.name for p in (REPO / "models").glob("*/model.toml"))
+#: shipped models whose tables are not committed (the NREL 5 MW stages: their statics at the shipped grids need FE
+#: sizes that scale with the module, issue #51 item 2; their readmes say so)
+WITHOUT_TABLES = {"nrel_5mw_stage1", "nrel_5mw_stage2", "nrel_5mw_stage3"}
+SHIPPED = sorted(p.parent.name for p in (REPO / "models").glob("*/model.toml") if p.parent.name not in WITHOUT_TABLES)
+
+
+def test_the_models_without_tables_are_the_listed_ones():
+    """Only the listed models lack their tables.h5 (a new model without tables, or tables added for a listed one,
+    changes this list)."""
+    missing = {p.parent.name for p in (REPO / "models").glob("*/model.toml") if not (p.parent / "tables.h5").exists()}
+    assert missing == WITHOUT_TABLES
 
 
 @pytest.mark.parametrize("system", SHIPPED)

@@ -640,3 +640,24 @@ def test_carrier_input_tables_are_the_sun_input_tables_mirrored(tmp_path):
     assert np.all(eq.mesh_forces_N > 0)
     assert float(np.sum(eq.mesh_forces_N[sun])) * rbs == pytest.approx(t["sun"], rel=1e-9)
     assert float(np.sum(eq.mesh_forces_N[~sun])) * rbr == pytest.approx(t["ring"], rel=1e-9)
+
+
+@pytest.mark.parametrize("inp, out, fixed", ARRANGEMENTS[:4])
+def test_output_held_grounds_the_train_in_every_arrangement(model, inp, out, fixed):
+    """The constant-speed experiment's supports (the output member's rotation held, as the shipped file holds the
+    carrier): the held output grounds the train through the meshes even where no support or shaft joins it to the
+    driven members (carrier in, sun held: the builder reported a rigid-body mode, so the static solve pinned the
+    input and found no equilibrium, residual = the input torque), so there is no rigid-body mode and the static
+    mesh forces are the torque balance's (1e-12)."""
+    m = model if (inp == "sun" or out == "ring") else _swapped(model)
+    m = _with_rotation(_arranged(m, inp, out, fixed), out, math.inf)
+    sy = build_system(m, _constant_tables(m, 2e8, 200.0))
+    assert sy.rigid_mode is None and not sy.rigid_modes.any()
+    geo = planetary_geometry(m, 3)
+    rbs = geo.sun_mesh(1).base_radius_m[0 if geo.sun_mesh(1).gear_a == "sun" else 1]
+    rbr = geo.ring_mesh(1).base_radius_m[0 if geo.ring_mesh(1).gear_a == "ring" else 1]
+    eq = static_equilibrium(sy, 0.0)
+    t = _torque_magnitudes(inp, abs(sy.torque_Nm), 65, 175)
+    sun = np.array([c.group == "sun_planet" for c in sy.meshes])
+    np.testing.assert_allclose(eq.mesh_forces_N[sun], t["sun"] / (3 * rbs), rtol=1e-12)
+    np.testing.assert_allclose(eq.mesh_forces_N[~sun], t["ring"] / (3 * rbr), rtol=1e-12)

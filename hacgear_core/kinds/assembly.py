@@ -133,7 +133,7 @@ def assemble(train: Train) -> LumpedSystem:
         # a held member stops the free rotation through a support or shaft (K), or through a mesh whose other gear
         # the motion turns (a mesh deflected by it: e.g. a planetary set's sun held, its carrier driven)
         held = bool(np.any(np.abs(K @ u) > train.held_tolerance * max(1.0, float(np.max(np.abs(K))))))
-        scale = 1e-9 * float(np.max(np.abs(u)))  # a kinematic motion deflects no mesh beyond rounding
+        scale = 1e-6 * float(np.max(np.abs(u)))  # a kinematic motion deflects no mesh (beyond rounded radii)
         held = held or any(abs(float(c.v @ u)) > scale * float(np.max(np.abs(c.v))) for c in couplings)
         u = None if held else u
     return LumpedSystem(

@@ -1,0 +1,174 @@
+"""Steady-state records of a gear system at constant speed, for order spectra: the dynamic transmission error,
+mesh forces, bearing forces or root strains per sample, or the static transmission error of the same positions.
+
+The constant-speed experiment (:class:`~hacgear_core.dynamics.simulator.Simulator`) starts from static equilibrium,
+runs ``settle_cycles`` mesh cycles for the transient to decay, then records ``record_cycles`` mesh cycles at
+``samples_per_cycle`` samples per cycle (a whole number, so the record is coherent with the mesh; with
+``record_cycles`` a multiple of the common period of the shafts, :meth:`~hacgear_core.spectra.spectrum.OrderBasis.
+common_period_cycles`, it is coherent with every shaft).  How far the record is from periodic is measured: the
+largest change of the elastic state (the mesh deflections and translations) over the record, from its first
+sample to one sample past its end, over the state's range in the record (``periodicity_error``; 0 for an exactly
+periodic steady state whose period divides the record).
+
+Quantities (:data:`QUANTITIES`), channel names and units:
+
+``dte``
+    Dynamic transmission error per mesh ``<mesh>`` [m] (the rotational part of the mesh deflection; equal to the
+    deflection when no gear translates).
+``force``
+    Mesh force on the loaded (drive) flanks per mesh ``<mesh>`` [N].
+``bearing_force``
+    Force each gear puts on its bearing, fixed-frame components ``<gear>.x``, ``<gear>.y`` [N]
+    (:meth:`~hacgear_core.dynamics.simulator.Simulator.bearing_force_N`; gears that do not turn are left out).
+``root_strain``
+    Root strain at every gauge on tooth 0 of its gear ``<gear>/<gauge>`` [-]: the tooth passes the mesh once per
+    revolution of its gear (relative to the carrier in a planetary set), so the record holds shaft orders.
+``ste``
+    Static transmission error per mesh ``<mesh>`` [m]: the mesh deflection of the static equilibrium under the
+    nominal torque (:func:`~hacgear_core.dynamics.equilibrium.static_equilibrium`) at the kinematic mesh positions
+    of the samples (no speed, no transient).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from hacgear_core.dynamics.equilibrium import static_equilibrium
+from hacgear_core.dynamics.simulator import Simulator, strain_of_tooth, system_gauges
+from hacgear_core.dynamics.system import LumpedSystem
+from hacgear_core.errors import ModelError
+from hacgear_core.spectra.spectrum import order_basis, order_spectrum
+
+__all__ = ["QUANTITIES", "UNITS", "SteadyRecord", "steady_record", "record_cycles_for", "system_spectra"]
+
+#: quantities :func:`steady_record` records
+QUANTITIES = ("dte", "force", "bearing_force", "root_strain", "ste")
+#: unit of each quantity's channels
+UNITS = {"dte": "m", "force": "N", "bearing_force": "N", "root_strain": "-", "ste": "m"}
+
+
+@dataclass(frozen=True, eq=False)
+class SteadyRecord:
+    """A record of :func:`steady_record`: ``quantity``, ``unit``, ``channels`` {name: (nr,) samples},
+    ``samples_per_cycle``, ``record_cycles``, ``settle_cycles``, ``mesh_frequency_Hz``, ``time_s`` (nr,) and
+    ``periodicity_error`` [-] (see the module docstring; NaN for ``ste``, which has no transient)."""
+
+    quantity: str
+    unit: str
+    channels: dict
+    samples_per_cycle: int
+    record_cycles: int
+    settle_cycles: int
+    mesh_frequency_Hz: float
+    time_s: np.ndarray
+    periodicity_error: float
+
+
+def _elastic(system: LumpedSystem, state: np.ndarray) -> np.ndarray:
+    """Mesh deflections and translations of states (nr, 2n) -> (nr, m + translations)."""
+    q = state[:, :system.n]
+    tr = [i for g in system.gears.values() for i in g.translations]
+    return np.column_stack([q @ system.V.T, q[:, tr]]) if tr else q @ system.V.T
+
+
+def steady_record(system: LumpedSystem, mesh_frequency_Hz: float, quantity: str, record_cycles: int, *,
+                  samples_per_cycle: int = 128, settle_cycles: int = 400) -> SteadyRecord:
+    """Record ``quantity`` (:data:`QUANTITIES`) of ``system`` at constant mesh frequency ``mesh_frequency_Hz`` [Hz]
+    over ``record_cycles`` mesh cycles after ``settle_cycles`` (see the module docstring)."""
+    if quantity not in QUANTITIES:
+        raise ModelError(f"quantity must be one of {QUANTITIES}, got {quantity!r}")
+    for name, v, lo in (("record_cycles", record_cycles, 1), ("samples_per_cycle", samples_per_cycle, 8),
+                        ("settle_cycles", settle_cycles, 0)):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
+            raise ModelError(f"{name} [-] must be an integer >= {lo}, got {v!r}")
+    fm = float(mesh_frequency_Hz)
+    if not (math.isfinite(fm) and fm > 0):
+        raise ModelError(f"mesh_frequency_Hz [Hz] must be finite and > 0, got {mesh_frequency_Hz!r}")
+    nr = int(record_cycles) * int(samples_per_cycle)
+    dt = 1.0 / (fm * samples_per_cycle)
+    if quantity == "ste":
+        pos = np.arange(nr) / samples_per_cycle
+        fext = system.fext_speed()
+        chans = np.array([static_equilibrium(system, float(c), fext).mesh_deflections_m for c in pos])
+        return SteadyRecord(quantity, UNITS[quantity], {c.name: chans[:, k] for k, c in enumerate(system.meshes)},
+                            int(samples_per_cycle), int(record_cycles), 0, fm, pos / fm, math.nan)
+    sim = Simulator(system)
+    sim.set_speed_input(mesh_frequency_Hz=fm)
+    for _ in range(int(settle_cycles)):
+        r = sim.advance(1.0 / fm)
+        if not r.success:
+            raise ModelError(r.message)
+    if quantity == "bearing_force":
+        gears = [g.name for g in system.gears.values() if g.rotation >= 0 or g.translations]
+        rec = {g: np.zeros((nr, 2)) for g in gears}
+        states = np.zeros((nr + 1, 2 * system.n))
+        t = np.zeros(nr)
+        for j in range(nr + 1):
+            states[j] = sim.s
+            if j == nr:
+                break
+            t[j] = sim.time_s
+            for g in gears:
+                rec[g][j] = sim.bearing_force_N(g)
+            r = sim.advance(dt)
+            if not r.success:
+                raise ModelError(r.message)
+        channels = {f"{g}.{a}": rec[g][:, i] for g in gears for i, a in enumerate("xy")}
+    else:
+        start = sim.s.copy()
+        raw = sim.run(nr * dt, dt)            # samples at the end of each interval
+        states = np.vstack([start, raw["state"]])
+        t = raw["time_s"]
+        if quantity == "dte":
+            channels = {c.name: raw["dynamic_transmission_error_m"][:, k] for k, c in enumerate(system.meshes)}
+        elif quantity == "force":
+            channels = {c.name: raw["mesh_force_N"][:, k] for k, c in enumerate(system.meshes)}
+        else:
+            gauges = system_gauges(system)
+            if not gauges:
+                raise ModelError(f"the tables of {system.name} hold no strain gauges")
+            channels = {g: strain_of_tooth(system, g, raw["mesh_position"], raw["mesh_deflection_m"],
+                                           raw["coast_approach_m"], raw.get("mesh_twist_rad")) for g in gauges}
+    el = _elastic(system, states)             # the state at the record's start and after each sample
+    span = np.max(np.ptp(el, axis=0))
+    err = float(np.max(np.abs(el[-1] - el[0])) / span) if span > 0 else 0.0
+    return SteadyRecord(quantity, UNITS[quantity], channels, int(samples_per_cycle), int(record_cycles),
+                        int(settle_cycles), fm, np.asarray(t, float), err)
+
+
+def record_cycles_for(system: LumpedSystem, periods: int = 1, max_record_cycles: int = 30000) -> int:
+    """Mesh cycles of ``periods`` common periods of ``system``'s shafts
+    (:meth:`~hacgear_core.spectra.spectrum.OrderBasis.common_period_cycles`; 1 mesh cycle when it has no shaft);
+    :class:`ModelError` when that exceeds ``max_record_cycles`` or the shafts have no common period."""
+    if isinstance(periods, bool) or not isinstance(periods, (int, np.integer)) or periods < 1:
+        raise ModelError(f"periods [-] must be an integer >= 1, got {periods!r}")
+    period = order_basis(system).common_period_cycles()
+    if period is None:
+        raise ModelError(f"{system.name}: the shafts' order ratios have no common period; give the record length in "
+                         "mesh cycles (the spectrum is then taken with the flat-top window)")
+    cycles = period * periods
+    if cycles.denominator != 1 or cycles > max_record_cycles:
+        raise ModelError(f"{system.name}: {periods} common period(s) of the shafts = {float(cycles):g} mesh cycles "
+                         + ("(not whole)" if cycles.denominator != 1 else f"> {max_record_cycles} (the limit)")
+                         + "; give the record length in mesh cycles (the spectrum is then taken with the flat-top "
+                         "window when it is shorter than the common period) or raise the limit")
+    return int(cycles)
+
+
+def system_spectra(system: LumpedSystem, mesh_frequency_Hz: float, quantity: str, *, record_cycles: int | None = None,
+                   periods: int = 1, max_record_cycles: int = 30000, samples_per_cycle: int = 128,
+                   settle_cycles: int = 400, harmonics: int = 5, sideband_orders: int = 3) -> tuple:
+    """The steady-state record of ``quantity`` (:func:`steady_record`) over ``record_cycles`` mesh cycles (default:
+    ``periods`` common periods, :func:`record_cycles_for`) and the order spectrum of each of its channels
+    (:func:`~hacgear_core.spectra.spectrum.order_spectrum` with the system's :func:`order_basis`) ->
+    (SteadyRecord, {channel: OrderSpectrum})."""
+    if record_cycles is None:
+        record_cycles = record_cycles_for(system, periods, max_record_cycles)
+    rec = steady_record(system, mesh_frequency_Hz, quantity, record_cycles, samples_per_cycle=samples_per_cycle,
+                        settle_cycles=settle_cycles)
+    basis = order_basis(system)
+    return rec, {ch: order_spectrum(x, rec.samples_per_cycle, basis, harmonics=harmonics,
+                                    sideband_orders=sideband_orders, mesh_frequency_Hz=rec.mesh_frequency_Hz)
+                 for ch, x in rec.channels.items()}

@@ -13,6 +13,7 @@ from hacgear_core.jsonio import dumps
 from hacgear_core.outpaths import check_out_path
 from hacgear_core.spectra.records import QUANTITIES, UNITS, system_spectra
 from hacgear_core.spectra.spectrum import order_basis
+from hacgear_core.spectra.waterfall import resonance_of_track, system_waterfalls
 
 __all__ = ["register", "run"]
 
@@ -35,7 +36,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "k +- n shaft orders of each shaft, shaft orders n. Over whole common periods the amplitudes are exact "
             "(no window); a --record-cycles shorter than the common period uses the flat-top window "
             "(amplitude error <= 0.12 %%). Amplitudes: single-sided peak, in the quantity's unit (--json: SI). "
-            "Perfect gears (no manufacturing errors) respond at mesh harmonics only."),
+            "Perfect gears (no manufacturing errors) respond at mesh harmonics only. Run-up waterfall: --fm-end F2 "
+            "ramps the mesh frequency linearly from --fm to F2 over --cycles mesh cycles (dte, force, root_strain), "
+            "sampled equally in angle (order tracking), and takes the order spectrum of segments of "
+            "--segment-cycles mesh cycles (default one common period): amplitude over mesh order and speed, and the "
+            "mesh harmonics' amplitude over the mesh frequency (--json: per segment)."),
     )
     add_model_options(p)
     p.add_argument("--fm", type=float, required=True, help="mesh frequency [Hz]")
@@ -53,6 +58,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--sidebands", type=int, default=3,
                    help="shaft orders marked on each side of each harmonic, and as shaft orders [-] "
                         "(default %(default)s)")
+    p.add_argument("--fm-end", type=float, default=None,
+                   help="run-up waterfall: mesh frequency at the end of a linear run-up from --fm [Hz]")
+    p.add_argument("--cycles", type=int, default=2800, help="run-up: mesh cycles of the ramp [-] (default %(default)s)")
+    p.add_argument("--segment-cycles", type=int, default=None,
+                   help="run-up: mesh cycles per spectrum [-] (default one common period of the shafts)")
     p.add_argument("--bins", action="store_true", help="--json: every bin too (mesh order, amplitude, phase)")
     p.add_argument("--plot", default=None, help="figure file (.png, .pdf, .svg): amplitude over mesh order per channel")
     p.set_defaults(func=run)
@@ -70,6 +80,8 @@ def run(args: argparse.Namespace) -> int:
             raise ModelError(f"{opt} [-] must be >= {lo}, got {v}")
     inp = inputs_from_args(args)
     sy = inp.system
+    if args.fm_end is not None:
+        return _run_up(args, inp)
     rec, spectra = system_spectra(sy, args.fm, args.quantity, record_cycles=args.record_cycles, periods=args.periods,
                                   max_record_cycles=args.max_record_cycles, samples_per_cycle=args.steps_per_cycle,
                                   settle_cycles=args.settle_cycles, harmonics=args.harmonics,
@@ -112,6 +124,43 @@ def run(args: argparse.Namespace) -> int:
             if ln.family == "mesh" or ln.amplitude > 1e-4 * peak:
                 print(f"    {ln.family:8s} {ln.label:28s} order {ln.mesh_order:9.5f}  "
                       f"{ln.amplitude * scale:.6g} {shown}")
+    if args.plot:
+        print(f"  figure written to {args.plot}")
+    return 0
+
+
+def _run_up(args: argparse.Namespace, inp) -> int:
+    """The run-up waterfall of ``--fm`` .. ``--fm-end``."""
+    check_option("--fm-end", args.fm_end, "mesh_frequency_Hz")
+    if args.cycles < 1 or (args.segment_cycles is not None and not 1 <= args.segment_cycles <= args.cycles):
+        raise ModelError("need --cycles >= 1 and 1 <= --segment-cycles <= --cycles")
+    sy = inp.system
+    rec, wfs = system_waterfalls(sy, args.fm, args.fm_end, args.cycles, args.quantity,
+                                 segment_cycles=args.segment_cycles, samples_per_cycle=args.steps_per_cycle,
+                                 settle_cycles=args.settle_cycles, harmonics=args.harmonics)
+    unit = UNITS[args.quantity]
+    scale, shown = _DISPLAY[unit]
+    if args.plot is not None:
+        from hacgear_core.plots.spectra import save_waterfall_figure
+
+        save_waterfall_figure(wfs, args.plot, unit=shown, scale=scale, max_order=args.harmonics + 0.5,
+                              title=f"{inp.label}: {args.quantity}, run-up f_m {args.fm:g} -> {args.fm_end:g} Hz in "
+                                    f"{args.cycles} mesh cycles, torque {sy.torque_Nm:g} N·m")
+    if args.json:
+        print(dumps({"model": inp.label, "synthetic_table": inp.synthetic, "torque_Nm": sy.torque_Nm,
+                     "quantity": args.quantity, "unit": unit, "mesh_frequency_Hz": [args.fm, args.fm_end],
+                     "cycles": args.cycles, "samples_per_cycle": rec.samples_per_cycle, "plot": args.plot,
+                     "channels": {ch: wf.to_json(bins=args.bins) for ch, wf in wfs.items()}}))
+        return 0
+    print(f"{inp.label}: {args.quantity} run-up waterfall, f_m {args.fm:g} -> {args.fm_end:g} Hz in {args.cycles} "
+          f"mesh cycles, torque {sy.torque_Nm:g} N*m")
+    for ch, wf in wfs.items():
+        print(f"  {ch}: {wf.mesh_frequency_Hz.size} segments of {wf.segment_cycles} mesh cycles "
+              f"({'coherent, no window' if wf.coherent else 'flat-top window'}); largest amplitude per mesh harmonic:")
+        for k in range(1, args.harmonics + 1):
+            if str(k) in wf.tracks:
+                f, a = resonance_of_track(wf, str(k))
+                print(f"    order {k}: {a * scale:.6g} {shown} at f_m {f:.1f} Hz ({k * f:.1f} Hz)")
     if args.plot:
         print(f"  figure written to {args.plot}")
     return 0

@@ -12,7 +12,8 @@ import numpy as np  # noqa: E402
 
 from hacgear_core.outpaths import save_figure  # noqa: E402
 
-__all__ = ["spectrum_figure", "campbell_figure", "save_spectrum_figure", "save_campbell_figure"]
+__all__ = ["spectrum_figure", "campbell_figure", "waterfall_figure", "save_spectrum_figure", "save_campbell_figure",
+           "save_waterfall_figure"]
 
 _FAMILY_STYLE = {"mesh": ("C3", "o"), "sideband": ("C0", "v"), "shaft": ("C2", "s")}
 
@@ -106,6 +107,50 @@ def save_spectrum_figure(spectra: dict, path: str | Path, **kwargs) -> Path:
 def save_campbell_figure(result, path: str | Path, **kwargs) -> Path:
     """:func:`campbell_figure` written to ``path`` (format from its suffix)."""
     fig = campbell_figure(result, **kwargs)
+    try:
+        return save_figure(fig, path, dpi=110)
+    finally:
+        plt.close(fig)
+
+
+def waterfall_figure(waterfalls: dict, *, unit: str = "", scale: float = 1.0, title: str = "",
+                     max_order: float = 5.5, dynamic_range_dB: float = 80.0):
+    """Figure of ``waterfalls`` {channel: :class:`~hacgear_core.spectra.waterfall.Waterfall`}, one row per
+    channel: left the amplitude (dB re the largest, ``dynamic_range_dB`` shown) over mesh frequency and mesh order
+    (order lines horizontal), right the mesh harmonics' tracks (amplitude of order k over the mesh frequency, times
+    ``scale`` in ``unit``)."""
+    n = len(waterfalls)
+    fig, axes = plt.subplots(n, 2, figsize=(11.0, 3.6 * n + 0.4), squeeze=False,
+                             gridspec_kw=dict(width_ratios=(1.4, 1.0)))
+    for (ax, ax2), (name, wf) in zip(axes, waterfalls.items()):
+        keep = (wf.mesh_order > 0) & (wf.mesh_order <= max_order)
+        amp = wf.amplitude[:, keep]
+        ref = float(np.max(amp)) if amp.size and np.max(amp) > 0 else 1.0
+        db = 20 * np.log10(np.maximum(amp / ref, 10 ** (-dynamic_range_dB / 20)))
+        im = ax.pcolormesh(wf.mesh_frequency_Hz, wf.mesh_order[keep], db.T, shading="nearest", cmap="viridis",
+                           vmin=-dynamic_range_dB, vmax=0)
+        fig.colorbar(im, ax=ax, label="dB re max")
+        ax.set_xlabel("mesh frequency f_m [Hz]")
+        ax.set_ylabel("mesh order [-]")
+        ax.set_title(f"{name}: order spectrum over the run-up ({wf.segment_cycles} mesh cycles per segment)",
+                     fontsize=9)
+        for k, (label, tr) in enumerate((lb, t) for lb, t in wf.tracks.items() if lb.isdigit()):
+            ax2.semilogy(wf.mesh_frequency_Hz, np.maximum(tr * scale, 1e-300), color=f"C{k}", lw=1.2,
+                         label=f"order {label}")
+        ax2.set_xlabel("mesh frequency f_m [Hz]")
+        ax2.set_ylabel(f"amplitude [{unit}]" if unit else "amplitude")
+        ax2.grid(True, which="major", alpha=0.3)
+        ax2.legend(fontsize=7)
+        ax2.set_title("mesh harmonics (order tracks)", fontsize=9)
+    if title:
+        fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def save_waterfall_figure(waterfalls: dict, path: str | Path, **kwargs) -> Path:
+    """:func:`waterfall_figure` written to ``path`` (format from its suffix)."""
+    fig = waterfall_figure(waterfalls, **kwargs)
     try:
         return save_figure(fig, path, dpi=110)
     finally:

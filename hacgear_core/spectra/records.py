@@ -41,7 +41,8 @@ from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import ModelError
 from hacgear_core.spectra.spectrum import order_basis, order_spectrum
 
-__all__ = ["QUANTITIES", "UNITS", "SteadyRecord", "steady_record", "record_cycles_for", "system_spectra"]
+__all__ = ["QUANTITIES", "UNITS", "SteadyRecord", "steady_record", "record_cycles_for", "system_spectra",
+           "RUNUP_QUANTITIES", "RunUpRecord", "runup_record"]
 
 #: quantities :func:`steady_record` records
 QUANTITIES = ("dte", "force", "bearing_force", "root_strain", "ste")
@@ -172,3 +173,65 @@ def system_spectra(system: LumpedSystem, mesh_frequency_Hz: float, quantity: str
     return rec, {ch: order_spectrum(x, rec.samples_per_cycle, basis, harmonics=harmonics,
                                     sideband_orders=sideband_orders, mesh_frequency_Hz=rec.mesh_frequency_Hz)
                  for ch, x in rec.channels.items()}
+
+
+@dataclass(frozen=True, eq=False)
+class RunUpRecord:
+    """A record of :func:`runup_record`: ``quantity``, ``unit``, ``channels`` {name: (nr,) samples},
+    ``samples_per_cycle``, ``mesh_frequency_Hz`` (nr,) the prescribed mesh frequency at each sample (constant over
+    each mesh cycle), ``time_s`` (nr,)."""
+
+    quantity: str
+    unit: str
+    channels: dict
+    samples_per_cycle: int
+    mesh_frequency_Hz: np.ndarray
+    time_s: np.ndarray
+
+
+#: quantities :func:`runup_record` records
+RUNUP_QUANTITIES = ("dte", "force", "root_strain")
+
+
+def runup_record(system: LumpedSystem, fm_start_Hz: float, fm_end_Hz: float, cycles: int, quantity: str, *,
+                 samples_per_cycle: int = 64, settle_cycles: int = 200) -> RunUpRecord:
+    """Record ``quantity`` (:data:`RUNUP_QUANTITIES`) over a linear run-up of the mesh frequency from
+    ``fm_start_Hz`` to ``fm_end_Hz`` [Hz] in ``cycles`` mesh cycles, after ``settle_cycles`` at the start speed.
+    The speed is prescribed and stepped once per mesh cycle (its value at the cycle's middle, as ``hacgear
+    simulate --fm-end``), and each cycle is sampled ``samples_per_cycle`` times at equal intervals, so the samples
+    are equally spaced in the reference gear's angle (computed order tracking: the record's frequencies are mesh
+    orders at every speed)."""
+    if quantity not in RUNUP_QUANTITIES:
+        raise ModelError(f"run-up quantity must be one of {RUNUP_QUANTITIES}, got {quantity!r}")
+    for name, v, lo in (("cycles", cycles, 1), ("samples_per_cycle", samples_per_cycle, 8),
+                        ("settle_cycles", settle_cycles, 0)):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
+            raise ModelError(f"{name} [-] must be an integer >= {lo}, got {v!r}")
+    f0, f1 = float(fm_start_Hz), float(fm_end_Hz)
+    if not (math.isfinite(f0) and math.isfinite(f1) and f0 > 0 and f1 > 0):
+        raise ModelError(f"mesh frequencies [Hz] must be finite and > 0, got {fm_start_Hz!r}, {fm_end_Hz!r}")
+    sim = Simulator(system)
+    sim.set_speed_input(mesh_frequency_Hz=f0)
+    for _ in range(int(settle_cycles)):
+        r = sim.advance(1.0 / f0)
+        if not r.success:
+            raise ModelError(r.message)
+    chunks, fms = [], []
+    for c in range(int(cycles)):
+        fm = f0 + (f1 - f0) * (c + 0.5) / cycles
+        sim.set_speed_input(mesh_frequency_Hz=fm)
+        chunks.append(sim.run(1.0 / fm, 1.0 / (fm * samples_per_cycle)))
+        fms.append(np.full(samples_per_cycle, fm))
+    raw = {k: np.concatenate([ch[k] for ch in chunks]) for k in chunks[0] if k != "state"}
+    if quantity == "dte":
+        channels = {c.name: raw["dynamic_transmission_error_m"][:, k] for k, c in enumerate(system.meshes)}
+    elif quantity == "force":
+        channels = {c.name: raw["mesh_force_N"][:, k] for k, c in enumerate(system.meshes)}
+    else:
+        gauges = system_gauges(system)
+        if not gauges:
+            raise ModelError(f"the tables of {system.name} hold no strain gauges")
+        channels = {g: strain_of_tooth(system, g, raw["mesh_position"], raw["mesh_deflection_m"],
+                                       raw["coast_approach_m"], raw.get("mesh_twist_rad")) for g in gauges}
+    return RunUpRecord(quantity, UNITS[quantity], channels, int(samples_per_cycle), np.concatenate(fms),
+                       raw["time_s"])

@@ -41,7 +41,7 @@ from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import ModelError
 from hacgear_core.spectra.spectrum import order_basis, order_spectrum
 
-__all__ = ["QUANTITIES", "UNITS", "SteadyRecord", "steady_record", "record_cycles_for", "system_spectra",
+__all__ = ["QUANTITIES", "UNITS", "SteadyRecord", "steady_record", "record_cycles_for", "system_spectra", "bearing_forces",
            "RUNUP_QUANTITIES", "RunUpRecord", "runup_record"]
 
 #: quantities :func:`steady_record` records
@@ -74,6 +74,42 @@ def _elastic(system: LumpedSystem, state: np.ndarray) -> np.ndarray:
     return np.column_stack([q @ system.V.T, q[:, tr]]) if tr else q @ system.V.T
 
 
+def bearing_forces(system: LumpedSystem, raw: dict, reference_speed_rad_s: float) -> dict:
+    """Force [N] each turning gear puts on its bearing at every sample of a recorded run ``raw``
+    (:meth:`~hacgear_core.dynamics.simulator.Simulator.run` at constant reference speed ``reference_speed_rad_s``
+    [rad/s]), {gear: (nr, 2)} in the fixed frame: the rule of
+    :meth:`~hacgear_core.dynamics.simulator.Simulator.bearing_force_N` (the system's bearing map, else its support
+    springs, else the sum of its mesh forces; carrier-frame forces turned by the carrier's angle) over the record."""
+    n = system.n
+    q = raw["state"][:, :n]
+    force = raw["mesh_force_N"]
+    wc = system.carrier_ratio * float(reference_speed_rad_s)
+    out = {}
+    for g in system.gears.values():
+        if g.rotation < 0 and not g.translations:
+            continue
+        f = np.zeros((q.shape[0], 2))
+        if g.name in system.bearing_maps:
+            a, b, c = system.bearing_maps[g.name]
+            f = q @ np.asarray(a).T + np.asarray(b) + wc ** 2 * np.asarray(c)
+        elif g.translations:
+            for i, d in zip(g.translations, g.directions):
+                f += np.outer(system.K[i, i] * q[:, i], d)
+        else:
+            for k, c in enumerate(system.meshes):
+                if g.name in (c.gear_a, c.gear_b):
+                    f += np.outer((1.0 if g.name == c.gear_b else -1.0) * force[:, k],
+                                  np.asarray(c.line_of_action, float))
+        if system.carrier_ratio != 0.0:
+            # the reference gear's angle from the kinematic mesh position of mesh 0: tau = c + phase + W q
+            cyc = raw["mesh_position"][:, 0] - system.phase[0] - q @ system.W[0]
+            ang = system.carrier_ratio * cyc / system.zref_2pi
+            ca, sa = np.cos(ang), np.sin(ang)
+            f = np.column_stack([ca * f[:, 0] - sa * f[:, 1], sa * f[:, 0] + ca * f[:, 1]])
+        out[g.name] = f
+    return out
+
+
 def steady_record(system: LumpedSystem, mesh_frequency_Hz: float, quantity: str, record_cycles: int, *,
                   samples_per_cycle: int = 128, settle_cycles: int = 400) -> SteadyRecord:
     """Record ``quantity`` (:data:`QUANTITIES`) of ``system`` at constant mesh frequency ``mesh_frequency_Hz`` [Hz]
@@ -101,37 +137,23 @@ def steady_record(system: LumpedSystem, mesh_frequency_Hz: float, quantity: str,
         r = sim.advance(1.0 / fm)
         if not r.success:
             raise ModelError(r.message)
+    start = sim.s.copy()
+    raw = sim.run(nr * dt, dt)                # samples at the end of each interval
+    states = np.vstack([start, raw["state"]])
+    t = raw["time_s"]
     if quantity == "bearing_force":
-        gears = [g.name for g in system.gears.values() if g.rotation >= 0 or g.translations]
-        rec = {g: np.zeros((nr, 2)) for g in gears}
-        states = np.zeros((nr + 1, 2 * system.n))
-        t = np.zeros(nr)
-        for j in range(nr + 1):
-            states[j] = sim.s
-            if j == nr:
-                break
-            t[j] = sim.time_s
-            for g in gears:
-                rec[g][j] = sim.bearing_force_N(g)
-            r = sim.advance(dt)
-            if not r.success:
-                raise ModelError(r.message)
-        channels = {f"{g}.{a}": rec[g][:, i] for g in gears for i, a in enumerate("xy")}
+        channels = {f"{g}.{a}": f[:, i] for g, f in bearing_forces(system, raw, sim.kin[2]).items()
+                    for i, a in enumerate("xy")}
+    elif quantity == "dte":
+        channels = {c.name: raw["dynamic_transmission_error_m"][:, k] for k, c in enumerate(system.meshes)}
+    elif quantity == "force":
+        channels = {c.name: raw["mesh_force_N"][:, k] for k, c in enumerate(system.meshes)}
     else:
-        start = sim.s.copy()
-        raw = sim.run(nr * dt, dt)            # samples at the end of each interval
-        states = np.vstack([start, raw["state"]])
-        t = raw["time_s"]
-        if quantity == "dte":
-            channels = {c.name: raw["dynamic_transmission_error_m"][:, k] for k, c in enumerate(system.meshes)}
-        elif quantity == "force":
-            channels = {c.name: raw["mesh_force_N"][:, k] for k, c in enumerate(system.meshes)}
-        else:
-            gauges = system_gauges(system)
-            if not gauges:
-                raise ModelError(f"the tables of {system.name} hold no strain gauges")
-            channels = {g: strain_of_tooth(system, g, raw["mesh_position"], raw["mesh_deflection_m"],
-                                           raw["coast_approach_m"], raw.get("mesh_twist_rad")) for g in gauges}
+        gauges = system_gauges(system)
+        if not gauges:
+            raise ModelError(f"the tables of {system.name} hold no strain gauges")
+        channels = {g: strain_of_tooth(system, g, raw["mesh_position"], raw["mesh_deflection_m"],
+                                       raw["coast_approach_m"], raw.get("mesh_twist_rad")) for g in gauges}
     el = _elastic(system, states)             # the state at the record's start and after each sample
     span = np.max(np.ptp(el, axis=0))
     err = float(np.max(np.abs(el[-1] - el[0])) / span) if span > 0 else 0.0

@@ -61,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
     if args.plot is not None:
         from hacgear_core.plots.spectra import save_campbell_figure
 
-        save_campbell_figure(res, args.plot, title=f"{inp.label}: Campbell diagram, torque {sy.torque_Nm:g} N·m")
+        save_campbell_figure(res, args.plot, title=f"{inp.label}\nCampbell diagram, torque {sy.torque_Nm:g} N·m")
     if args.json:
         print(dumps({"model": inp.label, "synthetic_table": inp.synthetic, "torque_Nm": sy.torque_Nm,
                      "plot": args.plot, **res.to_json()}))

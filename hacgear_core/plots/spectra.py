@@ -79,9 +79,14 @@ def campbell_figure(result, *, title: str = "", show_shaft_lines: bool = True):
         y = ln.hz_per_rad_s * result.input_speed_rad_s
         style = dict(color=f"C{j}", lw=1.0) if ln.family == "mesh" else dict(color="0.6", lw=0.8, ls="--")
         ax.plot(rpm, y, label=ln.label, **style)
+    shown: list[tuple[str, float, float]] = []
+    span = float(rpm[-1] - rpm[0])
     for c in result.crossings:
         ax.plot(c.input_speed_rpm, c.frequency_Hz, "o", color="C3", mfc="none", ms=6)
-        if any(ln.label == c.line and ln.family == "mesh" for ln in result.lines):
+        near = any(ln == c.line and abs(r - c.input_speed_rpm) < 0.01 * span and abs(f - c.frequency_Hz) < 0.01 * fmax
+                   for ln, r, f in shown)          # split modes of one family: one label
+        if not near and any(ln.label == c.line and ln.family == "mesh" for ln in result.lines):
+            shown.append((c.line, c.input_speed_rpm, c.frequency_Hz))
             ax.annotate(f"{c.input_speed_rpm:.0f}", (c.input_speed_rpm, c.frequency_Hz), xytext=(3, -9),
                         textcoords="offset points", fontsize=6.5, color="C3")
     ax.set_xlim(rpm[0], rpm[-1])
@@ -90,7 +95,7 @@ def campbell_figure(result, *, title: str = "", show_shaft_lines: bool = True):
     ax.set_ylabel("frequency [Hz]")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=7, loc="upper left")
-    ax.set_title(title or "Campbell diagram", fontsize=10)
+    ax.set_title(title or "Campbell diagram", fontsize=9)
     fig.tight_layout()
     return fig
 

@@ -35,7 +35,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "f_m = z x f_shaft (relative to the carrier in a planetary set). Marked: mesh harmonics k, sidebands "
             "k +- n shaft orders of each shaft, shaft orders n. Over whole common periods the amplitudes are exact "
             "(no window); a --record-cycles shorter than the common period uses the flat-top window "
-            "(amplitude error <= 0.12 %%). Amplitudes: single-sided peak, in the quantity's unit (--json: SI). "
+            "(amplitude error <= 0.12 percent). Amplitudes: single-sided peak, in the quantity's unit (--json: SI). "
             "Perfect gears (no manufacturing errors) respond at mesh harmonics only. Run-up waterfall: --fm-end F2 "
             "ramps the mesh frequency linearly from --fm to F2 over --cycles mesh cycles (dte, force, root_strain), "
             "sampled equally in angle (order tracking), and takes the order spectrum of segments of "

@@ -41,8 +41,8 @@ from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import ModelError
 from hacgear_core.spectra.spectrum import order_basis, order_spectrum
 
-__all__ = ["QUANTITIES", "UNITS", "SteadyRecord", "steady_record", "record_cycles_for", "system_spectra", "bearing_forces",
-           "RUNUP_QUANTITIES", "RunUpRecord", "runup_record"]
+__all__ = ["QUANTITIES", "UNITS", "SteadyRecord", "steady_record", "record_cycles_for", "system_spectra",
+           "bearing_forces", "RUNUP_QUANTITIES", "RunUpRecord", "runup_record"]
 
 #: quantities :func:`steady_record` records
 QUANTITIES = ("dte", "force", "bearing_force", "root_strain", "ste")

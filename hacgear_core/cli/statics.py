@@ -62,6 +62,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--solver", choices=("fe", "analytic"), default=None,
                    help="fe: finite-element contact solver (hacgear_core.statics.contact); analytic: the analytical "
                         "reference spring model (not FE; for testing the pipeline); default fe")
+    p.add_argument("--face-coupling", choices=("rigid", "slices", "elastic"), default=None,
+                   help="far-field coupling across the face, as `hacgear stiffness --face-coupling`: rigid (2D, "
+                        "uniform; spur default), slices (thin-slice model), elastic (2D + 3D face-wise influence; "
+                        "helical default); the choice is part of the tables' solver description")
     p.add_argument("--check", action="store_true",
                    help="do not compute: read the existing table, verify every dataset's checksum, that it belongs "
                         "to the model (the model values it depends on), its physical sanity (finite, forces >= 0, "
@@ -192,7 +196,7 @@ def _check(args: argparse.Namespace) -> int:
 _COMPUTE_OPTIONS = {"positions": "--positions", "loads": "--loads", "deflections": "--deflections",
                     "max_torque_factor": "--max-torque-factor", "deflection_margin": "--deflection-margin",
                     "workers": "--workers", "resume": "--resume", "fresh": "--fresh", "solver": "--solver",
-                    "no_progress": "--no-progress"}
+                    "no_progress": "--no-progress", "face_coupling": "--face-coupling"}
 
 
 def run(args: argparse.Namespace) -> int:
@@ -213,12 +217,15 @@ def run(args: argparse.Namespace) -> int:
         raise ModelError(f"--deflection-margin [-] = {args.deflection_margin!r} is out of range; allowed: finite >= 0")
     if args.out is not None:
         check_out_path(args.out, "--out", suffixes=(".h5", ".hdf5"))
+    if args.face_coupling is not None and args.solver == "analytic":
+        raise ModelError("--face-coupling applies to the finite-element solver (--solver fe) only")
     rep = compute_statics(
         args.model, args.out, positions=args.positions, loads=args.loads, deflections=args.deflections,
         max_torque_factor=args.max_torque_factor,
         deflection_margin=DEFAULT_DEFLECTION_MARGIN if args.deflection_margin is None else args.deflection_margin,
         solver=args.solver or "fe", workers=args.workers, resume=not args.fresh, progress=not args.no_progress,
         log=lambda msg: print(f"hacgear statics: {msg}", file=sys.stderr, flush=True),
+        face_coupling=args.face_coupling,
     )
     if args.json:
         print(json.dumps(rep.as_dict(), indent=2))

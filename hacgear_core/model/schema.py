@@ -633,12 +633,21 @@ class Operating:
         RANGES["torque_Nm"].check("torque_Nm", self.torque_Nm)
 
 
+#: ``[statics] fe_lengths`` choices (:class:`StaticsGrid`)
+FE_LENGTH_CHOICES = ("auto", "module", "absolute")
+
+
 @dataclass(frozen=True)
 class StaticsGrid:
     """Grids of the static analyses: ``positions`` per mesh cycle, ``loads`` from 0 to
     ``max_torque_factor`` x nominal torque, ``deflections`` points of the regular FDF deflection grid,
     ``face_slices`` slices across the face width (crowning, helix), ``twist_points`` mesh twists from
-    ``-max_twist_rad`` to ``+max_twist_rad`` (helical meshes; odd, so that 0 is a grid point)."""
+    ``-max_twist_rad`` to ``+max_twist_rad`` (helical meshes; odd, so that 0 is a grid point).  ``fe_lengths``: the
+    finite-element and contact lengths (element sizes, sample spacings, reading depths) — ``"absolute"`` the fixed
+    lengths tuned on the module-5 mm gears (0.6 mm at the flanks, 3 mm in the body), ``"module"`` the same lengths
+    times m_n / 5 mm (every gear costs what a module-5 mm gear of its tooth count costs), ``"auto"`` (default)
+    ``"module"`` for gears of the ISO 21771 form and ``"absolute"`` for the transverse form
+    (:func:`hacgear_core.statics.fe.length_scale`)."""
 
     positions: int = 64
     loads: int = 32
@@ -647,11 +656,14 @@ class StaticsGrid:
     face_slices: int = 21
     twist_points: int = 1
     max_twist_rad: float = 1.0e-3
+    fe_lengths: str = "auto"
 
     def __post_init__(self) -> None:
         for name in ("positions", "loads", "deflections", "face_slices", "twist_points", "max_torque_factor"):
             RANGES[f"statics.{name}"].check(name, getattr(self, name))
         _check_range("max_twist_rad", self.max_twist_rad, "rad", 0.0, 0.01, lo_open=True)
+        if self.fe_lengths not in FE_LENGTH_CHOICES:
+            raise _fail("statics.fe_lengths", "", " | ".join(FE_LENGTH_CHOICES), self.fe_lengths)
 
 
 @dataclass(frozen=True)

@@ -63,6 +63,7 @@ The format (one example per system lives in ``models/``)::
 
     [statics]
     positions = 256; loads = 32; max_torque_factor = 3.0   # 256 for spur pairs: docs/hac_vs_direct.md
+    fe_lengths = "auto"   # optional: module | absolute | auto (module for ISO-form gears; docs/static_contact.md)
 
 Planetary sets (``kind = "planetary"``: two meshes, sun -> planet and planet -> ring, each named after the member
 that drives it relative to the carrier)::
@@ -105,7 +106,7 @@ from typing import Any, Callable
 from hacgear_core.errors import ModelError
 from hacgear_core.model import iso21771 as _iso
 from hacgear_core.model.schema import (
-    FLANKS, HANDS, PLANETARY_MEMBERS, RELIEF_SHAPES, WEB_MIN_RIM_M, Damping, Flank, Gauge, Gear, IsoGear,
+    FE_LENGTH_CHOICES, FLANKS, HANDS, PLANETARY_MEMBERS, RELIEF_SHAPES, WEB_MIN_RIM_M, Damping, Flank, Gauge, Gear, IsoGear,
     LumpedGear, RANGES, Material, Mesh, Model, Operating, PinError, Planetary, StaticsGrid, Support, Web,
 )
 
@@ -276,7 +277,7 @@ _PLANETARY_KEYS = ("planet_count", "planet_positions_deg", "carrier_radius_mm", 
 _PIN_ERROR_KEYS = ("planet", "radial_um", "tangential_um")
 _TOP_KEYS = ("system", "materials", "gears", "meshes", "damping", "operating", "statics", "planetary")
 _STATICS_KEYS = ("positions", "loads", "deflections", "max_torque_factor", "face_slices", "twist_points",
-                 "max_twist_mrad")
+                 "max_twist_mrad", "fe_lengths")
 _SYSTEM_KEYS = ("name", "kind", "title", "source", "lumped")
 #: every key a model file may hold: a missing required key next to an unknown key close to it is a misspelling
 _KNOWN_KEYS = frozenset(_MATERIAL_KEYS + _FLANK_KEYS + _GAUGE_KEYS + _SUPPORT_KEYS + _GEAR_KEYS + _ISO_GEAR_KEYS
@@ -612,6 +613,7 @@ DEFAULT_MEANINGS = {
     "output_member": "the member neither the input (torque_gear) nor fixed",
     "pin_errors": "no planet pin position errors", "planet_positions_deg": "equally spaced planets",
     "face_fraction": "gauge at mid face", "max_twist_mrad": "statics grid (mesh twist range, helical pairs)",
+    "fe_lengths": "FE and contact lengths scale with the module for ISO-form gears, absolute for the transverse form",
     "hand": "spur gear (no hand)", "profile_shift": "no profile shift (x = 0)",
     "tip_alteration_mm": "no tip alteration (k = 0)", "basic_rack": "the three rack_*_coefficient keys",
     "thickness_allowance_upper_mm": "nominal tooth thickness (no allowance)",
@@ -722,6 +724,7 @@ def parse_model(text: str, *, file: str = "<model>", path: Path | None = None, s
             twist_points=ssec.ranged("twist_points", "statics.twist_points", required=False, default=1),
             # below 1e-6 mrad a twist grid is meaningless (and a subnormal value would underflow to 0 rad)
             max_twist_rad=1e-3 * ssec.number("max_twist_mrad", "mrad", 1e-6, 10.0, required=False, default=1.0),
+            fe_lengths=ssec.string("fe_lengths", FE_LENGTH_CHOICES, required=False, default="auto"),
         )
         ssec.done(_STATICS_KEYS)
     else:

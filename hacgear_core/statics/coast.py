@@ -49,7 +49,7 @@ from hacgear_core.errors import SolverError
 from hacgear_core.geometry import mesh_geometry
 from hacgear_core.model import Model
 from hacgear_core.kinds import load_model
-from hacgear_core.statics.contact import ContactOptions
+from hacgear_core.statics.contact import ContactOptions, default_contact_options
 from hacgear_core.statics.contract import MeshStaticSolver, StaticSolution
 from hacgear_core.statics.helical import make_solver, needs_face_resolving_solver
 
@@ -225,6 +225,6 @@ def make_coast_solver(model: Any, mesh_name: str, *, options: ContactOptions | N
     mapping = coast_mapping(model, mesh_name)
     if not needs_face_resolving_solver(model, mesh_name, options):
         if options is None:
-            options = ContactOptions(face_slices=model.statics.face_slices)
+            options = default_contact_options(model, mesh_name)
         options = replace(options, pair_centre=coast_pair_centre(mapping))
     return CoastSideSolver(make_solver(model, mesh_name, side="coast", options=options, **kwargs), mapping)

@@ -76,6 +76,8 @@ __all__ = [
     "MeshContactSolver",
     "split_pressure",
     "make_mesh_solver",
+    "default_contact_options",
+    "prebuild_compliances",
     "mesh_solver_inputs",
 ]
 
@@ -934,6 +936,75 @@ class MeshContactSolver:
 # =============================================================================================
 # Model → solver
 # =============================================================================================
+def _compliance_request(model: Model, gear: Any, gg: Any, loaded: str, glist: Sequence[Any], fe_options: Any,
+                        plane: str) -> dict[str, Any]:
+    """Keyword arguments of :func:`~hacgear_core.statics.fe.gear_compliance` for model gear ``gear`` loaded on its
+    ``loaded`` flank with model gauges ``glist``: the model's ``[statics] fe_lengths`` sets the mesh options (unless
+    ``fe_options`` is given) and the sample spacing / fillet margin / reading depth."""
+    mode = model.statics.fe_lengths
+    opts = fe_options if fe_options is not None else fe_mod.gear_mesh_options(gear, mode)
+    return dict(gg=gg, material=fe_mod.ElasticMaterial(gear.material.youngs_modulus_Pa, gear.material.poisson_ratio,
+                                                       plane),
+                side=loaded, gauges=tuple(fe_mod.Gauge(x.name, x.flank, x.radius_m) for x in glist), options=opts,
+                **fe_mod.compliance_lengths(gear, mode))
+
+
+def default_contact_options(model: Model, mesh_name: str, **kw: Any) -> ContactOptions:
+    """:class:`ContactOptions` of mesh ``mesh_name`` with the model's face slices and ``kw``; under module-scaled
+    lengths (``[statics] fe_lengths``, :func:`~hacgear_core.statics.fe.length_scale` of the mesh's first gear)
+    the sharp-tip corner radius is the default 0.1 mm times the scale."""
+    meshes = {x.name: x for x in model.meshes}
+    if mesh_name not in meshes:
+        raise ModelError(f"unknown mesh {mesh_name!r}; the model has: {', '.join(meshes) or '(none)'}")
+    ga = {g.name: g for g in model.gears}[meshes[mesh_name].gear_a]
+    f = fe_mod.length_scale(ga, model.statics.fe_lengths)
+    if f is not None and "corner_radius_m" not in kw:
+        kw["corner_radius_m"] = ContactOptions.corner_radius_m * f
+    kw.setdefault("face_slices", model.statics.face_slices)
+    return ContactOptions(**kw)
+
+
+def prebuild_compliances(model: Any, mesh_names: Sequence[str] | None = None, sides: Sequence[str] = ("drive",),
+                         *, plane: str = "stress", log: Any = None) -> dict[str, int]:
+    """Fill the on-disk cache with the finite-element compliances the contact solvers of ``mesh_names`` (default:
+    every mesh) on ``sides`` will read, building and factorising each gear's FE model once for all its loaded
+    flanks (a planet in two meshes, drive and coast: one build, not four), one gear at a time; solvers built
+    afterwards (in ``hacgear statics``'s worker processes) read the cache and build nothing.  Returns ``{gear name:
+    FE builds}`` (0: every compliance of the gear was cached already)."""
+    if not isinstance(model, Model):
+        model = load_model(model)
+    meshes = {m.name: m for m in model.meshes}
+    gears = {g.name: g for g in model.gears}
+    requests: dict[str, list] = {}
+    for name in (mesh_names if mesh_names is not None else list(meshes)):
+        mesh = meshes[name]
+        for side in sides:
+            fl = (mesh.flank_a, mesh.flank_b) if side == "drive" else (_OTHER_FLANK[mesh.flank_a],
+                                                                       _OTHER_FLANK[mesh.flank_b])
+            for gname, loaded in zip((mesh.gear_a, mesh.gear_b), fl):
+                requests.setdefault(gname, []).append(loaded)
+    builds: dict[str, int] = {}
+    for gname, flanks in requests.items():
+        g = gears[gname]
+        gg = gear_geometry(g)
+        built: list = []
+
+        def shared(req=None):
+            if not built:
+                if log is not None:
+                    log(f"finite-element model of gear {gname}: meshing and factorising (once for "
+                        f"{len(set(flanks))} loaded flank(s))")
+                built.append(fe_mod.build_gear_fe(req["gg"], req["material"], req["options"]))
+            return built[0]
+
+        for loaded in dict.fromkeys(flanks):
+            req = _compliance_request(model, g, gg, loaded, g.gauges, None, plane)
+            fe_mod.gear_compliance(**req, cache=True, fe=lambda req=req: shared(req))
+        builds[gname] = len(built)
+        built.clear()
+    return builds
+
+
 def mesh_solver_inputs(model: Any, mesh_name: str, *, fe_options: Any = None, plane: str = "stress",
                        cache: bool = True, gauges: Sequence[tuple[str, Any]] | None = None,
                        side: str = "drive") -> dict[str, Any]:
@@ -960,13 +1031,11 @@ def mesh_solver_inputs(model: Any, mesh_name: str, *, fe_options: Any = None, pl
     ga, gb = gears[mesh.gear_a], gears[mesh.gear_b]
     mg = mesh_geometry(model, mesh_name)
     ggs = (gear_geometry(ga), gear_geometry(gb))
-    kw = {} if fe_options is None else {"options": fe_options}
     comps, gauge_list, gauge_models = [], [], ([], [])
     for gi, (g, gg, loaded) in enumerate(((ga, ggs[0], flank_a), (gb, ggs[1], flank_b))):
         glist = g.gauges if gauges is None else tuple(x for name, x in gauges if name == g.name)
-        fg = tuple(fe_mod.Gauge(x.name, x.flank, x.radius_m) for x in glist)
-        mat = fe_mod.ElasticMaterial(g.material.youngs_modulus_Pa, g.material.poisson_ratio, plane)
-        comps.append(fe_mod.gear_compliance(gg, mat, loaded, gauges=fg, cache=cache, **kw))
+        comps.append(fe_mod.gear_compliance(**_compliance_request(model, g, gg, loaded, glist, fe_options, plane),
+                                            cache=cache))
         gauge_list += [(gi, k, f"{g.name}/{x.name}") for k, x in enumerate(glist)]
         gauge_models[gi].extend(glist)
     # overlapping face width (axial positions of both gears)
@@ -1002,8 +1071,9 @@ def make_mesh_solver(model: Any, mesh_name: str, *, options: ContactOptions | No
     :func:`hacgear_core.statics.fe.gear_compliance` (cached on disk), so rebuilding in a worker is cheap.
     Helical meshes: :func:`hacgear_core.statics.helical.make_solver` (which dispatches on the gears).
 
-    ``options`` default: ``ContactOptions(face_slices=model.statics.face_slices)``; ``fe_options``: a
-    :class:`hacgear_core.statics.fe.MeshOptions`; ``gauges``: ``(gear name, model Gauge)`` pairs replacing the
+    ``options`` default: :func:`default_contact_options` (the model's face slices; the corner radius scaled with
+    the module under ``[statics] fe_lengths``); ``fe_options``: a :class:`hacgear_core.statics.fe.MeshOptions`
+    (default: :func:`hacgear_core.statics.fe.gear_mesh_options` per gear); ``gauges``: ``(gear name, model Gauge)`` pairs replacing the
     model's gauges (e.g. a row of points along a fillet).  ``side``: ``"drive"`` loads the mesh's flanks;
     ``"coast"`` the other flank of each gear, in that flank pair's own canonical picture and positions —
     :func:`hacgear_core.statics.coast.make_coast_solver` maps it onto the drive side's positions and deflections.
@@ -1018,7 +1088,7 @@ def make_mesh_solver(model: Any, mesh_name: str, *, options: ContactOptions | No
             raise SolverError(f"mesh '{mesh_name}' is helical: build its solver with "
                               "hacgear_core.statics.helical.make_solver")
     if options is None:
-        options = ContactOptions(face_slices=model.statics.face_slices)
+        options = default_contact_options(model, mesh_name)
     kw = mesh_solver_inputs(model, mesh_name, fe_options=fe_options, plane=plane, cache=cache, gauges=gauges,
                             side=side)
     for k in ("mesh", "gears", "gauge_models", "z_centre_m", "model"):

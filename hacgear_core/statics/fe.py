@@ -58,6 +58,7 @@ from __future__ import annotations
 import hashlib
 import contextlib
 import json
+import math
 import os
 import threading
 import time
@@ -81,6 +82,12 @@ __all__ = [
     "PlaneFE",
     "ElasticMaterial",
     "MeshOptions",
+    "REFERENCE_MODULE_M",
+    "COMPLIANCE_LENGTHS_M",
+    "normal_module_m",
+    "length_scale",
+    "gear_mesh_options",
+    "compliance_lengths",
     "Gauge",
     "GearMesh",
     "GearFE",
@@ -224,6 +231,63 @@ class MeshOptions:
                        fillet_size_m=self.fillet_size_m / factor,
                        body_size_m=self.body_size_m / factor)
 
+    def scaled(self, factor: float) -> "MeshOptions":
+        """Copy with every length (element sizes, fine layer, growth length) times ``factor`` (> 0) [-]; the
+        boundary point count is kept.  ``MeshOptions().scaled(m_n / REFERENCE_MODULE_M)`` meshes a gear of normal
+        module ``m_n`` as the default meshes a module-5 mm gear of the same tooth count (same element count)."""
+        if not (isinstance(factor, (int, float, np.floating)) and np.isfinite(factor) and factor > 0):
+            raise ModelError(f"length scale factor [-] must be a finite number > 0, got {factor!r}")
+        return replace(self, flank_size_m=self.flank_size_m * factor, fillet_size_m=self.fillet_size_m * factor,
+                       body_size_m=self.body_size_m * factor, fine_layer_m=self.fine_layer_m * factor,
+                       growth_length_m=self.growth_length_m * factor)
+
+
+#: normal module [m] at which the default lengths (MeshOptions, gear_compliance, ContactOptions, Mesh3DOptions) were
+#: chosen: the shipped 28-tooth pairs.  Module-scaled lengths are these lengths times m_n / REFERENCE_MODULE_M.
+REFERENCE_MODULE_M = 5.0e-3
+
+#: gear_compliance's default sample spacing, fillet margin and near-field reading depth [m] (at REFERENCE_MODULE_M)
+COMPLIANCE_LENGTHS_M = dict(spacing_m=0.25e-3, fillet_margin_m=0.5e-3, depth_m=1.0e-3)
+
+
+def normal_module_m(gear: Any) -> float:
+    """Normal module m_n [m] of a model gear: the ISO form's ``normal_module_m``; the transverse form's
+    ``module_m cos(helix_angle)`` (= ``module_m`` for spur gears)."""
+    iso = getattr(gear, "iso", None)
+    if iso is not None:
+        return float(iso.normal_module_m)
+    return float(gear.module_m) * math.cos(float(getattr(gear, "helix_angle_rad", 0.0)))
+
+
+def length_scale(gear: Any, mode: str = "auto") -> float | None:
+    """Factor [-] on the default finite-element and contact lengths for ``gear``, or None for the absolute lengths.
+
+    ``mode`` (the model's ``[statics] fe_lengths``): ``"absolute"`` → None (the lengths tuned on the module-5 mm
+    gears, whatever the module: every shipped transverse-form model's tables); ``"module"`` → ``m_n /
+    REFERENCE_MODULE_M`` (:func:`normal_module_m`; 1.0 exactly at m_n = 5 mm, so the lengths are then the absolute
+    ones bit for bit); ``"auto"`` → ``"module"`` for an ISO 21771 form gear (``gear.iso`` set), ``"absolute"`` for the
+    transverse (dissertation) form.
+    """
+    if mode not in ("auto", "module", "absolute"):
+        raise ModelError(f"fe_lengths = {mode!r}; allowed: auto | module | absolute")
+    if mode == "absolute" or (mode == "auto" and getattr(gear, "iso", None) is None):
+        return None
+    return normal_module_m(gear) / REFERENCE_MODULE_M
+
+
+def gear_mesh_options(gear: Any, mode: str = "auto") -> MeshOptions:
+    """The :class:`MeshOptions` statics uses for model gear ``gear`` under ``[statics] fe_lengths = mode``
+    (:func:`length_scale`): the defaults, or the defaults scaled with the module."""
+    f = length_scale(gear, mode)
+    return MeshOptions() if f is None else MeshOptions().scaled(f)
+
+
+def compliance_lengths(gear: Any, mode: str = "auto") -> dict[str, float]:
+    """``spacing_m``, ``fillet_margin_m``, ``depth_m`` [m] for :func:`gear_compliance` of model gear ``gear``
+    (:data:`COMPLIANCE_LENGTHS_M`, times :func:`length_scale` where that is not None)."""
+    f = length_scale(gear, mode)
+    return dict(COMPLIANCE_LENGTHS_M) if f is None else {k: v * f for k, v in COMPLIANCE_LENGTHS_M.items()}
+
 
 @dataclass(frozen=True)
 class Gauge:
@@ -354,7 +418,10 @@ def mesh_gear(gg: Any, options: MeshOptions = MeshOptions()) -> GearMesh:
     region = np.asarray(bnd.region)
     side = np.asarray(bnd.side)
     # drop repeated points
-    keep = np.r_[True, np.linalg.norm(np.diff(xy, axis=0), axis=1) > 1e-12]
+    # (closer than 1e-12 m at the default or finer sizes; larger module-scaled sizes scale the distance with them:
+    # at module 45 the two fillet bottoms of a full-radius ring root lie 1e-11 m apart and would break the cut)
+    dup = 1e-12 * max(1.0, options.flank_size_m / MeshOptions.flank_size_m)
+    keep = np.r_[True, np.linalg.norm(np.diff(xy, axis=0), axis=1) > dup]
     xy, region, side = xy[keep], region[keep], side[keep]
     half = np.pi / z
     # the sector is [-pi/z + off, pi/z + off]: off = 0 unless the root land lies off the mid-space angle
@@ -1398,9 +1465,11 @@ def gear_compliance(gg: Any, material: Any, side: str, *, options: MeshOptions =
         Points of the dense profile from ``gg.flank``.
     cache : bool
         Read/write the on-disk cache (:func:`cache_dir`).
-    fe : CyclicGearFE or GearFE, optional
+    fe : CyclicGearFE or GearFE or callable, optional
         Reuse an already factorised model (must match ``gg``, ``material`` and ``options``);
-        default: :func:`build_gear_fe` with ``method="cyclic"``.
+        default: :func:`build_gear_fe` with ``method="cyclic"``.  A callable without arguments returning such a
+        model is called only when the on-disk cache does not hold the result (several flanks, one build:
+        :func:`hacgear_core.statics.contact.prebuild_compliances`).
 
     Returns
     -------
@@ -1408,12 +1477,13 @@ def gear_compliance(gg: Any, material: Any, side: str, *, options: MeshOptions =
     """
     if side not in ("drive", "coast"):
         raise ModelError(f"side must be 'drive' or 'coast', got {side!r}")
-    if not (1e-5 <= spacing_m <= 2e-3):
-        raise ModelError(f"spacing_m must be in [1e-5, 2e-3] m, got {spacing_m!r}")
-    if not (0 <= fillet_margin_m <= 5e-3):
-        raise ModelError(f"fillet_margin_m must be in [0, 5e-3] m, got {fillet_margin_m!r}")
-    if not (5e-5 <= depth_m <= 5e-3):
-        raise ModelError(f"depth_m must be in [5e-5, 5e-3] m, got {depth_m!r}")
+    # the ranges cover the defaults scaled from m_n = 0.1 mm to 100 mm (length_scale 0.02 .. 20)
+    if not (1e-6 <= spacing_m <= 1e-2):
+        raise ModelError(f"spacing_m must be in [1e-6, 1e-2] m, got {spacing_m!r}")
+    if not (0 <= fillet_margin_m <= 2e-2):
+        raise ModelError(f"fillet_margin_m must be in [0, 2e-2] m, got {fillet_margin_m!r}")
+    if not (1e-6 <= depth_m <= 5e-2):
+        raise ModelError(f"depth_m must be in [1e-6, 5e-2] m, got {depth_m!r}")
     if not (0.05 <= depth_fraction <= 0.5):
         raise ModelError(f"depth_fraction must be in [0.05, 0.5], got {depth_fraction!r}")
     mat = ElasticMaterial.coerce(material)
@@ -1436,7 +1506,8 @@ def gear_compliance(gg: Any, material: Any, side: str, *, options: MeshOptions =
 
     key = _hash_inputs(gg, mat, options, side, s_grid, (depth_m, depth_fraction), gauges, n_profile)
     path = cache_dir() / "fe" / f"flank_{key}.npz"
-    if cache and fe is None and path.exists():
+    lazy = fe is not None and not hasattr(fe, "influence")
+    if cache and (fe is None or lazy) and path.exists():
         try:
             return FlankCompliance.load(path)
         except Exception:
@@ -1458,6 +1529,8 @@ def gear_compliance(gg: Any, material: Any, side: str, *, options: MeshOptions =
     t0 = time.perf_counter()
     if fe is None:
         fe = build_gear_fe(gg, mat, options)
+    elif lazy:
+        fe = fe()
     t1 = time.perf_counter()
     read = xy - depth[:, None] * nrm
     g_q = np.array([p - 2e-6 * nn for p, nn in zip(g_xy, g_n)]).reshape(-1, 2)

@@ -42,9 +42,9 @@ from scipy.spatial import cKDTree
 
 from hacgear_core.errors import GeometryError, ModelError, SolverError
 from hacgear_core.statics.fe import (ElasticMaterial, Gauge, _boundary_pieces, _chord_inward, _gauge_location,
-                                     _single_thread_blas, cache_dir, gmsh_model, read_npz, write_npz)
+                                     _single_thread_blas, cache_dir, gmsh_model, length_scale, read_npz, write_npz)
 
-__all__ = ["FE3D_CODE_VERSION", "Mesh3DOptions", "ToothSectorFE", "FaceInfluence", "face_influence", "material_of",
+__all__ = ["FE3D_CODE_VERSION", "Mesh3DOptions", "gear_mesh3d_options", "ToothSectorFE", "FaceInfluence", "face_influence", "material_of",
            "helical_flank_points", "influence_check"]
 
 #: bump when anything changes the numbers produced (part of every cache key)
@@ -79,8 +79,9 @@ class Mesh3DOptions:
         for name in ("flank_size_m", "body_size_m", "fine_layer_m", "growth_length_m", "layer_size_m",
                      "z_spacing_m", "depth_m"):
             v = getattr(self, name)
-            if not (isinstance(v, (int, float, np.floating)) and np.isfinite(v) and 1e-5 <= v <= 0.1):
-                raise ModelError(f"Mesh3DOptions.{name} must be in [1e-5, 0.1] m, got {v!r}")
+            # the range covers the defaults scaled from m_n = 0.1 mm to 100 mm (scaled(0.02 .. 20))
+            if not (isinstance(v, (int, float, np.floating)) and np.isfinite(v) and 1e-6 <= v <= 0.2):
+                raise ModelError(f"Mesh3DOptions.{name} must be in [1e-6, 0.2] m, got {v!r}")
         if not (isinstance(self.teeth, (int, np.integer)) and self.teeth in (1, 3, 5)):
             raise ModelError(f"Mesh3DOptions.teeth must be 1, 3 or 5, got {self.teeth!r}")
         if not (0.5 <= self.rim_depth_modules <= 5.0):
@@ -96,6 +97,25 @@ class Mesh3DOptions:
             raise ModelError(f"refinement factor must be > 0, got {factor!r}")
         return replace(self, flank_size_m=self.flank_size_m / factor, body_size_m=self.body_size_m / factor,
                        layer_size_m=self.layer_size_m / factor)
+
+    def scaled(self, factor: float) -> "Mesh3DOptions":
+        """Copy with every length (element sizes, fine layer, growth length, face layer length, axial spacing of the
+        influence grid, reading depth) times ``factor`` (> 0) [-]: a gear of normal module ``m_n`` and face width
+        ``b`` with ``scaled(m_n / 5 mm)`` has the elements, face layers and influence grid of the default model of a
+        module-5 mm gear of face width ``b 5 mm / m_n``."""
+        if not (isinstance(factor, (int, float, np.floating)) and np.isfinite(factor) and factor > 0):
+            raise ModelError(f"length scale factor [-] must be a finite number > 0, got {factor!r}")
+        return replace(self, flank_size_m=self.flank_size_m * factor, body_size_m=self.body_size_m * factor,
+                       fine_layer_m=self.fine_layer_m * factor, growth_length_m=self.growth_length_m * factor,
+                       layer_size_m=self.layer_size_m * factor, z_spacing_m=self.z_spacing_m * factor,
+                       depth_m=self.depth_m * factor)
+
+
+def gear_mesh3d_options(gear: Any, mode: str = "auto") -> Mesh3DOptions:
+    """The :class:`Mesh3DOptions` statics uses for model gear ``gear`` under ``[statics] fe_lengths = mode``
+    (:func:`hacgear_core.statics.fe.length_scale`): the defaults, or the defaults scaled with the module."""
+    f = length_scale(gear, mode)
+    return Mesh3DOptions() if f is None else Mesh3DOptions().scaled(f)
 
 
 def material_of(gear: Any, plane: str = "stress") -> ElasticMaterial:
@@ -148,6 +168,9 @@ class ToothSectorFE:
         if bool(getattr(gg, "internal", False)):
             raise GeometryError("the 3D tooth sector is implemented for external gears only")
         t0 = time.perf_counter()
+        # how far outside the meshed sector a surface point may lie (projected onto it): 1 mm, or one flank element
+        # where module-scaled elements are larger
+        self._outside_tol_m = max(1e-3, float(options.flank_size_m))
         P, T, r_cut = self._mesh(gg, options)
         t1 = time.perf_counter()
         d = P[T]
@@ -274,7 +297,7 @@ class ToothSectorFE:
             # points on the sector's surface are projected onto the nearest candidate element; up to 1 mm away
             # (measured on helical_28_33: a coast flank's tip corner at a face end lies 0.64 mm outside the meshed
             # sector on the wheel, 0.53 mm on the pinion with a coarse mesh; every drive-flank point lies within 0.5 mm)
-            if np.any(dist > 1e-3):
+            if np.any(dist > getattr(self, "_outside_tol_m", 1e-3)):
                 raise GeometryError(f"point(s) lie outside the 3D tooth sector (by up to {dist.max():.3g} m)")
             Xb[out] = L[:, 1:]
         return el, Xb

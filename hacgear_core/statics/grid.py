@@ -41,6 +41,7 @@ import hashlib
 import math
 import os
 import pickle
+import re
 import threading
 import time
 from dataclasses import dataclass, field, replace
@@ -55,6 +56,7 @@ from hacgear_core.h5files import check_writable_kind
 from hacgear_core.kinds import kind_of, load_model
 from hacgear_core.model.provenance import model_values_json, model_values_sha256
 from hacgear_core.statics.coast import CoastSideSolver, coast_mapping, make_coast_solver
+from hacgear_core.statics.contact import ContactOptions, default_contact_options, prebuild_compliances
 from hacgear_core.statics.contract import MeshInfo, MeshStaticSolver, SolverFactory, StaticSolution, describe_solver
 from hacgear_core.statics.helical import make_solver
 from hacgear_core.statics.reference import AnalyticPairSolver
@@ -102,13 +104,16 @@ class ModelSolverFactory:
     (:func:`~hacgear_core.model.provenance.model_values_sha256`) are those the run started from, and builds
     the solver of one side of ``mesh_name`` (``solver`` = ``"fe"``: :func:`~hacgear_core.statics.helical.make_solver`
     (spur or helical) / :func:`~hacgear_core.statics.coast.make_coast_solver`; ``"analytic"``:
-    :meth:`AnalyticPairSolver.from_model`, the coast side wrapped in :class:`CoastSideSolver`)."""
+    :meth:`AnalyticPairSolver.from_model`, the coast side wrapped in :class:`CoastSideSolver`).  ``face_coupling``
+    (``"fe"`` only): None, the solvers' defaults (spur ``rigid``, helical ``elastic``); or ``rigid`` | ``slices`` |
+    ``elastic`` for every mesh (:class:`~hacgear_core.statics.contact.ContactOptions`)."""
 
     model_path: str
     mesh_name: str
     model_values_sha256: str
     solver: str = "fe"
     side: str = "drive"
+    face_coupling: str | None = None
 
     def __call__(self) -> MeshStaticSolver:
         model = load_model(self.model_path)
@@ -125,9 +130,12 @@ class ModelSolverFactory:
             return AnalyticPairSolver.from_model(model, self.mesh_name)
         if self.solver != "fe":
             raise SolverError(f"unknown solver {self.solver!r}; allowed: fe | analytic")
+        options = None
+        if self.face_coupling is not None:
+            options = default_contact_options(model, self.mesh_name, face_coupling=self.face_coupling)
         if self.side == "coast":
-            return make_coast_solver(model, self.mesh_name)
-        return make_solver(model, self.mesh_name)
+            return make_coast_solver(model, self.mesh_name, options=options)
+        return make_solver(model, self.mesh_name, options=options)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -459,6 +467,9 @@ def run_statics(
             "model_values_sha256": hashlib.sha256(model_values.encode()).hexdigest() if model_values else "",
             "deflection_margin": float(deflection_margin),
         }
+        for existing in ((partial,) if partial.exists() else (out,) if out.exists() else ()):
+            if resume:
+                _check_face_coupling(existing, layouts)
         if resume and not partial.exists() and out.exists():
             done = tb.completed_table_matches(out, layouts, root_attrs)
             if done:
@@ -494,6 +505,27 @@ def run_statics(
     finally:
         if own_executor is not None:
             own_executor.shutdown(wait=True)
+
+
+_COUPLING = re.compile(r"slices \((rigid|slices|elastic)\)")
+
+
+def _check_face_coupling(path: Path, layouts: Mapping[str, "tb.MeshLayout"]) -> None:
+    """Refuse to resume or accept the tables file ``path`` whose meshes were solved with another far-field face
+    coupling than ``layouts`` (read from the solver descriptions, "N slices (coupling)")."""
+    import h5py
+
+    try:
+        with h5py.File(path, "r") as f:
+            stored = {m: str(f["meshes"][m].attrs.get("solver", "")) for m in layouts if m in f.get("meshes", {})}
+    except (OSError, KeyError):
+        return      # unreadable / other layout: the layout checks that follow say what differs
+    for m, desc in stored.items():
+        a, b = _COUPLING.search(desc), _COUPLING.search(layouts[m].solver_description)
+        if a and b and a.group(1) != b.group(1):
+            raise TableError(f"{path} holds mesh '{m}' solved with face coupling {a.group(1)!r}, this run asks for "
+                             f"{b.group(1)!r}; it is kept. Write to another file with --out, or replace it with "
+                             "--fresh")
 
 
 def _run_phases(f, tb, factories, layouts, positions, executor, margin, progress, out, partial, t0, note):
@@ -586,6 +618,7 @@ def compute_statics(
     progress: bool = True,
     sides: Sequence[str] = SIDES,
     log: Callable[[str], None] | None = None,
+    face_coupling: str | None = None,
 ) -> StaticsReport:
     """``hacgear statics``: the static grids of both sides of every mesh of a model file → ``tables.h5``.
 
@@ -597,7 +630,13 @@ def compute_statics(
     ``hacgear_core.statics.coast.make_coast_solver``) or ``"analytic"`` (:class:`AnalyticPairSolver`, reference
     spring model).  ``sides``: ``("drive", "coast")`` (default; helical meshes: both sides over the same twist
     grid, each in its own mesh frame) or ``("drive",)`` (a one-sided table, e.g. for quick studies).  ``log``: as
-    in :func:`run_statics`.
+    in :func:`run_statics`.  ``face_coupling``: None (the solvers' defaults: spur ``rigid``, helical ``elastic``) or
+    ``rigid`` | ``slices`` | ``elastic`` (``hacgear stiffness --face-coupling``'s choices), ``solver="fe"`` only.
+
+    Before the worker processes start, every gear's finite-element model is built and factorised once, in this
+    process, one gear at a time, and the compliances of all its loaded flanks are written to the on-disk cache
+    (:func:`~hacgear_core.statics.contact.prebuild_compliances`): the workers read them and build no FE model, so
+    the peak memory is that of the largest single gear, whatever the worker count.
     """
     mdl = load_model(model)
     if solver not in ("fe", "analytic"):
@@ -617,9 +656,16 @@ def compute_statics(
     sides = tuple(sides)
     if "drive" not in sides or not set(sides) <= set(SIDES):
         raise ModelError(f"sides = {sides!r}; allowed: ('drive',) or ('drive', 'coast')")
+    if face_coupling is not None:
+        if solver != "fe":
+            raise ModelError(f"face_coupling = {face_coupling!r} applies to solver 'fe' only (got solver {solver!r})")
+        ContactOptions(face_coupling=face_coupling)     # validates the choice here, not in a worker
     factories = {region_key(m.name, side): ModelSolverFactory(str(mdl.path), m.name, model_values_sha256(mdl),
-                                                              solver, side)
+                                                              solver, side, face_coupling)
                  for m in mdl.meshes for side in sides}
+    if solver == "fe":
+        # one FE build per gear, before the workers: they read the cached compliances (docstring)
+        prebuild_compliances(mdl, sides=sides, log=log)
 
     def loads_for(infos: dict[str, MeshInfo]) -> dict[str, np.ndarray]:
         # the mesh force is conjugate to the mesh deflection: torque = force x lever arm (r_b cos(beta_b))

@@ -56,8 +56,8 @@ from hacgear_core.errors import ModelError, SolverError
 from hacgear_core.model import Model
 from hacgear_core.kinds import load_model
 from hacgear_core.statics import fe3d
-from hacgear_core.statics.contact import (ContactOptions, ContactState, MeshContactSolver, make_mesh_solver,
-                                          mesh_solver_inputs, split_pressure)
+from hacgear_core.statics.contact import (ContactOptions, ContactState, MeshContactSolver, default_contact_options,
+                                          make_mesh_solver, mesh_solver_inputs, split_pressure)
 from hacgear_core.statics.contract import StaticSolution
 from hacgear_core.statics.nearfield import halfspace_approach_hertz
 
@@ -517,7 +517,10 @@ def make_helical_solver(model: Any, mesh_name: str, *, options: ContactOptions |
                         gauges: Sequence[tuple[str, Any]] | None = None,
                         fe3d_options: Any = None, side: str = "drive") -> HelicalMeshContactSolver:
     """The face-resolving static contact solver of mesh ``mesh_name`` (helical, or spur with ``elastic`` face
-    coupling).  ``options`` default: the model's face slices and ``face_coupling="elastic"``; the 3D face
+    coupling).  ``options`` default: the model's face slices and ``face_coupling="elastic"``
+    (:func:`~hacgear_core.statics.contact.default_contact_options`); ``fe3d_options`` default:
+    :func:`~hacgear_core.statics.fe3d.gear_mesh3d_options` per gear (module-scaled lengths under ``[statics]
+    fe_lengths``); the 3D face
     influence (:func:`hacgear_core.statics.fe3d.face_influence`, cached on disk) is built only for ``elastic``.
     ``side``: ``"drive"`` loads the mesh's flanks, ``"coast"`` the other flank of each gear (its own canonical
     picture and positions, the physical mesh frame; :func:`hacgear_core.statics.coast.make_coast_solver` maps it
@@ -525,7 +528,7 @@ def make_helical_solver(model: Any, mesh_name: str, *, options: ContactOptions |
     if not isinstance(model, Model):
         model = load_model(model)
     if options is None:
-        options = ContactOptions(face_slices=model.statics.face_slices, face_coupling="elastic")
+        options = default_contact_options(model, mesh_name, face_coupling="elastic")
     kw = mesh_solver_inputs(model, mesh_name, fe_options=fe_options, plane=plane, cache=cache, gauges=gauges,
                             side=side)
     ga, gb = kw.pop("gears")
@@ -545,7 +548,8 @@ def make_helical_solver(model: Any, mesh_name: str, *, options: ContactOptions |
             fe3d.face_influence(gg, fe3d.material_of(g, plane), loaded,
                                 gauges=tuple((x.name, x.flank, x.radius_m,
                                               float(getattr(x, "face_fraction", 0.5))) for x in gmods[i]),
-                                options=fe3d_options, cache=cache)
+                                options=(fe3d_options if fe3d_options is not None
+                                         else fe3d.gear_mesh3d_options(g, model.statics.fe_lengths)), cache=cache)
             for i, (g, gg, loaded) in enumerate(((ga, ggs[0], kw["flanks"][0]), (gb, ggs[1], kw["flanks"][1]))))
     return HelicalMeshContactSolver(
         **kw, options=options,

@@ -14,7 +14,7 @@ from hacgear_core.geometry import gear_geometry, mesh_geometry
 from hacgear_core.model import Flank, Gauge, Model
 from hacgear_core.kinds import load_model
 from hacgear_core.statics.grid import nominal_mesh_forces
-from hacgear_core.statics.contact import ContactOptions, MeshContactSolver, make_mesh_solver
+from hacgear_core.statics.contact import ContactOptions, MeshContactSolver, default_contact_options, make_mesh_solver
 from hacgear_core.statics.helical import HelicalMeshContactSolver, make_solver
 
 __all__ = [
@@ -357,11 +357,12 @@ def mesh_stiffness_report(model: Any, torque_Nm: float, *, mesh: str | None = No
             continue
         if progress is not None:
             progress(f"mesh {m.name}: building the finite-element model of its gears")
+        mopts = default_contact_options(model, m.name, face_slices=opts.face_slices, face_coupling=opts.face_coupling)
         if side == "coast":
-            solver = make_mesh_solver(model, m.name, options=opts, side="coast")
+            solver = make_mesh_solver(model, m.name, options=mopts, side="coast")
             force = coast_forces[m.name]
         else:
-            solver = make_solver(model, m.name, options=opts)
+            solver = make_solver(model, m.name, options=mopts)
             lever = getattr(solver, "lever_arm_m", solver.base_radius_m)
             force = nominal_mesh_forces(model, {m.name: tuple(lever)}, torque_Nm=torque_Nm)[m.name] \
                 if len(model.meshes) == 1 else _train_force(model, torque_Nm, m.name, solver, geo)

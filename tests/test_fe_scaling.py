@@ -1,0 +1,197 @@
+"""Any size (#51 item 2): finite-element and contact lengths that scale with the module (``[statics] fe_lengths``),
+one FE build per gear before the statics workers, and ``hacgear statics --face-coupling``.
+
+Bit-for-bit comparisons are made only within one run (the current code against a recomputation with explicit
+absolute lengths); nothing recorded on a machine is compared."""
+from __future__ import annotations
+
+import textwrap
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from hacgear_core.errors import ModelError
+from hacgear_core.geometry import gear_geometry
+from hacgear_core.kinds import load_model
+from hacgear_core.statics import fe as fe_mod
+from hacgear_core.statics.contact import (ContactOptions, default_contact_options, make_mesh_solver,
+                                          mesh_solver_inputs, prebuild_compliances)
+
+
+def _iso_pair_toml(module_mm: float, statics: str = "") -> str:
+    """An ISO 21771 form spur pair 28/33 of normal module ``module_mm`` (rack A, face width 10 m_n, bore 6 m_n)."""
+    gear = textwrap.dedent(f"""\
+        teeth = {{teeth}}
+        normal_module_mm = {module_mm!r}
+        normal_pressure_angle_deg = 20.0
+        basic_rack = "A"
+        face_width_mm = {10 * module_mm!r}
+        bore_diameter_mm = {6 * module_mm!r}
+        material = "steel"
+        """)
+    return textwrap.dedent("""\
+        [system]
+        name = "iso_pair"
+        kind = "spur_pair"
+        [materials.steel]
+        density_kg_per_m3 = 7850.0
+        youngs_modulus_GPa = 206.0
+        poisson_ratio = 0.3
+        """) + '[[gears]]\nname = "pinion"\n' + gear.format(teeth=28) + '[[gears]]\nname = "wheel"\n' + \
+        gear.format(teeth=33) + textwrap.dedent("""\
+        [[meshes]]
+        name = "m"
+        gear_a = "pinion"
+        gear_b = "wheel"
+        [damping]
+        modal_damping_ratio = 0.02
+        [operating]
+        torque_Nm = 100.0
+        """) + statics
+
+
+def _iso_model(tmp_path, module_mm: float, statics: str = ""):
+    d = tmp_path / f"m{module_mm:g}_{len(list(tmp_path.iterdir()))}"
+    d.mkdir()
+    (d / "model.toml").write_text(_iso_pair_toml(module_mm, statics=statics))
+    return load_model(d / "model.toml")
+
+
+@pytest.fixture
+def cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("HACGEAR_CACHE_DIR", str(tmp_path / "cache"))
+    return tmp_path / "cache"
+
+
+def test_iso_gear_fe_size_does_not_grow_with_the_module(tmp_path):
+    """An ISO-form 28-tooth gear at module 1 and 45 mm: the module-scaled FE model has the same DOF count within
+    2 % (the old absolute 0.6 mm / 3 mm sizes gave module 45 about 80 x the elements of module 5) and the same
+    flank sample count; at m_n = 5 mm the scaled lengths are the absolute ones exactly."""
+    dofs, samples = {}, {}
+    for m in (1.0, 45.0):
+        model = _iso_model(tmp_path, m)
+        g = model.gears[0]
+        assert fe_mod.length_scale(g, model.statics.fe_lengths) == pytest.approx(m / 5.0, rel=1e-15)
+        opts = fe_mod.gear_mesh_options(g, model.statics.fe_lengths)
+        assert opts.flank_size_m == pytest.approx(0.12 * m * 1e-3, rel=1e-12)
+        assert opts.body_size_m == pytest.approx(0.6 * m * 1e-3, rel=1e-12)
+        gg = gear_geometry(g)
+        fe = fe_mod.build_gear_fe(gg, fe_mod.ElasticMaterial(206e9, 0.3), opts)
+        dofs[m] = fe.n_dofs
+        c = fe_mod.gear_compliance(gg, fe_mod.ElasticMaterial(206e9, 0.3), "drive", options=opts, cache=False, fe=fe,
+                                   **fe_mod.compliance_lengths(g, model.statics.fe_lengths))
+        samples[m] = c.s_m.size
+    assert abs(dofs[45.0] / dofs[1.0] - 1.0) < 0.02, dofs
+    assert samples[1.0] == samples[45.0], samples
+    g5 = _iso_model(tmp_path, 5.0).gears[0]
+    assert fe_mod.gear_mesh_options(g5) == fe_mod.MeshOptions()
+    assert fe_mod.compliance_lengths(g5) == fe_mod.COMPLIANCE_LENGTHS_M
+
+
+def test_fe_lengths_key(tmp_path):
+    """``[statics] fe_lengths``: auto (default) scales ISO-form gears; absolute keeps the fixed lengths for them;
+    module scales a transverse-form gear; another value is refused naming the key and the choices."""
+    iso_abs = _iso_model(tmp_path, 45.0, '[statics]\nfe_lengths = "absolute"\n')
+    assert fe_mod.length_scale(iso_abs.gears[0], iso_abs.statics.fe_lengths) is None
+    assert fe_mod.gear_mesh_options(iso_abs.gears[0], "absolute") == fe_mod.MeshOptions()
+    spur = load_model("spur_28t_asym")
+    assert spur.gears[0].iso is None and spur.statics.fe_lengths == "auto"
+    assert fe_mod.length_scale(spur.gears[0], "auto") is None
+    assert fe_mod.length_scale(spur.gears[0], "module") == 1.0      # module 5 mm: the absolute lengths exactly
+    (tmp_path / "bad").mkdir()
+    (tmp_path / "bad" / "model.toml").write_text(_iso_pair_toml(5.0, statics='[statics]\nfe_lengths = "modul"\n'))
+    with pytest.raises(ModelError, match=r"statics\.fe_lengths.*auto \| module \| absolute"):
+        load_model(tmp_path / "bad" / "model.toml")
+    with pytest.raises(ModelError, match="fe_lengths"):
+        fe_mod.length_scale(spur.gears[0], "relative")
+    # the corner radius of a sharp tip scales too (ISO module 45: 0.1 mm x 9)
+    iso = _iso_model(tmp_path, 45.0)
+    assert default_contact_options(iso, "m").corner_radius_m == pytest.approx(0.9e-3, rel=1e-12)
+    assert default_contact_options(spur, spur.meshes[0].name) == ContactOptions(face_slices=spur.statics.face_slices)
+
+
+def test_shipped_pair_fe_model_and_solution_unchanged(cache):
+    """The shipped 28-tooth pair (transverse form): the solver built with the defaults equals, bit for bit, one
+    built with the explicit absolute lengths of before (MeshOptions(), 0.25 / 0.5 / 1.0 mm sampling, 0.1 mm corner
+    radius): same FE node count, compliances and a solved mesh force."""
+    model = load_model("spur_28t_asym")
+    mesh = model.meshes[0].name
+    now = make_mesh_solver(model, mesh, cache=False)
+    old = make_mesh_solver(model, mesh, cache=False, fe_options=fe_mod.MeshOptions(),
+                           options=ContactOptions(face_slices=model.statics.face_slices, corner_radius_m=0.1e-3))
+    for a, b in zip(now.compliance, old.compliance):
+        assert a.info["n_dofs"] == b.info["n_dofs"]
+        assert a.info["cache_key"] == b.info["cache_key"]
+        np.testing.assert_array_equal(a.far_field_m2_N, b.far_field_m2_N)
+    assert now.options == old.options
+    s_now = now.solve_deflection(0.3, 20e-6)
+    s_old = old.solve_deflection(0.3, 20e-6)
+    assert s_now.mesh_force_N == s_old.mesh_force_N and s_now.mesh_force_N > 0
+    np.testing.assert_array_equal(s_now.tooth_load_N, s_old.tooth_load_N)
+
+
+def test_prebuild_builds_each_gear_once(cache, tmp_path, monkeypatch):
+    """prebuild_compliances (run by compute_statics before its workers) meshes and factorises each gear once for
+    both sides, fills the cache, and solvers built afterwards build no FE model."""
+    model = _iso_model(tmp_path, 5.0)
+    calls = []
+    real = fe_mod.build_gear_fe
+
+    def counting(*a, **k):
+        calls.append(1)
+        return real(*a, **k)
+
+    monkeypatch.setattr(fe_mod, "build_gear_fe", counting)
+    assert prebuild_compliances(model, sides=("drive", "coast")) == {"pinion": 1, "wheel": 1}
+    assert len(calls) == 2
+    assert prebuild_compliances(model, sides=("drive", "coast")) == {"pinion": 0, "wheel": 0}
+
+    def refuse(*a, **k):
+        raise AssertionError("a solver built after prebuild_compliances built an FE model")
+
+    monkeypatch.setattr(fe_mod, "build_gear_fe", refuse)
+    for side in ("drive", "coast"):
+        kw = mesh_solver_inputs(model, "m", side=side)
+        assert all(c.info["options"] == fe_mod.asdict(fe_mod.MeshOptions()) for c in kw["compliance"])
+
+
+def test_statics_face_coupling_option(tmp_path, capsys):
+    """``hacgear statics --face-coupling`` (the choices of ``stiffness``): the factory builds the solver with it;
+    without it the solvers' defaults (spur: rigid) as before; refused with --check and with --solver analytic."""
+    from hacgear_core.cli import main
+    from hacgear_core.model.provenance import model_values_sha256
+    from hacgear_core.statics.grid import ModelSolverFactory
+
+    model = load_model("spur_28t_asym")
+    mesh = model.meshes[0].name
+    sha = model_values_sha256(model)
+    default = ModelSolverFactory(str(model.path), mesh, sha)()
+    sliced = ModelSolverFactory(str(model.path), mesh, sha, "fe", "drive", "slices")()
+    assert default.options.face_coupling == "rigid" and "(rigid)" in default.description
+    assert sliced.options.face_coupling == "slices" and "(slices)" in sliced.description
+    assert replace(sliced.options, face_coupling="rigid") == default.options
+    with pytest.raises(SystemExit):
+        main(["statics", "spur_28t_asym", "--face-coupling", "bogus"])
+    capsys.readouterr()
+    assert main(["statics", "spur_28t_asym", "--check", "--face-coupling", "slices"]) == 2
+    assert "--face-coupling: no effect with --check" in capsys.readouterr().err
+    assert main(["statics", "spur_28t_asym", "--solver", "analytic", "--face-coupling", "slices",
+                 "--out", str(tmp_path / "t.h5")]) == 2
+    assert "--face-coupling applies to the finite-element solver" in capsys.readouterr().err
+
+
+def test_statics_refuses_a_table_of_another_face_coupling(cache, tmp_path):
+    """A table (or partial run) solved with one face coupling is neither resumed nor accepted as complete by a run
+    that asks for another; the same coupling finds it complete."""
+    from hacgear_core.errors import TableError
+    from hacgear_core.statics.grid import compute_statics
+
+    model = _iso_model(tmp_path, 5.0, "[statics]\nface_slices = 3\n")
+    out = tmp_path / "t.h5"
+    kw = dict(positions=2, loads=2, deflections=4, workers=1, progress=False, sides=("drive",))
+    assert compute_statics(model.path, out, **kw).success
+    with pytest.raises(TableError, match="face coupling 'rigid', this run asks for 'slices'"):
+        compute_statics(model.path, out, face_coupling="slices", **kw)
+    again = compute_statics(model.path, out, face_coupling="rigid", **kw)
+    assert again.success and "already complete" in again.message

@@ -195,3 +195,67 @@ def test_statics_refuses_a_table_of_another_face_coupling(cache, tmp_path):
         compute_statics(model.path, out, face_coupling="slices", **kw)
     again = compute_statics(model.path, out, face_coupling="rigid", **kw)
     assert again.success and "already complete" in again.message
+
+
+def test_ring_rack_root_radius_038_mn_accepted_at_module_45(tmp_path):
+    """The NREL stage-1 ring (z 56, x -0.501, module 45) with rack A's root radius 0.38 m_n = 17.1 mm (refused
+    before): accepted, its shaper cut with the full radius its tip holds, the same multiple of m_n as at module 5,
+    said in the warnings; its module-scaled FE model builds."""
+    from hacgear_core.geometry import max_hob_tip_radius_m
+
+    def ring(m_mm):
+        text = textwrap.dedent(f"""\
+            [system]
+            name = "ring_a"
+            kind = "planetary"
+            [materials.steel]
+            density_kg_per_m3 = 7830.0
+            youngs_modulus_GPa = 206.0
+            poisson_ratio = 0.3
+            """)
+        for name, z, x, k, bore, extra in (("sun", 19, 0.617, -10.861, 400.0, ""), ("planet", 17, 0.802, -10.861,
+                                                                                      400.0, ""),
+                                           ("ring", 56, -0.501, 0.0, 3024.0, "internal = true\n")):
+            s = m_mm / 45.0
+            text += (f'[[gears]]\nname = "{name}"\nteeth = {z}\n{extra}normal_module_mm = {m_mm!r}\n'
+                     f'normal_pressure_angle_deg = 20.0\nprofile_shift = {x}\ntip_alteration_mm = {k * s!r}\n'
+                     f'basic_rack = "A"\nthickness_allowance_upper_mm = {-0.30 * s!r}\n'
+                     f'thickness_allowance_lower_mm = {-0.60 * s!r}\nface_width_mm = {491.0 * s!r}\n'
+                     f'bore_diameter_mm = {bore * s!r}\nmaterial = "steel"\n')
+        text += textwrap.dedent(f"""\
+            [[meshes]]
+            name = "sun_planet"
+            gear_a = "planet"
+            gear_b = "sun"
+            center_distance_mm = {863.0 * m_mm / 45.0!r}
+            [[meshes]]
+            name = "ring_planet"
+            gear_a = "ring"
+            gear_b = "planet"
+            flank_a = "drive"
+            flank_b = "coast"
+            center_distance_mm = {863.0 * m_mm / 45.0!r}
+            [planetary]
+            planet_count = 3
+            carrier_radius_mm = {863.0 * m_mm / 45.0!r}
+            fixed_member = "ring"
+            output_member = "sun"
+            [damping]
+            modal_damping_ratio = 0.02
+            [operating]
+            torque_Nm = 1.0e5
+            torque_gear = "carrier"
+            """)
+        d = tmp_path / f"ring{m_mm:g}"
+        d.mkdir()
+        (d / "model.toml").write_text(text)
+        return load_model(d / "model.toml").gear("ring")
+
+    r45, r5 = ring(45.0), ring(5.0)
+    assert r45.hob_tip_radius_m == pytest.approx(17.1e-3, rel=1e-12)
+    gg = gear_geometry(r45)
+    assert any("0.38 m_n = 17.1000 mm" in w and "full radius" in w for w in gg.warnings)
+    assert gg.hob_tip_radius_m == pytest.approx(max_hob_tip_radius_m(r45), rel=1e-8)
+    assert gg.hob_tip_radius_m / 45e-3 == pytest.approx(gear_geometry(r5).hob_tip_radius_m / 5e-3, rel=1e-6)
+    fe = fe_mod.build_gear_fe(gg, fe_mod.ElasticMaterial(206e9, 0.3), fe_mod.gear_mesh_options(r45))
+    assert fe.n_dofs > 0

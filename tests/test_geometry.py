@@ -1114,15 +1114,26 @@ def test_iso_tip_too_thin_is_refused_with_the_tip_alteration_that_fixes_it():
     assert g["tip_normal_thickness_m"] == pytest.approx(0.2 * 3e-3, rel=1e-5)
 
 
-def test_iso_rack_root_radius_too_large_names_the_rack_key():
-    from hacgear_core.geometry import gear_geometry
+def test_iso_ring_rack_root_radius_too_large_for_the_shaper_takes_its_full_radius():
+    """An ISO-form ring whose rack A root radius (0.38 m_n) does not fit the tip of the shaper that cuts it (#51
+    item 2: it was refused): the shaper's tip is its full radius (zero root land, max_hob_tip_radius_m), said in
+    the warnings; the transverse form given that radius is still refused, naming the allowed range."""
+    from dataclasses import replace
+
+    from hacgear_core.geometry import gear_geometry, max_hob_tip_radius_m
 
     model = _iso_model([("pinion", dict(teeth=20, normal_module_mm=3.0)),
                         ("ring", dict(teeth=56, normal_module_mm=3.0, profile_shift=-0.5, internal=True,
                                       bore_diameter_mm=200.0))], [("m12", "pinion", "ring", {})])
-    with pytest.raises(GeometryError, match="rack_root_radius_coefficient <= ") as exc:
-        gear_geometry(model.gear("ring"))
-    assert "basic_rack = 'A'" in str(exc.value)
+    ring = model.gear("ring")
+    assert ring.hob_tip_radius_m == pytest.approx(0.38 * 3e-3, rel=1e-12)
+    gg = gear_geometry(ring)
+    rho_full = max_hob_tip_radius_m(ring)
+    assert rho_full < ring.hob_tip_radius_m
+    assert gg.hob_tip_radius_m == pytest.approx(rho_full, rel=1e-8) and gg.hob_tip_radius_m <= rho_full
+    assert any("full radius" in w and "0.38 m_n" in w for w in gg.warnings)
+    with pytest.raises(GeometryError, match="hob_tip_radius_mm = 1.14 mm too large"):
+        gear_geometry(replace(ring, iso=None))
 
 
 def test_iso_tip_fillet_interference_names_the_tip_alteration_that_removes_it():

@@ -6,7 +6,7 @@ polar angle ``2 pi k / z``; the "drive" flank of tooth 0 at positive polar angle
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Mapping
 
 import numpy as np
@@ -447,9 +447,26 @@ def gear_geometry(gear: Any, *, shaper_teeth: int | None = None) -> GearGeometry
     # negative land means the two tip circles of the tool tooth overlap (tool tip too narrow).
     th_d, th_c = flanks["drive"].bottom_theta, flanks["coast"].bottom_theta
     land = 2 * math.pi / z - th_d - th_c
+    iso = getattr(gear, "iso", None)
+    if land < -1e-9 / z and internal and iso is not None:
+        # ISO form, internal gear: rho_fP* m_n is the basic rack's root radius; the pinion-type shaper that cuts the
+        # ring has a narrower tooth tip than the rack (the tip land shrinks with the shaper's tooth count), so where
+        # the rack's radius does not fit, the shaper's tip is the full radius it can hold (zero root land) — the
+        # tool a rack A ring is cut with — said in the warnings, not refused.  Scale-free: the same at any module.
+        rho_max = _max_tool_tip_radius(gear, form, r_f, r_a, m, z0)
+        if np.isfinite(rho_max) and rho_max > 0:
+            rho_full = rho_max * (1.0 - 1e-9)
+            warnings.append(
+                f"gear '{gear.name}': the basic rack's root radius rho_fP = {iso.root_radius_coefficient:g} m_n = "
+                f"{gear.hob_tip_radius_m * 1e3:.4f} mm does not fit the tip of the {z0}-tooth shaper that cuts this "
+                f"internal gear; the shaper's tip is its full radius {rho_full * 1e3:.4f} mm = "
+                f"{rho_full / iso.normal_module_m:.6f} m_n (zero root land)")
+            gear = replace(gear, hob_tip_radius_m=rho_full)
+            flanks = {s: _build_flank(gear, form, s, r_f, r_a, m, z0, warnings) for s in SIDES}
+            th_d, th_c = flanks["drive"].bottom_theta, flanks["coast"].bottom_theta
+            land = 2 * math.pi / z - th_d - th_c
     if land < -1e-9 / z:
         rho_max = _max_tool_tip_radius(gear, form, r_f, r_a, m, z0)
-        iso = getattr(gear, "iso", None)
         if iso is not None:
             raise GeometryError(
                 f"gear '{gear.name}': the basic rack's root radius rho_fP = rho_fP* m_n = "

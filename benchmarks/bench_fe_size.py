@@ -4,8 +4,8 @@ gear at module 45 mm — DOF count, build wall time and peak RSS, each measured 
 Cases (ISO 21771 form, rack A, x = 0, lengths module-scaled by default, ``[statics] fe_lengths = "auto"``):
 ``ext28_m1``, ``ext28_m5``, ``ext28_m45``: the 28-tooth pinion of a 28/33 pair (bore 6 m_n); ``int56_m5``,
 ``int56_m45``: the 56-tooth ring of a 22/17/56 planetary set (rim diameter 1.2 d; rack A's 0.38 m_n root radius
-does not fit the ring's shaper: its full radius 0.331 m_n, docs/geometry.md).  ``--absolute`` adds ``ext28_m10_absolute``: the
-module-10 pinion with the fixed lengths of the transverse form (``fe_lengths = "absolute"``: 0.6 mm at the flanks,
+does not fit the ring's shaper: its full radius 0.331 m_n, docs/geometry.md).  ``--absolute`` adds
+``ext28_m10_absolute``: the module-10 pinion with the fixed lengths of the transverse form (``fe_lengths = "absolute"``: 0.6 mm at the flanks,
 3 mm in the body), what every gear got before.  What is timed: meshing the gear, assembling and factorising it and
 the influence coefficients of one loaded flank (:func:`hacgear_core.statics.fe.gear_compliance`, on-disk cache
 off); the peak RSS is the subprocess's own ``getrusage(RUSAGE_SELF).ru_maxrss`` (Python and the imports included).
@@ -197,7 +197,8 @@ def main() -> None:
             ratio = max(v) / min(v)
             verdict[f"{gear}.{key}"] = dict(ratio_max_min=ratio, within_20_percent=ratio <= 1.2)
             modules = ", ".join(f"{r['normal_module_mm']:g}" for r in group)
-            print(f"{gear} {key}: max/min over modules {modules} mm = {ratio:.4f} ({'within' if ratio <= 1.2 else 'OUTSIDE'} ±20 %)")
+            print(f"{gear} {key}: max/min over modules {modules} mm = {ratio:.4f} "
+                  f"({'within' if ratio <= 1.2 else 'OUTSIDE'} ±20 %)")
     stat = []
     if args.statics:
         for shared in (False, True):

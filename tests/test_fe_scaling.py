@@ -259,3 +259,21 @@ def test_ring_rack_root_radius_038_mn_accepted_at_module_45(tmp_path):
     assert gg.hob_tip_radius_m / 45e-3 == pytest.approx(gear_geometry(r5).hob_tip_radius_m / 5e-3, rel=1e-6)
     fe = fe_mod.build_gear_fe(gg, fe_mod.ElasticMaterial(206e9, 0.3), fe_mod.gear_mesh_options(r45))
     assert fe.n_dofs > 0
+
+
+def test_face_discretisation_follows_the_face_width_and_the_slices(tmp_path):
+    """3D face model (fe3d): the transverse form keeps the default options; an ISO-form gear gets them scaled with
+    the module, with at most one face layer and two influence-grid intervals per face slice (a 140 mm face at m_n
+    14 mm and 11 slices: 11 layers and 22 intervals, where the module-scaled 4.48 mm layers alone gave 32)."""
+    from hacgear_core.statics import fe3d
+
+    for g in load_model("helical_28_33").gears:
+        assert fe3d.gear_mesh3d_options(g, "auto", 11) == fe3d.Mesh3DOptions()
+    g = _iso_model(tmp_path, 14.0).gears[0]
+    o = fe3d.gear_mesh3d_options(g, "auto", 11)
+    assert o.flank_size_m == pytest.approx(1e-3 * 14.0 / 5.0, rel=1e-12)
+    b = g.face_width_m
+    assert int(np.ceil(b / fe3d.Mesh3DOptions().scaled(2.8).layer_size_m)) == 32
+    assert int(np.ceil(b / o.layer_size_m)) == 11
+    assert int(np.ceil(b / o.z_spacing_m)) == 22
+    assert fe3d.gear_mesh3d_options(g, "absolute", 11) == fe3d.Mesh3DOptions()

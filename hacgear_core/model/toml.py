@@ -106,8 +106,8 @@ from typing import Any, Callable
 from hacgear_core.errors import ModelError
 from hacgear_core.model import iso21771 as _iso
 from hacgear_core.model.schema import (
-    FE_LENGTH_CHOICES, FLANKS, HANDS, PLANETARY_MEMBERS, RELIEF_SHAPES, WEB_MIN_RIM_M, Damping, Flank, Gauge, Gear, IsoGear,
-    LumpedGear, RANGES, Material, Mesh, Model, Operating, PinError, Planetary, StaticsGrid, Support, Web,
+    FE_LENGTH_CHOICES, FLANKS, HANDS, PLANETARY_MEMBERS, RELIEF_SHAPES, WEB_MIN_RIM_M, Damping, Flank, Gauge, Gear,
+    IsoGear, LumpedGear, RANGES, Material, Mesh, Model, Operating, PinError, Planetary, StaticsGrid, Support, Web,
 )
 
 __all__ = ["read_model", "parse_model", "SectionReader", "TOP_LEVEL_KEYS", "model_sha256", "resolve_model_path", "shipped_systems", "shipped_systems_dir",

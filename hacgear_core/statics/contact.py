@@ -965,43 +965,62 @@ def default_contact_options(model: Model, mesh_name: str, **kw: Any) -> ContactO
 
 
 def prebuild_compliances(model: Any, mesh_names: Sequence[str] | None = None, sides: Sequence[str] = ("drive",),
-                         *, plane: str = "stress", log: Any = None) -> dict[str, int]:
+                         *, plane: str = "stress", face_coupling: str | None = None, log: Any = None
+                         ) -> dict[str, int]:
     """Fill the on-disk cache with the finite-element compliances the contact solvers of ``mesh_names`` (default:
     every mesh) on ``sides`` will read, building and factorising each gear's FE model once for all its loaded
     flanks (a planet in two meshes, drive and coast: one build, not four), one gear at a time; solvers built
-    afterwards (in ``hacgear statics``'s worker processes) read the cache and build nothing.  Returns ``{gear name:
-    FE builds}`` (0: every compliance of the gear was cached already)."""
+    afterwards (in ``hacgear statics``'s worker processes) read the cache and build nothing.  The 3D face influence
+    (:func:`hacgear_core.statics.fe3d.face_influence`) likewise, one 3D tooth-sector model per gear, for the meshes
+    whose solvers use it: ``face_coupling`` ``"elastic"``, or None (the solvers' defaults) with a helical gear in
+    the mesh.  Returns ``{gear name: FE builds}`` (2D and 3D models; 0: everything was cached already)."""
     if not isinstance(model, Model):
         model = load_model(model)
     meshes = {m.name: m for m in model.meshes}
     gears = {g.name: g for g in model.gears}
+    from hacgear_core.statics import fe3d
+
     requests: dict[str, list] = {}
+    requests3d: dict[str, list] = {}
     for name in (mesh_names if mesh_names is not None else list(meshes)):
         mesh = meshes[name]
+        elastic = face_coupling == "elastic" or (face_coupling is None and (gears[mesh.gear_a].is_helical
+                                                                            or gears[mesh.gear_b].is_helical))
         for side in sides:
             fl = (mesh.flank_a, mesh.flank_b) if side == "drive" else (_OTHER_FLANK[mesh.flank_a],
                                                                        _OTHER_FLANK[mesh.flank_b])
             for gname, loaded in zip((mesh.gear_a, mesh.gear_b), fl):
                 requests.setdefault(gname, []).append(loaded)
+                if elastic:
+                    requests3d.setdefault(gname, []).append(loaded)
     builds: dict[str, int] = {}
     for gname, flanks in requests.items():
         g = gears[gname]
         gg = gear_geometry(g)
         built: list = []
 
-        def shared(req=None):
+        def shared(build, what):
             if not built:
                 if log is not None:
-                    log(f"finite-element model of gear {gname}: meshing and factorising (once for "
-                        f"{len(set(flanks))} loaded flank(s))")
-                built.append(fe_mod.build_gear_fe(req["gg"], req["material"], req["options"]))
+                    log(f"{what} of gear {gname}: meshing and factorising (once for its loaded flank(s))")
+                built.append(build())
             return built[0]
 
         for loaded in dict.fromkeys(flanks):
             req = _compliance_request(model, g, gg, loaded, g.gauges, None, plane)
-            fe_mod.gear_compliance(**req, cache=True, fe=lambda req=req: shared(req))
+            fe_mod.gear_compliance(**req, cache=True, fe=lambda req=req: shared(
+                lambda: fe_mod.build_gear_fe(req["gg"], req["material"], req["options"]), "finite-element model"))
         builds[gname] = len(built)
         built.clear()
+        if gname in requests3d:
+            mat3 = fe3d.material_of(g, plane)
+            opts3 = fe3d.gear_mesh3d_options(g, model.statics.fe_lengths, model.statics.face_slices)
+            gauges3 = tuple((x.name, x.flank, x.radius_m, float(getattr(x, "face_fraction", 0.5))) for x in g.gauges)
+            for loaded in dict.fromkeys(requests3d[gname]):
+                fe3d.face_influence(gg, mat3, loaded, gauges=gauges3, options=opts3, cache=True, fe=lambda: shared(
+                    lambda: fe3d.ToothSectorFE(gg, mat3, opts3), "3D tooth-sector model"))
+            builds[gname] += len(built)
+            built.clear()
     return builds
 
 
@@ -1073,8 +1092,8 @@ def make_mesh_solver(model: Any, mesh_name: str, *, options: ContactOptions | No
 
     ``options`` default: :func:`default_contact_options` (the model's face slices; the corner radius scaled with
     the module under ``[statics] fe_lengths``); ``fe_options``: a :class:`hacgear_core.statics.fe.MeshOptions`
-    (default: :func:`hacgear_core.statics.fe.gear_mesh_options` per gear); ``gauges``: ``(gear name, model Gauge)`` pairs replacing the
-    model's gauges (e.g. a row of points along a fillet).  ``side``: ``"drive"`` loads the mesh's flanks;
+    (default: :func:`hacgear_core.statics.fe.gear_mesh_options` per gear); ``gauges``: ``(gear name, model Gauge)``
+    pairs replacing the model's gauges (e.g. a row of points along a fillet).  ``side``: ``"drive"`` loads the mesh's flanks;
     ``"coast"`` the other flank of each gear, in that flank pair's own canonical picture and positions —
     :func:`hacgear_core.statics.coast.make_coast_solver` maps it onto the drive side's positions and deflections.
     """

@@ -44,8 +44,8 @@ from hacgear_core.errors import GeometryError, ModelError, SolverError
 from hacgear_core.statics.fe import (ElasticMaterial, Gauge, _boundary_pieces, _chord_inward, _gauge_location,
                                      _single_thread_blas, cache_dir, gmsh_model, length_scale, read_npz, write_npz)
 
-__all__ = ["FE3D_CODE_VERSION", "Mesh3DOptions", "gear_mesh3d_options", "ToothSectorFE", "FaceInfluence", "face_influence", "material_of",
-           "helical_flank_points", "influence_check"]
+__all__ = ["FE3D_CODE_VERSION", "Mesh3DOptions", "gear_mesh3d_options", "ToothSectorFE", "FaceInfluence",
+           "face_influence", "material_of", "helical_flank_points", "influence_check"]
 
 #: bump when anything changes the numbers produced (part of every cache key)
 FE3D_CODE_VERSION = "fe3d-2"
@@ -79,9 +79,10 @@ class Mesh3DOptions:
         for name in ("flank_size_m", "body_size_m", "fine_layer_m", "growth_length_m", "layer_size_m",
                      "z_spacing_m", "depth_m"):
             v = getattr(self, name)
-            # the range covers the defaults scaled from m_n = 0.1 mm to 100 mm (scaled(0.02 .. 20))
-            if not (isinstance(v, (int, float, np.floating)) and np.isfinite(v) and 1e-6 <= v <= 0.2):
-                raise ModelError(f"Mesh3DOptions.{name} must be in [1e-6, 0.2] m, got {v!r}")
+            # the range covers the defaults scaled from m_n = 0.1 mm to 100 mm (scaled(0.02 .. 20)) and face layers
+            # of a face width up to 2 m (gear_mesh3d_options)
+            if not (isinstance(v, (int, float, np.floating)) and np.isfinite(v) and 1e-6 <= v <= 1.0):
+                raise ModelError(f"Mesh3DOptions.{name} must be in [1e-6, 1] m, got {v!r}")
         if not (isinstance(self.teeth, (int, np.integer)) and self.teeth in (1, 3, 5)):
             raise ModelError(f"Mesh3DOptions.teeth must be 1, 3 or 5, got {self.teeth!r}")
         if not (0.5 <= self.rim_depth_modules <= 5.0):
@@ -111,11 +112,24 @@ class Mesh3DOptions:
                        depth_m=self.depth_m * factor)
 
 
-def gear_mesh3d_options(gear: Any, mode: str = "auto") -> Mesh3DOptions:
+def gear_mesh3d_options(gear: Any, mode: str = "auto", face_slices: int = 21) -> Mesh3DOptions:
     """The :class:`Mesh3DOptions` statics uses for model gear ``gear`` under ``[statics] fe_lengths = mode``
-    (:func:`hacgear_core.statics.fe.length_scale`): the defaults, or the defaults scaled with the module."""
+    (:func:`hacgear_core.statics.fe.length_scale`): the defaults (absolute lengths); or, module-scaled, the defaults
+    times m_n / 5 mm with the face discretisation following the face width ``b`` and the contact pattern's
+    ``face_slices`` ``n``: face layers no shorter than ``b / n`` and axial influence-grid spacing no shorter than
+    ``b / (2 n)`` (at most one layer and two grid intervals per face slice, the ratio of the shipped helical pair:
+    11 slices on 7 / 10 layers and 20 / 32 grid intervals; a wide face, 360 mm at m_n 14 mm, would otherwise get 81
+    layers and 258 grid planes)."""
     f = length_scale(gear, mode)
-    return Mesh3DOptions() if f is None else Mesh3DOptions().scaled(f)
+    if f is None:
+        return Mesh3DOptions()
+    o = Mesh3DOptions().scaled(f)
+    if not (isinstance(face_slices, (int, np.integer)) and face_slices >= 1):
+        raise ModelError(f"face_slices must be an integer >= 1, got {face_slices!r}")
+    b = float(gear.face_width_m)
+    w = b * (1.0 + 1e-9)            # the layer and interval counts (ceil of b over the length) come out exact
+    return replace(o, layer_size_m=max(o.layer_size_m, w / face_slices),
+                   z_spacing_m=max(o.z_spacing_m, w / (2 * face_slices)))
 
 
 def material_of(gear: Any, plane: str = "stress") -> ElasticMaterial:
@@ -168,9 +182,11 @@ class ToothSectorFE:
         if bool(getattr(gg, "internal", False)):
             raise GeometryError("the 3D tooth sector is implemented for external gears only")
         t0 = time.perf_counter()
-        # how far outside the meshed sector a surface point may lie (projected onto it): 1 mm, or one flank element
-        # where module-scaled elements are larger
-        self._outside_tol_m = max(1e-3, float(options.flank_size_m))
+        # how far outside the meshed sector a surface point may lie (projected onto it): 1 mm at the default or finer
+        # sizes, 1.5 flank elements where module-scaled elements are larger (NREL stage 3, 2.8 mm elements and
+        # 33 mm face layers: a tip corner 3.3 mm outside)
+        fl = float(options.flank_size_m)
+        self._outside_tol_m = 1e-3 if fl <= Mesh3DOptions.flank_size_m else 1.5 * fl
         P, T, r_cut = self._mesh(gg, options)
         t1 = time.perf_counter()
         d = P[T]
@@ -508,13 +524,14 @@ def influence_grid(gg: Any, side: str, options: Mesh3DOptions) -> tuple[np.ndarr
 
 
 def face_influence(gg: Any, material: Any, side: str, *, gauges: Sequence[tuple[str, str, float, float]] = (),
-                   options: Mesh3DOptions | None = None, cache: bool = True, fe: ToothSectorFE | None = None
-                   ) -> FaceInfluence:
+                   options: Mesh3DOptions | None = None, cache: bool = True, fe: Any = None) -> FaceInfluence:
     """3D face-wise influence coefficients of the ``side`` flank of gear ``gg`` (cached on disk).
 
     ``gauges``: ``(name, flank, radius_m, face_fraction)``; the strain at each gauge's radius is computed at every
     axial grid position (the face fraction only selects where the solver reads it).  ``fe``: reuse a built
-    :class:`ToothSectorFE` (no caching then)."""
+    :class:`ToothSectorFE` (no caching then); or a callable without arguments returning one (it does not depend on
+    the flank), called only when the on-disk cache does not hold the result, which is then cached (both flanks, one
+    build: :func:`hacgear_core.statics.contact.prebuild_compliances`)."""
     if side not in ("drive", "coast"):
         raise ModelError(f"side must be 'drive' or 'coast', got {side!r}")
     options = options or Mesh3DOptions()
@@ -524,14 +541,15 @@ def face_influence(gg: Any, material: Any, side: str, *, gauges: Sequence[tuple[
     s_grid, zeta = influence_grid(gg, side, options)
     key = _hash(gg, mat, side, options, gauge_sig, s_grid, zeta)
     path = cache_dir() / "fe3d" / f"face_{key}.npz"
-    if cache and fe is None and path.exists():
+    lazy = fe is not None and not isinstance(fe, ToothSectorFE)
+    if cache and (fe is None or lazy) and path.exists():
         try:
             return FaceInfluence.load(path)
         except Exception:
             pass  # unreadable cache entry: recompute
     g_loc = [_gauge_location(gg, Gauge(n, f, r), 800) for n, f, r, _ in gauges]   # fails early on a bad gauge
     t0 = time.perf_counter()
-    model = fe if fe is not None else ToothSectorFE(gg, mat, options)
+    model = fe() if lazy else fe if fe is not None else ToothSectorFE(gg, mat, options)
     t1 = time.perf_counter()
     S, Z = np.meshgrid(s_grid, zeta, indexing="ij")                   # (ns, nz)
     X, N, _ = helical_flank_points(gg, side, S, Z)
@@ -572,7 +590,7 @@ def face_influence(gg: Any, material: Any, side: str, *, gauges: Sequence[tuple[
                         disp=D, disp_mean=D_mean, strain=strain[0], strain_mean=strain_mean[0],
                         strain_prev=strain[1], strain_prev_mean=strain_mean[1],
                         gauge_names=tuple(n for n, _, _, _ in gauges), info=info)
-    if cache and fe is None:
+    if cache and (fe is None or lazy):
         try:
             out.save(path)
         except OSError:

@@ -665,7 +665,7 @@ def compute_statics(
                  for m in mdl.meshes for side in sides}
     if solver == "fe":
         # one FE build per gear, before the workers: they read the cached compliances (docstring)
-        prebuild_compliances(mdl, sides=sides, log=log)
+        prebuild_compliances(mdl, sides=sides, face_coupling=face_coupling, log=log)
 
     def loads_for(infos: dict[str, MeshInfo]) -> dict[str, np.ndarray]:
         # the mesh force is conjugate to the mesh deflection: torque = force x lever arm (r_b cos(beta_b))

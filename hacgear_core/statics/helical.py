@@ -519,9 +519,8 @@ def make_helical_solver(model: Any, mesh_name: str, *, options: ContactOptions |
     """The face-resolving static contact solver of mesh ``mesh_name`` (helical, or spur with ``elastic`` face
     coupling).  ``options`` default: the model's face slices and ``face_coupling="elastic"``
     (:func:`~hacgear_core.statics.contact.default_contact_options`); ``fe3d_options`` default:
-    :func:`~hacgear_core.statics.fe3d.gear_mesh3d_options` per gear (module-scaled lengths under ``[statics]
-    fe_lengths``); the 3D face
-    influence (:func:`hacgear_core.statics.fe3d.face_influence`, cached on disk) is built only for ``elastic``.
+    :func:`~hacgear_core.statics.fe3d.gear_mesh3d_options` per gear with the solver's face slices (module-scaled
+    under ``[statics] fe_lengths``); the 3D face influence (:func:`hacgear_core.statics.fe3d.face_influence`, cached on disk) is built only for ``elastic``.
     ``side``: ``"drive"`` loads the mesh's flanks, ``"coast"`` the other flank of each gear (its own canonical
     picture and positions, the physical mesh frame; :func:`hacgear_core.statics.coast.make_coast_solver` maps it
     onto the drive side's positions and deflections)."""
@@ -549,7 +548,8 @@ def make_helical_solver(model: Any, mesh_name: str, *, options: ContactOptions |
                                 gauges=tuple((x.name, x.flank, x.radius_m,
                                               float(getattr(x, "face_fraction", 0.5))) for x in gmods[i]),
                                 options=(fe3d_options if fe3d_options is not None
-                                         else fe3d.gear_mesh3d_options(g, model.statics.fe_lengths)), cache=cache)
+                                         else fe3d.gear_mesh3d_options(g, model.statics.fe_lengths,
+                                                                       options.face_slices)), cache=cache)
             for i, (g, gg, loaded) in enumerate(((ga, ggs[0], kw["flanks"][0]), (gb, ggs[1], kw["flanks"][1]))))
     return HelicalMeshContactSolver(
         **kw, options=options,

@@ -310,19 +310,26 @@ def _wrap(sec: _Section, key: str, fn: Callable[[], Any]) -> Any:
         raise ModelError(f"{sec.file}: [{key}] {msg}") from None
 
 
-def _read_flank(sec: _Section) -> Flank:
-    pa = sec.number("pressure_angle_deg", "deg", 5.0, 40.0)
+def _read_relief(sec: _Section, keys) -> tuple[float, float, str]:
+    """A flank table's tip relief (``tip_relief_um`` [um], ``tip_relief_start_roll_deg`` [deg],
+    ``tip_relief_shape``), its keys checked against ``keys``."""
     relief = sec.number("tip_relief_um", "um", 0.0, 1000.0, required=False, default=0.0)
     start = sec.number("tip_relief_start_roll_deg", "deg", 0.0, 89.0, required=False, default=0.0)
     shape = sec.string("tip_relief_shape", RELIEF_SHAPES, required=False,
                        default="parabolic" if relief > 0 else "none")
-    sec.done(_FLANK_KEYS)
+    sec.done(keys)
     if relief > 0 and start <= 0:
         raise sec.error(sec.key("tip_relief_start_roll_deg"), "deg", "(0, 89]", start,
                         problem="missing or zero while tip_relief_um > 0")
     if relief > 0 and shape == "none":
         raise sec.error(sec.key("tip_relief_shape"), "", "linear | parabolic", shape,
                         problem="'none' while tip_relief_um > 0")
+    return relief, start, shape
+
+
+def _read_flank(sec: _Section) -> Flank:
+    pa = sec.number("pressure_angle_deg", "deg", 5.0, 40.0)
+    relief, start, shape = _read_relief(sec, _FLANK_KEYS)
     return _wrap(sec, sec.path, lambda: Flank(math.radians(pa), relief * 1e-6, math.radians(start), shape))
 
 
@@ -429,17 +436,7 @@ def _read_iso_flank(sec: "_Section | None", alpha_t: float) -> Flank:
                         "tables", sec.data["pressure_angle_deg"],
                         problem="the ISO form's flanks take the gear's normal_pressure_angle_deg (transverse "
                                 f"{math.degrees(alpha_t):.6f} deg here)")
-    relief = sec.number("tip_relief_um", "um", 0.0, 1000.0, required=False, default=0.0)
-    start = sec.number("tip_relief_start_roll_deg", "deg", 0.0, 89.0, required=False, default=0.0)
-    shape = sec.string("tip_relief_shape", RELIEF_SHAPES, required=False,
-                       default="parabolic" if relief > 0 else "none")
-    sec.done(_ISO_FLANK_KEYS)
-    if relief > 0 and start <= 0:
-        raise sec.error(sec.key("tip_relief_start_roll_deg"), "deg", "(0, 89]", start,
-                        problem="missing or zero while tip_relief_um > 0")
-    if relief > 0 and shape == "none":
-        raise sec.error(sec.key("tip_relief_shape"), "", "linear | parabolic", shape,
-                        problem="'none' while tip_relief_um > 0")
+    relief, start, shape = _read_relief(sec, _ISO_FLANK_KEYS)
     return _wrap(sec, sec.path, lambda: Flank(alpha_t, relief * 1e-6, math.radians(start), shape))
 
 

@@ -110,6 +110,20 @@ def bearing_forces(system: LumpedSystem, raw: dict, reference_speed_rad_s: float
     return out
 
 
+def _channels(system: LumpedSystem, quantity: str, raw: dict) -> dict[str, np.ndarray]:
+    """The recorded channels of ``quantity`` ("dte", "force" per mesh, else "root_strain" per gauge of tooth 0) in
+    a simulator record ``raw``."""
+    if quantity == "dte":
+        return {c.name: raw["dynamic_transmission_error_m"][:, k] for k, c in enumerate(system.meshes)}
+    if quantity == "force":
+        return {c.name: raw["mesh_force_N"][:, k] for k, c in enumerate(system.meshes)}
+    gauges = system_gauges(system)
+    if not gauges:
+        raise ModelError(f"the tables of {system.name} hold no strain gauges")
+    return {g: strain_of_tooth(system, g, raw["mesh_position"], raw["mesh_deflection_m"], raw["coast_approach_m"],
+                               raw.get("mesh_twist_rad")) for g in gauges}
+
+
 def steady_record(system: LumpedSystem, mesh_frequency_Hz: float, quantity: str, record_cycles: int, *,
                   samples_per_cycle: int = 128, settle_cycles: int = 400) -> SteadyRecord:
     """Record ``quantity`` (:data:`QUANTITIES`) of ``system`` at constant mesh frequency ``mesh_frequency_Hz`` [Hz]
@@ -144,16 +158,8 @@ def steady_record(system: LumpedSystem, mesh_frequency_Hz: float, quantity: str,
     if quantity == "bearing_force":
         channels = {f"{g}.{a}": f[:, i] for g, f in bearing_forces(system, raw, sim.kin[2]).items()
                     for i, a in enumerate("xy")}
-    elif quantity == "dte":
-        channels = {c.name: raw["dynamic_transmission_error_m"][:, k] for k, c in enumerate(system.meshes)}
-    elif quantity == "force":
-        channels = {c.name: raw["mesh_force_N"][:, k] for k, c in enumerate(system.meshes)}
     else:
-        gauges = system_gauges(system)
-        if not gauges:
-            raise ModelError(f"the tables of {system.name} hold no strain gauges")
-        channels = {g: strain_of_tooth(system, g, raw["mesh_position"], raw["mesh_deflection_m"],
-                                       raw["coast_approach_m"], raw.get("mesh_twist_rad")) for g in gauges}
+        channels = _channels(system, quantity, raw)
     el = _elastic(system, states)             # the state at the record's start and after each sample
     span = np.max(np.ptp(el, axis=0))
     err = float(np.max(np.abs(el[-1] - el[0])) / span) if span > 0 else 0.0
@@ -245,15 +251,6 @@ def runup_record(system: LumpedSystem, fm_start_Hz: float, fm_end_Hz: float, cyc
         chunks.append(sim.run(1.0 / fm, 1.0 / (fm * samples_per_cycle)))
         fms.append(np.full(samples_per_cycle, fm))
     raw = {k: np.concatenate([ch[k] for ch in chunks]) for k in chunks[0] if k != "state"}
-    if quantity == "dte":
-        channels = {c.name: raw["dynamic_transmission_error_m"][:, k] for k, c in enumerate(system.meshes)}
-    elif quantity == "force":
-        channels = {c.name: raw["mesh_force_N"][:, k] for k, c in enumerate(system.meshes)}
-    else:
-        gauges = system_gauges(system)
-        if not gauges:
-            raise ModelError(f"the tables of {system.name} hold no strain gauges")
-        channels = {g: strain_of_tooth(system, g, raw["mesh_position"], raw["mesh_deflection_m"],
-                                       raw["coast_approach_m"], raw.get("mesh_twist_rad")) for g in gauges}
+    channels = _channels(system, quantity, raw)
     return RunUpRecord(quantity, UNITS[quantity], channels, int(samples_per_cycle), np.concatenate(fms),
                        raw["time_s"])

@@ -5,7 +5,6 @@ relative; the stages' ratios come out of the assembled systems' rigid-body modes
 (stage 3), their product the gearbox's 4625/48 = 96.354166..."""
 from __future__ import annotations
 
-import dataclasses
 import json
 import math
 from fractions import Fraction
@@ -15,9 +14,9 @@ import pytest
 
 from hacgear_core.cli import main
 from hacgear_core.cli.info import info_dict
-from hacgear_core.geometry.planetary import planetary_geometry, planetary_torques
+from hacgear_core.geometry.planetary import planetary_geometry
 from hacgear_core.kinds import build_system, load_model
-from hacgear_core.kinds.planetary import constant_stiffness_table
+from test_planetary import _constant_tables as planetary_constant_tables
 from hacgear_core.model import shipped_systems_dir
 
 REL = 1e-9
@@ -191,16 +190,7 @@ def test_meshes_equal_the_iso_closed_forms(stage):
 def _constant_tables(model, k: float) -> dict:
     """Constant-stiffness tables of a planetary stage's two meshes in the file's gear order (no statics run: the
     rigid-body mode does not depend on the mesh stiffness)."""
-    geo = planetary_geometry(model, model.planetary.planet_count)
-    fmax = max(planetary_torques(model, geo, model.operating.torque_Nm)["force_N"].values())
-    out = {}
-    for kind in ("sun_planet", "ring_planet"):
-        mm = geo.meshes[f"{kind}_1"]
-        names = tuple("planet" if g.startswith("planet_") else g for g in (mm.gear_a, mm.gear_b))
-        t = constant_stiffness_table(kind, names, mm.teeth, mm.base_radius_m, k, 2.0 * fmax / k)
-        loads = np.array([0.0, 2.0 * fmax])
-        out[kind] = dataclasses.replace(t, load_N=loads, static_deflection_m=np.repeat(loads[None, :] / k, 4, axis=0))
-    return out
+    return planetary_constant_tables(model, k, model.operating.torque_Nm, model.planetary.planet_count)
 
 
 def _planetary_ratio(name: str) -> float:

@@ -531,13 +531,13 @@ def test_gear_order_against_the_power_flow_is_refused_with_the_fix(model):
                     file="p.toml")
 
 
-def _constant_tables(model, k: float, torque: float) -> dict:
+def _constant_tables(model, k: float, torque: float, planets: int = 3) -> dict:
     """Constant-stiffness tables of ``model``'s two meshes (gear order and base radii of the model), the nominal force
-    at ``torque`` on the 3 planets three deflection steps above contact and within the static load grid: exact
+    at ``torque`` on ``planets`` planets three deflection steps above contact and within the static load grid: exact
     linear force laws for the tooth geometry's placement (no statics run)."""
     from hacgear_core.kinds.planetary import constant_stiffness_table
 
-    geo = planetary_geometry(model, 3)
+    geo = planetary_geometry(model, planets)
     fmax = max(planetary_torques(model, geo, torque)["force_N"].values())
     out = {}
     for kind in ("sun_planet", "ring_planet"):

@@ -327,6 +327,19 @@ def _read_relief(sec: _Section, keys) -> tuple[float, float, str]:
     return relief, start, shape
 
 
+def _read_gauges(sec: _Section) -> list:
+    """A gear's ``[[gears.gauges]]`` (name, flank, ``radius_mm``, ``face_fraction``)."""
+    gauges = []
+    for gsec in sec.array_of_tables("gauges", required=False):
+        gname = gsec.string("name")
+        gflank = gsec.string("flank", FLANKS)
+        grad = gsec.number("radius_mm", "mm", 0.0, 10000.0, lo_open=True)
+        gface = gsec.number("face_fraction", "-", 0.0, 1.0, required=False, default=0.5)
+        gsec.done(_GAUGE_KEYS)
+        gauges.append(_wrap(gsec, gsec.path, lambda: Gauge(gname, gflank, grad * 1e-3, gface)))
+    return gauges
+
+
 def _read_flank(sec: _Section) -> Flank:
     pa = sec.number("pressure_angle_deg", "deg", 5.0, 40.0)
     relief, start, shape = _read_relief(sec, _FLANK_KEYS)
@@ -405,14 +418,7 @@ def _read_gear(sec: _Section, materials: dict[str, Material]) -> Gear:
     drive = _read_flank(sec.table("drive"))
     coast_sec = sec.table("coast", required=False)
     coast = _read_flank(coast_sec) if coast_sec is not None else drive
-    gauges = []
-    for gsec in sec.array_of_tables("gauges", required=False):
-        gname = gsec.string("name")
-        gflank = gsec.string("flank", FLANKS)
-        grad = gsec.number("radius_mm", "mm", 0.0, 10000.0, lo_open=True)
-        gface = gsec.number("face_fraction", "-", 0.0, 1.0, required=False, default=0.5)
-        gsec.done(_GAUGE_KEYS)
-        gauges.append(_wrap(gsec, gsec.path, lambda: Gauge(gname, gflank, grad * 1e-3, gface)))
+    gauges = _read_gauges(sec)
     support = _read_support(sec.table("support", required=False))
     web = _read_web(sec.table("web", required=False), face, bore, root, internal)
     sec.done(_GEAR_KEYS)
@@ -516,14 +522,7 @@ def _read_iso_gear(sec: _Section, materials: dict[str, Material]) -> Gear:
     drive = _read_iso_flank(sec.table("drive", required=False), alpha_t)
     coast_sec = sec.table("coast", required=False)
     coast = _read_iso_flank(coast_sec, alpha_t) if coast_sec is not None else drive
-    gauges = []
-    for gsec in sec.array_of_tables("gauges", required=False):
-        gname = gsec.string("name")
-        gflank = gsec.string("flank", FLANKS)
-        grad = gsec.number("radius_mm", "mm", 0.0, 10000.0, lo_open=True)
-        gface = gsec.number("face_fraction", "-", 0.0, 1.0, required=False, default=0.5)
-        gsec.done(_GAUGE_KEYS)
-        gauges.append(_wrap(gsec, gsec.path, lambda: Gauge(gname, gflank, grad * 1e-3, gface)))
+    gauges = _read_gauges(sec)
     support = _read_support(sec.table("support", required=False))
     root_mm = iso.root_diameter_m * 1e3
     web = _read_web(sec.table("web", required=False), face, bore, root_mm, internal)

@@ -119,7 +119,7 @@ def gear_mesh3d_options(gear: Any, mode: str = "auto", face_slices: int = 21) ->
     ``face_slices`` ``n``: face layers no shorter than ``b / n`` and axial influence-grid spacing no shorter than
     ``b / (2 n)`` (at most one layer and two grid intervals per face slice, the ratio of the shipped helical pair:
     11 slices on 7 / 10 layers and 20 / 32 grid intervals; a wide face, 360 mm at m_n 14 mm, would otherwise get 81
-    layers and 258 grid planes)."""
+    layers and 259 grid planes)."""
     f = length_scale(gear, mode)
     if f is None:
         return Mesh3DOptions()

@@ -753,3 +753,24 @@ def test_flank_and_edge_pressures_are_tabulated_apart(tmp_path):
     assert back.flank_pressure_Pa is None and back.edge_pressure_Pa is None
     assert np.isnan(back.pressure(0.3, 2e-5, "edge")) and back.pressure(0.3, 2e-5) >= 0
     assert pressure_notes(back) and "not told apart" in pressure_notes(back)[0]
+
+
+def test_twist_tables_without_gauges_read_back(tmp_path):
+    """A helical mesh's twist tables of a model without strain gauges (the NREL 5 MW stage 3) have no strain
+    datasets: they read back (KeyError 'strain_twist' before) with empty strains, the forces as written."""
+    import dataclasses
+
+    m = load_model("helical_28_33")
+    t = read_tables(m.tables_path, m.path)
+
+    def bare(side):
+        return dataclasses.replace(side, strain={},
+                                   twist=dataclasses.replace(side.twist, strain={}))
+
+    meshes = {k: dataclasses.replace(bare(v), coast=None if v.coast is None else bare(v.coast))
+              for k, v in t.meshes.items()}
+    write_tables(tmp_path / "bare.h5", dataclasses.replace(t, meshes=meshes))
+    back = read_tables(tmp_path / "bare.h5")
+    for k, v in back.meshes.items():
+        assert v.twist is not None and v.twist.strain == {} and v.strain == {}
+        np.testing.assert_array_equal(v.twist.generalized_fdf, t.meshes[k].twist.generalized_fdf)

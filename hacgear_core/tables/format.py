@@ -683,7 +683,10 @@ def _read_side(path: Path, m: str, g: Any, allow_incomplete: bool, coast: MeshTa
     r.update({k: _optional(path, g, k) for k in ("flank_pressure_Pa", "edge_pressure_Pa")})
     twist = None
     if "twist_rad" in g:
-        strain_tw = {name[len("strain_twist/"):]: _read(path, ds) for name, ds in _walk(g["strain_twist"], "strain_twist/")}
+        # a model without gauges has no strain datasets
+        strain_tw = ({name[len("strain_twist/"):]: _read(path, ds) for name, ds in _walk(g["strain_twist"],
+                                                                                        "strain_twist/")}
+                     if "strain_twist" in g else {})
         fr = {k: g.attrs[k] for k in FRAME_KEYS}
         twist = TwistTable(
             twist_rad=_read(path, g["twist_rad"]), no_load_deflection_m=g["no_load_deflection_twist_m"][()],

@@ -1205,7 +1205,8 @@ def test_state_beyond_the_tables_is_flagged_and_logged_once(built):
 
 
 @pytest.mark.parametrize("system", ["spur_28t_asym", "spur_50t_icr137", "spur_50t_icr18", "idler_28_33_39",
-                                    "planetary_65_55_175", "planetary_65_55_175_unmodified", "helical_28_33"])
+                                    "planetary_65_55_175", "planetary_65_55_175_unmodified", "helical_28_33",
+                                    "nrel_5mw_stage1", "nrel_5mw_stage2", "nrel_5mw_stage3"])
 def test_model_readme_lists_the_fmu_variables_of_the_spec(system):
     """Each FMU's model readme shows the coupling diagram and the variables the FMU declares (generated from the
     one spec by ``python build_fmu.py --readme``): a changed variable, unit or range without regenerating the

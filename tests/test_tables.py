@@ -613,9 +613,8 @@ def test_generalized_stiffness_needs_a_twist_axis():
 # ----------------------------------------------------------------------------------------------
 # every shipped table passes its own check (README: `hacgear statics SYSTEM --check`)
 # ----------------------------------------------------------------------------------------------
-#: shipped models whose tables are not committed (the NREL 5 MW stages: their statics at the shipped grids need FE
-#: sizes that scale with the module, issue #51 item 2; their readmes say so)
-WITHOUT_TABLES = {"nrel_5mw_stage1", "nrel_5mw_stage2", "nrel_5mw_stage3"}
+#: shipped models whose tables are not committed (none: a model without them says why in its readme)
+WITHOUT_TABLES: set[str] = set()
 SHIPPED = sorted(p.parent.name for p in (REPO / "models").glob("*/model.toml") if p.parent.name not in WITHOUT_TABLES)
 
 

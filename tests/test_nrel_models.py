@@ -194,10 +194,10 @@ def _constant_tables(model, k: float) -> dict:
 
 
 def _planetary_ratio(name: str) -> float:
-    """Sun / carrier speed of the assembled stage as shipped (carrier and sun free, ring held): the null vector of
-    ``K + V^T k V`` (supports and mesh stiffnesses) with the carrier's rotation 1."""
+    """Sun / carrier speed of the assembled stage in drivetrain mode (carrier and sun free, ring held): the null
+    vector of ``K + V^T k V`` (supports and mesh stiffnesses) with the carrier's rotation 1."""
     model = load_model(name)
-    sy = build_system(model, _constant_tables(model, 1e10))
+    sy = build_system(model, _constant_tables(model, 1e10), shafts=False)
     k = sy.K + (sy.V.T * sy.mesh_stiffness_N_per_m) @ sy.V
     i, j = sy.gears["carrier"].rotation, sy.gears["sun"].rotation
     rest = [n for n in range(sy.n) if n != i]
@@ -230,11 +230,12 @@ def test_rated_static_mesh_forces_equal_the_torque_balance(name):
     """The shipped planetary stages at their rated carrier torque (constant-stiffness tables in the file's gear order):
     the static solve converges and carries F_s = T_s / (N r_b,s) on every sun mesh and F_r = T_r / (N r_b,r) on every
     ring mesh, T_s = T_c / (1 + z_r/z_s), T_r = T_s z_r/z_s, to 1e-9; the power enters by the carrier and leaves by
-    the sun.  (With the sun's rotation prescribed instead the solve found no equilibrium.)"""
+    the sun.  The sun's rotation is prescribed (the constant-speed experiment holds the output, as the shipped
+    65/55/175 set holds its carrier): it grounds the train through the meshes, no rigid-body mode is left."""
     from hacgear_core.dynamics.equilibrium import static_equilibrium
 
     model = load_model(name)
-    assert model.gear("sun").support.rotational_stiffness_Nm_per_rad == 0.0
+    assert model.gear("sun").support.rotational_stiffness_Nm_per_rad == math.inf
     assert model.planetary.carrier_support.rotational_stiffness_Nm_per_rad == 0.0
     sy = build_system(model, _constant_tables(model, 1e10))
     geo = planetary_geometry(model)
@@ -249,8 +250,10 @@ def test_rated_static_mesh_forces_equal_the_torque_balance(name):
     assert sun.sum() == 3 and (~sun).sum() == 3
     np.testing.assert_allclose(eq.mesh_forces_N[sun], t_s / (3 * rbs), rtol=1e-9)
     np.testing.assert_allclose(eq.mesh_forces_N[~sun], t_s * zr / zs / (3 * rbr), rtol=1e-9)
-    fe, w = sy.fext_speed(), sy.rigid_mode
-    i_c, i_s = sy.gears["carrier"].rotation, sy.gears["sun"].rotation
-    p_in = fe[i_c] * w[i_c] * sy.gears["carrier"].sense
-    p_out = fe[i_s] * w[i_s] * sy.gears["carrier"].sense
+    assert sy.rigid_mode is None and sy.gears["sun"].rotation == -1
+    sd = build_system(model, _constant_tables(model, 1e10), shafts=False)  # drivetrain mode: the sun a torque port
+    fe, w = sd.fext_speed(), sd.rigid_mode
+    i_c, i_s = sd.gears["carrier"].rotation, sd.gears["sun"].rotation
+    p_in = fe[i_c] * w[i_c] * sd.gears["carrier"].sense
+    p_out = fe[i_s] * w[i_s] * sd.gears["carrier"].sense
     assert p_in > 0 > p_out and p_in + p_out == pytest.approx(0.0, abs=1e-9 * p_in)

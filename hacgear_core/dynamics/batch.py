@@ -77,8 +77,9 @@ def batch_rows(n: int, m: int, nnz: int, rotating: bool) -> int:
 
 def batch_supported(system) -> bool:
     """Whether the batched kernel runs ``system`` (a :class:`~hacgear_core.dynamics.system.LumpedSystem`): the
-    table and linear laws' loops, not the twist law of helical meshes."""
-    return system.mesh_law.kernel_law in (LAW_TABLE, LAW_LINEAR)
+    table and linear laws' loops, not the twist law of helical meshes, with every mesh at the reference rate (a
+    gear train's stages at other mesh frequencies run in the single-state loop)."""
+    return system.mesh_law.kernel_law in (LAW_TABLE, LAW_LINEAR) and system.unit_rates
 
 
 #: whether the CPU the loops are compiled for has fused multiply-add: the single-state loop's compiler contracts
@@ -323,7 +324,7 @@ def _make_stages(name: str, n_fixed: int, m_fixed: int, variant: int, lanes: int
 
     def stages(sf, w, vf, mf, phase, tab, tint, tflt, lin, lint, kidx, kval, kd, nz, adt):
         n = _ix(n_fixed if n_fixed else sf.shape[0] // (2 * B))
-        m = _ix(m_fixed if m_fixed else phase.shape[0])
+        m = _ix(m_fixed if m_fixed else phase.shape[1])
         nnz = kidx.shape[0]
         (mn, mm, o_w, o_rv, o_vmi, o_vc, o_vci, o_wv, o_cv, o_vvc, o_wvc, o_cvc, o_a1, o_a2, o_a3, o_a4, o_g0, o_p,
          o_fm, r0, o_xq, o_xd, o_wq, o_wd, o_f1, o_f2, o_f3, o_f4, o_g1, o_gw1, o_g2, o_gw2, o_cq, o_cd, o_c1, o_c2,
@@ -337,8 +338,8 @@ def _make_stages(name: str, n_fixed: int, m_fixed: int, variant: int, lanes: int
             # stages 1 and 2: their lookups need only the state
             for k in range(m):
                 xq = w[(o_xq + k) * B + l]
-                t1 = tau + phase[k] + w[(o_wq + k) * B + l]
-                t2 = _fma(hh, w[(o_wd + k) * B + l], tau + 0.5 * dtau + phase[k] + w[(o_wq + k) * B + l])
+                t1 = tau + phase[0, k] + w[(o_wq + k) * B + l]
+                t2 = _fma(hh, w[(o_wd + k) * B + l], tau + 0.5 * dtau + phase[0, k] + w[(o_wq + k) * B + l])
                 x2 = _fma(hh, w[(o_xd + k) * B + l], xq)
                 w[(o_f1 + k) * B + l] = _drive_force_l(law, k, tab, tint, tflt, lin, lint, t1, xq)
                 w[(o_f2 + k) * B + l] = _drive_force_l(law, k, tab, tint, tflt, lin, lint, t2, x2)
@@ -400,8 +401,8 @@ def _make_stages(name: str, n_fixed: int, m_fixed: int, variant: int, lanes: int
                         e2 -= _fma(mf[o_cv + k * m + j], w[(o_f2 + j) * B + l],
                                    mf[o_cvc + k * m + j] * w[(o_c2 + j) * B + l])
                 t3 = _fma(hh, _fma(hh, b, w[(o_wd + k) * B + l]),
-                          tau + 0.5 * dtau + phase[k] + w[(o_wq + k) * B + l])
-                t4 = _fma(h, _fma(hh, d, w[(o_wd + k) * B + l]), tau + dtau + phase[k] + w[(o_wq + k) * B + l])
+                          tau + 0.5 * dtau + phase[0, k] + w[(o_wq + k) * B + l])
+                t4 = _fma(h, _fma(hh, d, w[(o_wd + k) * B + l]), tau + dtau + phase[0, k] + w[(o_wq + k) * B + l])
                 x3 = _fma(hh, _fma(hh, a, w[(o_xd + k) * B + l]), w[(o_xq + k) * B + l])
                 x4 = _fma(h, _fma(hh, c, w[(o_xd + k) * B + l]), w[(o_xq + k) * B + l])
                 w[(o_f3 + k) * B + l] = _drive_force_l(law, k, tab, tint, tflt, lin, lint, t3, x3)
@@ -457,7 +458,7 @@ def _make_batch_loop(name: str, n_fixed: int, m_fixed: int, variant: int, lanes:
     def loop(sf, kf, n_steps, H, FEXT, REC_EVERY, CNT, rec_state, rec_out, NREC, mats, vf, mf, phase, scal, tab,
              tint, tflt, lin, lint, kidx, kval, kd, nz, adt, w):
         n = _ix(n_fixed if n_fixed else mats.shape[1])
-        m = _ix(m_fixed if m_fixed else phase.shape[0])
+        m = _ix(m_fixed if m_fixed else phase.shape[1])
         law = law_c
         sparse = sparse_c
         two_sided = two_sided_c
@@ -576,7 +577,7 @@ def _make_batch_loop(name: str, n_fixed: int, m_fixed: int, variant: int, lanes:
                 for k in range(m):
                     # the record's products run over every DOF, as the single-state loop's do
                     x = _l_dot(n, False, nz, k, vf, 0, sf, 0, B, l)
-                    t = _l_dot(n, False, nz, k, vf, o_w, sf, 0, B, l, tau_ref + phase[k])
+                    t = _l_dot(n, False, nz, k, vf, o_w, sf, 0, B, l, tau_ref + phase[0, k])
                     d = _l_dot(n, False, nz, k, vf, o_rv, sf, 0, B, l)
                     xc = _l_dot(n, False, nz, k, vf, o_vc, sf, 0, B, l)
                     rec_out[l, nrec, REC * k + REC_POSITION] = kf[B + l] + t

@@ -41,12 +41,13 @@ class EquilibriumResult:
 
 
 def _positions(system: LumpedSystem, tau_ref: float, q: np.ndarray) -> np.ndarray:
-    return tau_ref + system.phase + system.W @ q
+    return system.unwrapped_positions(tau_ref) + system.phase + system.W @ q
 
 
 def static_equilibrium(system: LumpedSystem, tau_ref: float = 0.0, fext: np.ndarray | None = None, *,
                        carrier_speed_rad_s: float = 0.0, tol: float = 1e-10, max_iter: int = 100) -> EquilibriumResult:
-    """Static equilibrium at reference mesh position ``tau_ref`` [cycles] under ``fext`` (n,) (default: the
+    """Static equilibrium at reference mesh position ``tau_ref`` [cycles] (over the system's
+    ``period_cycles``: meshes at other rates are at ``rate tau_ref``) under ``fext`` (n,) (default: the
     constant-speed experiment's loads at the nominal torque).
 
     ``carrier_speed_rad_s``: rotating frames are in equilibrium with their centripetal stiffness
@@ -99,7 +100,7 @@ def static_equilibrium(system: LumpedSystem, tau_ref: float = 0.0, fext: np.ndar
     else:
         fn = system.nominal_forces_N(abs(system.torque_Nm))
         arrays = system.table_arrays
-    tau0 = tau_ref + system.phase
+    tau0 = system.unwrapped_positions(tau_ref) + system.phase
     xs = np.array([deflection_at_force(ta.ftab, ta.x0, ta.dx, float(t), float(f))
                    for ta, t, f in zip(arrays, tau0, fn)])
     xs = np.where(np.isfinite(xs), xs, 0.0)

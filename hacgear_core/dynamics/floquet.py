@@ -133,8 +133,10 @@ def floquet(system: LumpedSystem, mesh_frequency_Hz: float, state: np.ndarray, p
     if not (math.isfinite(fm) and fm > 0):
         raise ModelError(f"mesh frequency [Hz] must be finite and > 0, got {mesh_frequency_Hz!r}")
     p = int(period_cycles)
-    if not 1 <= p <= 16:
-        raise ModelError(f"period_cycles [mesh cycles] must be in [1, 16], got {period_cycles!r}")
+    top = 16 * system.period_cycles
+    if not (1 <= p <= top and p % system.period_cycles == 0):
+        raise ModelError(f"period_cycles [mesh cycles] must be a multiple of the system's period "
+                         f"({system.period_cycles} mesh cycles) in [1, {top}], got {period_cycles!r}")
     n2 = 2 * system.n
     s = np.array(state, dtype=float)
     if s.shape != (n2,) or not np.all(np.isfinite(s)):

@@ -7,7 +7,11 @@ allocation-free and without I/O.
 Equations (deviations ``q`` from the reference motion, see :mod:`hacgear_core.dynamics.system`)::
 
     M q'' + (C + W_c G) q' + (K - W_c^2 K_W) q + sum_k [F_k(tau_k, x_k) v_k + Fc_k(tau_k, xc_k) vc_k] = f_ext
-    x_k = v_k . q,   xc_k = vc_k . q,   tau_k = tau_ref + phase_k + w_k . q,   W_c = c_ratio * omega_ref
+    x_k = v_k . q,   xc_k = vc_k . q,   tau_k = b_k + phase_k + w_k . q,   W_c = c_ratio * omega_ref
+
+``b_k`` is mesh k's kinematic position: ``tau_ref`` on a mesh at the reference mesh frequency, else the fraction of
+``(p_k / q_k) (cycles + tau_ref)`` (:func:`mesh_base`, exact in the whole cycles), so a gear train's stages run at
+their own mesh frequencies (rate ``p_k / q_k``) while the state keeps the one reference position.
 
 ``F_k`` is mesh k's drive-flank force (its force law), ``Fc_k`` its coast-flank force (the coast table: contact
 of the opposite flanks across the backlash, ``xc_k`` the coast approach along the coast line of action ``vc_k``).
@@ -128,6 +132,19 @@ class _NoAliasCompiler(CompilerBase):
     def define_pipelines(self):
         self.state.flags.noalias = True
         return [DefaultPassBuilder.define_nopython_pipeline(self.state)]
+
+
+@njit(cache=True, inline="always")
+def mesh_base(p, q, cycles, tau_ref):
+    """Kinematic position of a mesh running at ``p/q`` (integers as floats) times the reference mesh frequency,
+    the reference at ``cycles`` (an integer as a float) + ``tau_ref`` [0, 1): its fraction in [0, 1) and its
+    whole cycles, exact in the integer parts while ``p cycles < 2**53`` (any run length in float64)."""
+    cm = cycles - q * math.floor(cycles / q)
+    pm = p * cm
+    r = pm - q * math.floor(pm / q)
+    s = r / q + (p / q) * tau_ref
+    f = math.floor(s)
+    return s - f, (p * cycles - r) / q + f
 
 
 @njit(cache=True, inline="always")
@@ -376,7 +393,7 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
     def loop(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref,
              tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
         n = _ix(n_fixed if n_fixed else s.shape[0] // 2)
-        m = _ix(m_fixed if m_fixed else phase.shape[0])
+        m = _ix(m_fixed if m_fixed else phase.shape[1])
         law = law_c
         sparse = sparse_c
         two_sided = two_sided_c
@@ -447,6 +464,12 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
         o_c4 = 7 * n + 17 * m
         o_gc1 = 7 * n + 18 * m
         o_gc2 = 7 * n + 19 * m
+        o_tb = 7 * n + 20 * m
+        o_td = 7 * n + 21 * m
+        unit_rates = True
+        for k in range(m):
+            if phase[1, k] != phase[2, k]:
+                unit_rates = False
         for i in range(n):
             a = 0.0
             for j in range(n):
@@ -487,6 +510,14 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
                             adt[j * n + i] = mc[i, j] + oc * mg[i, j]
                     omega_c_set = oc
             dtau = zref_2pi * omega * h
+            # each mesh's kinematic position at the step start and its advance over the step (mesh_base)
+            for k in range(m):
+                if unit_rates:
+                    wk[o_tb + k] = tau_ref
+                    wk[o_td + k] = dtau
+                else:
+                    wk[o_tb + k], _ = mesh_base(phase[1, k], phase[2, k], kin[1], tau_ref)
+                    wk[o_td + k] = (phase[1, k] / phase[2, k]) * dtau
             # the generic loops form each mesh's step-start products (and below its stage products) in one pass over
             # its pattern: fewer index loads, the same sums (1.04-1.17x per mesh cycle on the planetary sets, measured);
             # the coast products come along in the same pass and are read only where the coast terms are on
@@ -530,8 +561,8 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
             while True:
                 # stages 1 and 2: their lookups need only the state
                 for k in range(m):
-                    t1 = tau_ref + phase[k] + wk[o_wq + k]
-                    t2 = tau_ref + 0.5 * dtau + phase[k] + wk[o_wq + k] + hh * wk[o_wd + k]
+                    t1 = wk[o_tb + k] + phase[0, k] + wk[o_wq + k]
+                    t2 = wk[o_tb + k] + 0.5 * wk[o_td + k] + phase[0, k] + wk[o_wq + k] + hh * wk[o_wd + k]
                     if twist:
                         wk[o_f1 + k], wk[o_c1 + k] = twist_force(k, m, tab, tint, tflt, t1, wk[o_xq + k], wk[o_cq + k])
                         wk[o_f2 + k], wk[o_c2 + k] = twist_force(k, m, tab, tint, tflt, t2, wk[o_xq + k] + hh * wk[o_xd + k],
@@ -600,8 +631,8 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
                             d -= mf[o_wvc + k * m + j] * wk[o_c2 + j]
                             e1 -= mf[o_cv + k * m + j] * wk[o_f1 + j] + mf[o_cvc + k * m + j] * wk[o_c1 + j]
                             e2 -= mf[o_cv + k * m + j] * wk[o_f2 + j] + mf[o_cvc + k * m + j] * wk[o_c2 + j]
-                    t3 = tau_ref + 0.5 * dtau + phase[k] + wk[o_wq + k] + hh * (wk[o_wd + k] + hh * b)
-                    t4 = tau_ref + dtau + phase[k] + wk[o_wq + k] + h * (wk[o_wd + k] + hh * d)
+                    t3 = wk[o_tb + k] + 0.5 * wk[o_td + k] + phase[0, k] + wk[o_wq + k] + hh * (wk[o_wd + k] + hh * b)
+                    t4 = wk[o_tb + k] + wk[o_td + k] + phase[0, k] + wk[o_wq + k] + h * (wk[o_wd + k] + hh * d)
                     if twist:
                         wk[o_f3 + k], wk[o_c3 + k] = twist_force(k, m, tab, tint, tflt, t3,
                                                                  wk[o_xq + k] + hh * (wk[o_xd + k] + hh * a),
@@ -673,7 +704,11 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
                     rec_state[nrec, i] = s[i]
                 for k in range(m):
                     x = 0.0
-                    t = tau_ref + phase[k]
+                    if unit_rates:
+                        base, whole = tau_ref, kin[1]
+                    else:
+                        base, whole = mesh_base(phase[1, k], phase[2, k], kin[1], tau_ref)
+                    t = base + phase[0, k]
                     d = 0.0
                     xc = 0.0
                     for j in range(n):
@@ -681,7 +716,7 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
                         t += vf[o_w + k * n + j] * s[j]
                         d += vf[o_rv + k * n + j] * s[j]
                         xc += vf[o_vc + k * n + j] * s[j]
-                    rec_out[nrec, REC * k + REC_POSITION] = kin[1] + t
+                    rec_out[nrec, REC * k + REC_POSITION] = whole + t
                     rec_out[nrec, REC * k + REC_DEFLECTION] = x
                     rec_out[nrec, REC * k + REC_DTE] = d
                     rec_out[nrec, REC * k + REC_COAST_APPROACH] = xc
@@ -733,11 +768,12 @@ def select_kernel(law: int, n: int, m: int, two_sided: bool = False):
         mats (3, n, n) = [M^-1, M^-1 C, M^-1 G],
         vecs (6, m, n) = [v, w, v_rot, M^-1 v, vc, M^-1 vc],
         mmat (6, m, m) = [v M^-1 v^T, w M^-1 v^T, vc M^-1 v^T, v M^-1 vc^T, w M^-1 vc^T, vc M^-1 vc^T],
-        phase (m,), u (n,), scal (3,) = [c_ratio, sref, zref_2pi],
+        phase (3, m) = [phase [cycles], rate numerator p, rate denominator q] (integers as floats; the mesh runs at
+            p/q times the reference mesh frequency), u (n,), scal (3,) = [c_ratio, sref, zref_2pi],
         iref int, tab (flat FDFs), tint (2m, 3) int64 = [offset, Np, Nd], tflt (2m, 4) = [x0, 1/dx, x_on, x_max]
             (rows: the drive tables, then the coast tables),
         lin (flat conventional-law arrays), lint (m, 2) int64 = [offset, Np],
-        work (7n + 20m,), eff (n, n) scratch,
+        work (7n + 22m,), eff (n, n) scratch,
         kidx (nnz, 2) int64 rows/columns of the entries of M^-1 K and M^-1 K_W the kernel multiplies: the n
             diagonal entries first (row i = column i = i), then the nonzero off-diagonal ones,
         kval (3, nnz) = [their values in M^-1 K, in M^-1 K_W, scratch],

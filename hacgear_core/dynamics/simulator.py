@@ -139,6 +139,10 @@ def passage_window(system: LumpedSystem, gauge: str) -> tuple[float, float]:
     (mod z, :func:`strain_of_tooth`); outside it the tooth's root strain is 0.  A gear in several meshes (an
     idler, a sun) spans all of them: its tooth passes one after the other."""
     gear, gname, z = _gauge_gear(system, gauge)
+    if not system.unit_rates:
+        raise ModelError(f"gauge {gauge!r}: tooth passages are counted in reference mesh cycles, so {system.name}, "
+                         "whose meshes run at different mesh frequencies (a gear train with unequal tooth counts), "
+                         "has no root-strain passages; the per-mesh strain along a trajectory is strain_of_tooth")
     arcs = []
     for k, c in enumerate(system.meshes):
         if gear not in (c.gear_a, c.gear_b):
@@ -480,9 +484,10 @@ class Simulator:
         """Outputs from the state, the force laws evaluated in Python (after reset, set_state, run)."""
         sy = self.system
         q = self.s[:sy.n]
-        tau = self.kin[0] + sy.phase + sy.W @ q
+        base, whole = sy.mesh_kinematics(self.kin[0], self.kin[1])
+        tau = base + sy.phase + sy.W @ q
         rec = np.zeros(sy.record_width)
-        sy.mesh_law.state_fields(sy, q, tau, self.kin[1], rec)
+        sy.mesh_law.state_fields(sy, q, tau, whole, rec)
         self._set_outputs(self.s.tolist(), self.kin.tolist(), rec.tolist())
 
     def _set_outputs(self, st: list, kt: list, rec: list) -> None:
@@ -536,7 +541,8 @@ class Simulator:
         (:meth:`~hacgear_core.dynamics.system.LumpedSystem.elastic_energy_J`)."""
         sy = self.system
         q = self.s[:sy.n]
-        return sy.elastic_energy_J(q, self.kin[0] + sy.phase + sy.W @ q, self.kin[2])
+        return sy.elastic_energy_J(q, sy.kinematic_positions(self.kin[0], self.kin[1]) + sy.phase + sy.W @ q,
+                                   self.kin[2])
 
     def dissipated_power_W(self) -> float:
         """Power [W] the modal damping dissipates now."""

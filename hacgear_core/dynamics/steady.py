@@ -13,6 +13,11 @@ integration stops at ``max_cycles`` and the result says so (``converged = False`
 metrics then come from the next ``cap_record_cycles`` cycles (default 4; a quasi-periodic response needs a long
 window for its RMS to be a property of the motion rather than of where the window fell).
 
+A gear train whose stages run at different mesh frequencies (rates ``p/q`` of the reference mesh) repeats only
+after ``system.period_cycles`` reference mesh cycles (the lcm of the ``q``): its samples are taken once per such
+system period, and ``min_cycles``, ``max_cycles``, ``max_period``, ``chunk_cycles`` and ``cap_record_cycles`` count
+system periods; the result's ``period_cycles`` and ``cycles_run`` are in reference mesh cycles.
+
 Stability (``stability=True``).  Detection alone can accept an unstable orbit: a symmetric system (identical,
 in-phase planets) keeps a symmetric solution to rounding even where it is unstable, because the perturbation that
 would grow starts at 1e-16 and grows by only a few per cent per cycle.  With ``stability`` every detected orbit is
@@ -201,7 +206,7 @@ def trace_metrics(system: LumpedSystem, x, f, dte, tau=None, static_forces_N=Non
         "skipped_tooth_fraction": np.full(system.m, math.nan),
         "back_side_contact_fraction": np.mean(on, axis=0),
         "peak_back_side_force_N": np.max(fb, axis=0),
-        "back_side_impacts_per_cycle": np.sum(starts, axis=0) / max(int(cycles), 1),
+        "back_side_impacts_per_cycle": np.sum(starts, axis=0) / np.maximum(cycles * system.rates, 1.0),
         "dynamic_factor_force": _ratio(np.max(fl, axis=0), np.where(coast, fsc, fs)),
         "dynamic_factor_strain": np.full(system.m, math.nan),
     }
@@ -216,7 +221,8 @@ def trace_metrics(system: LumpedSystem, x, f, dte, tau=None, static_forces_N=Non
         smax = _static_strain(system, fl_s, tabs)
         for k, t in enumerate(tabs):
             if getattr(t, "tooth_load_N", None) is not None:
-                m["skipped_tooth_fraction"][k] = skipped_tooth_fraction(t, tau[:, k], xl[:, k], cycles)
+                m["skipped_tooth_fraction"][k] = skipped_tooth_fraction(t, tau[:, k], xl[:, k],
+                                                                        int(round(cycles * system.rates[k])))
             if not smax[k]:
                 continue
             dfs = strain_dynamic_factor(t, tau[:, k], xl[:, k], fl_s[k], smax[k])
@@ -283,6 +289,10 @@ def steady_run(system: LumpedSystem, mesh_frequency_Hz: float, state0: np.ndarra
         raise ModelError(f"state0 must have shape ({n2},), got {s.shape}")
     nsp = system.steps_per_cycle(fm, minimum=opt.min_steps_per_cycle)
     h = 1.0 / (fm * nsp)
+    # one sample per system period (every mesh back at its start position): 1 reference mesh cycle, or
+    # period_cycles of them for meshes at different rates; the options' cycles count these periods
+    per_p = system.period_cycles
+    nsp_p = nsp * per_p
     omega = system.reference_speed(fm)
     fs = system.nominal_forces_N(torque_Nm)
     fsc = system.nominal_coast_forces_N(torque_Nm)
@@ -303,7 +313,7 @@ def steady_run(system: LumpedSystem, mesh_frequency_Hz: float, state0: np.ndarra
     while cycles < opt.max_cycles and period == 0:
         nc = min(opt.chunk_cycles, opt.max_cycles - cycles)
         kin[:] = (0.0, 0.0, omega)
-        yield s, kin, nc * nsp, h, fext, nsp, rec_s, rec_o
+        yield s, kin, nc * nsp_p, h, fext, nsp_p, rec_s, rec_o
         if not np.all(np.isfinite(s)):
             raise ModelError(f"integration diverged at f_m = {fm:g} Hz (state not finite)")
         hist[cycles + 1: cycles + 1 + nc] = rec_s[:nc] @ proj.T
@@ -323,7 +333,7 @@ def steady_run(system: LumpedSystem, mesh_frequency_Hz: float, state0: np.ndarra
                 period = per
                 break
         if period and opt.stability:
-            fq = floquet(system, fm, s, period, torque_Nm=torque_Nm, steps_per_cycle=nsp)
+            fq = floquet(system, fm, s, period * per_p, torque_Nm=torque_Nm, steps_per_cycle=nsp)
             mu_max = fq.max_multiplier
             if fq.success and not fq.stable and kicks < opt.max_kicks and cycles < opt.max_cycles:
                 # push the orbit off along its growing perturbation, sized ``kick`` in the scaled coordinates
@@ -337,7 +347,7 @@ def steady_run(system: LumpedSystem, mesh_frequency_Hz: float, state0: np.ndarra
                 mu_max = math.nan
     converged = period > 0
     nrec_cyc = period if converged else opt.cap_record_cycles
-    nrec = nrec_cyc * nsp
+    nrec = nrec_cyc * nsp_p
     rs = np.zeros((nrec, n2))
     ro = np.zeros((nrec, system.record_width))
     kin[:] = (0.0, 0.0, omega)
@@ -345,12 +355,13 @@ def steady_run(system: LumpedSystem, mesh_frequency_Hz: float, state0: np.ndarra
     rf = system.record_fields(ro)
     tau, x, f, dte = rf["mesh_position"], rf["mesh_deflection_m"], rf["mesh_force_N"], rf["dynamic_transmission_error_m"]
     metrics = trace_metrics(system, x, f, dte, tau=tau, static_forces_N=fs, fc=rf["coast_force_N"],
-                            cycles=nrec_cyc, coast_static_forces_N=fsc, xc=rf["coast_approach_m"])
+                            cycles=nrec_cyc * per_p, coast_static_forces_N=fsc, xc=rf["coast_approach_m"])
     trace = {}
     if keep_trace:
         trace = dict(rf)
         trace["contact_state"] = contact_state(rf["mesh_force_N"], rf["coast_force_N"])
         trace["state"] = rs
     status = f"period-{period}" if converged else "cap"
-    return SteadyStateResult(fm, converged, status, period if converged else 0, cycles + nrec_cyc, nsp, s.copy(),
+    return SteadyStateResult(fm, converged, status, period * per_p if converged else 0, (cycles + nrec_cyc) * per_p,
+                             nsp, s.copy(),
                              metrics, trace, mu_max, kicks)

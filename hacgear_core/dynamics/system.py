@@ -108,7 +108,11 @@ class MeshCoupling:
     ``Wc v_c + Mc t_c``.  A drive-only table with ``v_c`` and ``t_c`` (the coast flanks' vectors from the
     geometry) keeps its coast side force-free: a zero table whose deflection range ends at ``backlash_m`` (the
     coast approach at which the coast flanks touch), so a state beyond the backlash counts as out of range.
-    Without ``t_c`` the helical mesh is one-sided and unguarded."""
+    Without ``t_c`` the helical mesh is one-sided and unguarded.
+
+    ``rate`` ``(p, q)``: the mesh runs at ``p/q`` times the reference mesh frequency (integers > 0; (1, 1) for
+    every mesh of a pair, idler chain, planetary set; a gear train's stages with other tooth counts differ): its
+    kinematic position is ``p/q`` times the reference position (:meth:`LumpedSystem.kinematic_positions`)."""
 
     name: str
     gear_a: str
@@ -130,6 +134,7 @@ class MeshCoupling:
     backlash_m: float = math.inf
     t: np.ndarray | None = None
     t_c: np.ndarray | None = None
+    rate: tuple[int, int] = (1, 1)
 
     @property
     def coast_table(self):
@@ -280,6 +285,18 @@ class LumpedSystem:
         self.W = np.ascontiguousarray(np.array([c.w for c in self.meshes], dtype=float))
         self.V_rot = np.ascontiguousarray(np.array([c.v_rot for c in self.meshes], dtype=float))
         self.phase = np.array([c.phase for c in self.meshes], dtype=float)
+        self.rate = np.array([c.rate for c in self.meshes], dtype=float).reshape(-1, 2)
+        bad = [c.name for c in self.meshes if len(c.rate) != 2 or not all(
+            isinstance(r, (int, np.integer)) and 0 < r < 2 ** 31 for r in c.rate)]
+        if bad:
+            raise ModelError(f"{name}: mesh rate (p, q) must be two integers in [1, 2**31), got "
+                             f"{[c.rate for c in self.meshes if c.name in bad]} for meshes {bad}")
+        #: the meshes' rates relative to the reference mesh, p / q
+        self.rates = self.rate[:, 0] / self.rate[:, 1]
+        #: True when every mesh runs at the reference mesh frequency
+        self.unit_rates = bool(np.all(self.rate[:, 0] == self.rate[:, 1]))
+        #: reference mesh cycles after which every mesh is back at its start position (lcm of the q / gcd(p, q))
+        self.period_cycles = math.lcm(*(q // math.gcd(p, q) for p, q in (c.rate for c in self.meshes)))
         self.Vc = np.ascontiguousarray(np.array([np.zeros(n) if c.v_c is None else c.v_c for c in self.meshes],
                                                 dtype=float))
         self.T = np.ascontiguousarray(np.array([np.zeros(n) if c.t is None else c.t for c in self.meshes],
@@ -379,7 +396,7 @@ class LumpedSystem:
             vecs=np.ascontiguousarray(np.stack([kv, kw_, kvr, vmi, vc2, vci])),
             mmat=np.ascontiguousarray(np.stack([kv @ minv @ kv.T, kw_ @ minv @ kv.T, vc2 @ minv @ kv.T,
                                                 kv @ minv @ vc2.T, kw_ @ minv @ vc2.T, vc2 @ minv @ vc2.T])),
-            phase=np.ascontiguousarray(kph, dtype=float),
+            phase=np.ascontiguousarray(np.vstack([kph, np.tile(self.rate.T, len(kph) // self.m)]), dtype=float),
             u=np.zeros(n) if self.rigid_mode is None else self.rigid_mode,
             scal=np.array([self.carrier_ratio, self.sref, self.zref_2pi]), iref=int(self.iref), tab=tab, tint=tint,
             tflt=tflt, lin=lin, lint=lint, nz=nz)
@@ -388,7 +405,7 @@ class LumpedSystem:
     def kernel_constants(self) -> tuple:
         """The kernel's trailing arguments (everything but the state, step, mode, loads and records)."""
         a = self.arrays
-        work = np.zeros(7 * self.n + 20 * self.m_kernel)
+        work = np.zeros(7 * self.n + 22 * self.m_kernel)
         eff = np.zeros((self.n, self.n))
         return (a.mats, a.vecs, a.mmat, a.phase, a.u, a.scal, a.iref, a.tab, a.tint, a.tflt, a.lin, a.lint, work, eff,
                 a.kidx, a.kval, a.nz)
@@ -417,6 +434,8 @@ class LumpedSystem:
         # terms only some kinds have (fixed-axis trains hash as before)
         if np.any(self.static_forces != 0):
             h.update(self.static_forces.tobytes())
+        if not self.unit_rates:
+            h.update(self.rate.tobytes())
         if self.nominal_torques_per_Nm is not None or self.zref_2pi != self.gears[self.reference_gear].teeth / (2 * math.pi):
             h.update(repr((sorted((self.nominal_torques_per_Nm or {}).items()), self.zref_2pi)).encode())
         for ta in self.table_arrays:
@@ -598,6 +617,33 @@ class LumpedSystem:
         natural frequency with >= ``per_period`` steps."""
         need = max(minimum, per_period * self.max_frequency_Hz / mesh_frequency_Hz)
         return int(2 ** math.ceil(math.log2(need)))
+
+    def mesh_kinematics(self, tau_ref, cycles=0.0) -> tuple[np.ndarray, np.ndarray]:
+        """``(base, whole)`` (..., m): each mesh's kinematic position [cycles] in [0, 1) and its whole cycles with the
+        reference mesh at ``cycles + tau_ref`` (``cycles`` whole reference cycles, ``tau_ref`` (...) in [0, 1)):
+        ``(tau_ref, cycles)`` on a mesh at the reference rate, else the mesh's own (the kernel's rule,
+        :func:`kernels.mesh_base`)."""
+        t = np.asarray(tau_ref, dtype=float)
+        c = np.broadcast_to(np.asarray(cycles, dtype=float), t.shape)
+        base = np.repeat(t[..., None], self.m, axis=-1)
+        whole = np.repeat(c[..., None], self.m, axis=-1)
+        for k in np.flatnonzero(self.rate[:, 0] != self.rate[:, 1]):
+            p, q = self.rate[k]
+            r = np.mod(p * np.mod(c, q), q)
+            x = r / q + (p / q) * t
+            f = np.floor(x)
+            base[..., k] = x - f
+            whole[..., k] = (p * c - r) / q + f
+        return base, whole
+
+    def kinematic_positions(self, tau_ref, cycles=0.0) -> np.ndarray:
+        """The meshes' kinematic positions [cycles] (..., m) in [0, 1) (:meth:`mesh_kinematics`)."""
+        return self.mesh_kinematics(tau_ref, cycles)[0]
+
+    def unwrapped_positions(self, c) -> np.ndarray:
+        """Kinematic positions [cycles] (..., m) of the meshes, unwrapped, with the reference mesh at ``c`` (...)
+        unwrapped reference cycles: ``rate_k c``."""
+        return np.asarray(c, dtype=float)[..., None] * self.rates
 
     def mesh_frequency_Hz(self, omega_ref_rad_s: float) -> float:
         """Mesh frequency [Hz] at reference speed ``omega_ref_rad_s`` [rad/s]."""

@@ -117,7 +117,7 @@ def assemble(train: Train) -> LumpedSystem:
         base_radius_m=tuple(c.base_radius_m), tooth_passage=dict(c.tooth_passage),
         line_of_action=tuple(c.line_of_action), group=c.group, gear_alias=dict(c.gear_alias), v_c=dm.vector(c.v_c),
         nominal_coast_force_N=float(c.nominal_coast_force_N), backlash_m=float(c.backlash_m), t=dm.vector(c.t),
-        t_c=dm.vector(c.t_c)) for c in train.couplings]
+        t_c=dm.vector(c.t_c), rate=tuple(c.rate)) for c in train.couplings]
     bodies = []
     for b in train.bodies:
         tr = [(dm.index[(b.name, d.label)], d.direction) for d in b.dofs

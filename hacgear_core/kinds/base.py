@@ -114,6 +114,7 @@ class Coupling:
     backlash_m: float = math.inf
     t: KeyVector | None = None
     t_c: KeyVector | None = None
+    rate: tuple[int, int] = (1, 1)
 
 
 @dataclass(frozen=True)

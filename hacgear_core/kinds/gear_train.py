@@ -22,9 +22,10 @@ be 0: the input and output shafts belong to the drivetrain, FMU mode 1).  Placem
 is placed by :func:`hacgear_core.geometry.train_geometry`; an axis puts the gears of two groups on one centre and
 turns the second group by the mounting angle, so every mesh phase follows from the geometry.
 
-The kernel advances one reference mesh position, so every mesh must run at the same mesh frequency: the gears of
-one axis that mesh with the neighbouring axes need the same tooth count (e.g. 28 -> 33 | 33 -> 39).  Other tooth
-counts are refused naming the gears and their ``teeth``.
+Tooth counts are free: each mesh runs at its own mesh frequency, ``p/q`` times the first [[meshes]] entry's (the
+reference mesh; :func:`mesh_rates`, a reduced fraction of the tooth counts along the chain), and the kernel derives
+each mesh's position from the one reference position (:func:`hacgear_core.dynamics.kernels.mesh_base`).  The
+system repeats after ``period_cycles`` reference mesh cycles (the lcm of the ``q``), the period of its steady state.
 
 Constant-speed experiment: the torque gear carries ``[operating] torque_Nm``, the gear at the other end of the
 chain brakes with the torque the meshes deliver (nominal torques per gear); every shaft between them carries its
@@ -191,8 +192,10 @@ def _chain(model: Any, base_radii: Mapping[str, tuple[float, float]] | None = No
                   torque={axes.index(i): t for i, t in torque.items()})
 
 
-def _check_mesh_frequencies(model: Any, chain: _Chain) -> None:
-    """Refuse tooth counts that give the meshes different mesh frequencies (the kernel advances one)."""
+def mesh_rates(model: Any, chain: _Chain | None = None) -> dict[str, tuple[int, int]]:
+    """Each mesh's mesh frequency over the first [[meshes]] entry's (the reference mesh), as a reduced fraction
+    ``(p, q)``, from the tooth counts along the chain (a gear and the gears on its axis turn together)."""
+    chain = _chain(model) if chain is None else chain
     teeth = {g.name: g.teeth for g in model.gears}
     speed = {0: Fraction(1)}  # axis speed over the first axis's, magnitude
     freq = {}
@@ -200,16 +203,8 @@ def _check_mesh_frequencies(model: Any, chain: _Chain) -> None:
         g_out, g_in = chain.out_of[k], chain.into[k + 1]
         freq[name] = speed[k] * teeth[g_out]
         speed[k + 1] = freq[name] / teeth[g_in]
-    ref = freq[chain.meshes[0]]
-    bad = [n for n in chain.meshes if freq[n] != ref]
-    if bad:
-        k = chain.meshes.index(bad[0])
-        raise ModelError(
-            f"mesh '{bad[0]}' runs at {float(freq[bad[0]] / ref):.6g} x the mesh frequency of mesh "
-            f"'{chain.meshes[0]}': on the axis of {list(chain.axes[k])} the gear taking the torque in "
-            f"('{chain.into[k]}', teeth = {teeth[chain.into[k]]}) and the gear passing it on ('{chain.out_of[k]}', "
-            f"teeth = {teeth[chain.out_of[k]]}) need the same [[gears]] teeth: the integration kernel advances one "
-            "mesh frequency for all meshes")
+    ref = freq[model.meshes[0].name]
+    return {n: ((f / ref).numerator, (f / ref).denominator) for n, f in freq.items()}
 
 
 def place_gear_train(model: Any, gears: Mapping | None = None, meshes: Mapping | None = None) -> TrainGeometry:
@@ -329,7 +324,7 @@ class GearTrain(Kind):
             raise ModelError(f"gears {held}: support.rotational_stiffness_Nm_per_rad [N*m/rad] must be 0 for kind "
                              "'gear_train' (shafts between gears go in [[gear_train.shafts]]; the input and output "
                              "shafts belong to the drivetrain: FMU mode 1, examples/drivetrain_bench.py)")
-        _check_mesh_frequencies(model, _chain(model))
+        _chain(model)
 
     def placement(self, model: Any, gears: Mapping, meshes: Mapping) -> TrainGeometry:
         return place_gear_train(model, gears, meshes)
@@ -348,6 +343,7 @@ class GearTrain(Kind):
         mg = {m.name: mesh_geometry(model, m.name, gears=gg) for m in model.meshes}
         placed = place_gear_train(model, gg, mg)
         chain = _chain(model, {m.name: placed.meshes[m.name].base_radius_m for m in model.meshes})
+        rates = mesh_rates(model, chain)
         shafts_ = _section_of(model).shafts
         bodies: dict[str, Body] = {}
         couplings: dict[str, Coupling] = {}
@@ -366,7 +362,7 @@ class GearTrain(Kind):
                                         if s.gear_a in names and s.gear_b in u), 1.0)
             u.update({g: c * scale for g, c in local.items()})
             bodies.update({b.name: b for b in part.bodies})
-            couplings.update({c.name: replace(c, phase=placed.meshes[c.name].phase, tooth_passage={
+            couplings.update({c.name: replace(c, phase=placed.meshes[c.name].phase, rate=rates[c.name], tooth_passage={
                 g: placed.tooth_passage[g][c.name] for g in (c.gear_a, c.gear_b)}) for c in part.couplings})
         springs = []
         for s in shafts_:

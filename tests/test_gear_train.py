@@ -14,7 +14,7 @@ from hacgear_core.cli import main
 from hacgear_core.errors import ModelError
 from hacgear_core.geometry import gear_geometry, train_geometry
 from hacgear_core.kinds import build_system, load_model, parse_model
-from hacgear_core.kinds.gear_train import place_gear_train
+from hacgear_core.kinds.gear_train import mesh_rates, place_gear_train
 from hacgear_core.model import resolve_model_path
 from hacgear_core.tables import load_system_tables
 
@@ -142,17 +142,17 @@ def test_static_shaft_torque_is_the_torque_the_first_stage_delivers(system):
     assert system.fext_speed()[i2] == 0.0 and system.fext_speed()[i3] == 0.0
 
 
-def test_unequal_tooth_counts_on_a_shaft_are_refused_naming_the_gears():
-    """28 -> 33 | 39 -> 39: the second stage would mesh at 33/39 of the first stage's frequency; the kernel
-    advances one mesh frequency, so the model is refused at load naming both gears and their teeth."""
+def test_unequal_tooth_counts_run_each_mesh_at_its_own_rate():
+    """28 -> 33 | 39 -> 39: the second stage meshes at (28/33) 39 / 28 = 13/11 of the first stage's frequency; the
+    model loads, each mesh carries its reduced rate and the system repeats after 11 reference mesh cycles."""
     txt = _idler_as_gear_train()
     i = txt.index('[[gears]]\nname = "gear2b"')
     j = txt.index("[[gears]]", i + 5)
     k = txt.index('[[gears]]\nname = "gear3"')
     gear3 = txt[k:txt.index("[[meshes]]")]
     txt = txt[:i] + gear3.replace('name = "gear3"', 'name = "gear2b"') + txt[j:]
-    with pytest.raises(ModelError, match=r"'gear2', teeth = 33.*'gear2b', teeth = 39"):
-        parse_model(txt)
+    model = parse_model(txt)
+    assert mesh_rates(model) == {"m12": (1, 1), "m23": (13, 11)}
 
 
 @pytest.mark.parametrize("edit, match", [

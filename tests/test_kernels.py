@@ -336,3 +336,25 @@ def test_integrate_prepares_the_kernel_once_through_the_compile_logger(caplog):
     assert kernels.kernel_label(kernels.LAW_TWIST, 12, 1) == "the integration kernel for 12 DOF x 1 mesh (helical)"
     assert kernels.kernel_label(kernels.LAW_TABLE, 14, 6, True).endswith(
         "14 DOF x 6 meshes (force tables, both flanks)")
+
+
+@pytest.mark.parametrize("p, q", [(1, 1), (23, 71), (71, 23), (13, 11), (1, 96), (4625, 48)])
+def test_mesh_base_is_the_exact_fraction_of_the_rate_times_the_reference_position(p, q):
+    """A mesh at rate p/q sits at frac((p/q) (cycles + tau_ref)) with (p/q)(cycles + tau_ref) - frac whole cycles:
+    the kernel's rule and the system's numpy twin against exact rational arithmetic, over runs up to 1e9 reference
+    cycles (both directions); rate 1 returns (tau_ref, cycles) themselves."""
+    from fractions import Fraction
+
+    from hacgear_core.dynamics.kernels import mesh_base
+    rng = np.random.default_rng(p * 1000 + q)
+    for cycles in [0.0, 1.0, 70.0, 71.0, -1.0, -72.0, 12345.0, 1e9, -3e8] + list(rng.integers(-10**6, 10**6, 20)):
+        cycles = float(cycles)
+        for tau in (0.0, 0.5, 0.999999, float(rng.random())):
+            exact = Fraction(p, q) * (Fraction(cycles) + Fraction(tau))
+            whole = exact.numerator // exact.denominator
+            base, n = mesh_base(float(p), float(q), cycles, tau)
+            assert n == whole
+            assert 0.0 <= base < 1.0
+            assert base == pytest.approx(float(exact - whole), abs=4e-16 * max(1.0, p / q) * 4)
+            if p == q:
+                assert (base, n) == (tau, cycles)

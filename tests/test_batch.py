@@ -15,6 +15,7 @@ import pytest
 
 from hacgear_core.dynamics import batch, kernels
 from hacgear_core.dynamics.equilibrium import static_state
+from hacgear_core.dynamics.batch import Lanes, batch_supported
 from hacgear_core.dynamics.sweep import SweepSpec, plan_lanes, read_sweep, run_sweeps
 from hacgear_core.dynamics.synthetic import linear_fdf_table
 from hacgear_core.kinds import build_system, load_model
@@ -241,3 +242,33 @@ def test_narrow_vectors_batch_nothing_by_default(monkeypatch):
     assert plan_lanes(t, True, 1) == [(list(range(8)), 8)]
     monkeypatch.setattr(sweep_module, "vector_units", lambda: VectorUnits("test-avx512", ("avx512f",), 8))
     assert plan_lanes(t, None, 1) == [(list(range(8)), 8)]
+
+
+def test_lanes_equal_the_single_state_loop_with_meshes_at_their_own_rates():
+    """The reducer 19:71 | 23:83 (stage 2 at 23/71): lanes at three speeds equal the single-state loop bit for bit
+    over 3 system periods (213 reference mesh cycles), records included."""
+    from hacgear_core.kinds import build_system, load_model
+    from hacgear_core.model import resolve_model_path
+    from hacgear_core.tables import load_system_tables
+
+    path = resolve_model_path("reducer_19_71_23_83")
+    sy = build_system(load_model(path), load_system_tables(path))
+    assert not sy.unit_rates and batch_supported(sy)
+    speeds = [1200.0, 2600.0, 4300.0]
+    nsp = 256
+    lanes = Lanes(sy, len(speeds))
+    ref = []
+    for j, fm in enumerate(speeds):
+        s0 = np.zeros(2 * sy.n)
+        kin = np.array([0.0, 0.0, sy.reference_speed(fm)])
+        h = 1.0 / (fm * nsp)
+        lanes.load(j, s0, kin, h, sy.fext_speed(), nsp)
+        s, k = s0.copy(), kin.copy()
+        rs, ro = np.zeros((213, 2 * sy.n)), np.zeros((213, sy.record_width))
+        sy.integrate(s, k, 213 * nsp, h, sy.fext_speed(), rec_every=nsp, rec_state=rs, rec_out=ro)
+        ref.append((s, k, ro))
+    lanes.run(213 * nsp, 213)
+    for j, (s, k, ro) in enumerate(ref):
+        np.testing.assert_array_equal(lanes.state(j), s)
+        np.testing.assert_array_equal(lanes.kin(j)[:3], k[:3])
+        np.testing.assert_array_equal(lanes.rec_out[j, :213], ro)

@@ -42,7 +42,7 @@ from hacgear_core.cpu import vector_units
 from hacgear_core.dynamics import kernels
 from hacgear_core.dynamics.kernels import (LAW_LINEAR, LAW_TABLE, REC, REC_COAST_APPROACH, REC_COAST_FORCE,
                                            REC_DEFLECTION, REC_DTE, REC_FORCE, REC_POSITION, VARIANT_SPARSE,
-                                           VARIANT_TWO_SIDED, _NoAliasCompiler, _ix)
+                                           VARIANT_TWO_SIDED, _NoAliasCompiler, _ix, mesh_base)
 
 __all__ = ["BATCH_COMPILE_CPU_S", "select_batch_kernel", "system_batch_kernel", "batch_constants", "batch_rows",
            "batch_supported", "lane_damping", "lanes_compatible", "Lanes", "run_lanes", "VARIANT_ROTATING",
@@ -57,11 +57,13 @@ BATCH_COMPILE_CPU_S = 25
 VARIANT_ROTATING = 16
 #: variant bit: M^-1 K and M^-1 K_W are diagonal (no off-diagonal entries to multiply)
 VARIANT_DIAGONAL_K = 32
+#: variant bit: meshes at their own rates (kinematic positions per mesh and lane, kernels.mesh_base)
+VARIANT_RATES = 64
 
 # rows of the per-lane scratch W (the single-state loop's work vector, one row per entry): offsets in units of n
 # and m as in kernels._make_loop, then the lane constants and the per-lane matrices
 _NW_N = 7
-_NW_M = 20
+_NW_M = 22
 _NW_LANE = 8
 
 # each batched loop's two stage functions (_make_stages: with and without the coast terms); _make_batch_loop gives
@@ -77,9 +79,8 @@ def batch_rows(n: int, m: int, nnz: int, rotating: bool) -> int:
 
 def batch_supported(system) -> bool:
     """Whether the batched kernel runs ``system`` (a :class:`~hacgear_core.dynamics.system.LumpedSystem`): the
-    table and linear laws' loops, not the twist law of helical meshes, with every mesh at the reference rate (a
-    gear train's stages at other mesh frequencies run in the single-state loop)."""
-    return system.mesh_law.kernel_law in (LAW_TABLE, LAW_LINEAR) and system.unit_rates
+    table and linear laws' loops, not the twist law of helical meshes."""
+    return system.mesh_law.kernel_law in (LAW_TABLE, LAW_LINEAR)
 
 
 #: whether the CPU the loops are compiled for has fused multiply-add: the single-state loop's compiler contracts
@@ -291,7 +292,9 @@ def _layout(n, m, nnz):
     o_xq, o_xd, o_wq, o_wd, o_f1, o_f2, o_f3 = r0, r0 + m, r0 + 2 * m, r0 + 3 * m, r0 + 4 * m, r0 + 5 * m, r0 + 6 * m
     o_f4, o_g1, o_gw1, o_g2, o_gw2 = r0 + 7 * m, r0 + 8 * m, r0 + 9 * m, r0 + 10 * m, r0 + 11 * m
     o_cq, o_cd, o_c1, o_c2, o_c3 = r0 + 12 * m, r0 + 13 * m, r0 + 14 * m, r0 + 15 * m, r0 + 16 * m
-    o_c4, o_gc1, o_gc2, o_h = r0 + 17 * m, r0 + 18 * m, r0 + 19 * m, r0 + 20 * m
+    o_c4, o_gc1, o_gc2 = r0 + 17 * m, r0 + 18 * m, r0 + 19 * m
+    # per mesh its kinematic position at the step start and its advance over the step (meshes at their own rates)
+    o_tb, o_td, o_h = r0 + 20 * m, r0 + 21 * m, r0 + 22 * m
     o_hh = o_h + 1
     o_hh2 = o_h + 2
     o_hhh = o_h + 3
@@ -303,7 +306,8 @@ def _layout(n, m, nnz):
     o_ad = o_aq + nnz
     return (mn, mm, o_w, o_rv, o_vmi, o_vc, o_vci, o_wv, o_cv, o_vvc, o_wvc, o_cvc, o_a1, o_a2, o_a3, o_a4, o_g0,
             o_p, o_fm, r0, o_xq, o_xd, o_wq, o_wd, o_f1, o_f2, o_f3, o_f4, o_g1, o_gw1, o_g2, o_gw2, o_cq, o_cd,
-            o_c1, o_c2, o_c3, o_c4, o_gc1, o_gc2, o_h, o_hh, o_hh2, o_hhh, o_c6, o_c6q, o_dtau, o_tau, o_aq, o_ad)
+            o_c1, o_c2, o_c3, o_c4, o_gc1, o_gc2, o_h, o_hh, o_hh2, o_hhh, o_c6, o_c6q, o_dtau, o_tau, o_aq, o_ad,
+            o_tb, o_td)
 
 
 def _make_stages(name: str, n_fixed: int, m_fixed: int, variant: int, lanes: int, coast: bool):
@@ -320,6 +324,7 @@ def _make_stages(name: str, n_fixed: int, m_fixed: int, variant: int, lanes: int
     two_sided = (variant & VARIANT_TWO_SIDED) != 0
     rot = (variant & VARIANT_ROTATING) != 0
     diag = (variant & VARIANT_DIAGONAL_K) != 0
+    rates = (variant & VARIANT_RATES) != 0
     B = lanes
 
     def stages(sf, w, vf, mf, phase, tab, tint, tflt, lin, lint, kidx, kval, kd, nz, adt):
@@ -328,7 +333,8 @@ def _make_stages(name: str, n_fixed: int, m_fixed: int, variant: int, lanes: int
         nnz = kidx.shape[0]
         (mn, mm, o_w, o_rv, o_vmi, o_vc, o_vci, o_wv, o_cv, o_vvc, o_wvc, o_cvc, o_a1, o_a2, o_a3, o_a4, o_g0, o_p,
          o_fm, r0, o_xq, o_xd, o_wq, o_wd, o_f1, o_f2, o_f3, o_f4, o_g1, o_gw1, o_g2, o_gw2, o_cq, o_cd, o_c1, o_c2,
-         o_c3, o_c4, o_gc1, o_gc2, o_h, o_hh, o_hh2, o_hhh, o_c6, o_c6q, o_dtau, o_tau, o_aq, o_ad) = _layout(n, m, nnz)
+         o_c3, o_c4, o_gc1, o_gc2, o_h, o_hh, o_hh2, o_hhh, o_c6, o_c6q, o_dtau, o_tau, o_aq, o_ad, o_tb,
+         o_td) = _layout(n, m, nnz)
         recheck = False
         for l in range(B):
             h = w[o_h * B + l]
@@ -338,8 +344,10 @@ def _make_stages(name: str, n_fixed: int, m_fixed: int, variant: int, lanes: int
             # stages 1 and 2: their lookups need only the state
             for k in range(m):
                 xq = w[(o_xq + k) * B + l]
-                t1 = tau + phase[0, k] + w[(o_wq + k) * B + l]
-                t2 = _fma(hh, w[(o_wd + k) * B + l], tau + 0.5 * dtau + phase[0, k] + w[(o_wq + k) * B + l])
+                tk = w[(o_tb + k) * B + l] if rates else tau
+                dk = w[(o_td + k) * B + l] if rates else dtau
+                t1 = tk + phase[0, k] + w[(o_wq + k) * B + l]
+                t2 = _fma(hh, w[(o_wd + k) * B + l], tk + 0.5 * dk + phase[0, k] + w[(o_wq + k) * B + l])
                 x2 = _fma(hh, w[(o_xd + k) * B + l], xq)
                 w[(o_f1 + k) * B + l] = _drive_force_l(law, k, tab, tint, tflt, lin, lint, t1, xq)
                 w[(o_f2 + k) * B + l] = _drive_force_l(law, k, tab, tint, tflt, lin, lint, t2, x2)
@@ -400,9 +408,11 @@ def _make_stages(name: str, n_fixed: int, m_fixed: int, variant: int, lanes: int
                                    mf[o_cvc + k * m + j] * w[(o_c1 + j) * B + l])
                         e2 -= _fma(mf[o_cv + k * m + j], w[(o_f2 + j) * B + l],
                                    mf[o_cvc + k * m + j] * w[(o_c2 + j) * B + l])
+                tk = w[(o_tb + k) * B + l] if rates else tau
+                dk = w[(o_td + k) * B + l] if rates else dtau
                 t3 = _fma(hh, _fma(hh, b, w[(o_wd + k) * B + l]),
-                          tau + 0.5 * dtau + phase[0, k] + w[(o_wq + k) * B + l])
-                t4 = _fma(h, _fma(hh, d, w[(o_wd + k) * B + l]), tau + dtau + phase[0, k] + w[(o_wq + k) * B + l])
+                          tk + 0.5 * dk + phase[0, k] + w[(o_wq + k) * B + l])
+                t4 = _fma(h, _fma(hh, d, w[(o_wd + k) * B + l]), tk + dk + phase[0, k] + w[(o_wq + k) * B + l])
                 x3 = _fma(hh, _fma(hh, a, w[(o_xd + k) * B + l]), w[(o_xq + k) * B + l])
                 x4 = _fma(h, _fma(hh, c, w[(o_xd + k) * B + l]), w[(o_xq + k) * B + l])
                 w[(o_f3 + k) * B + l] = _drive_force_l(law, k, tab, tint, tflt, lin, lint, t3, x3)
@@ -453,6 +463,7 @@ def _make_batch_loop(name: str, n_fixed: int, m_fixed: int, variant: int, lanes:
     sparse_c = (variant & VARIANT_SPARSE) != 0
     two_sided_c = (variant & VARIANT_TWO_SIDED) != 0
     rot_c = (variant & VARIANT_ROTATING) != 0
+    rates_c = (variant & VARIANT_RATES) != 0
     B = lanes
 
     def loop(sf, kf, n_steps, H, FEXT, REC_EVERY, CNT, rec_state, rec_out, NREC, mats, vf, mf, phase, scal, tab,
@@ -463,11 +474,13 @@ def _make_batch_loop(name: str, n_fixed: int, m_fixed: int, variant: int, lanes:
         sparse = sparse_c
         two_sided = two_sided_c
         rot = rot_c
+        rates = rates_c
         nnz = kidx.shape[0]
         # vector and matrix blocks of vf and mf (kernels.select_kernel's vecs and mmat)
         (mn, mm, o_w, o_rv, o_vmi, o_vc, o_vci, o_wv, o_cv, o_vvc, o_wvc, o_cvc, o_a1, o_a2, o_a3, o_a4, o_g0, o_p,
          o_fm, r0, o_xq, o_xd, o_wq, o_wd, o_f1, o_f2, o_f3, o_f4, o_g1, o_gw1, o_g2, o_gw2, o_cq, o_cd, o_c1, o_c2,
-         o_c3, o_c4, o_gc1, o_gc2, o_h, o_hh, o_hh2, o_hhh, o_c6, o_c6q, o_dtau, o_tau, o_aq, o_ad) = _layout(n, m, nnz)
+         o_c3, o_c4, o_gc1, o_gc2, o_h, o_hh, o_hh2, o_hhh, o_c6, o_c6q, o_dtau, o_tau, o_aq, o_ad, o_tb,
+         o_td) = _layout(n, m, nnz)
         c_ratio = scal[0]
         zref_2pi = scal[2]
         for l in range(B):
@@ -507,6 +520,10 @@ def _make_batch_loop(name: str, n_fixed: int, m_fixed: int, variant: int, lanes:
             for l in range(B):
                 w[o_tau * B + l] = kf[l]
                 hh = w[o_hh * B + l]
+                if rates:
+                    for k in range(m):
+                        w[(o_tb + k) * B + l], _ = mesh_base(phase[1, k], phase[2, k], kf[B + l], kf[l])
+                        w[(o_td + k) * B + l] = (phase[1, k] / phase[2, k]) * w[o_dtau * B + l]
                 for k in range(m):
                     xq = _l_dot(n, sparse, nz, k, vf, 0, sf, 0, B, l)
                     w[(o_xq + k) * B + l] = xq
@@ -577,10 +594,13 @@ def _make_batch_loop(name: str, n_fixed: int, m_fixed: int, variant: int, lanes:
                 for k in range(m):
                     # the record's products run over every DOF, as the single-state loop's do
                     x = _l_dot(n, False, nz, k, vf, 0, sf, 0, B, l)
-                    t = _l_dot(n, False, nz, k, vf, o_w, sf, 0, B, l, tau_ref + phase[0, k])
+                    base, whole = tau_ref, kf[B + l]
+                    if rates:
+                        base, whole = mesh_base(phase[1, k], phase[2, k], kf[B + l], tau_ref)
+                    t = _l_dot(n, False, nz, k, vf, o_w, sf, 0, B, l, base + phase[0, k])
                     d = _l_dot(n, False, nz, k, vf, o_rv, sf, 0, B, l)
                     xc = _l_dot(n, False, nz, k, vf, o_vc, sf, 0, B, l)
-                    rec_out[l, nrec, REC * k + REC_POSITION] = kf[B + l] + t
+                    rec_out[l, nrec, REC * k + REC_POSITION] = whole + t
                     rec_out[l, nrec, REC * k + REC_DEFLECTION] = x
                     rec_out[l, nrec, REC * k + REC_DTE] = d
                     rec_out[l, nrec, REC * k + REC_COAST_APPROACH] = xc
@@ -607,7 +627,7 @@ _LOOPS: dict = {}
 
 
 def select_batch_kernel(law: int, n: int, m: int, two_sided: bool, rotating: bool, lanes: int,
-                        diagonal_k: bool = False):
+                        diagonal_k: bool = False, rates: bool = False):
     """The batched loop for force law ``law`` (``LAW_TABLE`` or ``LAW_LINEAR``), ``n`` DOFs, ``m`` meshes, with
     coast-flank contact or without, a rotating carrier or not: specialised to the sizes the single-state kernel
     specialises (:func:`kernels.select_kernel`; its dense or sparse mesh products, so that the sums are the
@@ -616,7 +636,8 @@ def select_batch_kernel(law: int, n: int, m: int, two_sided: bool, rotating: boo
         raise ValueError(f"the batched kernel runs force laws LAW_TABLE and LAW_LINEAR, not {law}")
     special = law == LAW_TABLE and (n, m) in ((2, 1), (4, 1), (3, 2))
     variant = law | (0 if special else VARIANT_SPARSE) | (VARIANT_TWO_SIDED if two_sided else 0) | (
-        VARIANT_ROTATING if rotating else 0) | (VARIANT_DIAGONAL_K if diagonal_k else 0)
+        VARIANT_ROTATING if rotating else 0) | (VARIANT_DIAGONAL_K if diagonal_k else 0) | (
+        VARIANT_RATES if rates else 0)
     key = ((n, m, variant) if special else (0, 0, variant)) + (lanes,)
     if key not in _LOOPS:
         nf, mf = key[0], key[1]
@@ -631,7 +652,8 @@ def system_batch_kernel(system, lanes: int):
         return None
     law = system.mesh_law
     return select_batch_kernel(law.kernel_law, system.n, system.m_kernel, law.kernel_two_sided,
-                               system.carrier_ratio != 0.0, lanes, system.arrays.kidx.shape[0] == system.n)
+                               system.carrier_ratio != 0.0, lanes, system.arrays.kidx.shape[0] == system.n,
+                               not system.unit_rates)
 
 
 def batch_constants(system) -> tuple:

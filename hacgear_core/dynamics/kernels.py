@@ -142,7 +142,9 @@ def mesh_base(p, q, cycles, tau_ref):
     cm = cycles - q * math.floor(cycles / q)
     pm = p * cm
     r = pm - q * math.floor(pm / q)
-    s = r / q + (p / q) * tau_ref
+    # a quotient, not a product: no multiply-add for the compiler to fuse, so every loop (contracting or not) and
+    # the numpy twin round it alike
+    s = r / q + tau_ref / (q / p)
     f = math.floor(s)
     return s - f, (p * cycles - r) / q + f
 

@@ -630,7 +630,7 @@ class LumpedSystem:
         for k in np.flatnonzero(self.rate[:, 0] != self.rate[:, 1]):
             p, q = self.rate[k]
             r = np.mod(p * np.mod(c, q), q)
-            x = r / q + (p / q) * t
+            x = r / q + t / (q / p)
             f = np.floor(x)
             base[..., k] = x - f
             whole[..., k] = (p * c - r) / q + f

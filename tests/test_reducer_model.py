@@ -112,6 +112,9 @@ def test_sweep_peaks_where_a_stage_mesh_harmonic_meets_a_mode(system, capsys, me
     f = np.array(b["mesh_frequency_Hz"])
     rms = np.array(b["meshes"][mesh]["dte_rms_m"])
     assert all(b["converged"]) and set(b["period_cycles"]) == {71}
+    # each mesh reports its own mesh frequency: stage 2 at 23/71 of the input mesh frequency
+    np.testing.assert_allclose(b["meshes"]["m34"]["mesh_frequency_Hz"], f * 23 / 71, rtol=1e-15)
+    np.testing.assert_array_equal(b["meshes"]["m12"]["mesh_frequency_Hz"], f)
     peak = f[np.argmax(rms)]
     assert peak == pytest.approx(mode_Hz / (harmonic * rate), rel=0.02)
     assert rms.max() > 1.5 * max(rms[0], rms[-1])
@@ -148,3 +151,19 @@ def test_fmu_equals_the_library_with_stage_2_at_its_own_mesh_frequency(tmp_path)
     rate = np.polyfit(t, res["m34.position"], 1)[0] / np.polyfit(t, res["m12.position"], 1)[0]
     assert rate == pytest.approx(23 / 71, rel=1e-4)   # the fit also sees the start-up vibration (w . q)
     assert np.mean(res["shaft2.torque"]) == pytest.approx(200.0 * 71 / 19, rel=0.01)
+
+
+def test_root_strain_passages_follow_each_gear_in_its_own_mesh(capsys):
+    """Gauges on wheel1 (stage 1, drive flank) and pinion2 (stage 2, the loaded coast flank): at a 40 Hz input
+    mesh frequency (10x below the lowest mode) the recorded tooth passage equals the static one (dynamic factor
+    1 within 1 %), the passage counted in the gear's own mesh cycles (pinion2: 5 stage-2 cycles, 17 reference
+    cycles of record); both in tension on the loaded side."""
+    assert main(["simulate", SYSTEM, "--fm", "40", "--cycles", "80", "--json"]) == 0
+    rs = json.loads(capsys.readouterr().out)["root_strain"]
+    for g in ("wheel1/SG", "pinion2/SG"):
+        r = rs[g]
+        assert r["recorded"] and r["factor_side"] == "tension", g
+        assert r["dynamic_factor"] == pytest.approx(1.0, abs=0.01), g
+        assert r["static_max"] > 100 * abs(r["static_min"]), g
+    # the stage-2 passage lies within the last 80 reference cycles = 80 * 23/71 = 25.9 stage-2 cycles
+    assert 0 < rs["pinion2/SG"]["mesh_cycles"][0] < rs["pinion2/SG"]["mesh_cycles"][1] <= 80 * 23 / 71

@@ -123,8 +123,11 @@ def run(args: argparse.Namespace) -> int:
             print(f"branch {b} ({r.recomputed} speeds computed now"
                   + (f", {reused} reused from {args.out} (--fresh recomputes them)" if reused else "")
                   + (f"; {r.discarded} stored speeds discarded (--fresh)" if r.discarded else "") + "):")
+            sy = res.spec.system
             for k, mn in enumerate(res.spec.mesh_names):
-                print(f" mesh {mn}:")
+                p, q = (int(v) for v in sy.rate[k])
+                print(f" mesh {mn}:" if p == q else
+                      f" mesh {mn} (its own mesh frequency {p}/{q} of f_m, the reference mesh {res.spec.mesh_names[0]}'s):")
                 print("   f_m [Hz]   rms x [µm]  mean x [µm]" + ("  DTE rms [µm]" if moving else "")
                       + "  F_max [N]  loss [-]  DF_F  state" + ("     |mu|max" if args.stability else ""))
                 for i, f in enumerate(r.mesh_frequency_Hz):

@@ -131,18 +131,25 @@ def _pair_window(table) -> tuple[float, float]:
     return -float(offs.max()), 1.0 - float(offs.min())
 
 
+def _gauge_mesh(system: LumpedSystem, gear: str) -> int:
+    """The mesh whose kinematic position counts the passages of ``gear``'s teeth: the reference mesh (0) where every
+    mesh runs at the reference rate, else the gear's first mesh (its meshes all run at one rate: its speed times
+    its teeth)."""
+    if system.unit_rates:
+        return 0
+    return next(k for k, c in enumerate(system.meshes) if gear in (c.gear_a, c.gear_b))
+
+
 def passage_window(system: LumpedSystem, gauge: str) -> tuple[float, float]:
     """Where tooth 0 of the gear of ``gauge`` passes through its meshes: ``(start, length)`` [mesh cycles] of the
     shortest stretch of the kinematic mesh position ``c`` (mesh k is at ``c + phase[k]``) that holds every pair
     phase of that tooth at which a table of the gauge holds strain (each table's pair window, the coast side's
     moved by its pair shift), ``start`` in [0, z).  Tooth ``j`` passes over the same stretch ``j`` cycles later
     (mod z, :func:`strain_of_tooth`); outside it the tooth's root strain is 0.  A gear in several meshes (an
-    idler, a sun) spans all of them: its tooth passes one after the other."""
+    idler, a sun) spans all of them: its tooth passes one after the other.  In a train whose meshes run at their own
+    rates, ``c`` is the kinematic position of the gear's first mesh (:func:`_gauge_mesh`): mesh k of the gear is at
+    ``c + phase[k]``, the meshes of one gear sharing its rate."""
     gear, gname, z = _gauge_gear(system, gauge)
-    if not system.unit_rates:
-        raise ModelError(f"gauge {gauge!r}: tooth passages are counted in reference mesh cycles, so {system.name}, "
-                         "whose meshes run at different mesh frequencies (a gear train with unequal tooth counts), "
-                         "has no root-strain passages; the per-mesh strain along a trajectory is strain_of_tooth")
     arcs = []
     for k, c in enumerate(system.meshes):
         if gear not in (c.gear_a, c.gear_b):
@@ -168,9 +175,14 @@ def passage_window(system: LumpedSystem, gauge: str) -> tuple[float, float]:
 
 
 def passage_cycles(system: LumpedSystem, gauge: str) -> int:
-    """Mesh cycles a record must span to hold one whole tooth passage at ``gauge`` (:func:`passage_window`), with
-    :data:`PASSAGE_MARGIN_CYCLES` at both ends, wherever the record starts."""
-    return int(math.ceil(passage_window(system, gauge)[1] + 2 * PASSAGE_MARGIN_CYCLES)) + 1
+    """Reference mesh cycles a record must span to hold one whole tooth passage at ``gauge``
+    (:func:`passage_window`), with :data:`PASSAGE_MARGIN_CYCLES` at both ends, wherever the record starts."""
+    span = passage_window(system, gauge)[1] + 2 * PASSAGE_MARGIN_CYCLES
+    if system.unit_rates:
+        return int(math.ceil(span)) + 1
+    # in the gear's mesh cycles: the span and one cycle for where the record starts, over the mesh's rate
+    rate = float(system.rates[_gauge_mesh(system, _gauge_gear(system, gauge)[0])])
+    return int(math.ceil((span + 1.0) / rate))
 
 
 @dataclass(frozen=True, eq=False)
@@ -240,7 +252,8 @@ def gauge_passage(system: LumpedSystem, gauge: str, trace: Mapping[str, np.ndarr
     start, length = passage_window(system, gauge)
     z = system.gears[_gauge_gear(system, gauge)[0]].teeth
     tau = np.atleast_2d(np.asarray(trace["mesh_position"], float))
-    c = tau[:, 0] - float(system.phase[0])
+    j = _gauge_mesh(system, _gauge_gear(system, gauge)[0])
+    c = tau[:, j] - float(system.phase[j])
     n = math.floor(c[-1] - PASSAGE_MARGIN_CYCLES - length - start)
     a = start + n
     if a < c[0] + PASSAGE_MARGIN_CYCLES:
@@ -262,17 +275,27 @@ def static_gauge_passage(system: LumpedSystem, gauge: str, samples_per_cycle: in
     """Root strain at ``gauge`` over tooth 0's passage (:func:`passage_window`) with the system in static
     equilibrium at every mesh position under the constant-speed experiment's loads at the nominal torque
     (:func:`~hacgear_core.dynamics.equilibrium.static_equilibrium`, ``samples_per_cycle`` positions per mesh
-    cycle; the equilibrium repeats every mesh cycle).  Every tooth passes the same way."""
+    cycle; the equilibrium repeats every mesh cycle where every mesh runs at the reference rate, else each sample
+    has its own).  Every tooth passes the same way."""
     if isinstance(samples_per_cycle, bool) or not isinstance(samples_per_cycle, (int, np.integer)) \
             or samples_per_cycle < 8:
         raise ModelError(f"samples_per_cycle [-] must be an integer >= 8, got {samples_per_cycle!r}")
     start, length = passage_window(system, gauge)
-    eq = [static_equilibrium(system, start + i / samples_per_cycle) for i in range(samples_per_cycle)]
     npts = int(math.ceil(length * samples_per_cycle)) + 1
-    idx = np.arange(npts) % samples_per_cycle
     cs = start + np.arange(npts) / samples_per_cycle
-    q = np.array([eq[i].q for i in idx])
-    tau = cs[:, None] + system.phase[None, :] + q @ system.W.T
+    if system.unit_rates:
+        eq = [static_equilibrium(system, start + i / samples_per_cycle) for i in range(samples_per_cycle)]
+        idx = np.arange(npts) % samples_per_cycle
+        q = np.array([eq[i].q for i in idx])
+        tau = cs[:, None] + system.phase[None, :] + q @ system.W.T
+    else:
+        # the other meshes' positions differ from one cycle of the gear's mesh to the next: every sample its own
+        # equilibrium, the gear's mesh at cs (tooth 0's first passage)
+        ref = cs / float(system.rates[_gauge_mesh(system, _gauge_gear(system, gauge)[0])])
+        eq = [static_equilibrium(system, float(c)) for c in ref]
+        idx = np.arange(npts)
+        q = np.array([e.q for e in eq])
+        tau = system.unwrapped_positions(ref) + system.phase[None, :] + q @ system.W.T
     x = np.array([eq[i].mesh_deflections_m for i in idx])
     xc = None if eq[0].coast_approach_m is None else np.array([eq[i].coast_approach_m for i in idx])
     tw = None if eq[0].twist_rad is None else np.array([eq[i].twist_rad for i in idx])

@@ -177,7 +177,8 @@ class SweepResult:
     jumps: list
 
     def to_json(self) -> dict:
-        """Per branch: frequencies, flags and, per mesh, every metric over the speeds (SI; NaN -> None)."""
+        """Per branch: frequencies (of the reference mesh), flags and, per mesh, every metric over the speeds (SI;
+        NaN -> None) and, where the meshes run at their own rates, the mesh's own mesh frequency [Hz]."""
         names = self.spec.mesh_names
         out = {"run_id": self.run_id, "system": self.spec.system.name, "torque_Nm": self.spec.system.torque_Nm,
                "force_law": self.spec.system.force_law_name, "direction": self.spec.direction,
@@ -187,9 +188,12 @@ class SweepResult:
                  "period_cycles": r.period_cycles.tolist(), "cycles_run": r.cycles_run.tolist(), "meshes": {}}
             if r.max_multiplier is not None and np.any(np.isfinite(r.max_multiplier)):
                 d["max_multiplier"] = [None if not math.isfinite(v) else float(v) for v in r.max_multiplier]
+            sy = self.spec.system
             for k, mn in enumerate(names):
                 d["meshes"][mn] = {m: [None if not math.isfinite(v) else v for v in np.asarray(r.metrics[m])[:, k]]
                                    for m in METRIC_NAMES}
+                if not sy.unit_rates:   # meshes at their own rates: each one's own mesh frequency too
+                    d["meshes"][mn]["mesh_frequency_Hz"] = (r.mesh_frequency_Hz * sy.rates[k]).tolist()
             out["branches"][b] = d
         return out
 

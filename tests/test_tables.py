@@ -773,3 +773,27 @@ def test_twist_tables_without_gauges_read_back(tmp_path):
     for k, v in back.meshes.items():
         assert v.twist is not None and v.twist.strain == {} and v.strain == {}
         np.testing.assert_array_equal(v.twist.generalized_fdf, t.meshes[k].twist.generalized_fdf)
+
+
+def test_a_constant_twist_axis_reproduces_the_spur_table_at_every_twist():
+    """with_constant_twist: the lifted table's generalized FDF is the spur table's force at any twist (at the
+    grid twist 0 to the last bit of the bilinear rule's value, elsewhere to rounding), with zero twist moment;
+    per-pair strains repeat along the twist, the coast side is lifted too, a helical table is returned as it is."""
+    from hacgear_core.model import resolve_model_path
+    from hacgear_core.tables import load_system_tables, with_constant_twist
+
+    spur = load_system_tables(resolve_model_path("reducer_19_71_23_83")).mesh("m12")
+    lifted = with_constant_twist(spur)
+    assert lifted.twist is not None and lifted.coast is not None and lifted.coast.twist is not None
+    rng = np.random.default_rng(3)
+    tau = rng.random(400) * 3 - 1
+    x = spur.deflection_m[0] + rng.random(400) * (spur.deflection_m[-1] - spur.deflection_m[0])
+    ref = spur.force(tau, x)
+    for g in (0.0, 0.3, -0.77):
+        wm = lifted.twist_quantity(lifted.twist.generalized_fdf, tau, x, np.full(400, g))
+        np.testing.assert_allclose(wm[:, 0], ref, rtol=1e-13, atol=1e-9 * np.max(ref))
+        assert np.all(wm[:, 1] == 0.0)
+    for gauge, a in spur.strain.items():
+        np.testing.assert_array_equal(lifted.twist.strain[gauge][:, :, 1, :], a)
+    helical = load_system_tables(resolve_model_path("helical_28_33")).mesh("m12")
+    assert with_constant_twist(helical) is helical

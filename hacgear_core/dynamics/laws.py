@@ -15,6 +15,10 @@ Law`                 helical mesh: ``W v + M t``; coast side ``Wc v_c +     the 
                      Mc t_c``
 ===================  =====================================================  ===============================
 
+A system mixing spur and helical meshes (a gear train with a helical stage) runs the twist law: each spur mesh on
+its tables lifted to a constant twist axis with zero twist vectors (:func:`_on_twist_axis`), so its force is its
+spur table's and its twist fields are 0.
+
 Consumers read the kernel's records by field name (:meth:`MeshLaw.record_fields`): every law has
 ``mesh_position``, ``mesh_deflection_m``, ``mesh_force_N``, ``dynamic_transmission_error_m``, ``coast_approach_m``,
 ``coast_force_N``, ``time_s``; the twist law adds ``mesh_twist_rad``, ``twist_moment_Nm`` and, with its coast side,
@@ -23,6 +27,7 @@ Consumers read the kernel's records by field name (:meth:`MeshLaw.record_fields`
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Any, Sequence
 
@@ -31,6 +36,7 @@ import numpy as np
 from hacgear_core.dynamics import kernels
 from hacgear_core.dynamics.force_laws import FORCE_LAWS, ForceLaw, make_force_law
 from hacgear_core.errors import ModelError
+from hacgear_core.tables import with_constant_twist
 from hacgear_core.tables.fdf import TableArrays, generalized_slopes, generalized_stiffness, static_stiffness, table_arrays
 from hacgear_core.tables.interp import bilinear_many, slope_many
 
@@ -447,7 +453,7 @@ class TwistTableLaw(MeshLaw):
         x, g = fields["mesh_deflection_m"], fields["mesh_twist_rad"]
         a = keff.copy()
         for k in range(self.m):
-            c = system.meshes[k]
+            c = self.meshes[k]
             sides = [(c.table, x[k], g[k], system.V[k], system.T[k], not coast_loaded)]
             if self.coast and c.coast_table is not None:
                 sides.append((c.coast_table, fields["coast_approach_m"][k], fields["coast_twist_rad"][k],
@@ -488,11 +494,23 @@ def mesh_law(system_name: str, meshes: Sequence[Any], force_law: str) -> MeshLaw
     if force_law not in FORCE_LAWS:
         raise ModelError(f"force law must be one of {FORCE_LAWS}, got {force_law!r}")
     if any(c.t is not None for c in meshes):
-        return TwistTableLaw(system_name, meshes, force_law)
+        return TwistTableLaw(system_name, [_on_twist_axis(c) for c in meshes], force_law)
     if force_law != "hac":
         return LinearLaw(system_name, meshes, force_law)
     law = TableLaw(system_name, meshes, force_law)
     return TwoSidedTableLaw(system_name, meshes, force_law) if law.two_sided else law
+
+
+def _on_twist_axis(c: Any) -> Any:
+    """A spur mesh ``c`` (no twist vector) of a system with helical meshes as the generalized law takes it: its
+    tables on a constant twist axis (:func:`hacgear_core.tables.with_constant_twist`, the same force at every
+    twist, no twist moment) and zero twist vectors, so the mesh's force is its spur table's and it puts no moment
+    on the DOFs; a helical mesh as it is."""
+    if getattr(c.table, "twist", None) is not None:
+        return c
+    zero = np.zeros(np.shape(c.v))
+    return dataclasses.replace(c, table=with_constant_twist(c.table), t=zero if c.t is None else c.t,
+                               t_c=None if c.v_c is None else zero if c.t_c is None else c.t_c)
 
 
 def _on_table(rule, ta: TableArrays | None, tau, x) -> np.ndarray:

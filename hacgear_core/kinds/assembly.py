@@ -61,11 +61,10 @@ class DofMap:
 
 def assemble(train: Train) -> LumpedSystem:
     """The lumped system of ``train`` (module docstring)."""
-    laws = {c.law for c in train.couplings}
     bad = [c.name for c in train.couplings if c.law not in ("table", "twist") or (c.law == "twist") != (c.t is not None)]
-    if bad or len(laws) > 1:
-        raise ModelError(f"{train.name}: couplings {bad or [c.name for c in train.couplings]} must share one mesh law, "
-                         "'table' (no twist vector) or 'twist' (with its twist vector t)")
+    if bad:
+        raise ModelError(f"{train.name}: couplings {bad} must have the mesh law 'table' (no twist vector) or 'twist' "
+                         "(with its twist vector t); a train may mix them (its spur meshes then run on the twist law)")
     dm = DofMap(train)
     n = dm.n
     M = np.zeros((n, n))

@@ -24,7 +24,8 @@ from hacgear_core.tables.format import (
     write_position,
     write_tables,
 )
-from hacgear_core.tables.table import InterpolationStats, MeshTable, StrainTable, SystemTables, TwistTable
+from hacgear_core.tables.table import (InterpolationStats, MeshTable, StrainTable, SystemTables, TwistTable,
+                                      with_constant_twist)
 
 __all__ = [
     "FORMAT",
@@ -32,6 +33,7 @@ __all__ = [
     "READABLE_VERSIONS",
     "DATASETS",
     "TwistTable",
+    "with_constant_twist",
     "InterpolationStats",
     "MeshTable",
     "StrainTable",

@@ -11,7 +11,7 @@ and count every state outside the deflection grid in :attr:`MeshTable.stats`.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -20,7 +20,8 @@ import numpy as np
 from hacgear_core.errors import TableError
 from hacgear_core.tables.interp import interp_rows, pair_rows, trilinear_many
 
-__all__ = ["InterpolationStats", "MeshTable", "PRESSURE_PARTS", "StrainTable", "SystemTables", "TwistTable"]
+__all__ = ["CONSTANT_TWIST_RAD", "InterpolationStats", "MeshTable", "PRESSURE_PARTS", "StrainTable", "SystemTables",
+           "TwistTable", "with_constant_twist"]
 
 
 @dataclass
@@ -535,3 +536,36 @@ class SystemTables:
 
     def extrapolation_report(self) -> str:
         return "; ".join(f"{m}: {t.stats.report()}" for m, t in self.meshes.items())
+
+
+#: the twist grid [rad] of a table lifted to a constant twist axis (:func:`with_constant_twist`): 0 a grid point
+CONSTANT_TWIST_RAD = (-1.0, 0.0, 1.0)
+
+
+def with_constant_twist(table: MeshTable) -> MeshTable:
+    """``table`` (a spur mesh's, no twist axis) with a twist axis on which nothing depends: the generalized FDF is
+    its force at every twist of :data:`CONSTANT_TWIST_RAD` with zero twist moment, every per-pair array repeated
+    along the twist; its coast side likewise.  A system mixing helical meshes (generalized law) and spur meshes
+    runs the spur meshes on it with a zero twist vector: the twist is 0, a grid point, so every lookup returns the
+    spur table's own value (trilinear at a grid point of the twist axis = bilinear on the table)."""
+    if table.twist is not None:
+        return table
+    nt = len(CONSTANT_TWIST_RAD)
+
+    def rep(a: np.ndarray | None, axis: int) -> np.ndarray | None:
+        return None if a is None else np.repeat(np.expand_dims(np.asarray(a, float), axis), nt, axis=axis)
+
+    npos, nd = table.force_N.shape
+    gfdf = np.zeros((npos, nd, nt, 2))
+    gfdf[..., 0] = table.force_N[:, :, None]
+    twist = TwistTable(
+        twist_rad=np.array(CONSTANT_TWIST_RAD), no_load_deflection_m=rep(table.no_load_deflection_m, 1),
+        static_deflection_m=rep(table.static_deflection_m, 2), generalized_fdf=gfdf,
+        generalized_force=np.zeros((npos, nd, nt, 12)), tooth_load_N=rep(table.tooth_load_N, 2),
+        peak_pressure_Pa=rep(table.peak_pressure_Pa, 2), slice_load_N=rep(table.force_N, 2)[..., None],
+        slice_pressure_Pa=rep(table.peak_pressure_Pa, 2)[..., None], slice_z_m=np.zeros(1),
+        strain={g: rep(a, 2) for g, a in table.strain.items()}, r_mesh=np.zeros(12), r_twist=np.zeros(12), frame={},
+        base_helix_angle_rad=0.0, lever_arm_m=np.asarray(table.base_radius_m, float), reference_plane_z_m=0.0,
+        flank_pressure_Pa=rep(table.flank_pressure_Pa, 2), edge_pressure_Pa=rep(table.edge_pressure_Pa, 2))
+    coast = None if table.coast is None else with_constant_twist(table.coast)
+    return replace(table, twist=twist, coast=coast, stats=InterpolationStats())

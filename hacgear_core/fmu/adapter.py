@@ -218,8 +218,9 @@ class Adapter:
             from_eq = Simulator(sy)
             out["twist_moment"] = [abs(float(v)) or None for v in from_eq.twist_moment_Nm]
             out["twist"] = [abs(float(v)) or None for v in from_eq.mesh_twist_rad]
-            tilt = [abs(from_eq.support_reaction(f"{g}.theta_{a}")) for g in sy.gears for a in "xy"]
-            out["tilting_moment"] = max(tilt) or None
+            tilt = [abs(from_eq.support_reaction(f"{g}.theta_{a}")) for g in sy.gears for a in "xy"
+                    if f"{g}.theta_{a}" in sy.dof_names]   # the six-DOF (helical) gears
+            out["tilting_moment"] = max(tilt, default=0.0) or None
         out["resonance_mesh_frequency_Hz"] = fm
         out["resonance_speed_rad_s"] = sy.reference_speed(fm)
         out["strain"] = {}

@@ -22,6 +22,14 @@ be 0: the input and output shafts belong to the drivetrain, FMU mode 1).  Placem
 is placed by :func:`hacgear_core.geometry.train_geometry`; an axis puts the gears of two groups on one centre and
 turns the second group by the mounting angle, so every mesh phase follows from the geometry.
 
+A stage may be helical: a group of two gears with a helix angle and one mesh is built by
+:func:`~hacgear_core.kinds.helical_pair.helical_from_model` (six DOFs per gear in the pair's own frame, its
+generalized table); the shafts join its gears' rotations about the axis (``theta_z``, oriented as the model's
+counter-clockwise rotation by the placement's senses).  A train with spur and helical stages runs the twist law,
+the spur meshes on their tables lifted to a constant twist axis (:mod:`hacgear_core.dynamics.laws`).  A helical
+gear takes no shaft bending spring (its translations are in the pair's frame).  The helical mesh's phase is the
+transverse placement's.
+
 Tooth counts are free: each mesh runs at its own mesh frequency, ``p/q`` times the first [[meshes]] entry's (the
 reference mesh; :func:`mesh_rates`, a reduced fraction of the tooth counts along the chain), and the kernel derives
 each mesh's position from the one reference position (:func:`hacgear_core.dynamics.kernels.mesh_base`).  The
@@ -47,6 +55,7 @@ from hacgear_core.geometry import gear_geometry, mesh_geometry, train_geometry
 from hacgear_core.geometry.train import MeshPlacement, TrainGeometry
 from hacgear_core.kinds.base import Body, Coupling, Dof, ExtraOutput, Kind, Spring, Train
 from hacgear_core.kinds.fixed_axis import train_from_model
+from hacgear_core.kinds.helical_pair import helical_from_model
 
 __all__ = ["Shaft", "GearTrainSection", "GearTrain", "place_gear_train", "mesh_forces"]
 
@@ -290,7 +299,7 @@ class GearTrain(Kind):
 
     name = "gear_train"
     section = "gear_train"
-    helical = False
+    helical = None       # spur and helical stages
 
     def parse_section(self, reader: Any) -> GearTrainSection:
         if reader is None:
@@ -325,6 +334,18 @@ class GearTrain(Kind):
                              "'gear_train' (shafts between gears go in [[gear_train.shafts]]; the input and output "
                              "shafts belong to the drivetrain: FMU mode 1, examples/drivetrain_bench.py)")
         _chain(model)
+        gears = {g.name: g for g in model.gears}
+        for grp in _mesh_groups(model):
+            names = sorted({x for m in grp for x in (m.gear_a, m.gear_b)})
+            helical = [n for n in names if gears[n].is_helical]
+            if helical and len(grp) != 1:
+                raise ModelError(f"gears {helical} are helical: a helical stage of a gear_train is one pair (one mesh), "
+                                 f"got meshes {[m.name for m in grp]} in one group")
+        bent = [g for s in _section_of(model).shafts if s.bending_stiffness_N_per_m > 0
+                for g in (s.gear_a, s.gear_b) if gears[g].is_helical]
+        if bent:
+            raise ModelError(f"gear_train.shafts: bending_stiffness_N_per_m [N/m] must be 0 on helical gears {bent} "
+                             "(their translations live in the pair's own frame): give their bearings instead")
 
     def placement(self, model: Any, gears: Mapping, meshes: Mapping) -> TrainGeometry:
         return place_gear_train(model, gears, meshes)
@@ -348,15 +369,21 @@ class GearTrain(Kind):
         bodies: dict[str, Body] = {}
         couplings: dict[str, Coupling] = {}
         u: dict[str, float] = {}   # kinematic rotation per radian of the reference gear (CCW, fixed frame)
+        orient: dict[str, float] = {}
         for grp in _mesh_groups(model):
             names = {x for m in grp for x in (m.gear_a, m.gear_b)}
             k = min(chain.meshes.index(m.name) for m in grp)  # the group's first mesh along the chain
             sub = replace(model, gears=tuple(g for g in model.gears if g.name in names), meshes=tuple(grp),
                           operating=replace(model.operating, torque_gear=chain.out_of[k]))
-            part = train_from_model(sub, tables, force_law=force_law, torque_Nm=torque * chain.torque[k],
-                                    bearing_stiffness_N_per_m=bearing_stiffness_N_per_m,
-                                    modal_damping_ratio=modal_damping_ratio, shafts=shafts)
-            local = {key[0]: c for key, c in part.rigid_mode}
+            build = helical_from_model if any(g.is_helical for g in sub.gears) else train_from_model
+            part = build(sub, tables, force_law=force_law, torque_Nm=torque * chain.torque[k],
+                         bearing_stiffness_N_per_m=bearing_stiffness_N_per_m,
+                         modal_damping_ratio=modal_damping_ratio, shafts=shafts)
+            # a helical pair's rotations are about its own frame's axis: orient[g] = +1 where that turns as the
+            # model's counter-clockwise rotation, -1 where against it (the placement's senses against the pair's)
+            orient.update({b.name: placed.sense[b.name] * b.sense if b.rotation != "theta" else 1.0
+                           for b in part.bodies})
+            local = {key[0]: c * orient[key[0]] for key, c in part.rigid_mode}
             scale = next((u[s.gear_a] / local[s.gear_b] for s in shafts_ if s.gear_b in names and s.gear_a in u),
                          None) or next((u[s.gear_b] / local[s.gear_a] for s in shafts_
                                         if s.gear_a in names and s.gear_b in u), 1.0)
@@ -366,8 +393,9 @@ class GearTrain(Kind):
                 g: placed.tooth_passage[g][c.name] for g in (c.gear_a, c.gear_b)}) for c in part.couplings})
         springs = []
         for s in shafts_:
+            ra, rb = bodies[s.gear_a].rotation, bodies[s.gear_b].rotation
             springs.append(Spring(s.torsional_stiffness_Nm_per_rad,
-                                  rows=((((s.gear_a, "theta"), 1.0), ((s.gear_b, "theta"), -1.0)),)))
+                                  rows=((((s.gear_a, ra), orient[s.gear_a]), ((s.gear_b, rb), -orient[s.gear_b])),)))
             if s.bending_stiffness_N_per_m > 0:
                 for g in (s.gear_a, s.gear_b):
                     bodies[g], couplings = _in_plane(bodies[g], couplings, placed)
@@ -375,14 +403,16 @@ class GearTrain(Kind):
                     (((s.gear_a, lab), 1.0), ((s.gear_b, lab), -1.0)) for lab in ("x", "y"))))
         ref = model.meshes[0].gear_a
         last = len(chain.axes) - 1
+        # each body's kinematic speed in its own rotation coordinate, per radian of the reference gear's
+        uc = {g: u[g] * orient[g] / (u[ref] * orient[ref]) for g in u}
         return Train(
             name=model.name, kind=self.name,
-            bodies=tuple(replace(bodies[g.name], speed_ratio=u[g.name] * placed.sense[ref]) for g in model.gears),
+            bodies=tuple(replace(bodies[g.name], speed_ratio=uc[g.name] * bodies[ref].sense) for g in model.gears),
             couplings=tuple(couplings[m.name] for m in model.meshes), torque_Nm=torque,
             input_gear=model.operating.torque_gear, reference_gear=ref,
             modal_damping_ratio=model.damping.modal_damping_ratio if modal_damping_ratio is None
             else float(modal_damping_ratio), force_law=force_law, springs=tuple(springs),
-            rigid_mode=tuple(((g.name, "theta"), u[g.name]) for g in model.gears),
+            rigid_mode=tuple(((g.name, bodies[g.name].rotation), uc[g.name]) for g in model.gears),
             nominal_torques_per_Nm={model.operating.torque_gear: 1.0, chain.into[last]: -chain.torque[last]})
 
     def extra_outputs(self, model: Any, system: Any) -> tuple[ExtraOutput, ...]:

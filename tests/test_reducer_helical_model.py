@@ -11,6 +11,7 @@ import math
 import numpy as np
 import pytest
 
+from _fmu_runs import fmu_and_library_runs
 from hacgear_core.cli import main
 from hacgear_core.dynamics.equilibrium import static_equilibrium
 from hacgear_core.dynamics.laws import TwistTableLaw
@@ -80,29 +81,17 @@ def test_sweep_resonates_where_the_spur_stage_meets_the_shaft_mode(system, capsy
 def test_fmu_equals_the_library_with_each_mesh_its_own_outputs(tmp_path):
     """The native FMI 2.0 FMU against the library's Simulator step for step (1e-9); the helical mesh declares its
     twist and twist moment, the spur mesh does not."""
-    fmpy = pytest.importorskip("fmpy")
+    pytest.importorskip("fmpy")
     from fmpy import read_model_description
 
-    from hacgear_core.dynamics.simulator import Simulator
-    from hacgear_core.fmu import build_fmu
-
-    path = build_fmu(resolve_model_path(SYSTEM).parent, tmp_path)
-    md = {v.name for v in read_model_description(str(path)).modelVariables}
-    assert {"m12.twist", "m12.twist_moment"} <= md and not {"m34.twist", "m34.twist_moment"} & md
     speed = 2 * math.pi * 2000.0 / 19
     names = ["m12.force", "m34.force", "m12.twist_moment", "m34.position", "shaft2.torque"]
-    dt, n = 1e-4, 60
-    res = fmpy.simulate_fmu(str(path), stop_time=n * dt, output_interval=dt, output=names,
-                            start_values={"pinion1.speed_in": speed, "internal_step": 2e-6})
-    sim = Simulator(build_system(load_model(resolve_model_path(SYSTEM)), load_system_tables(SYSTEM)),
-                    internal_step_s=2e-6)
-    sim.reset(speed_rad_s=speed)
-    lib = {k: [] for k in names}
-    for _ in range(n):
-        assert sim.advance(dt).success
-        for k, v in zip(names, (sim.mesh_force_N[0], sim.mesh_force_N[1], sim.twist_moment_Nm[0],
-                                sim.mesh_position[1], None)):
-            lib[k].append(v)
+
+    def read(sim):
+        return sim.mesh_force_N[0], sim.mesh_force_N[1], sim.twist_moment_Nm[0], sim.mesh_position[1], None
+    path, res, lib = fmu_and_library_runs(SYSTEM, tmp_path, names, read, speed, 60)
+    md = {v.name for v in read_model_description(str(path)).modelVariables}
+    assert {"m12.twist", "m12.twist_moment"} <= md and not {"m34.twist", "m34.twist_moment"} & md
     for k in names[:-1]:
         v = np.asarray(lib[k])
         assert np.max(np.abs(res[k][1:] - v)) <= 1e-9 * np.max(np.abs(v)), k

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 
+from _fmu_runs import fmu_and_library_runs
 from hacgear_core.cli import main
 from hacgear_core.dynamics.equilibrium import static_equilibrium
 from hacgear_core.dynamics.steady import steady_state
@@ -124,26 +125,15 @@ def test_fmu_equals_the_library_with_stage_2_at_its_own_mesh_frequency(tmp_path)
     """The native FMI 2.0 FMU against the library's Simulator, step for step (1e-9): mesh forces, stage 2's mesh
     position (advancing at 23/71 of stage 1's: 647.9 cycles/s at a 2000 Hz input mesh frequency) and the shaft
     torque."""
-    fmpy = pytest.importorskip("fmpy")
-    from hacgear_core.dynamics.simulator import Simulator
-    from hacgear_core.fmu import build_fmu
-
-    path = build_fmu(resolve_model_path(SYSTEM).parent, tmp_path)
+    pytest.importorskip("fmpy")
     speed = 2 * math.pi * 2000.0 / 19          # pinion1 [rad/s] at a 2000 Hz stage-1 mesh frequency
     names = ["m12.force", "m34.force", "m12.position", "m34.position", "shaft2.torque"]
-    dt, n = 1e-4, 100
-    res = fmpy.simulate_fmu(str(path), stop_time=n * dt, output_interval=dt, output=names,
-                            start_values={"pinion1.speed_in": speed, "internal_step": 2e-6})
-    sim = Simulator(build_system(load_model(resolve_model_path(SYSTEM)), load_system_tables(SYSTEM)),
-                    internal_step_s=2e-6)
-    sim.reset(speed_rad_s=speed)
-    i1, i2 = sim.gear_index("wheel1"), sim.gear_index("pinion2")
-    lib = {k: [] for k in names}
-    for _ in range(n):
-        assert sim.advance(dt).success
-        for k, v in zip(names, (sim.mesh_force_N[0], sim.mesh_force_N[1], sim.mesh_position[0], sim.mesh_position[1],
-                                1.34e5 * (sim.angle_rad[i1] - sim.angle_rad[i2]))):
-            lib[k].append(v)
+
+    def read(sim):
+        i1, i2 = sim.gear_index("wheel1"), sim.gear_index("pinion2")
+        return (sim.mesh_force_N[0], sim.mesh_force_N[1], sim.mesh_position[0], sim.mesh_position[1],
+                1.34e5 * (sim.angle_rad[i1] - sim.angle_rad[i2]))
+    _, res, lib = fmu_and_library_runs(SYSTEM, tmp_path, names, read, speed, 100)
     for k in names:
         v = np.asarray(lib[k])
         assert np.max(np.abs(res[k][1:] - v)) <= 1e-9 * np.max(np.abs(v)), k

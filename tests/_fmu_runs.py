@@ -1,0 +1,32 @@
+"""An FMU of a shipped system and the library's Simulator run side by side at constant speed (the comparisons of
+the reducer tests)."""
+from __future__ import annotations
+
+import numpy as np
+
+
+def fmu_and_library_runs(system: str, out_dir, names, read, speed_rad_s: float, n: int, dt: float = 1e-4):
+    """``(path, fmu_result, library)``: the native FMI 2.0 FMU of ``system`` built into ``out_dir`` and run by fmpy
+    for ``n`` communication steps of ``dt`` [s] with its input gear at ``speed_rad_s`` [rad/s] (internal step
+    2e-6 s), and the library's Simulator over the same steps; ``read(sim)`` gives the library's values of ``names``
+    after each step (library: name -> (n,) array)."""
+    import fmpy
+
+    from hacgear_core.dynamics.simulator import Simulator
+    from hacgear_core.fmu import build_fmu
+    from hacgear_core.kinds import build_system, load_model
+    from hacgear_core.model import resolve_model_path
+    from hacgear_core.tables import load_system_tables
+
+    path = resolve_model_path(system)
+    fmu = build_fmu(path.parent, out_dir)
+    res = fmpy.simulate_fmu(str(fmu), stop_time=n * dt, output_interval=dt, output=list(names),
+                            start_values={"pinion1.speed_in": speed_rad_s, "internal_step": 2e-6})
+    sim = Simulator(build_system(load_model(path), load_system_tables(path)), internal_step_s=2e-6)
+    sim.reset(speed_rad_s=speed_rad_s)
+    lib = {k: [] for k in names}
+    for _ in range(n):
+        assert sim.advance(dt).success
+        for k, v in zip(names, read(sim)):
+            lib[k].append(v)
+    return fmu, res, {k: np.asarray(v) for k, v in lib.items()}

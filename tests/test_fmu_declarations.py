@@ -28,7 +28,10 @@ ROOT = Path(__file__).resolve().parent.parent
 #: (calculated parameters <port>.speed_ratio, .inertia, .train_inertia, gear_ratio, drivetrain_step; outputs
 #: <port>.power, dissipated_power, kinetic_energy, elastic_energy) were added and the torque range grew from 1e6
 #: to 1e8 N.m (<port>.torque_in scaled by the speed ratio of a port slower than the input): by name, nothing else
-#: changed; and when the NREL 5 MW stages got their tables (their entries added, the others unchanged)
+#: changed; and when the NREL 5 MW stages got their tables (their entries added, the others unchanged); and when
+#: the stage-1 ring moved to the published rack A (only nrel_5mw_stage1's nominal values and its two start speeds
+#: changed, by name) and the reducers reducer_19_71_23_83 and reducer_helical_19_71_23_83 were added (their entries
+#: added, the others unchanged)
 REFERENCE = Path(__file__).resolve().parent / "data" / "model_descriptions.json.gz"
 
 

@@ -1021,6 +1021,7 @@ def prebuild_compliances(model: Any, mesh_names: Sequence[str] | None = None, si
                     lambda: fe3d.ToothSectorFE(gg, mat3, opts3), "3D tooth-sector model"))
             builds[gname] += len(built)
             built.clear()
+        fe_mod.release_freed_memory()
     return builds
 
 

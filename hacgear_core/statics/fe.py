@@ -602,6 +602,25 @@ def _single_thread_blas():
     return threadpool_limits(limits=1, user_api="blas")
 
 
+def release_freed_memory() -> None:
+    """Collect garbage and hand the freed heap pages back to the system (glibc ``malloc_trim``; elsewhere only the
+    collection).  Freed blocks below glibc's mmap threshold otherwise stay resident (NREL stage 3, measured: 1.9 GB
+    after the wheel's factorised 3D sector model was released; 0.67 GB after a sector's meshing and assembly, handed
+    back by this call)."""
+    import ctypes
+    import ctypes.util
+    import gc
+
+    gc.collect()
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
+        trim = libc.malloc_trim
+    except (OSError, AttributeError):
+        return
+    trim.argtypes = [ctypes.c_size_t]
+    trim(0)
+
+
 def _lu_solve(lu, B: np.ndarray) -> np.ndarray:
     """Solve with a SuperLU factor column by column (measured 5x faster than SuperLU's
     multi-right-hand-side solve through scipy for ~50 columns)."""

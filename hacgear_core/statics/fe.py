@@ -55,8 +55,11 @@ newtons has ``w = F/b``.  Tooth ``k`` sits at angle ``2 pi k/z`` (counter-clockw
 """
 from __future__ import annotations
 
-import hashlib
 import contextlib
+import ctypes
+import ctypes.util
+import gc
+import hashlib
 import json
 import math
 import os
@@ -607,10 +610,6 @@ def release_freed_memory() -> None:
     collection).  Freed blocks below glibc's mmap threshold otherwise stay resident (NREL stage 3, measured: 1.9 GB
     after the wheel's factorised 3D sector model was released; 0.67 GB after a sector's meshing and assembly, handed
     back by this call)."""
-    import ctypes
-    import ctypes.util
-    import gc
-
     gc.collect()
     try:
         libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")

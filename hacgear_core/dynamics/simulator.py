@@ -283,22 +283,18 @@ def static_gauge_passage(system: LumpedSystem, gauge: str, samples_per_cycle: in
     start, length = passage_window(system, gauge)
     npts = int(math.ceil(length * samples_per_cycle)) + 1
     cs = start + np.arange(npts) / samples_per_cycle
-    if system.unit_rates:
-        eq = [static_equilibrium(system, start + i / samples_per_cycle) for i in range(samples_per_cycle)]
-        idx = np.arange(npts) % samples_per_cycle
-        q = np.array([eq[i].q for i in idx])
-        tau = cs[:, None] + system.phase[None, :] + q @ system.W.T
-    else:
-        # the other meshes' positions differ from one cycle of the gear's mesh to the next: every sample its own
-        # equilibrium, the gear's mesh at cs (tooth 0's first passage)
-        ref = cs / float(system.rates[_gauge_mesh(system, _gauge_gear(system, gauge)[0])])
+    # the reference position of each sample (cs counts the gear's own mesh cycles)
+    ref = cs / float(system.rates[_gauge_mesh(system, _gauge_gear(system, gauge)[0])])
+    if system.unit_rates:   # the equilibrium repeats every mesh cycle: one per sample position of a cycle
+        one = [static_equilibrium(system, start + i / samples_per_cycle) for i in range(samples_per_cycle)]
+        eq = [one[i] for i in np.arange(npts) % samples_per_cycle]
+    else:                   # the other meshes' positions differ from cycle to cycle: each sample its own
         eq = [static_equilibrium(system, float(c)) for c in ref]
-        idx = np.arange(npts)
-        q = np.array([e.q for e in eq])
-        tau = system.unwrapped_positions(ref) + system.phase[None, :] + q @ system.W.T
-    x = np.array([eq[i].mesh_deflections_m for i in idx])
-    xc = None if eq[0].coast_approach_m is None else np.array([eq[i].coast_approach_m for i in idx])
-    tw = None if eq[0].twist_rad is None else np.array([eq[i].twist_rad for i in idx])
+    q = np.array([e.q for e in eq])
+    tau = system.unwrapped_positions(ref) + system.phase[None, :] + q @ system.W.T
+    x = np.array([e.mesh_deflections_m for e in eq])
+    xc = None if eq[0].coast_approach_m is None else np.array([e.coast_approach_m for e in eq])
+    tw = None if eq[0].twist_rad is None else np.array([e.twist_rad for e in eq])
     eps = strain_of_tooth(system, gauge, tau, x, xc if tw is None else None, tw)
     return GaugePassage(gauge, 0, (float(cs[0]), float(cs[-1])), None, eps)
 
@@ -507,7 +503,7 @@ class Simulator:
         """Outputs from the state, the force laws evaluated in Python (after reset, set_state, run)."""
         sy = self.system
         q = self.s[:sy.n]
-        base, whole = sy.mesh_kinematics(self.kin[0], self.kin[1])
+        base, whole = (self.kin[0], self.kin[1]) if sy.unit_rates else sy.mesh_kinematics(self.kin[0], self.kin[1])
         tau = base + sy.phase + sy.W @ q
         rec = np.zeros(sy.record_width)
         sy.mesh_law.state_fields(sy, q, tau, whole, rec)
@@ -564,8 +560,8 @@ class Simulator:
         (:meth:`~hacgear_core.dynamics.system.LumpedSystem.elastic_energy_J`)."""
         sy = self.system
         q = self.s[:sy.n]
-        return sy.elastic_energy_J(q, sy.kinematic_positions(self.kin[0], self.kin[1]) + sy.phase + sy.W @ q,
-                                   self.kin[2])
+        base = self.kin[0] if sy.unit_rates else sy.kinematic_positions(self.kin[0], self.kin[1])
+        return sy.elastic_energy_J(q, base + sy.phase + sy.W @ q, self.kin[2])
 
     def dissipated_power_W(self) -> float:
         """Power [W] the modal damping dissipates now."""

@@ -629,11 +629,8 @@ class LumpedSystem:
         whole = np.repeat(c[..., None], self.m, axis=-1)
         for k in np.flatnonzero(self.rate[:, 0] != self.rate[:, 1]):
             p, q = self.rate[k]
-            r = np.mod(p * np.mod(c, q), q)
-            x = r / q + t / (q / p)
-            f = np.floor(x)
-            base[..., k] = x - f
-            whole[..., k] = (p * c - r) / q + f
+            for i in np.ndindex(t.shape):
+                base[i + (k,)], whole[i + (k,)] = kernels.mesh_base(p, q, float(c[i]), float(t[i]))
         return base, whole
 
     def kinematic_positions(self, tau_ref, cycles=0.0) -> np.ndarray:

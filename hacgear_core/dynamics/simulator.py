@@ -543,7 +543,7 @@ class Simulator:
             self.out_of_range_steps = [a + int(b) for a, b in zip(self.out_of_range_steps, kt[3 + m:3 + 2 * m])]
         phi = (kt[1] + kt[0]) / sy.zref_2pi  # reference gear's rotation in its sense [rad]
         w = kt[2]
-        self._frame = (sy.carrier_ratio * phi, sy.carrier_ratio * w)  # carrier frame: angle [rad], speed [rad/s]
+        self._frame = (phi, w)  # the reference motion: angle [rad], speed [rad/s] (a body's frame turns fr times it)
         self.angle_rad = [g.sense * (g.speed_ratio * phi + (st[g.rotation] if g.rotation >= 0 else 0.0))
                           for g in self._gears]
         self.speed_rad_s = [g.sense * (g.speed_ratio * w + (st[n + g.rotation] if g.rotation >= 0 else 0.0))
@@ -588,10 +588,11 @@ class Simulator:
         rotating carrier frame are turned into the fixed frame by the carrier's angle."""
         sy = self.system
         g = sy.gears[gear]
+        fr = sy.frame_ratio(gear)
         out = np.zeros(2)
         if gear in sy.bearing_maps:
             a, b, c = sy.bearing_maps[gear]
-            out = a @ self.s[:sy.n] + b + self._frame[1] ** 2 * c
+            out = a @ self.s[:sy.n] + b + (fr * self._frame[1]) ** 2 * c
         elif g.translations:
             for i, d in zip(g.translations, g.directions):
                 out += sy.K[i, i] * self.s[i] * d
@@ -600,8 +601,8 @@ class Simulator:
                 if gear in (c.gear_a, c.gear_b):
                     nvec = np.asarray(c.line_of_action, float)
                     out += (1.0 if gear == c.gear_b else -1.0) * self.mesh_force_N[k] * nvec
-        if sy.carrier_ratio != 0.0:
-            ca, sa = math.cos(self._frame[0]), math.sin(self._frame[0])
+        if fr != 0.0:
+            ca, sa = math.cos(fr * self._frame[0]), math.sin(fr * self._frame[0])
             out = np.array([ca * out[0] - sa * out[1], sa * out[0] + ca * out[1]])
         return out
 

@@ -66,7 +66,8 @@ class GearBody:
     does not rotate, e.g. a fixed ring); ``translations``: indices of its translation DOFs with unit
     ``directions`` (k, 2) in the fixed frame; ``radius_m``: characteristic radius (base radius of its first
     mesh) used to express rotations as arc lengths; ``teeth``; ``support``: (translational [N/m],
-    rotational [N m/rad]) stiffness.
+    rotational [N m/rad]) stiffness; ``frame_ratio``: the speed of the frame its translations live in over the
+    reference speed (a planetary stage's carrier; None: the system's ``carrier_ratio``).
     """
 
     name: str
@@ -80,6 +81,7 @@ class GearBody:
     mass_kg: float = 0.0
     inertia_kgm2: float = 0.0
     support: tuple[float, float] = (math.inf, 0.0)
+    frame_ratio: float | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -581,6 +583,12 @@ class LumpedSystem:
     def coast_slope(self, k: int, tau, xc) -> np.ndarray:
         """Local slope dFc/dxc [N/m] of mesh ``k``'s coast table (0 without one)."""
         return self.mesh_law.coast_slope(k, tau, xc)
+
+    def frame_ratio(self, gear: str) -> float:
+        """The speed of the frame gear ``gear``'s translations live in over the reference speed: its planetary
+        stage's carrier (``carrier_ratio`` unless the gear names its own), 0 for the fixed frame."""
+        fr = self.gears[gear].frame_ratio
+        return self.carrier_ratio if fr is None else fr
 
     # ------------------------------------------------------------------ energy
     def kinetic_energy_J(self, v: np.ndarray, omega_ref: float) -> float:

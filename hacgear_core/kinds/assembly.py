@@ -125,7 +125,8 @@ def assemble(train: Train) -> LumpedSystem:
                                rotation=dm.index.get((b.name, b.rotation), -1), translations=tuple(i for i, _ in tr),
                                directions=np.array([d for _, d in tr], dtype=float).reshape(-1, 2),
                                radius_m=float(b.radius_m), mass_kg=b.mass_kg, inertia_kgm2=b.inertia_kgm2,
-                               support=tuple(b.support)))
+                               support=tuple(b.support),
+                               frame_ratio=None if b.frame_ratio is None else float(b.frame_ratio)))
     u = dm.vector(train.rigid_mode)
     motion = u
     if u is not None:

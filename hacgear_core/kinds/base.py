@@ -68,7 +68,8 @@ class Body:
     operating ``sense`` (+1 CCW, -1 CW), ``speed_ratio`` (its kinematic speed over the reference gear's, in the
     reference gear's sense), ``rotation`` (the label of its rotation DOF, '' for none), ``radius_m`` (its
     characteristic radius), ``mass_kg``, ``inertia_kgm2`` and ``support`` (translational [N/m], rotational [N m/rad])
-    as reported."""
+    as reported; ``frame_ratio``: the speed of the frame its translations live in over the reference speed (a
+    planetary stage's carrier; None: the train's ``carrier_ratio``)."""
 
     name: str
     dofs: tuple[Dof, ...]
@@ -80,6 +81,7 @@ class Body:
     mass_kg: float = 0.0
     inertia_kgm2: float = 0.0
     support: tuple[float, float] = (math.inf, 0.0)
+    frame_ratio: float | None = None
 
 
 @dataclass(frozen=True)

@@ -7,6 +7,7 @@ from hacgear_core.errors import ModelError
 from hacgear_core.kinds.base import Kind
 from hacgear_core.kinds.fixed_axis import FixedAxis
 from hacgear_core.kinds.gear_train import GearTrain
+from hacgear_core.kinds.gearbox import GearboxKind
 from hacgear_core.kinds.helical_pair import HelicalPair
 from hacgear_core.kinds.planetary import PlanetaryKind
 
@@ -19,6 +20,7 @@ KINDS: dict[str, Kind] = {k.name: k for k in (
     PlanetaryKind(),
     HelicalPair(),
     GearTrain(),
+    GearboxKind(),
 )}
 
 

@@ -552,8 +552,8 @@ def _read_lumped_gear(sec: _Section) -> LumpedGear:
                                                    base_radius_m=rb * 1e-3, internal=internal, support=support))
 
 
-def _read_planetary(psec: _Section) -> Planetary:
-    """``[planetary]`` → :class:`Planetary` (SI)."""
+def read_planetary(psec: _Section, keys: tuple[str, ...] = ()) -> Planetary:
+    """``[planetary]`` (or a table with its keys and the caller's ``keys``, read before) → :class:`Planetary` (SI)."""
     pc = psec.ranged("planet_count", "planet_count")
     raw_pos = psec._get("planet_positions_deg", False, None, "deg", "a list of planet_count angles")
     positions = None
@@ -578,7 +578,7 @@ def _read_planetary(psec: _Section) -> Planetary:
         tan = esec.number("tangential_um", "um", -1000.0, 1000.0, required=False, default=0.0)
         esec.done(_PIN_ERROR_KEYS)
         errors.append(PinError(planet, rad * 1e-6, tan * 1e-6))
-    psec.done(_PLANETARY_KEYS)
+    psec.done(_PLANETARY_KEYS + tuple(keys))
     return _wrap(psec, psec.path, lambda: Planetary(
         pc, None if cr is None else cr * 1e-3, cm, ci, cs, planet_positions_rad=positions, fixed_member=fixed,
         pin_errors=tuple(errors), output_member=output))
@@ -729,7 +729,7 @@ def parse_model(text: str, *, file: str = "<model>", path: Path | None = None, s
     psec = top.table("planetary", required=False)
     planetary = None
     if psec is not None:
-        planetary = _read_planetary(psec)
+        planetary = read_planetary(psec)
         if planetary.fixed_member in no_support:
             gears = tuple(replace(g, support=Support(_INF, _INF)) if g.name == planetary.fixed_member else g
                           for g in gears)
@@ -815,7 +815,7 @@ def _parse_lumped(top: _Section, *, name: str, kind: str, title: str, source: st
         osec.done(("torque_Nm", "torque_gear"))
         operating = Operating(torque, tgear)
     psec = top.table("planetary", required=False)
-    planetary = _read_planetary(psec) if psec is not None else None
+    planetary = read_planetary(psec) if psec is not None else None
     if planetary is not None and planetary.carrier_radius_m is not None:
         _check_carrier_reach(psec, planetary.carrier_radius_m, gears, meshes)
     if planetary is not None and planetary.fixed_member in no_support:

@@ -83,11 +83,12 @@ def bearing_forces(system: LumpedSystem, raw: dict, reference_speed_rad_s: float
     n = system.n
     q = raw["state"][:, :n]
     force = raw["mesh_force_N"]
-    wc = system.carrier_ratio * float(reference_speed_rad_s)
     out = {}
     for g in system.gears.values():
         if g.rotation < 0 and not g.translations:
             continue
+        fr = system.frame_ratio(g.name)
+        wc = fr * float(reference_speed_rad_s)
         f = np.zeros((q.shape[0], 2))
         if g.name in system.bearing_maps:
             a, b, c = system.bearing_maps[g.name]
@@ -100,10 +101,10 @@ def bearing_forces(system: LumpedSystem, raw: dict, reference_speed_rad_s: float
                 if g.name in (c.gear_a, c.gear_b):
                     f += np.outer((1.0 if g.name == c.gear_b else -1.0) * force[:, k],
                                   np.asarray(c.line_of_action, float))
-        if system.carrier_ratio != 0.0:
+        if fr != 0.0:
             # the reference gear's angle from the kinematic mesh position of mesh 0: tau = c + phase + W q
             cyc = raw["mesh_position"][:, 0] - system.phase[0] - q @ system.W[0]
-            ang = system.carrier_ratio * cyc / system.zref_2pi
+            ang = fr * cyc / system.zref_2pi
             ca, sa = np.cos(ang), np.sin(ang)
             f = np.column_stack([ca * f[:, 0] - sa * f[:, 1], sa * f[:, 0] + ca * f[:, 1]])
         out[g.name] = f

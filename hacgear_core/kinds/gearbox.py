@@ -1,0 +1,515 @@
+"""Gearboxes of planetary and parallel stages (``kind = "gearbox"``): stages in series joined by shafts.
+
+A *stage* is a planetary set (a ``[[gearbox.planetary]]`` entry naming its sun and its carrier, with the keys of
+a planetary model's ``[planetary]`` table) or a group of meshed gears on fixed axes (a spur or helical pair, an
+idler chain: every group of meshed gears no planetary entry claims).  A *shaft* (``[[gearbox.shafts]]``) joins the
+output member of one stage to the input member of the next with its torsional stiffness; the stages form one
+chain from ``[operating] torque_gear`` (the input member of the first stage) to ``[gearbox] output_member`` (of
+the last).  Every gear and mesh of every stage is in the model's ``[[gears]]`` and ``[[meshes]]``; their tables
+come from ``hacgear statics`` of the gearbox as of any model.
+
+Model section::
+
+    [gearbox]
+    output_member = "pinion3"                  # the member the power leaves by (default: the last stage's only one)
+
+    [[gearbox.planetary]]
+    name = "stage1"
+    sun = "sun1"                               # the stage's sun gear (its planet and ring: the gears it meshes with)
+    carrier = "carrier1"                       # the carrier's name (a member like a gear)
+    planet_count = 3                           # ... and the other keys of [planetary]
+    fixed_member = "ring"                      # role: ring | sun | carrier
+      [gearbox.planetary.carrier_support]
+      translational_stiffness_N_per_m = 2.8e9
+
+    [[gearbox.shafts]]
+    name = "lss"
+    member_a = "sun1"                          # upstream member
+    member_b = "carrier2"                      # downstream member
+    torsional_stiffness_Nm_per_rad = 1.4e9     # (0, 1e12]
+
+Dynamics: each stage is built by its kind's builder (:func:`~hacgear_core.kinds.planetary.planetary_from_model`,
+:func:`~hacgear_core.kinds.fixed_axis.train_from_model`, :func:`~hacgear_core.kinds.helical_pair.helical_from_model`)
+at the static torque the chain brings to it, and the trains are joined:
+
+* **a rotating frame per planetary stage.**  A planetary stage's coordinates live in its carrier's frame, turning
+  at ``W_s = c_s omega_ref`` (``omega_ref`` the input member's speed, ``c_s`` the stage's carrier speed over it,
+  exact from the tooth counts).  The one equation of motion keeps the form ``M q'' + (C + W G) q' + (K - W^2 K_W) q
+  = ...`` with ``W = omega_ref`` and the stages' own matrices summed, ``G = sum_s c_s G_s`` and ``K_W = sum_s c_s^2
+  K_W,s`` (each stage's gyroscopic and centripetal terms at its own carrier speed); each body reports its bearing
+  force turned by its own stage's frame (``frame_ratio = c_s``; parallel stages: the fixed frame).
+* **each mesh at its own rate.**  Every mesh's frequency over the reference mesh's (the first stage's first mesh)
+  is a reduced fraction of the tooth counts (:func:`mesh_rates`); the system repeats after the lcm of their
+  denominators in reference mesh cycles (``period_cycles``), which for a wind-turbine gearbox is tens of input
+  revolutions: steady-state analyses then run over a stated number of revolutions of the slowest shaft.
+* **shafts** act between the rotations of the members they join, each measured in its direction of motion (the
+  stages' frames are independent: a stage may be built mirrored to the next); shaft bending between stages is not
+  offered (a planetary stage's translations turn with its carrier, a shaft's bending spring to a fixed-axis gear
+  would not be constant in either frame): the members' own bearings carry them.
+
+Constant-speed experiment: the torque acts on the input member and the output member brakes with the torque the
+stages deliver to it (the nominal torques, as a gear train's ends); every turning member is free on its shafts and
+the train keeps its free rotation.  Drivetrain coupling (``shafts=False``): the same members, the input and output
+members torque ports; the fixed members keep their supports.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from fractions import Fraction
+from typing import Any, Mapping
+
+import numpy as np
+
+from hacgear_core.errors import ModelError
+from hacgear_core.geometry import train_geometry
+from hacgear_core.geometry.planetary import planetary_geometry, planetary_members, planetary_torques
+from hacgear_core.geometry.train import TrainGeometry
+from hacgear_core.kinds.base import Body, Coupling, ExtraOutput, Kind, Spring, Train
+from hacgear_core.kinds.fixed_axis import train_from_model
+from hacgear_core.kinds.gear_train import _mesh_groups
+from hacgear_core.kinds.helical_pair import helical_from_model
+from hacgear_core.kinds.planetary import planetary_from_model
+from hacgear_core.model.schema import Planetary, Support
+from hacgear_core.model.toml import read_planetary
+
+__all__ = ["GearboxKind", "GearboxSection", "PlanetaryStage", "GearboxShaft", "Stage", "gearbox_stages",
+           "mesh_rates"]
+
+_STAGE_KEYS = ("name", "sun", "carrier")
+_SHAFT_KEYS = ("name", "member_a", "member_b", "torsional_stiffness_Nm_per_rad")
+
+
+@dataclass(frozen=True)
+class PlanetaryStage:
+    """A ``[[gearbox.planetary]]`` entry: the stage ``name``, its ``sun`` gear, its ``carrier``'s name and its
+    :class:`~hacgear_core.model.schema.Planetary` options (``fixed_member`` a role: ring, sun or carrier)."""
+
+    name: str
+    sun: str
+    carrier: str
+    planetary: Planetary
+
+
+@dataclass(frozen=True)
+class GearboxShaft:
+    """A shaft from member ``member_a`` of one stage to ``member_b`` of the next (SI): torsional stiffness
+    [N m/rad] between their rotations."""
+
+    name: str
+    member_a: str
+    member_b: str
+    torsional_stiffness_Nm_per_rad: float
+
+    def __post_init__(self) -> None:
+        where = f"gearbox.shafts '{self.name}'"
+        if self.member_a == self.member_b:
+            raise ModelError(f"{where}: member_a and member_b must differ, both are {self.member_a!r}")
+        k = float(self.torsional_stiffness_Nm_per_rad)
+        if not (0.0 < k <= 1e12):
+            raise ModelError(f"{where}: torsional_stiffness_Nm_per_rad [N*m/rad] must be in (0, 1e12], got {k!r}")
+        object.__setattr__(self, "torsional_stiffness_Nm_per_rad", k)
+
+
+@dataclass(frozen=True)
+class GearboxSection:
+    """The ``[gearbox]`` section: planetary stages, shafts and the output member (None: the last stage's only
+    candidate)."""
+
+    planetary: tuple[PlanetaryStage, ...] = ()
+    shafts: tuple[GearboxShaft, ...] = ()
+    output_member: str | None = None
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One stage along the chain: ``name``, ``planetary`` (its entry, None for a fixed-axis group), ``gears`` and
+    ``meshes`` (names, model order), ``input`` / ``output`` members, ``speed_in`` / ``speed_out`` (revolutions per
+    revolution of the gearbox's input member, exact), ``mesh_frequency`` (mesh cycles per revolution of the input
+    member, exact; every mesh of a stage runs at it), ``torque_in`` (static input torque per N m on the gearbox's
+    input member)."""
+
+    name: str
+    planetary: PlanetaryStage | None
+    gears: tuple[str, ...]
+    meshes: tuple[str, ...]
+    input: str
+    output: str
+    speed_in: Fraction
+    speed_out: Fraction
+    mesh_frequency: Fraction
+    torque_in: float
+
+    @property
+    def members(self) -> tuple[str, ...]:
+        return self.gears + ((self.planetary.carrier,) if self.planetary else ())
+
+
+def _section_of(model: Any) -> GearboxSection:
+    sec = getattr(model, "section", None)
+    return sec if isinstance(sec, GearboxSection) else GearboxSection()
+
+
+def _planetary_speeds(model: Any, st: PlanetaryStage, gears: tuple[str, ...], meshes: tuple[str, ...],
+                      input_member: str, speed_in: Fraction) -> tuple[dict[str, Fraction], Fraction]:
+    """Signed speeds {sun, ring, carrier name: Fraction} of a planetary stage with its input member at
+    ``speed_in`` and its fixed member at rest (Willis: z_s w_s + z_r w_r = (z_s + z_r) w_c), and its mesh
+    frequency z_r |w_r - w_c| (per revolution of the gearbox's input)."""
+    sub = _planetary_model(model, st, gears, meshes, input_member)
+    mem = planetary_members(sub)
+    zs, zr = sub.gear(mem.sun).teeth, sub.gear(mem.ring).teeth
+    role = {mem.sun: "sun", mem.ring: "ring", st.carrier: "carrier"}[input_member]
+    fixed = st.planetary.fixed_member
+    w = {fixed: Fraction(0), role: speed_in}
+    if "carrier" not in w:     # ring or sun fixed, the other one in
+        w["carrier"] = (zs * w.get("sun", 0) + zr * w.get("ring", 0)) / (zs + zr)
+    if "sun" not in w:
+        w["sun"] = ((zs + zr) * w["carrier"] - zr * w["ring"]) / zs
+    if "ring" not in w:
+        w["ring"] = ((zs + zr) * w["carrier"] - zs * w["sun"]) / zr
+    return {mem.sun: w["sun"], mem.ring: w["ring"], st.carrier: w["carrier"]}, abs(zr * (w["ring"] - w["carrier"]))
+
+
+def gearbox_stages(model: Any) -> tuple[Stage, ...]:
+    """The stages of a gearbox ``model`` along the chain from its input member, with their exact kinematics and
+    static torques (module docstring); raises ModelError naming the key for a gearbox that is not one chain."""
+    sec = _section_of(model)
+    gears = {g.name: g for g in model.gears}
+    groups = _mesh_groups(model)
+    group_of = {g: k for k, grp in enumerate(groups) for m in grp for g in (m.gear_a, m.gear_b)}
+    planetary_of: dict[int, PlanetaryStage] = {}
+    for st in sec.planetary:
+        if st.sun not in gears:
+            raise ModelError(f"gearbox.planetary '{st.name}'.sun = {st.sun!r} names no gear; allowed: {list(gears)}")
+        if st.carrier in gears:
+            raise ModelError(f"gearbox.planetary '{st.name}'.carrier = {st.carrier!r} is a gear's name; a carrier "
+                             "needs a name of its own")
+        k = group_of[st.sun]
+        if k in planetary_of:
+            raise ModelError(f"gearbox.planetary '{st.name}' and '{planetary_of[k].name}' name the same set")
+        planetary_of[k] = st
+    carriers = [st.carrier for st in sec.planetary]
+    if len(set(carriers)) != len(carriers):
+        raise ModelError(f"gearbox.planetary: carrier names repeat: {carriers}")
+    member_stage = {g: group_of[g] for g in gears}
+    member_stage.update({st.carrier: group_of[st.sun] for st in sec.planetary})
+    for sh in sec.shafts:
+        for attr in ("member_a", "member_b"):
+            if getattr(sh, attr) not in member_stage:
+                raise ModelError(f"gearbox.shafts '{sh.name}'.{attr} = {getattr(sh, attr)!r} names no member; "
+                                 f"allowed: {sorted(member_stage)}")
+        if member_stage[sh.member_a] == member_stage[sh.member_b]:
+            raise ModelError(f"gearbox.shafts '{sh.name}' joins two members of one stage ({sh.member_a!r}, "
+                             f"{sh.member_b!r}); a shaft joins consecutive stages")
+    inp = model.operating.torque_gear
+    if inp not in member_stage:
+        raise ModelError(f"operating.torque_gear = {inp!r} names no member; allowed: {sorted(member_stage)}")
+    out_member = sec.output_member
+    if out_member is not None and out_member not in member_stage:
+        raise ModelError(f"gearbox.output_member = {out_member!r} names no member; allowed: {sorted(member_stage)}")
+    stages: list[Stage] = []
+    k, member, speed, torque, used = member_stage[inp], inp, Fraction(1), 1.0, set()
+    visited = {k}
+    while True:
+        grp = groups[k]
+        g_names = tuple(g for g in gears if group_of[g] == k)
+        m_names = tuple(m.name for m in grp)
+        st = planetary_of.get(k)
+        if st is not None:
+            sp, fm = _planetary_speeds(model, st, g_names, m_names, member, speed)
+            if sp[member] == 0:
+                raise ModelError(f"gearbox.planetary '{st.name}': the input member {member!r} is its fixed member "
+                                 f"(fixed_member = '{st.planetary.fixed_member}')")
+        else:
+            if member not in gears:
+                raise ModelError(f"member {member!r} drives no gear")
+            sp = {g: speed * gears[member].teeth / gears[g].teeth for g in g_names}
+            fm = speed * gears[member].teeth
+        nxt = [sh for sh in sec.shafts if sh.name not in used and member_stage[sh.member_a] == k
+               and sh.member_a != member]
+        back = [sh for sh in sec.shafts if sh.name not in used and member_stage[sh.member_b] == k
+                and sh.member_b != member]
+        if back:
+            raise ModelError(f"gearbox.shafts '{back[0].name}': member_b = {back[0].member_b!r} leads into a stage "
+                             "already driven (the stages form one chain in series, member_a upstream)")
+        if len(nxt) > 1:
+            raise ModelError(f"gearbox.shafts {[sh.name for sh in nxt]} all leave one stage: the stages form one "
+                             "chain in series")
+        name = st.name if st else "+".join(m_names)
+        if nxt:
+            out = nxt[0].member_a
+        elif out_member is not None:
+            if member_stage[out_member] != k:
+                raise ModelError(f"gearbox.output_member = {out_member!r} is not a member of the last stage "
+                                 f"({name}: {sorted(sp)})")
+            out = out_member
+        else:
+            cand = [g for g in sp if g != member and sp[g] != 0]
+            if len(cand) != 1:
+                raise ModelError(f"gearbox.output_member: the last stage ({name}) has members {sorted(sp)}; name "
+                                 "the one the power leaves by")
+            out = cand[0]
+        if out == member:
+            raise ModelError(f"stage {name}: the output member {out!r} is its input member")
+        if sp[out] == 0:
+            raise ModelError(f"stage {name}: the output member {out!r} is fixed (speed 0)")
+        speed_out = abs(sp[out])
+        stages.append(Stage(name=name, planetary=st, gears=g_names, meshes=m_names, input=member, output=out,
+                            speed_in=abs(speed), speed_out=speed_out, mesh_frequency=fm, torque_in=torque))
+        torque = torque * float(abs(speed) / speed_out)
+        if not nxt:
+            break
+        used.add(nxt[0].name)
+        k, member, speed = member_stage[nxt[0].member_b], nxt[0].member_b, speed_out
+        if k in visited:
+            raise ModelError(f"gearbox.shafts '{nxt[0].name}' closes a loop of stages")
+        visited.add(k)
+    covered = {m for s in stages for m in s.meshes}
+    missing = [m.name for m in model.meshes if m.name not in covered]
+    if missing:
+        raise ModelError(f"meshes {missing} are not in the chain of stages from operating.torque_gear = {inp!r} "
+                         "(join their stage by [[gearbox.shafts]])")
+    unused = [sh.name for sh in sec.shafts if sh.name not in used]
+    if unused:
+        raise ModelError(f"gearbox.shafts {unused} are not on the chain from operating.torque_gear = {inp!r}")
+    return tuple(stages)
+
+
+def mesh_rates(model: Any, stages: tuple[Stage, ...] | None = None) -> dict[str, tuple[int, int]]:
+    """Each model mesh's frequency over the reference mesh's (the first stage's meshes), a reduced fraction
+    ``(p, q)`` of the tooth counts."""
+    stages = gearbox_stages(model) if stages is None else stages
+    ref = stages[0].mesh_frequency
+    return {m: ((s.mesh_frequency / ref).numerator, (s.mesh_frequency / ref).denominator)
+            for s in stages for m in s.meshes}
+
+
+def _planetary_model(model: Any, st: PlanetaryStage, gears: tuple[str, ...], meshes: tuple[str, ...],
+                     input_member: str) -> Any:
+    """The planetary model of stage ``st``: its gears and meshes, its carrier called ``carrier``, its turning
+    members free on their shafts (rotational support 0), its fixed member as given."""
+    sub = replace(model, kind="planetary", gears=tuple(g for g in model.gears if g.name in gears),
+                  meshes=tuple(m for m in model.meshes if m.name in meshes), section=None,
+                  planetary=replace(st.planetary, output_member=None), sections={},
+                  operating=replace(model.operating, torque_gear="carrier" if input_member == st.carrier
+                                    else input_member))
+    mem = planetary_members(sub)
+    fixed = st.planetary.fixed_member
+    cs = st.planetary.carrier_support
+    carrier_support = cs if fixed == "carrier" else Support(cs.translational_stiffness_N_per_m, 0.0)
+    return replace(sub, planetary=replace(sub.planetary, carrier_support=carrier_support), gears=tuple(
+        g if {mem.sun: "sun", mem.ring: "ring"}.get(g.name) in (None, fixed) else replace(
+            g, support=replace(g.support, rotational_stiffness_Nm_per_rad=0.0)) for g in sub.gears))
+
+
+def _fixed_axis_model(model: Any, stage: Stage) -> Any:
+    """The fixed-axis model of ``stage``: its gears and meshes, its input gear carrying the torque."""
+    sub_gears = tuple(g for g in model.gears if g.name in stage.gears)
+    helical = any(g.is_helical for g in sub_gears)
+    kind = "helical_pair" if helical else ("spur_pair" if len(stage.meshes) == 1 else "idler_chain")
+    return replace(model, kind=kind, gears=sub_gears, meshes=tuple(m for m in model.meshes if m.name in stage.meshes),
+                   section=None, sections={}, operating=replace(model.operating, torque_gear=stage.input))
+
+
+def _renamed(train: Train, names: Mapping[str, str]) -> Train:
+    """``train`` with its bodies renamed by ``names`` (every key that names one)."""
+    def key(k):
+        return (names.get(k[0], k[0]), k[1])
+
+    def kv(v):
+        return None if v is None else tuple((key(k), c) for k, c in v)
+    bodies = tuple(replace(b, name=names.get(b.name, b.name)) for b in train.bodies)
+    couplings = tuple(replace(c, gear_a=names.get(c.gear_a, c.gear_a), gear_b=names.get(c.gear_b, c.gear_b),
+                              v=kv(c.v), w=kv(c.w), v_rot=kv(c.v_rot), v_c=kv(c.v_c), t=kv(c.t), t_c=kv(c.t_c),
+                              tooth_passage={names.get(g, g): p for g, p in c.tooth_passage.items()},
+                              gear_alias={names.get(g, g): names.get(a, a) for g, a in c.gear_alias.items()})
+                      for c in train.couplings)
+    springs = tuple(replace(s, rows=tuple(kv(r) for r in s.rows), reports=names.get(s.reports, s.reports))
+                    for s in train.springs)
+    return replace(train, bodies=bodies, couplings=couplings, springs=springs,
+                   gyroscopic=tuple((key(a), key(b), v) for a, b, v in train.gyroscopic),
+                   centripetal=tuple((key(a), key(b), v) for a, b, v in train.centripetal),
+                   rigid_mode=kv(train.rigid_mode), input_gear=names.get(train.input_gear, train.input_gear),
+                   reference_gear=names.get(train.reference_gear, train.reference_gear),
+                   nominal_torques_per_Nm=None if train.nominal_torques_per_Nm is None else {
+                       names.get(g, g): t for g, t in train.nominal_torques_per_Nm.items()},
+                   support_reports=tuple(names.get(b, b) for b in train.support_reports),
+                   bearing_reports=tuple(names.get(b, b) for b in train.bearing_reports))
+
+
+class GearboxKind(Kind):
+    """``kind = "gearbox"``: planetary and parallel stages in series joined by shafts (module docstring)."""
+
+    name = "gearbox"
+    section = "gearbox"
+    helical = None
+    rotating_carrier = True
+
+    def parse_section(self, reader: Any) -> GearboxSection:
+        if reader is None:
+            return GearboxSection()
+        stages = []
+        for psec in reader.array_of_tables("planetary", required=False):
+            name, sun, carrier = psec.string("name"), psec.string("sun"), psec.string("carrier")
+            stages.append(PlanetaryStage(name, sun, carrier, read_planetary(psec, _STAGE_KEYS)))
+        shafts = []
+        for ssec in reader.array_of_tables("shafts", required=False):
+            values = dict(name=ssec.string("name"), member_a=ssec.string("member_a"),
+                          member_b=ssec.string("member_b"),
+                          torsional_stiffness_Nm_per_rad=ssec.number("torsional_stiffness_Nm_per_rad", "N*m/rad",
+                                                                     0.0, 1e12, lo_open=True))
+            ssec.done(_SHAFT_KEYS)
+            try:
+                shafts.append(GearboxShaft(**values))
+            except ModelError as exc:
+                raise ModelError(f"{reader.file}: [{ssec.path}] {exc}") from None
+        out = reader.string("output_member", required=False, default=None)
+        reader.done(("planetary", "shafts", "output_member"))
+        for what, names in (("planetary.name", [s.name for s in stages]), ("shafts.name", [s.name for s in shafts])):
+            if len(set(names)) != len(names):
+                raise reader.error(f"{reader.path}.{what}", "", "unique names", names, problem="names repeat")
+        return GearboxSection(tuple(stages), tuple(shafts), out)
+
+    def members(self, model: Any) -> tuple[str, ...]:
+        return tuple(g.name for g in model.gears) + tuple(st.carrier for st in _section_of(model).planetary)
+
+    def check(self, model: Any) -> None:
+        super().check(model)
+        fixed = set()
+        for s in gearbox_stages(model):
+            if s.planetary is None:
+                if any(model.gear(g).is_helical for g in s.gears) and len(s.meshes) != 1:
+                    raise ModelError(f"stage {s.name}: a helical stage of a gearbox is one pair (one mesh), got "
+                                     f"meshes {list(s.meshes)}")
+                continue
+            sub = _planetary_model(model, s.planetary, s.gears, s.meshes, s.input)
+            mem = planetary_members(sub)
+            fixed.add({"sun": mem.sun, "ring": mem.ring, "carrier": s.planetary.carrier}[s.planetary.planetary.fixed_member])
+            kr = s.planetary.planetary.carrier_support.rotational_stiffness_Nm_per_rad
+            if s.planetary.carrier not in fixed and kr not in (0.0, math.inf):
+                raise ModelError(f"gearbox.planetary '{s.planetary.name}'.carrier_support.rotational_stiffness_Nm_per_rad "
+                                 f"[N*m/rad] = {kr:g}: a turning carrier's rotation belongs to the gearbox's shafts "
+                                 "(allowed: 0, or leave it out)")
+            planetary_geometry(sub)
+        turning = [g.name for g in model.gears
+                   if g.name not in fixed and g.support.rotational_stiffness_Nm_per_rad != 0]
+        if turning:
+            raise ModelError(f"gears {turning}: support.rotational_stiffness_Nm_per_rad [N*m/rad] must be 0 for a "
+                             "turning member of a gearbox (its shafts join the stages; its input and output members "
+                             "are the drivetrain's: FMU mode 1)")
+
+    def placement(self, model: Any, gears: Mapping, meshes: Mapping) -> TrainGeometry:
+        """Each stage placed in its own frame (a planetary stage's sun at the origin, a parallel stage by
+        :func:`~hacgear_core.geometry.train_geometry`), the stages side by side along x."""
+        raise ModelError("a gearbox's stages are placed each in its own frame: `hacgear info` shows them per stage")
+
+    def nominal_mesh_forces(self, model: Any, base_radii: Mapping[str, tuple[float, float]]) -> dict[str, float]:
+        """Per contact: a planetary stage's force per planet, a fixed-axis stage's mesh force, at the static
+        torque the chain brings to the stage."""
+        from hacgear_core.statics.grid import nominal_mesh_forces as forces_of
+        out = {}
+        t = abs(model.operating.torque_Nm)
+        for s in gearbox_stages(model):
+            if s.planetary is not None:
+                sub = _planetary_model(model, s.planetary, s.gears, s.meshes, s.input)
+                flow = planetary_torques(sub, planetary_geometry(sub), t * s.torque_in)
+                out.update({m: flow["force_N"][f"{m}_1"] for m in s.meshes})
+            else:
+                sub = _fixed_axis_model(model, s)
+                out.update(forces_of(sub, {m: base_radii[m] for m in s.meshes}, torque_Nm=t * s.torque_in))
+        return out
+
+    def train(self, model: Any, tables: Any, *, force_law: str = "hac", torque_Nm: float | None = None,
+              bearing_stiffness_N_per_m: float | None = None, modal_damping_ratio: float | None = None,
+              shafts: bool = True) -> Train:
+        """Each stage by its kind's builder at the torque the chain brings to it, joined (module docstring)."""
+        torque = model.operating.torque_Nm if torque_Nm is None else float(torque_Nm)
+        stages = gearbox_stages(model)
+        rates = mesh_rates(model, stages)
+        parts: list[tuple[Stage, Train, float, float]] = []   # stage, train, lambda, c_s
+        u: dict[tuple[str, str], float] = {}
+        for s in stages:
+            opts = dict(force_law=force_law, torque_Nm=torque * s.torque_in,
+                        bearing_stiffness_N_per_m=bearing_stiffness_N_per_m, modal_damping_ratio=modal_damping_ratio,
+                        shafts=shafts)
+            if s.planetary is not None:
+                sub = _planetary_model(model, s.planetary, s.gears, s.meshes, s.input)
+                part = _renamed(planetary_from_model(sub, tables, **opts), {"carrier": s.planetary.carrier})
+            else:
+                sub = _fixed_axis_model(model, s)
+                build = helical_from_model if sub.kind == "helical_pair" else train_from_model
+                part = build(sub, tables, **opts)
+            local = dict(part.rigid_mode)
+            b_in = next(b for b in part.bodies if b.name == s.input)
+            u_in = local[(s.input, b_in.rotation)]
+            if not u:   # the input member: the rigid mode's sign in its sense of rotation, shared by every body
+                sign = math.copysign(1.0, u_in) * b_in.sense
+            # the stage's rigid mode scaled to the input member's speed, its sign such that every body moves in
+            # its own sense of rotation (the stages' frames are independent)
+            lam = float(s.speed_in) / abs(u_in) * math.copysign(1.0, u_in) * b_in.sense * sign
+            u.update({k: c * lam for k, c in local.items()})
+            c_s = part.carrier_ratio * abs(lam)
+            parts.append((s, part, lam, c_s))
+        bodies, couplings, springs, gyro, centri, reports_s, reports_b = [], [], [], [], [], [], []
+        ref_cycles = float(stages[0].mesh_frequency) / (2 * math.pi)
+        for s, part, lam, c_s in parts:
+            rotating = part.carrier_ratio != 0.0
+            bodies += [replace(b, speed_ratio=b.speed_ratio * abs(lam), frame_ratio=c_s if rotating else 0.0)
+                       for b in part.bodies]
+            for c in part.couplings:
+                mesh = c.group if s.planetary is not None else c.name
+                p, q = rates[mesh]
+                kin = abs(sum(coef * u.get(k, 0.0) for k, coef in c.w))
+                if abs(kin - ref_cycles * p / q) > 1e-9 * ref_cycles * p / q:
+                    raise ModelError(f"{model.name}: mesh '{c.name}' advances {kin:.12g} cycles per radian of the "
+                                     f"input, its tooth counts say {ref_cycles * p / q:.12g} (internal error)")
+                couplings.append(replace(c, rate=(p, q)))
+            springs += list(part.springs)
+            gyro += [(a, b, c_s * v / part.carrier_ratio) for a, b, v in part.gyroscopic] if rotating else []
+            centri += [(a, b, (c_s / part.carrier_ratio) ** 2 * v) for a, b, v in part.centripetal] if rotating else []
+            reports_s += list(part.support_reports)
+            reports_b += list(part.bearing_reports)
+        by_name = {b.name: b for b in bodies}
+        for sh in _section_of(model).shafts:
+            # each member's rotation measured in its sense of rotation (its stage's frame)
+            a, b = by_name[sh.member_a], by_name[sh.member_b]
+            springs.append(Spring(sh.torsional_stiffness_Nm_per_rad,
+                                  rows=((((a.name, a.rotation), a.sense), ((b.name, b.rotation), -b.sense)),)))
+        first, lastp = parts[0][1], parts[-1]
+        nominal = {model.operating.torque_gear: (first.nominal_torques_per_Nm or {}).get(
+            model.operating.torque_gear, 1.0)}
+        s, part, _, _ = lastp
+        tq = (part.nominal_torques_per_Nm or {}).get(s.output)
+        if tq is None:
+            # a fixed-axis stage's output brakes with the torque its meshes deliver (in its sense of rotation)
+            tq = -float(s.speed_in / s.speed_out)
+        nominal[s.output] = tq * s.torque_in
+        zeta = model.damping.modal_damping_ratio if modal_damping_ratio is None else float(modal_damping_ratio)
+        any_rot = any(c_s != 0.0 for _, _, _, c_s in parts)
+        return Train(
+            name=model.name, kind=self.name, bodies=tuple(bodies), couplings=tuple(couplings), torque_Nm=torque,
+            input_gear=model.operating.torque_gear, reference_gear=model.operating.torque_gear,
+            modal_damping_ratio=zeta, force_law=force_law, springs=tuple(springs), gyroscopic=tuple(gyro),
+            centripetal=tuple(centri), carrier_ratio=1.0 if any_rot else 0.0, rigid_mode=tuple(u.items()),
+            held_tolerance=max(p.held_tolerance for _, p, _, _ in parts), mesh_cycles_per_rad=ref_cycles,
+            nominal_torques_per_Nm=nominal, support_reports=tuple(reports_s), bearing_reports=tuple(reports_b))
+
+    def extra_outputs(self, model: Any, system: Any) -> tuple[ExtraOutput, ...]:
+        """``<shaft>.torque`` of every shaft: its elastic torque, positive when member_a drives member_b."""
+        return tuple(ExtraOutput(
+            name=f"{s.name}.torque", unit="N.m",
+            description=f"elastic torque of shaft {s.name} ({s.member_a} -> {s.member_b}), k = "
+                        f"{s.torsional_stiffness_Nm_per_rad:g} N m/rad, positive when {s.member_a} drives "
+                        f"{s.member_b}",
+            read=_shaft_torque(s)) for s in _section_of(model).shafts)
+
+
+def _shaft_torque(shaft: GearboxShaft):
+    """The reader of ``<shaft>.torque`` on a Simulator: k times the twist of the deviations, each measured in its
+    member's sense of rotation."""
+    k = shaft.torsional_stiffness_Nm_per_rad
+
+    def read(sim: Any) -> float:
+        ga, gb = sim.system.gears[shaft.member_a], sim.system.gears[shaft.member_b]
+        return k * (ga.sense * sim.s[ga.rotation] - gb.sense * sim.s[gb.rotation])
+    return read

@@ -69,7 +69,8 @@ class Body:
     reference gear's sense), ``rotation`` (the label of its rotation DOF, '' for none), ``radius_m`` (its
     characteristic radius), ``mass_kg``, ``inertia_kgm2`` and ``support`` (translational [N/m], rotational [N m/rad])
     as reported; ``frame_ratio``: the speed of the frame its translations live in over the reference speed (a
-    planetary stage's carrier; None: the train's ``carrier_ratio``)."""
+    planetary stage's carrier; None: the train's ``carrier_ratio``); ``stage``: the stage it belongs to (a
+    gearbox's; '' elsewhere)."""
 
     name: str
     dofs: tuple[Dof, ...]
@@ -82,6 +83,7 @@ class Body:
     inertia_kgm2: float = 0.0
     support: tuple[float, float] = (math.inf, 0.0)
     frame_ratio: float | None = None
+    stage: str = ""
 
 
 @dataclass(frozen=True)

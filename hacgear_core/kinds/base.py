@@ -15,7 +15,7 @@ sprung (a diagonal spring to ground), 0 free.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Mapping
 
 import numpy as np
@@ -245,6 +245,17 @@ class Kind:
     def members(self, model: Any) -> tuple[str, ...]:
         """Names a torque or a bearing output may refer to: the gears (and members such as a carrier)."""
         return tuple(g.name for g in model.gears)
+
+    def bearing_stiffness(self, model: Any, member: str) -> float:
+        """The translational support stiffness [N/m] of ``member`` (a gear; kinds with other members such as a
+        carrier override this)."""
+        return float(model.gear(member).support.translational_stiffness_N_per_m)
+
+    def with_bearing_stiffness(self, model: Any, stiffness: Mapping[str, float]) -> Any:
+        """``model`` with the translational support stiffness [N/m] of each member ``stiffness`` names."""
+        return replace(model, gears=tuple(
+            replace(g, support=replace(g.support, translational_stiffness_N_per_m=float(stiffness[g.name])))
+            if g.name in stiffness else g for g in model.gears))
 
     def check(self, model: Any) -> None:
         """Refuse a model of this kind that the kind cannot build (mesh count, helix, section, members); raises

@@ -63,8 +63,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from hacgear_core.errors import ModelError
-from hacgear_core.geometry import train_geometry
+from hacgear_core.errors import GeometryError, ModelError
+from hacgear_core.geometry import nominal_mesh_forces as fixed_axis_forces
 from hacgear_core.geometry.planetary import planetary_geometry, planetary_members, planetary_torques
 from hacgear_core.geometry.train import TrainGeometry
 from hacgear_core.kinds.base import Body, Coupling, ExtraOutput, Kind, Spring, Train
@@ -380,6 +380,21 @@ class GearboxKind(Kind):
     def members(self, model: Any) -> tuple[str, ...]:
         return tuple(g.name for g in model.gears) + tuple(st.carrier for st in _section_of(model).planetary)
 
+    def bearing_stiffness(self, model: Any, member: str) -> float:
+        for st in _section_of(model).planetary:
+            if st.carrier == member:
+                return float(st.planetary.carrier_support.translational_stiffness_N_per_m)
+        return super().bearing_stiffness(model, member)
+
+    def with_bearing_stiffness(self, model: Any, stiffness: Mapping[str, float]) -> Any:
+        model = super().with_bearing_stiffness(model, stiffness)
+        sec = _section_of(model)
+        stages = tuple(st if st.carrier not in stiffness else replace(st, planetary=replace(
+            st.planetary, carrier_support=replace(st.planetary.carrier_support,
+                                                  translational_stiffness_N_per_m=float(stiffness[st.carrier]))))
+            for st in sec.planetary)
+        return replace(model, section=replace(sec, planetary=stages))
+
     def check(self, model: Any) -> None:
         super().check(model)
         fixed = set()
@@ -406,14 +421,15 @@ class GearboxKind(Kind):
                              "are the drivetrain's: FMU mode 1)")
 
     def placement(self, model: Any, gears: Mapping, meshes: Mapping) -> TrainGeometry:
-        """Each stage placed in its own frame (a planetary stage's sun at the origin, a parallel stage by
-        :func:`~hacgear_core.geometry.train_geometry`), the stages side by side along x."""
-        raise ModelError("a gearbox's stages are placed each in its own frame: `hacgear info` shows them per stage")
+        """None placement of the whole: each stage is placed in its own frame when its train is built (a planetary
+        stage by :func:`~hacgear_core.geometry.planetary.planetary_geometry`, a parallel one by
+        :func:`~hacgear_core.geometry.train_geometry`); raises GeometryError (``hacgear info`` then shows no mesh
+        phases)."""
+        raise GeometryError(f"{model.name}: a gearbox's stages are placed each in its own frame (no single placement)")
 
     def nominal_mesh_forces(self, model: Any, base_radii: Mapping[str, tuple[float, float]]) -> dict[str, float]:
         """Per contact: a planetary stage's force per planet, a fixed-axis stage's mesh force, at the static
         torque the chain brings to the stage."""
-        from hacgear_core.statics.grid import nominal_mesh_forces as forces_of
         out = {}
         t = abs(model.operating.torque_Nm)
         for s in gearbox_stages(model):
@@ -423,7 +439,7 @@ class GearboxKind(Kind):
                 out.update({m: flow["force_N"][f"{m}_1"] for m in s.meshes})
             else:
                 sub = _fixed_axis_model(model, s)
-                out.update(forces_of(sub, {m: base_radii[m] for m in s.meshes}, torque_Nm=t * s.torque_in))
+                out.update(fixed_axis_forces(sub, {m: base_radii[m] for m in s.meshes}, torque_Nm=t * s.torque_in))
         return out
 
     def train(self, model: Any, tables: Any, *, force_law: str = "hac", torque_Nm: float | None = None,

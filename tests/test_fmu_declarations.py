@@ -31,7 +31,11 @@ ROOT = Path(__file__).resolve().parent.parent
 #: changed; and when the NREL 5 MW stages got their tables (their entries added, the others unchanged); and when
 #: the stage-1 ring moved to the published rack A (only nrel_5mw_stage1's nominal values and its two start speeds
 #: changed, by name) and the reducers reducer_19_71_23_83 and reducer_helical_19_71_23_83 were added (their entries
-#: added, the others unchanged)
+#: added, the others unchanged); and when the gearbox nrel_5mw_gearbox was added (its entries added) and the ports'
+#: nominal inertias were taken from the free train (a port held at constant speed has no rotation in the
+#: constant-speed system, whose value was another DOF's): by name, only the nominal values of <port>.inertia and
+#: <port>.train_inertia of the held ports of nrel_5mw_stage1, nrel_5mw_stage2 and the two planetary_65_55_175
+#: systems changed
 REFERENCE = Path(__file__).resolve().parent / "data" / "model_descriptions.json.gz"
 
 

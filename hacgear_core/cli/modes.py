@@ -67,7 +67,8 @@ def _run_planetary(args: argparse.Namespace, inp) -> int:
     print("  mode  frequency [Hz]  type           multiplicity  dominant member (share of kinetic energy)")
     for i, (f, t, k, d) in enumerate(zip(gm.natural_frequencies_Hz, gm.types, gm.multiplicity, gm.dominant)):
         where = f"{d[0]}: {d[1]}" if d[0] else d[1]
-        print(f"  {i + 1:4d}  {f:14.1f}  {t:13s}  {k:12d}  {where} ({d[2]:.0%})")
+        # the types (Lin & Parker) classify a planetary set's modes; a gearbox's stages have no common one
+        print(f"  {i + 1:4d}  {f:14.1f}  {t if not staged or t == 'rigid' else '-':13s}  {k:12d}  {where} ({d[2]:.0%})")
     if "impulse_test" in rep:
         it = rep["impulse_test"]
         for key, pos in (("single_contact_Hz", "single_contact_position"), ("double_contact_Hz", "double_contact_position")):

@@ -112,7 +112,13 @@ class MeshCoupling:
 
     ``rate`` ``(p, q)``: the mesh runs at ``p/q`` times the reference mesh frequency (integers > 0; (1, 1) for
     every mesh of a pair, idler chain, planetary set; a gear train's stages with other tooth counts differ): its
-    kinematic position is ``p/q`` times the reference position (:meth:`LumpedSystem.kinematic_positions`)."""
+    kinematic position is ``p/q`` times the reference position (:meth:`LumpedSystem.kinematic_positions`).
+
+    ``error`` (manufacturing errors of the gears' teeth, :mod:`hacgear_core.dynamics.gear_errors`): None, or the
+    mesh's error profile ``(samples (L npc,) [m], L, npc)``: the error ``e`` [m] of the tooth pairs in contact along
+    the line of action (positive: the flanks meet earlier) at the unwrapped mesh position ``c`` [cycles], linear
+    between samples ``c = i / npc`` and periodic over ``L`` mesh cycles; the drive flanks' force is their law at
+    the deflection ``x - e(c)`` (the coast flanks keep the ideal geometry)."""
 
     name: str
     gear_a: str
@@ -135,6 +141,7 @@ class MeshCoupling:
     t: np.ndarray | None = None
     t_c: np.ndarray | None = None
     rate: tuple[int, int] = (1, 1)
+    error: tuple | None = None
 
     @property
     def coast_table(self):
@@ -297,6 +304,14 @@ class LumpedSystem:
         self.unit_rates = bool(np.all(self.rate[:, 0] == self.rate[:, 1]))
         #: reference mesh cycles after which every mesh is back at its start position (lcm of the q / gcd(p, q))
         self.period_cycles = math.lcm(*(q // math.gcd(p, q) for p, q in (c.rate for c in self.meshes)))
+        #: any mesh has a manufacturing-error profile (``MeshCoupling.error``): the kernel's error loops
+        self.has_errors = any(c.error is not None for c in self.meshes)
+        if self.has_errors:
+            # a mesh at rate p/q with an error profile of L of its cycles repeats after L q / gcd(L p, q) reference
+            # cycles (the hunting-tooth period of its gears)
+            self.period_cycles = math.lcm(self.period_cycles, *(
+                (int(c.error[1]) * c.rate[1]) // math.gcd(int(c.error[1]) * c.rate[0], c.rate[1])
+                for c in self.meshes if c.error is not None))
         self.Vc = np.ascontiguousarray(np.array([np.zeros(n) if c.v_c is None else c.v_c for c in self.meshes],
                                                 dtype=float))
         self.T = np.ascontiguousarray(np.array([np.zeros(n) if c.t is None else c.t for c in self.meshes],
@@ -320,6 +335,8 @@ class LumpedSystem:
 
     def _select_kernel(self):
         law = self.mesh_law
+        if getattr(self, "has_errors", False):
+            return kernels.select_kernel(law.kernel_law, self.n, law.m_kernel, law.kernel_two_sided, errors=True)
         return kernels.select_kernel(law.kernel_law, self.n, law.m_kernel, law.kernel_two_sided)
 
     # ------------------------------------------------------------------ linearisation, damping, step bound
@@ -380,6 +397,8 @@ class LumpedSystem:
         kv, kw_, kvr, vc2, kph = self.mesh_law.kernel_meshes(self)
         tab, tint, tflt = self.mesh_law.kernel_tables(self)
         lin, lint = kernels.flatten_linear([lw.lin for lw in self.laws])
+        if getattr(self, "has_errors", False):
+            lin, lint = kernels.flatten_errors(lin, lint, [c.error for c in self.meshes])
         vmi = kv @ minv.T
         vci = vc2 @ minv.T
         pattern = (kv != 0) | (kw_ != 0) | (vmi != 0) | (vc2 != 0) | (vci != 0)
@@ -443,6 +462,11 @@ class LumpedSystem:
             h.update(ta.ftab.tobytes())
             h.update(np.array([ta.x0, ta.dx]).tobytes())
         self.mesh_law.fingerprint(self, h)
+        if getattr(self, "has_errors", False):
+            for c in self.meshes:
+                if c.error is not None:
+                    h.update(np.ascontiguousarray(c.error[0], np.float64).tobytes())
+                    h.update(repr((c.name, int(c.error[1]), int(c.error[2]))).encode())
         h.update(repr((self.force_law_name, self.torque_Nm, self.modal_damping_ratio, self.carrier_ratio,
                        self.dof_names, self.mesh_names, self.reference_gear)).encode())
         return h.hexdigest()
@@ -637,6 +661,23 @@ class LumpedSystem:
         """The meshes' kinematic positions [cycles] (..., m) in [0, 1) (:meth:`mesh_kinematics`)."""
         return self.mesh_kinematics(tau_ref, cycles)[0]
 
+    def mesh_errors_m(self, positions) -> np.ndarray:
+        """Manufacturing errors [m] (..., m) of the meshes at unwrapped mesh positions ``positions`` (..., m)
+        [cycles] (each mesh's error profile, ``MeshCoupling.error``, by the kernel's rule; 0 without one)."""
+        pos = np.asarray(positions, dtype=float)
+        out = np.zeros(pos.shape)
+        for k, c in enumerate(self.meshes):
+            if c.error is None:
+                continue
+            samples, cycles, npc = c.error
+            u = np.mod(pos[..., k], float(cycles)) * float(npc)
+            i = np.floor(u)
+            a = u - i
+            nt = int(cycles) * int(npc)
+            i = np.mod(i.astype(np.int64), nt)
+            out[..., k] = samples[i] + a * (samples[(i + 1) % nt] - samples[i])
+        return out
+
     def unwrapped_positions(self, c) -> np.ndarray:
         """Kinematic positions [cycles] (..., m) of the meshes, unwrapped, with the reference mesh at ``c`` (...)
         unwrapped reference cycles: ``rate_k c``."""
@@ -695,7 +736,8 @@ class LumpedSystem:
     def kernel_label(self) -> str:
         """This system's kernel specialisation in words (the compile notice's)."""
         law = self.mesh_law
-        return kernels.kernel_label(law.kernel_law, self.n, law.m_kernel, law.kernel_two_sided)
+        return kernels.kernel_label(law.kernel_law, self.n, law.m_kernel, law.kernel_two_sided,
+                                    errors=getattr(self, "has_errors", False))
 
     def with_changes(self, **changes) -> "LumpedSystem":
         """A copy rebuilt with some constructor arguments changed (torque, damping, force law...)."""

@@ -1,0 +1,198 @@
+"""Manufacturing errors of gear teeth (pitch deviations, runout) as the error profile of each mesh.
+
+A pitch or runout error of a gear moves the flanks of its teeth along the line of action: the tooth pairs in
+contact meet earlier or later than ideal teeth would.  The dynamics take that as a shift of the drive flanks'
+lookup deflection: the mesh force is the table's force at ``x - e(c)`` (``x = v . q`` the approach of the gear
+bodies, ``c`` the unwrapped mesh position [cycles], ``e`` the mesh's *error profile*, positive where the flanks
+meet earlier; :class:`~hacgear_core.dynamics.system.MeshCoupling` ``error``, the kernel's ``VARIANT_ERRORS``
+loops).  This module builds ``e(c)`` from each gear's :class:`~hacgear_core.model.GearErrors`.
+
+Conventions.  Teeth are counted in the order they reach a mesh: tooth ``j`` of gear ``g`` is at the pitch point of
+mesh ``k`` at mesh position ``tooth_passage[g] + j`` (mod ``z_g``).  At mesh position ``c = n + tau`` (``n``
+whole cycles, ``tau`` in [0, 1)) the table's tooth pair of offset ``o`` (its pair phase ``tau - o``) is tooth
+``j_g = (n - tooth_passage[g] + o) mod z_g`` of each gear.  ``gear_a`` pushes ``gear_b`` (drive flanks).
+
+Pitch.  The single pitch deviations ``f_p,j`` (pitch ending at tooth ``j``, on the reference circle, positive: a
+longer pitch) give each tooth's cumulative pitch deviation ``F_j = sum_{i <= j} f_p,i`` less its mean (a common
+offset is a rotation of the whole gear, not an error): tooth ``j`` arrives ``F_j`` late on the reference circle,
+``F_j r_b / r`` along the line of action.  A late tooth of the driving gear (gear_a) meets its partner later
+(``E = -F_j r_b / r``); a late tooth of the driven gear (gear_b) waits nearer the driving flank (``E = +F_j r_b /
+r``).  The pair's error is ``E_a(j_a) + E_b(j_b)``.
+
+Runout.  The teeth of gear ``g`` turn about a centre offset by ``e_g`` (eccentricity) in the direction
+``beta_g(c) = 2 pi (c - tooth_passage[g]) / z_g + phi_g`` from the direction of the pitch point, measured in the
+gear's sense of rotation (``phi_g`` from tooth 0's centre line).  The offset's component along the line of action
+moves every flank of the gear alike: ``R_a(c) = e_a sin(beta_a + alpha_w)``, ``R_b(c) = e_b sin(alpha_w -
+beta_b)`` (``alpha_w`` the operating pressure angle of the drive flanks; an offset towards the mating gear,
+``beta = 0``, closes the mesh by ``e sin alpha_w``).  The offset's component across the line of action (a change
+of the centre distance and of the roll angles) is left out: it changes the contact ratio and the mesh position by
+``e / p_b`` of a cycle at most, a second-order effect for ``e`` of micrometres.
+
+Several pairs in contact (stated linearisation).  The table holds the force of all pairs together at one
+approach; with pairs of different errors in contact the profile is the load-share weighted error
+``e(c) = sum_o s_o(tau) [E_a(j_a,o) + E_b(j_b,o)] + R_a(c) + R_b(c)`` with ``s_o`` the static load share of pair
+``o`` at the nominal force (the table's tooth loads at its static deflection).  It is exact for one pair in
+contact and for errors common to all pairs (runout); for pairs with different errors it is the first-order
+(linear springs) rule: ``sum_o k_o (x - e_o) = K (x - sum_o (k_o / K) e_o)``, with the static load shares standing
+for the stiffness shares ``k_o / K``.  It does not model a pair losing contact because of its error alone (an
+error larger than that pair's deflection).  The profile is sampled at the table's positions per cycle
+(``npc``) over ``L = lcm`` of the tooth counts of the gears that carry errors, linear between samples (as the
+table itself).  Coast flanks keep the ideal geometry.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from typing import Any, Mapping
+
+import numpy as np
+
+from hacgear_core.errors import ModelError
+
+__all__ = ["iso1328_single_pitch_tolerance_m", "single_pitch_deviations_m", "cumulative_pitch_deviations_m",
+           "load_shares", "mesh_error_profile", "with_gear_errors", "GearErrorData"]
+
+
+def iso1328_single_pitch_tolerance_m(grade: int, reference_diameter_m: float, normal_module_m: float) -> float:
+    """Single pitch tolerance ``f_pT`` [m] of ISO 1328-1:2013 (its Eq. for ``f_pT``, unrounded): ``(0.001 d + 0.4
+    m_n + 5) sqrt(2)^(A - 5)`` micrometres with ``d``, ``m_n`` in millimetres, ``A`` the accuracy grade."""
+    d, mn = reference_diameter_m * 1e3, normal_module_m * 1e3
+    return (0.001 * d + 0.4 * mn + 5.0) * math.sqrt(2.0) ** (int(grade) - 5) * 1e-6
+
+
+def single_pitch_deviations_m(errors: Any, teeth: int, reference_diameter_m: float, normal_module_m: float) -> np.ndarray:
+    """The single pitch deviations (z,) [m] of a gear's :class:`~hacgear_core.model.GearErrors`: as given, or drawn
+    for its ``iso1328_grade``: uniform in ``[-f_pT, f_pT]`` (:func:`iso1328_single_pitch_tolerance_m`) with
+    ``numpy.random.default_rng(seed)``, closed by subtracting their mean (so a few may exceed ``f_pT`` slightly; the
+    cumulative deviation that results is not checked against ``F_pT``); zeros without pitch errors."""
+    if errors is None:
+        return np.zeros(teeth)
+    if errors.single_pitch_deviations_m:
+        return np.asarray(errors.single_pitch_deviations_m, float)
+    if errors.iso1328_grade is None:
+        return np.zeros(teeth)
+    fpt = iso1328_single_pitch_tolerance_m(errors.iso1328_grade, reference_diameter_m, normal_module_m)
+    f = np.random.default_rng(int(errors.seed)).uniform(-fpt, fpt, int(teeth))
+    return f - f.mean()
+
+
+def cumulative_pitch_deviations_m(single_m: np.ndarray) -> np.ndarray:
+    """Cumulative pitch deviation (z,) [m] of every tooth (how late it arrives, on the reference circle) from the
+    single pitch deviations (z,): ``F_j = sum_{i=1..j} f_p,i`` (``F_0 = 0``; ``f_p,0`` closes the circle), less
+    the mean of ``F``."""
+    f = np.asarray(single_m, float)
+    F = np.concatenate([[0.0], np.cumsum(f[1:])])
+    return F - F.mean()
+
+
+def load_shares(table: Any, force_N: float, positions: np.ndarray) -> np.ndarray:
+    """Static load share (Np, w) of each tooth pair (the table's ``tooth_offsets``, w of them) at mesh positions
+    ``positions`` (Np,) in [0, 1) under the static mesh force ``force_N`` [N]: the table's tooth loads at its
+    static deflection over their sum (the offset-0 pair alone where the table holds no tooth loads or none is
+    loaded)."""
+    offs = np.asarray(getattr(table, "tooth_offsets", [0]), int)
+    pos = np.asarray(positions, float)
+    out = np.zeros((pos.size, offs.size))
+    i0 = int(np.flatnonzero(offs == 0)[0]) if np.any(offs == 0) else 0
+    if getattr(table, "tooth_load_N", None) is None:
+        out[:, i0] = 1.0
+        return out
+    x = np.asarray(table.static_deflection(pos, np.full(pos.size, float(force_N))), float)
+    loads = np.stack([np.asarray(table.tooth_load(pos, x, int(o)), float) for o in offs], axis=1)
+    tot = loads.sum(axis=1)
+    ok = tot > 0
+    out[ok] = loads[ok] / tot[ok, None]
+    out[~ok, i0] = 1.0
+    return out
+
+
+def mesh_error_profile(*, teeth: tuple[int, int], passage: tuple[float, float], pitch_m: tuple[np.ndarray | None,
+                       np.ndarray | None], runout: tuple[tuple[float, float], tuple[float, float]],
+                       pitch_to_loa: tuple[float, float], pressure_angle_rad: float, table: Any, force_N: float,
+                       samples_per_cycle: int | None = None) -> tuple[np.ndarray, int, int] | None:
+    """Error profile ``(samples (L npc,) [m], L, npc)`` of one mesh (module docstring), None when neither gear has
+    an error.
+
+    ``teeth`` (z_a, z_b); ``passage`` their tooth passages in this mesh [cycles]; ``pitch_m`` each gear's
+    cumulative pitch deviations (z,) [m] on the reference circle (None: none); ``runout`` each gear's
+    (eccentricity [m], phase [rad]); ``pitch_to_loa`` each gear's ``r_b / r`` (reference circle to line of
+    action); ``pressure_angle_rad`` the drive flanks' operating pressure angle; ``table`` the mesh table (load
+    shares, positions per cycle); ``force_N`` the static mesh force the shares are taken at."""
+    za, zb = (int(z) for z in teeth)
+    has_pitch = [p is not None and np.any(np.asarray(p) != 0) for p in pitch_m]
+    has_run = [r[0] != 0.0 for r in runout]
+    carriers = [z for z, p, r in zip((za, zb), has_pitch, has_run) if p or r]
+    if not carriers:
+        return None
+    L = math.lcm(*carriers)
+    npc = int(samples_per_cycle or getattr(table, "n_positions", 0) or 64)
+    c = np.arange(L * npc) / npc
+    n = np.arange(L * npc) // npc
+    tau = (np.arange(L * npc) % npc) / npc
+    e = np.zeros(L * npc)
+    alpha = float(pressure_angle_rad)
+    if any(has_pitch):
+        offs = np.asarray(getattr(table, "tooth_offsets", [0]), int)
+        shares = load_shares(table, force_N, np.arange(npc) / npc)      # (npc, w)
+        sh = shares[np.arange(L * npc) % npc]                            # (L npc, w)
+        for g, (z, tp, p, sign) in enumerate(zip((za, zb), passage, pitch_m, (-1.0, 1.0))):
+            if not has_pitch[g]:
+                continue
+            E = sign * pitch_to_loa[g] * np.asarray(p, float)
+            tp_i = int(round(float(tp)))
+            for w, o in enumerate(offs):
+                j = np.mod(n - tp_i + int(o), z)
+                e += sh[:, w] * E[j]
+    for g, (z, tp, (ecc, phi)) in enumerate(zip((za, zb), passage, runout)):
+        if ecc == 0.0:
+            continue
+        beta = 2.0 * math.pi * (c - float(tp)) / z + float(phi)
+        e += ecc * (np.sin(beta + alpha) if g == 0 else np.sin(alpha - beta))
+    del tau
+    return np.ascontiguousarray(e), int(L), npc
+
+
+#: per gear: (its GearErrors, reference radius [m], normal module [m]) as :func:`with_gear_errors` takes them
+GearErrorData = tuple
+
+
+def with_gear_errors(system: Any, gears: Mapping[str, GearErrorData],
+                     pressure_angles_rad: Mapping[str, float]) -> Any:
+    """``system`` (a :class:`~hacgear_core.dynamics.system.LumpedSystem` of a fixed-axis train) with the error
+    profile of every mesh one of whose gears has errors (:func:`mesh_error_profile`); the system itself when no
+    gear has any.
+
+    ``gears`` {gear: (GearErrors or None, reference radius [m], normal module [m])}; ``pressure_angles_rad``
+    {mesh: operating pressure angle of its drive flanks [rad]}.  The load shares are taken at each mesh's nominal
+    force at the system's torque."""
+    if not any(ge is not None and ge.any for ge, _, _ in gears.values()):
+        return system
+    if system.mesh_law.kernel_law not in (0, 1):
+        raise ModelError(f"{system.name}: manufacturing errors are supported on spur meshes (force tables or a "
+                         "conventional law), not on helical meshes yet")
+    if not system.unit_rates:
+        raise ModelError(f"{system.name}: manufacturing errors are not supported on meshes at their own rates yet")
+    cum = {}
+    for name, (ge, r_ref, mn) in gears.items():
+        if ge is None or name not in system.gears:
+            continue
+        z = system.gears[name].teeth
+        f = single_pitch_deviations_m(ge, z, 2.0 * r_ref, mn)
+        cum[name] = cumulative_pitch_deviations_m(f) if np.any(f != 0) else None
+    meshes = []
+    for c in system.meshes:
+        ga, gb = c.gear_a, c.gear_b
+        ea, eb = gears.get(ga, (None, 1.0, 0.0))[0], gears.get(gb, (None, 1.0, 0.0))[0]
+        if not ((ea is not None and ea.any) or (eb is not None and eb.any)):
+            meshes.append(c)
+            continue
+        ratio = tuple(float(c.base_radius_m[i]) / float(gears[g][1]) if g in gears else 1.0
+                      for i, g in enumerate((ga, gb)))
+        prof = mesh_error_profile(
+            teeth=tuple(c.teeth), passage=(c.tooth_passage.get(ga, 0), c.tooth_passage.get(gb, 0)),
+            pitch_m=(cum.get(ga), cum.get(gb)),
+            runout=tuple(((ge.runout_m, ge.runout_phase_rad) if ge is not None else (0.0, 0.0)) for ge in (ea, eb)),
+            pitch_to_loa=ratio, pressure_angle_rad=float(pressure_angles_rad[c.name]), table=c.table,
+            force_N=float(c.nominal_force_N))
+        meshes.append(c if prof is None else replace(c, error=prof))
+    return system.with_changes(meshes=tuple(meshes))

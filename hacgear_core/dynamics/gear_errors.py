@@ -29,15 +29,19 @@ of the centre distance and of the roll angles) is left out: it changes the conta
 ``e / p_b`` of a cycle at most, a second-order effect for ``e`` of micrometres.
 
 Several pairs in contact (stated linearisation).  The table holds the force of all pairs together at one
-approach; with pairs of different errors in contact the profile is the load-share weighted error
-``e(c) = sum_o s_o(tau) [E_a(j_a,o) + E_b(j_b,o)] + R_a(c) + R_b(c)`` with ``s_o`` the static load share of pair
-``o`` at the nominal force (the table's tooth loads at its static deflection).  It is exact for one pair in
-contact and for errors common to all pairs (runout); for pairs with different errors it is the first-order
-(linear springs) rule: ``sum_o k_o (x - e_o) = K (x - sum_o (k_o / K) e_o)``, with the static load shares standing
-for the stiffness shares ``k_o / K``.  It does not model a pair losing contact because of its error alone (an
-error larger than that pair's deflection).  The profile is sampled at the table's positions per cycle
-(``npc``) over ``L = lcm`` of the tooth counts of the gears that carry errors, linear between samples (as the
-table itself).  Coast flanks keep the ideal geometry.
+approach.  The pitch part of the profile is the static approach change the pairs' own errors ``e_o(c) =
+E_a(j_a,o) + E_b(j_b,o)`` cause at the nominal force: ``x(c) - x_0(tau)`` with ``sum_o P_o(tau, x - e_o) = F``
+and ``sum_o P_o(tau, x_0) = F`` (``P_o`` the table's tooth load of pair ``o``, each pair at its own approach, so a
+pair an error lifts off carries nothing: :func:`pair_solve_shift`); the runout part ``R_a + R_b`` is added (an
+error common to all pairs shifts every pair alike, at any load).  So the kernel's static TE equals that per-pair
+solve exactly at the nominal torque; at another load the shift is the nominal one (the linearisation), off by
+about 20 % RMS of the pulse of a single pitch error at 0.5 and 1.5 x the nominal torque (docs/validation.md
+"Manufacturing errors"): the pairs' load sharing, and so the pulse's shape, moves with the load.  For small
+errors it is the stiffness-share rule ``e = sum_o (k_o / K) e_o`` (:func:`load_shares`).  Not held: the coupling of
+the pairs through the gear bodies when their approaches differ (the table's tooth loads come from the coupled
+solve at one common approach), and the errors' effect on the coast flanks (they keep the ideal geometry).
+The profile is sampled at the table's positions per cycle (``npc``) over ``L = lcm`` of the tooth counts of the
+gears that carry errors, linear between samples (as the table itself).
 """
 from __future__ import annotations
 
@@ -85,11 +89,13 @@ def cumulative_pitch_deviations_m(single_m: np.ndarray) -> np.ndarray:
     return F - F.mean()
 
 
-def load_shares(table: Any, force_N: float, positions: np.ndarray) -> np.ndarray:
-    """Static load share (Np, w) of each tooth pair (the table's ``tooth_offsets``, w of them) at mesh positions
-    ``positions`` (Np,) in [0, 1) under the static mesh force ``force_N`` [N]: the table's tooth loads at its
-    static deflection over their sum (the offset-0 pair alone where the table holds no tooth loads or none is
-    loaded)."""
+def load_shares(table: Any, force_N: float, positions: np.ndarray, *, stiffness: bool = True,
+                step_m: float = 0.5e-6) -> np.ndarray:
+    """Share (Np, w) of each tooth pair (the table's ``tooth_offsets``, w of them) at mesh positions ``positions``
+    (Np,) in [0, 1) under the static mesh force ``force_N`` [N], at the table's static deflection ``x_s``:
+    ``stiffness`` (default) the pairs' stiffness shares, each pair's load change over ``x_s +- step_m`` over the
+    sum of them (the first-order rule, module docstring); else their load shares, the tooth loads over their sum.
+    The offset-0 pair alone where the table holds no tooth loads or no pair takes load."""
     offs = np.asarray(getattr(table, "tooth_offsets", [0]), int)
     pos = np.asarray(positions, float)
     out = np.zeros((pos.size, offs.size))
@@ -98,12 +104,50 @@ def load_shares(table: Any, force_N: float, positions: np.ndarray) -> np.ndarray
         out[:, i0] = 1.0
         return out
     x = np.asarray(table.static_deflection(pos, np.full(pos.size, float(force_N))), float)
-    loads = np.stack([np.asarray(table.tooth_load(pos, x, int(o)), float) for o in offs], axis=1)
+    if stiffness:
+        h = float(step_m)
+        loads = np.stack([np.asarray(table.tooth_load(pos, x + h, int(o)), float)
+                          - np.asarray(table.tooth_load(pos, x - h, int(o)), float) for o in offs], axis=1)
+        loads = np.maximum(loads, 0.0)
+    else:
+        loads = np.stack([np.asarray(table.tooth_load(pos, x, int(o)), float) for o in offs], axis=1)
     tot = loads.sum(axis=1)
     ok = tot > 0
     out[ok] = loads[ok] / tot[ok, None]
     out[~ok, i0] = 1.0
     return out
+
+
+def pair_solve_shift(table: Any, force_N: float, positions: np.ndarray, pair_errors_m: np.ndarray,
+                     iterations: int = 60) -> np.ndarray:
+    """Static approach change (Np,) [m] that errors ``pair_errors_m`` (Np, w) of the tooth pairs (the table's
+    ``tooth_offsets``) cause at mesh positions ``positions`` (Np,) in [0, 1) under the static force ``force_N``
+    [N]: ``x - x_0`` with ``sum_o P_o(tau, x - e_o) = F`` and ``sum_o P_o(tau, x_0) = F`` (``P_o`` the table's tooth
+    load of pair ``o``; each pair at its own approach, so a pair that an error lifts off loses its load), solved by
+    bisection on the bracket ``[x_0 + min e, x_0 + max e]`` (the sum is nondecreasing in ``x``).  A table without
+    tooth loads: the offset-0 pair alone, ``e_0``."""
+    pos = np.asarray(positions, float)
+    eo = np.asarray(pair_errors_m, float)
+    offs = np.asarray(getattr(table, "tooth_offsets", [0]), int)
+    if getattr(table, "tooth_load_N", None) is None:
+        return eo[:, int(np.flatnonzero(offs == 0)[0]) if np.any(offs == 0) else 0].copy()
+    f = float(force_N)
+
+    def total(x, e):
+        return sum(np.asarray(table.tooth_load(pos, x - e[:, w], int(o)), float) for w, o in enumerate(offs))
+
+    def solve(e):
+        lo = x0_guess + e.min(axis=1) - 60e-6
+        hi = x0_guess + e.max(axis=1) + 60e-6
+        for _ in range(iterations):
+            mid = 0.5 * (lo + hi)
+            up = total(mid, e) >= f
+            hi = np.where(up, mid, hi)
+            lo = np.where(up, lo, mid)
+        return 0.5 * (lo + hi)
+
+    x0_guess = np.asarray(table.static_deflection(pos, np.full(pos.size, f)), float)
+    return solve(eo) - solve(np.zeros_like(eo))
 
 
 def mesh_error_profile(*, teeth: tuple[int, int], passage: tuple[float, float], pitch_m: tuple[np.ndarray | None,
@@ -133,22 +177,20 @@ def mesh_error_profile(*, teeth: tuple[int, int], passage: tuple[float, float], 
     alpha = float(pressure_angle_rad)
     if any(has_pitch):
         offs = np.asarray(getattr(table, "tooth_offsets", [0]), int)
-        shares = load_shares(table, force_N, np.arange(npc) / npc)      # (npc, w)
-        sh = shares[np.arange(L * npc) % npc]                            # (L npc, w)
+        eo = np.zeros((L * npc, offs.size))                              # each pair's own error
         for g, (z, tp, p, sign) in enumerate(zip((za, zb), passage, pitch_m, (-1.0, 1.0))):
             if not has_pitch[g]:
                 continue
             E = sign * pitch_to_loa[g] * np.asarray(p, float)
             tp_i = int(round(float(tp)))
             for w, o in enumerate(offs):
-                j = np.mod(n - tp_i + int(o), z)
-                e += sh[:, w] * E[j]
+                eo[:, w] += E[np.mod(n - tp_i + int(o), z)]
+        e += pair_solve_shift(table, force_N, tau, eo)
     for g, (z, tp, (ecc, phi)) in enumerate(zip((za, zb), passage, runout)):
         if ecc == 0.0:
             continue
         beta = 2.0 * math.pi * (c - float(tp)) / z + float(phi)
         e += ecc * (np.sin(beta + alpha) if g == 0 else np.sin(alpha - beta))
-    del tau
     return np.ascontiguousarray(e), int(L), npc
 
 

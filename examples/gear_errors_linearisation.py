@@ -2,8 +2,9 @@
 
 spur_28t_asym with one pinion tooth displaced by d (single pitch deviations +d, -d): at mesh positions around the
 tooth's pass the per-pair static solve sum_o P_o(tau, x - e_o) = F (each tooth pair at its own approach, the table's
-tooth loads, scipy brentq) against the kernel's rule x = x_s(tau, F) + e(c) (the error profile, built at the nominal
-force), at 0.5, 1 and 1.5 x the nominal force.  Prints the pulse's peak-to-peak and the RMS and largest difference
+tooth loads, scipy brentq) against the kernel's rule F(tau, x - e(c, x)) = F (the table's force at the lookup
+deflection, the error profile over position and approach), both less the same without errors, at 0.5, 1 and 1.5 x
+the nominal force.  Prints the pulse's peak-to-peak and the RMS and largest difference
 as fractions of it.  About 30 s.
 
     python examples/gear_errors_linearisation.py [d_um ...]
@@ -48,7 +49,14 @@ def main(ds_um) -> None:
                 eo = [E[(n - tp + o) % z] for o in offs]
                 pb.append(brentq(g, -50e-6, 200e-6, xtol=1e-14, args=(eo,))
                           - brentq(g, -50e-6, 200e-6, xtol=1e-14, args=([0.0] * len(offs),)))
-                pa.append(float(sy.mesh_errors_m(np.array([[cc]]))[0, 0]))
+                # the kernel's rule: the table's force at x - e(c, x)
+                def h(x):
+                    return float(sy.mesh_force(0, tau, x - sy.mesh_errors_m(np.array([[cc]]), np.array([[x]]))[0, 0])) - fn * fac
+
+                def h0(x):
+                    return float(sy.mesh_force(0, tau, x)) - fn * fac
+
+                pa.append(brentq(h, -50e-6, 200e-6, xtol=1e-14) - brentq(h0, -50e-6, 200e-6, xtol=1e-14))
             pa, pb = np.array(pa), np.array(pb)
             ptp = np.ptp(pb)
             rows.append(f"{fac:g} x F: pulse {ptp * 1e6:.3f} um, rms {np.sqrt(np.mean((pa - pb) ** 2)) / np.sqrt(np.mean((pb - pb.mean()) ** 2)) * 100:.1f} %, "

@@ -157,15 +157,15 @@ def test_runout_mesh_force_sidebands_follow_the_stiffness_variation():
             assert s.line(f"{h}{side}1 pinion/wheel").amplitude == pytest.approx(K[h] * E_RUNOUT, rel=0.05)
 
 
-@pytest.mark.parametrize("d, rtol", [(0.5e-6, 1e-3), (5e-6, 0.05)])
+@pytest.mark.parametrize("d, rtol", [(0.5e-6, 3e-3), (5e-6, 0.05)])
 def test_single_pitch_error_spectrum_is_its_fourier_series(d, rtol):
     """One displaced pinion tooth (f_p = +d before it, -d after it): a once-per-revolution pulse
     e(c) = sum_j E_j g(c - passage - j) with E_j = -(r_b / r) F_j and g the stiffness share of a tooth pair over
     its pair phase (first order in the error); its line at shaft order k is 2 |E^(k) G(k / z)| / z (E^ the DFT of
     the tooth errors, G the Fourier transform of g) with phase arg(E^(k) G(k/z)) - 2 pi k passage / z.  The static
     TE and the kernel's DTE at f_m = 100 Hz (quasi-static: 1/28 of the resonance) against it, shaft orders 1-10:
-    within 0.1 % for d = 0.5 um (measured 0.04 %; the DTE within 1 %, measured 0.1 %), within 5 % for d = 5 um (measured 1.0 %: the pairs' own
-    approaches make the profile nonlinear in the error); the pulse sits where the tooth passes (its pair
+    within 0.3 % for d = 0.5 um (measured 0.2 %; the DTE within 1 %), within 5 % for d = 5 um (measured 1.0 %: the
+    pairs' own approaches make the profile nonlinear in the error); the pulse sits where the tooth passes (its pair
     phases)."""
     model, _ = _spur()
     f = np.zeros(Z)
@@ -174,9 +174,12 @@ def test_single_pitch_error_spectrum_is_its_fourier_series(d, rtol):
     sy = _with_errors(pinion=GearErrors(single_pitch_deviations_m=tuple(f)))
     c = sy.meshes[0]
     tp = c.tooth_passage["pinion"]
-    samples, L, npc = c.error
+    samples, L, npc, nd = c.error                      # a profile over (position, approach)
+    assert nd == c.table.n_deflections
     pos = np.arange(L * npc) / npc
-    peak = pos[np.argmax(np.abs(samples - np.median(samples)))]
+    x_s = float(np.mean(c.table.static_deflection(pos[:npc], c.nominal_force_N)))
+    e_s = sy.mesh_errors_m(pos[:, None], np.full((pos.size, 1), x_s))[:, 0]
+    peak = pos[np.argmax(np.abs(e_s - np.median(e_s)))]
     assert L == Z and -2 <= peak - tp - j0 < 3
     E = -(c.base_radius_m[0] / (0.5 * model.gears[0].module_m * Z)) * cumulative_pitch_deviations_m(f)
     n = 512
@@ -208,3 +211,41 @@ def test_errors_refused_on_other_kinds():
     model = replace(model, gears=(replace(model.gears[0], errors=GearErrors(runout_m=1e-6)),) + tuple(model.gears[1:]))
     with pytest.raises(ModelError, match="spur_pair and idler_chain"):
         _with_model_errors(model, None)
+
+
+def test_profile_over_the_approach_is_the_pairs_own_solve_at_every_load():
+    """One pinion tooth displaced 5 um: the static approach the kernel's rule gives (the table's force at
+    x - e(c, x) equal to F) against each tooth pair at its own approach (sum_o P_o(tau, x - e_o) = F, the table's
+    tooth loads), both less their error-free values, at 0.5, 1 and 1.5 x the nominal force over the tooth's pass:
+    RMS within 2 % of the pulse, largest difference within 5 % (measured 0.2-0.6 % / 0.8-2.1 %,
+    examples/gear_errors_linearisation.py).  A profile built at the nominal force alone missed by 20 % RMS at 0.5
+    and 1.5 x."""
+    from scipy.optimize import brentq
+    model, _ = _spur()
+    f = np.zeros(Z)
+    f[5], f[6] = 5e-6, -5e-6
+    sy = _with_errors(pinion=GearErrors(single_pitch_deviations_m=tuple(f)))
+    c = sy.meshes[0]
+    tab, fn, tp = c.table, c.nominal_force_N, c.tooth_passage["pinion"]
+    E = -(c.base_radius_m[0] / (0.5 * model.gears[0].module_m * Z)) * cumulative_pitch_deviations_m(f)
+    offs = [int(o) for o in tab.tooth_offsets]
+    for fac in (0.5, 1.0, 1.5):
+        ours, pairs = [], []
+        for cc in np.arange(3 * 16) / 16 + 3.0:
+            n, tau = int(cc), cc - int(cc)
+            eo = [E[(n - tp + o) % Z] for o in offs]
+
+            def p(x, ee):
+                return sum(float(tab.tooth_load(tau, x - e, o)) for o, e in zip(offs, ee)) - fn * fac
+
+            def k(x, err):
+                de = sy.mesh_errors_m(np.array([[cc]]), np.array([[x]]))[0, 0] if err else 0.0
+                return float(sy.mesh_force(0, tau, x - de)) - fn * fac
+
+            pairs.append(brentq(p, -5e-5, 2e-4, args=(eo,), xtol=1e-14)
+                         - brentq(p, -5e-5, 2e-4, args=([0.0] * len(offs),), xtol=1e-14))
+            ours.append(brentq(k, -5e-5, 2e-4, args=(True,), xtol=1e-14) - brentq(k, -5e-5, 2e-4, args=(False,), xtol=1e-14))
+        ours, pairs = np.array(ours), np.array(pairs)
+        span = np.ptp(pairs)
+        assert span > 4e-6
+        assert np.sqrt(np.mean((ours - pairs) ** 2)) < 0.02 * span and np.max(np.abs(ours - pairs)) < 0.05 * span, fac

@@ -4,8 +4,8 @@ A pitch or runout error of a gear moves the flanks of its teeth along the line o
 contact meet earlier or later than ideal teeth would.  The dynamics take that as a shift of the drive flanks'
 lookup deflection: the mesh force is the table's force at ``x - e(c)`` (``x = v . q`` the approach of the gear
 bodies, ``c`` the unwrapped mesh position [cycles], ``e`` the mesh's *error profile*, positive where the flanks
-meet earlier; :class:`~hacgear_core.dynamics.system.MeshCoupling` ``error``, the kernel's ``VARIANT_ERRORS``
-loops).  This module builds ``e(c)`` from each gear's :class:`~hacgear_core.model.GearErrors`.
+meet earlier, which may depend on ``x`` too; :class:`~hacgear_core.dynamics.system.MeshCoupling` ``error``, the
+kernel's ``VARIANT_ERRORS`` loops).  This module builds ``e(c)`` from each gear's :class:`~hacgear_core.model.GearErrors`.
 
 Conventions.  Teeth are counted in the order they reach a mesh: tooth ``j`` of gear ``g`` is at the pitch point of
 mesh ``k`` at mesh position ``tooth_passage[g] + j`` (mod ``z_g``).  At mesh position ``c = n + tau`` (``n``
@@ -28,20 +28,24 @@ beta_b)`` (``alpha_w`` the operating pressure angle of the drive flanks; an offs
 of the centre distance and of the roll angles) is left out: it changes the contact ratio and the mesh position by
 ``e / p_b`` of a cycle at most, a second-order effect for ``e`` of micrometres.
 
-Several pairs in contact (stated linearisation).  The table holds the force of all pairs together at one
-approach.  The pitch part of the profile is the static approach change the pairs' own errors ``e_o(c) =
-E_a(j_a,o) + E_b(j_b,o)`` cause at the nominal force: ``x(c) - x_0(tau)`` with ``sum_o P_o(tau, x - e_o) = F``
-and ``sum_o P_o(tau, x_0) = F`` (``P_o`` the table's tooth load of pair ``o``, each pair at its own approach, so a
-pair an error lifts off carries nothing: :func:`pair_solve_shift`); the runout part ``R_a + R_b`` is added (an
-error common to all pairs shifts every pair alike, at any load).  So the kernel's static TE equals that per-pair
-solve exactly at the nominal torque; at another load the shift is the nominal one (the linearisation), off by
-about 20 % RMS of the pulse of a single pitch error at 0.5 and 1.5 x the nominal torque (docs/validation.md
-"Manufacturing errors"): the pairs' load sharing, and so the pulse's shape, moves with the load.  For small
-errors it is the stiffness-share rule ``e = sum_o (k_o / K) e_o`` (:func:`load_shares`).  Not held: the coupling of
-the pairs through the gear bodies when their approaches differ (the table's tooth loads come from the coupled
-solve at one common approach), and the errors' effect on the coast flanks (they keep the ideal geometry).
-The profile is sampled at the table's positions per cycle (``npc``) over ``L = lcm`` of the tooth counts of the
-gears that carry errors, linear between samples (as the table itself).
+Several pairs in contact.  The table holds the force of all pairs together at one approach; with pairs of different
+errors ``e_o(c) = E_a(j_a,o) + E_b(j_b,o)`` in contact each pair is taken at its own approach: the mesh force is
+``sum_o P_o(tau, x - e_o - R)`` (``P_o`` the table's tooth load of pair ``o``, ``R = R_a + R_b``; a pair an error
+lifts off carries nothing).  The kernel keeps its one table lookup: the profile is tabulated over (mesh position,
+approach) on the drive table's deflection grid, ``e(c, x)`` such that ``F(tau, x - e) = sum_o P_o(tau, x - e_o -
+R)`` at every grid approach, less the same without errors (:func:`approach_profile`; the tooth loads sum to the
+table's force within 0.2 % on spur_28t_asym), linear between grid approaches.  Measured against solving the pair
+sum directly (one tooth displaced 2-20 um, 0.5-1.5 x the nominal force): within 1.2 % RMS of the pulse
+(docs/validation.md "Manufacturing errors").  Runout alone (every pair alike) is a profile over the position only,
+exact at any load.  A conventional force law (no tooth loads) takes the static shift at the nominal force
+(:func:`pair_solve_shift`), a linearisation (20 % RMS of a single pitch error's pulse at 0.5 and 1.5 x the torque on
+spur_28t_asym).  Not held: the coupling of the pairs through the gear bodies when their approaches differ (the
+table's tooth loads come from the coupled solve at one common approach), and the errors' effect on the coast flanks
+(they keep the ideal geometry).  The profile is sampled at the table's positions per cycle (``npc``) over ``L =
+lcm`` of the tooth counts of the gears that carry errors, linear between samples (as the table itself); it takes
+``L npc nd`` floats (28 x 256 x 64 = 3.7 MB for the 28:28 pair).  For small errors the pair sum is the
+stiffness-share rule ``e = R + sum_o (k_o / K) e_o`` (:func:`load_shares`), the closed form the tests compare
+spectra with.
 """
 from __future__ import annotations
 
@@ -54,7 +58,8 @@ import numpy as np
 from hacgear_core.errors import ModelError
 
 __all__ = ["iso1328_single_pitch_tolerance_m", "single_pitch_deviations_m", "cumulative_pitch_deviations_m",
-           "load_shares", "mesh_error_profile", "with_gear_errors", "GearErrorData"]
+           "load_shares", "pair_solve_shift", "approach_profile", "mesh_error_profile", "with_gear_errors",
+           "GearErrorData"]
 
 
 def iso1328_single_pitch_tolerance_m(grade: int, reference_diameter_m: float, normal_module_m: float) -> float:
@@ -150,10 +155,59 @@ def pair_solve_shift(table: Any, force_N: float, positions: np.ndarray, pair_err
     return solve(eo) - solve(np.zeros_like(eo))
 
 
+def _inverse_rows(frow: np.ndarray, xg: np.ndarray, f: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Deflection at which the table row ``frow`` (nd,) over the grid ``xg`` gives the forces ``f`` (...): linear on
+    the row from its last zero on, extrapolated with its last slope beyond the grid; where ``f <= 0`` the smaller of
+    ``x`` (the approach it belongs to) and the row's last zero (the teeth apart)."""
+    zero = np.flatnonzero(frow <= 0.0)
+    jz = int(zero[-1]) if zero.size else 0
+    fr, xr = frow[jz:], xg[jz:]
+    out = np.interp(f, fr, xr)
+    slope = (fr[-1] - fr[-2]) / (xr[-1] - xr[-2]) if fr.size > 1 and fr[-1] > fr[-2] else np.inf
+    beyond = f > fr[-1]
+    out = np.where(beyond, xr[-1] + (f - fr[-1]) / slope, out)
+    return np.where(f <= 0.0, np.minimum(x, xg[jz] if zero.size else x), out)
+
+
+def approach_profile(table: Any, force: Any, tau: np.ndarray, npc: int, pair_errors_m: np.ndarray,
+                     common_m: np.ndarray, grid: tuple[float, float, int]) -> np.ndarray:
+    """Error profile over (mesh position, approach) (S, nd) [m]: at each sample ``s`` (table position ``tau[s]`` =
+    ``(s mod npc) / npc``) and approach ``x_j = x0 + j dx`` of ``grid = (x0, dx, nd)``, the error ``e`` for which the
+    table's force at ``x_j - e`` is the force of the pairs at their own approaches, ``F(tau, x_j - e) = sum_o
+    P_o(tau, x_j - e_o - r)`` (``pair_errors_m`` (S, w) the pairs' own errors ``e_o``, ``common_m`` (S,) the error
+    common to them ``r``, the table's tooth loads ``P_o``), less the same with no errors (so a table whose tooth
+    loads do not sum to its force exactly has no error without errors).  ``force(tau (n,), x (n,))``: the table
+    force the kernel reads."""
+    x0, dx, nd = float(grid[0]), float(grid[1]), int(grid[2])
+    xg = x0 + dx * np.arange(nd)
+    offs = np.asarray(table.tooth_offsets, int)
+    S = tau.size
+    X = xg[None, :] - np.asarray(common_m, float)[:, None]                  # (S, nd)
+    pos = np.repeat(tau, nd)
+    fb = sum(np.asarray(table.tooth_load(pos, (X - pair_errors_m[:, w, None]).ravel(), int(o)), float)
+             for w, o in enumerate(offs)).reshape(S, nd)
+    tg = np.arange(npc) / npc
+    fb0 = sum(np.asarray(table.tooth_load(np.repeat(tg, nd), np.tile(xg, npc), int(o)), float)
+              for o in offs).reshape(npc, nd)
+    ft = np.maximum(np.asarray(force(np.repeat(tg, nd), np.tile(xg, npc)), float).reshape(npc, nd), 0.0)
+    row = np.rint(tau * npc).astype(np.int64) % npc
+    e = np.empty((S, nd))
+    xj = np.broadcast_to(xg, (S, nd))
+    for i in range(npc):
+        sel = row == i
+        if not np.any(sel):
+            continue
+        xl = _inverse_rows(ft[i], xg, fb[sel], xj[sel])
+        xl0 = _inverse_rows(ft[i], xg, fb0[i], xg)
+        e[sel] = xl0[None, :] - xl
+    return e
+
+
 def mesh_error_profile(*, teeth: tuple[int, int], passage: tuple[float, float], pitch_m: tuple[np.ndarray | None,
                        np.ndarray | None], runout: tuple[tuple[float, float], tuple[float, float]],
                        pitch_to_loa: tuple[float, float], pressure_angle_rad: float, table: Any, force_N: float,
-                       samples_per_cycle: int | None = None) -> tuple[np.ndarray, int, int] | None:
+                       samples_per_cycle: int | None = None, approach_grid: tuple[float, float, int] | None = None,
+                       table_force: Any = None) -> tuple | None:
     """Error profile ``(samples (L npc,) [m], L, npc)`` of one mesh (module docstring), None when neither gear has
     an error.
 
@@ -161,7 +215,12 @@ def mesh_error_profile(*, teeth: tuple[int, int], passage: tuple[float, float], 
     cumulative pitch deviations (z,) [m] on the reference circle (None: none); ``runout`` each gear's
     (eccentricity [m], phase [rad]); ``pitch_to_loa`` each gear's ``r_b / r`` (reference circle to line of
     action); ``pressure_angle_rad`` the drive flanks' operating pressure angle; ``table`` the mesh table (load
-    shares, positions per cycle); ``force_N`` the static mesh force the shares are taken at."""
+    shares, positions per cycle); ``force_N`` the static mesh force the shares are taken at.
+
+    ``approach_grid`` ``(x0, dx, nd)`` (the drive table's deflection grid) and ``table_force`` (the force the
+    kernel reads, ``f(tau, x)``): with pitch errors and a table with tooth loads, the profile over (position,
+    approach) of :func:`approach_profile`, ``(samples (L npc nd,), L, npc, nd)``: the pairs at their own approaches
+    at every load.  Without them the pitch part is the static shift at ``force_N`` (:func:`pair_solve_shift`)."""
     za, zb = (int(z) for z in teeth)
     has_pitch = [p is not None and np.any(np.asarray(p) != 0) for p in pitch_m]
     has_run = [r[0] != 0.0 for r in runout]
@@ -175,6 +234,12 @@ def mesh_error_profile(*, teeth: tuple[int, int], passage: tuple[float, float], 
     tau = (np.arange(L * npc) % npc) / npc
     e = np.zeros(L * npc)
     alpha = float(pressure_angle_rad)
+    run = np.zeros(L * npc)
+    for g, (z, tp, (ecc, phi)) in enumerate(zip((za, zb), passage, runout)):
+        if ecc == 0.0:
+            continue
+        beta = 2.0 * math.pi * (c - float(tp)) / z + float(phi)
+        run += ecc * (np.sin(beta + alpha) if g == 0 else np.sin(alpha - beta))
     if any(has_pitch):
         offs = np.asarray(getattr(table, "tooth_offsets", [0]), int)
         eo = np.zeros((L * npc, offs.size))                              # each pair's own error
@@ -185,12 +250,11 @@ def mesh_error_profile(*, teeth: tuple[int, int], passage: tuple[float, float], 
             tp_i = int(round(float(tp)))
             for w, o in enumerate(offs):
                 eo[:, w] += E[np.mod(n - tp_i + int(o), z)]
+        if approach_grid is not None and table_force is not None and getattr(table, "tooth_load_N", None) is not None:
+            e2 = approach_profile(table, table_force, tau, npc, eo, run, approach_grid)
+            return np.ascontiguousarray(e2.ravel()), int(L), npc, int(approach_grid[2])
         e += pair_solve_shift(table, force_N, tau, eo)
-    for g, (z, tp, (ecc, phi)) in enumerate(zip((za, zb), passage, runout)):
-        if ecc == 0.0:
-            continue
-        beta = 2.0 * math.pi * (c - float(tp)) / z + float(phi)
-        e += ecc * (np.sin(beta + alpha) if g == 0 else np.sin(alpha - beta))
+    e += run
     return np.ascontiguousarray(e), int(L), npc
 
 
@@ -199,14 +263,15 @@ GearErrorData = tuple
 
 
 def with_gear_errors(system: Any, gears: Mapping[str, GearErrorData],
-                     pressure_angles_rad: Mapping[str, float]) -> Any:
+                     pressure_angles_rad: Mapping[str, float], *, approach: bool = True) -> Any:
     """``system`` (a :class:`~hacgear_core.dynamics.system.LumpedSystem` of a fixed-axis train) with the error
     profile of every mesh one of whose gears has errors (:func:`mesh_error_profile`); the system itself when no
     gear has any.
 
     ``gears`` {gear: (GearErrors or None, reference radius [m], normal module [m])}; ``pressure_angles_rad``
-    {mesh: operating pressure angle of its drive flanks [rad]}.  The load shares are taken at each mesh's nominal
-    force at the system's torque."""
+    {mesh: operating pressure angle of its drive flanks [rad]}.  ``approach`` (default): meshes with pitch errors
+    on force tables get profiles over (position, approach) (:func:`approach_profile`: the pairs at their own
+    approaches at every load); False, or a conventional law: the static shift at each mesh's nominal force."""
     if not any(ge is not None and ge.any for ge, _, _ in gears.values()):
         return system
     if system.mesh_law.kernel_law not in (0, 1):
@@ -230,11 +295,17 @@ def with_gear_errors(system: Any, gears: Mapping[str, GearErrorData],
             continue
         ratio = tuple(float(c.base_radius_m[i]) / float(gears[g][1]) if g in gears else 1.0
                       for i, g in enumerate((ga, gb)))
+        k = system.mesh_names.index(c.name)
+        grid = force = None
+        if approach and system.mesh_law.kernel_law == 0:
+            ta = system.table_arrays[k]
+            grid = (float(ta.x0), float(ta.dx), int(ta.ftab.shape[1]))
+            force = (lambda kk: (lambda t, x: system.mesh_force(kk, t, x)))(k)
         prof = mesh_error_profile(
             teeth=tuple(c.teeth), passage=(c.tooth_passage.get(ga, 0), c.tooth_passage.get(gb, 0)),
             pitch_m=(cum.get(ga), cum.get(gb)),
             runout=tuple(((ge.runout_m, ge.runout_phase_rad) if ge is not None else (0.0, 0.0)) for ge in (ea, eb)),
             pitch_to_loa=ratio, pressure_angle_rad=float(pressure_angles_rad[c.name]), table=c.table,
-            force_N=float(c.nominal_force_N))
+            force_N=float(c.nominal_force_N), approach_grid=grid, table_force=force)
         meshes.append(c if prof is None else replace(c, error=prof))
     return system.with_changes(meshes=tuple(meshes))

@@ -156,15 +156,18 @@ def mesh_base(p, q, cycles, tau_ref):
 
 
 @njit(cache=True, inline="always", fastmath=_FM)
-def mesh_error(lin, lint, m, k, pos):
-    """Error [m] of mesh ``k`` (of ``m``) at unwrapped mesh position ``pos`` [cycles]: its error profile, linear
-    and periodic over ``L`` mesh cycles at ``npc`` samples per cycle, ``lin[o : o + L npc]`` with ``(o, npc) =
-    lint[m + k]`` and ``(L, 0) = lint[2 m + k]`` (:func:`flatten_errors`; ``npc = 0``: no error, 0)."""
+def mesh_error(lin, lint, m, k, pos, x, x0, inv_dx):
+    """Error [m] of mesh ``k`` (of ``m``) at unwrapped mesh position ``pos`` [cycles] and approach ``x`` [m]: its
+    error profile, linear and periodic over ``L`` mesh cycles at ``npc`` samples per cycle, ``lin[o : o + L npc]``
+    (``nd = 0``: the same at every approach) or ``lin[o : o + L npc nd]`` (rows of ``nd`` approaches on the drive
+    table's deflection grid ``x0 + j / inv_dx``, linear between them, constant beyond), with ``(o, npc) =
+    lint[m + k]`` and ``(L, nd) = lint[2 m + k]`` (:func:`flatten_errors`; ``npc = 0``: no error, 0)."""
     npc = lint[m + k, 1]
     if npc == 0:
         return 0.0
     o = lint[m + k, 0]
     cyc = float(lint[2 * m + k, 0])
+    nd = lint[2 * m + k, 1]
     u = (pos - cyc * math.floor(pos / cyc)) * npc
     ntot = lint[2 * m + k, 0] * npc
     i = int(math.floor(u))
@@ -176,7 +179,22 @@ def mesh_error(lin, lint, m, k, pos):
     i1 = i + 1
     if i1 >= ntot:
         i1 = 0
-    return lin[o + i] + a * (lin[o + i1] - lin[o + i])
+    if nd == 0:
+        return lin[o + i] + a * (lin[o + i1] - lin[o + i])
+    r = (x - x0) * inv_dx
+    j = int(math.floor(r))
+    b = r - j
+    if j < 0:
+        j = 0
+        b = 0.0
+    elif j > nd - 2:
+        j = nd - 2
+        b = 1.0
+    r0 = o + i * nd + j
+    r1 = o + i1 * nd + j
+    v0 = lin[r0] + b * (lin[r0 + 1] - lin[r0])
+    v1 = lin[r1] + b * (lin[r1 + 1] - lin[r1])
+    return v0 + a * (v1 - v0)
 
 
 @njit(cache=True, inline="always")
@@ -605,10 +623,12 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
                     if errors:
                         # the drive flanks' lookup deflection less the error of the tooth pairs in contact
                         wh = kin[1] if unit_rates else mesh_base(phase[1, k], phase[2, k], kin[1], tau_ref)[1]
+                        x1 = wk[o_xq + k]
+                        x2 = wk[o_xq + k] + hh * wk[o_xd + k]
                         wk[o_f1 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t1,
-                                                  wk[o_xq + k] - mesh_error(lin, lint, m, k, wh + t1))
+                                                  x1 - mesh_error(lin, lint, m, k, wh + t1, x1, tflt[k, 0], tflt[k, 1]))
                         wk[o_f2 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t2,
-                                                  wk[o_xq + k] + hh * wk[o_xd + k] - mesh_error(lin, lint, m, k, wh + t2))
+                                                  x2 - mesh_error(lin, lint, m, k, wh + t2, x2, tflt[k, 0], tflt[k, 1]))
                     else:
                         wk[o_f1 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t1, wk[o_xq + k])
                         wk[o_f2 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t2,
@@ -686,12 +706,12 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
                         continue
                     if errors:
                         wh = kin[1] if unit_rates else mesh_base(phase[1, k], phase[2, k], kin[1], tau_ref)[1]
+                        x3 = wk[o_xq + k] + hh * (wk[o_xd + k] + hh * a)
+                        x4 = wk[o_xq + k] + h * (wk[o_xd + k] + hh * c)
                         wk[o_f3 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t3,
-                                                  wk[o_xq + k] + hh * (wk[o_xd + k] + hh * a)
-                                                  - mesh_error(lin, lint, m, k, wh + t3))
+                                                  x3 - mesh_error(lin, lint, m, k, wh + t3, x3, tflt[k, 0], tflt[k, 1]))
                         wk[o_f4 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t4,
-                                                  wk[o_xq + k] + h * (wk[o_xd + k] + hh * c)
-                                                  - mesh_error(lin, lint, m, k, wh + t4))
+                                                  x4 - mesh_error(lin, lint, m, k, wh + t4, x4, tflt[k, 0], tflt[k, 1]))
                     else:
                         wk[o_f3 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t3,
                                                   wk[o_xq + k] + hh * (wk[o_xd + k] + hh * a))
@@ -777,7 +797,7 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
                         rec_out[nrec, REC * k + REC_FORCE] = wt
                         rec_out[nrec, REC * k + REC_COAST_FORCE] = mt
                     else:
-                        xl = x - mesh_error(lin, lint, m, k, whole + t) if errors else x
+                        xl = x - mesh_error(lin, lint, m, k, whole + t, x, tflt[k, 0], tflt[k, 1]) if errors else x
                         rec_out[nrec, REC * k + REC_FORCE] = mesh_force(law, k, tab, tint, tflt, lin, lint, t, xl)
                         rec_out[nrec, REC * k + REC_COAST_FORCE] = (table_row_force(tab, tint, tflt, m + k, t, xc)
                                                                     if two_sided else 0.0)
@@ -1051,9 +1071,10 @@ def flatten_twist_tables(tables) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def flatten_errors(lin: np.ndarray, lint: np.ndarray, profiles) -> tuple[np.ndarray, np.ndarray]:
     """``(lin, lint)`` of :func:`flatten_linear` extended by the error profiles of the kernel's ``m`` meshes
-    (``profiles``: per mesh None or ``(samples (L npc,) [m], L cycles, npc samples per cycle)``): the samples
-    appended to ``lin``, rows ``m + k`` = (offset, npc) and ``2 m + k`` = (L, 0) appended to ``lint`` (npc = 0: no
-    error on that mesh), as :func:`mesh_error` reads them."""
+    (``profiles``: per mesh None, ``(samples (L npc,) [m], L cycles, npc samples per cycle)`` or ``(samples (L npc
+    nd,), L, npc, nd)`` over the drive table's ``nd`` deflections): the samples appended to ``lin``, rows ``m + k`` =
+    (offset, npc) and ``2 m + k`` = (L, nd) appended to ``lint`` (npc = 0: no error on that mesh; nd = 0: the same
+    error at every approach), as :func:`mesh_error` reads them."""
     m = len(profiles)
     lint = np.asarray(lint, np.int64).reshape(-1, 2)
     if lint.shape[0] != m:
@@ -1066,14 +1087,15 @@ def flatten_errors(lin: np.ndarray, lint: np.ndarray, profiles) -> tuple[np.ndar
             rows_a.append((0, 0))
             rows_b.append((1, 0))
             continue
-        samples, cycles, npc = p
+        samples, cycles, npc = p[:3]
+        nd = int(p[3]) if len(p) > 3 else 0
         samples = np.ascontiguousarray(samples, dtype=np.float64)
-        if samples.shape != (int(cycles) * int(npc),):
-            raise ValueError(f"an error profile of {cycles} cycles x {npc} samples per cycle needs "
-                             f"{int(cycles) * int(npc)} samples, got {samples.shape}")
+        if samples.shape != (int(cycles) * int(npc) * max(nd, 1),) or nd == 1:
+            raise ValueError(f"an error profile of {cycles} cycles x {npc} samples per cycle x {nd} approaches needs "
+                             f"{int(cycles) * int(npc) * max(nd, 1)} samples (nd = 0 or >= 2), got {samples.shape}")
         parts.append(samples)
         rows_a.append((o, int(npc)))
-        rows_b.append((int(cycles), 0))
+        rows_b.append((int(cycles), nd))
         o += samples.size
     return (np.ascontiguousarray(np.concatenate(parts)),
             np.ascontiguousarray(np.vstack([lint, np.array(rows_a, np.int64), np.array(rows_b, np.int64)])))

@@ -499,7 +499,7 @@ def _lookup_deflections(system, x: np.ndarray, positions: np.ndarray) -> np.ndar
     kernel's rule)."""
     if not getattr(system, "has_errors", False):
         return x
-    return x - system.mesh_errors_m(positions)
+    return x - system.mesh_errors_m(positions, x)
 
 
 def mesh_law(system_name: str, meshes: Sequence[Any], force_law: str) -> MeshLaw:

@@ -117,8 +117,9 @@ class MeshCoupling:
     ``error`` (manufacturing errors of the gears' teeth, :mod:`hacgear_core.dynamics.gear_errors`): None, or the
     mesh's error profile ``(samples (L npc,) [m], L, npc)``: the error ``e`` [m] of the tooth pairs in contact along
     the line of action (positive: the flanks meet earlier) at the unwrapped mesh position ``c`` [cycles], linear
-    between samples ``c = i / npc`` and periodic over ``L`` mesh cycles; the drive flanks' force is their law at
-    the deflection ``x - e(c)`` (the coast flanks keep the ideal geometry)."""
+    between samples ``c = i / npc`` and periodic over ``L`` mesh cycles, or ``(samples (L npc nd,), L, npc, nd)``
+    the same over the ``nd`` approaches of the drive table's deflection grid too; the drive flanks' force is their
+    law at the deflection ``x - e(c[, x])`` (the coast flanks keep the ideal geometry)."""
 
     name: str
     gear_a: str
@@ -466,7 +467,7 @@ class LumpedSystem:
             for c in self.meshes:
                 if c.error is not None:
                     h.update(np.ascontiguousarray(c.error[0], np.float64).tobytes())
-                    h.update(repr((c.name, int(c.error[1]), int(c.error[2]))).encode())
+                    h.update(repr((c.name,) + tuple(int(v) for v in c.error[1:])).encode())
         h.update(repr((self.force_law_name, self.torque_Nm, self.modal_damping_ratio, self.carrier_ratio,
                        self.dof_names, self.mesh_names, self.reference_gear)).encode())
         return h.hexdigest()
@@ -661,21 +662,38 @@ class LumpedSystem:
         """The meshes' kinematic positions [cycles] (..., m) in [0, 1) (:meth:`mesh_kinematics`)."""
         return self.mesh_kinematics(tau_ref, cycles)[0]
 
-    def mesh_errors_m(self, positions) -> np.ndarray:
+    def mesh_errors_m(self, positions, x=None) -> np.ndarray:
         """Manufacturing errors [m] (..., m) of the meshes at unwrapped mesh positions ``positions`` (..., m)
-        [cycles] (each mesh's error profile, ``MeshCoupling.error``, by the kernel's rule; 0 without one)."""
+        [cycles] and approaches ``x`` (..., m) [m] (each mesh's error profile, ``MeshCoupling.error``, by the
+        kernel's rule, :func:`kernels.mesh_error`; 0 without one; ``x`` is needed by profiles over the approach)."""
         pos = np.asarray(positions, dtype=float)
+        xx = None if x is None else np.broadcast_to(np.asarray(x, dtype=float), pos.shape)
         out = np.zeros(pos.shape)
         for k, c in enumerate(self.meshes):
             if c.error is None:
                 continue
-            samples, cycles, npc = c.error
+            samples, cycles, npc = c.error[:3]
+            nd = int(c.error[3]) if len(c.error) > 3 else 0
             u = np.mod(pos[..., k], float(cycles)) * float(npc)
             i = np.floor(u)
             a = u - i
             nt = int(cycles) * int(npc)
             i = np.mod(i.astype(np.int64), nt)
-            out[..., k] = samples[i] + a * (samples[(i + 1) % nt] - samples[i])
+            i1 = (i + 1) % nt
+            if nd == 0:
+                out[..., k] = samples[i] + a * (samples[i1] - samples[i])
+                continue
+            if xx is None:
+                raise ValueError(f"mesh '{c.name}': its error profile depends on the approach; give x")
+            ta = self.table_arrays[k]
+            r = (xx[..., k] - ta.x0) * ta.inv_dx
+            j = np.floor(r)
+            b = r - j
+            b = np.where(j < 0, 0.0, np.where(j > nd - 2, 1.0, b))
+            j = np.clip(j, 0, nd - 2).astype(np.int64)
+            v0 = samples[i * nd + j] + b * (samples[i * nd + j + 1] - samples[i * nd + j])
+            v1 = samples[i1 * nd + j] + b * (samples[i1 * nd + j + 1] - samples[i1 * nd + j])
+            out[..., k] = v0 + a * (v1 - v0)
         return out
 
     def unwrapped_positions(self, c) -> np.ndarray:

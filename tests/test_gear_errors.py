@@ -249,3 +249,42 @@ def test_profile_over_the_approach_is_the_pairs_own_solve_at_every_load():
         span = np.ptp(pairs)
         assert span > 4e-6
         assert np.sqrt(np.mean((ours - pairs) ** 2)) < 0.02 * span and np.max(np.abs(ours - pairs)) < 0.05 * span, fac
+
+
+def test_spectrum_command_on_a_model_with_runout(tmp_path, capsys):
+    """A copy of the model folder with [gears.errors] uses the perfect gears' tables (the values hash leaves the
+    errors out): `hacgear spectrum --quantity ste --json` reports the 10 um runout at shaft order 1."""
+    import json
+
+    from hacgear_core.cli import main
+    src = resolve_model_path("spur_28t_asym").parent
+    (tmp_path / "tables.h5").symlink_to(src / "tables.h5")
+    (tmp_path / "model.toml").write_text(_model_text("  runout_um = 10.0"))
+    assert main(["spectrum", str(tmp_path), "--fm", "500", "--quantity", "ste", "--steps-per-cycle", "16",
+                 "--sidebands", "1", "--json"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    lines = {ln["label"]: ln["amplitude"] for ln in rep["channels"]["m12"]["lines"]}
+    assert rep["record_cycles"] == Z and lines["1 x pinion/wheel"] == pytest.approx(E_RUNOUT, rel=1e-6)
+
+
+@cache
+def _idler():
+    from hacgear_core.tables import load_system_tables
+    p = resolve_model_path("idler_28_33_39")
+    return load_model(p), load_system_tables(p)
+
+
+def test_idler_chain_hunting_periods():
+    """Idler chain 28-33-39: a runout on the idler gives both meshes a 33-cycle profile (the idler is the driven gear
+    of one mesh and the driving gear of the other) and a steady state of period 33; errors on the outer gears give
+    lcm(28, 39) = 1092 cycles."""
+    from hacgear_core.dynamics.steady import steady_state
+    model, tabs = _idler()
+    g = list(model.gears)
+    sy = build_system(replace(model, gears=(g[0], replace(g[1], errors=GearErrors(runout_m=E_RUNOUT)), g[2])), tabs)
+    assert [c.error[1] for c in sy.meshes] == [33, 33] and sy.period_cycles == 33
+    r = steady_state(sy, 800.0)
+    assert r.converged and r.period_cycles == 33
+    ge = GearErrors(runout_m=2e-6)
+    sy = build_system(replace(model, gears=(replace(g[0], errors=ge), g[1], replace(g[2], errors=ge))), tabs)
+    assert [c.error[1] for c in sy.meshes] == [28, 39] and sy.period_cycles == 28 * 39

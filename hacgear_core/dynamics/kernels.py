@@ -45,6 +45,12 @@ Force laws (one per kernel variant, so the dispatch folds away at compile time):
     drive-only table's coast side is a zero table whose range ends at the backlash (:func:`flatten_twist_tables`).
 The coast side is always its table.
 
+Manufacturing errors (variant bit ``VARIANT_ERRORS``, the generic table and linear-law loops): the drive-flank
+force of mesh k is its law at ``x_k - e_k(c_k, x_k)``, ``c_k`` the unwrapped mesh position (whole cycles + ``tau_k``)
+and ``e_k`` its error profile (:func:`mesh_error`; :mod:`hacgear_core.dynamics.gear_errors`), carried after the
+conventional-law arrays in ``lin`` / ``lint`` (:func:`flatten_errors`).  Loops without the bit are the error-free
+loops, unchanged.
+
 Tables travel flattened: row ``r`` (drive tables of meshes 0..m-1, then their coast tables m..2m-1) is
 ``tab[o : o + Np * Nd]`` reshaped (Np, Nd) with ``(o, Np, Nd) = tint[r]`` and ``(x0, 1/dx, x_on, x_max) =
 tflt[r]``: below ``x_on`` the table's force is 0 (no lookup), beyond ``x_max`` the state has left the table

@@ -263,7 +263,8 @@ GearErrorData = tuple
 
 
 def with_gear_errors(system: Any, gears: Mapping[str, GearErrorData],
-                     pressure_angles_rad: Mapping[str, float], *, approach: bool = True) -> Any:
+                     pressure_angles_rad: Mapping[str, float], *, approach: bool = True,
+                     normal_factor: Mapping[str, float] | None = None) -> Any:
     """``system`` (a :class:`~hacgear_core.dynamics.system.LumpedSystem` of a fixed-axis train) with the error
     profile of every mesh one of whose gears has errors (:func:`mesh_error_profile`); the system itself when no
     gear has any.
@@ -271,12 +272,16 @@ def with_gear_errors(system: Any, gears: Mapping[str, GearErrorData],
     ``gears`` {gear: (GearErrors or None, reference radius [m], normal module [m])}; ``pressure_angles_rad``
     {mesh: operating pressure angle of its drive flanks [rad]}.  ``approach`` (default): meshes with pitch errors
     on force tables get profiles over (position, approach) (:func:`approach_profile`: the pairs at their own
-    approaches at every load); False, or a conventional law: the static shift at each mesh's nominal force."""
+    approaches at every load); False, or a conventional law: the static shift at each mesh's nominal force.
+    ``normal_factor`` {mesh: factor}: the mesh deflection's share of a transverse line-of-action displacement
+    (``cos beta_b`` for a helical mesh, whose deflection is along the flank normal; default 1)."""
     if not any(ge is not None and ge.any for ge, _, _ in gears.values()):
         return system
-    if system.mesh_law.kernel_law not in (0, 1):
-        raise ModelError(f"{system.name}: manufacturing errors are supported on spur meshes (force tables or a "
-                         "conventional law), not on helical meshes yet")
+    if system.mesh_law.kernel_law not in (0, 1) and any(
+            ge is not None and (ge.single_pitch_deviations_m or ge.iso1328_grade is not None)
+            for ge, _, _ in gears.values()):
+        raise ModelError(f"{system.name}: pitch errors are supported on spur meshes (force tables or a conventional "
+                         "law), not on helical meshes yet (runout is)")
     if not system.unit_rates:
         raise ModelError(f"{system.name}: manufacturing errors are not supported on meshes at their own rates yet")
     cum = {}
@@ -307,5 +312,8 @@ def with_gear_errors(system: Any, gears: Mapping[str, GearErrorData],
             runout=tuple(((ge.runout_m, ge.runout_phase_rad) if ge is not None else (0.0, 0.0)) for ge in (ea, eb)),
             pitch_to_loa=ratio, pressure_angle_rad=float(pressure_angles_rad[c.name]), table=c.table,
             force_N=float(c.nominal_force_N), approach_grid=grid, table_force=force)
+        fac = float((normal_factor or {}).get(c.name, 1.0))
+        if prof is not None and fac != 1.0:
+            prof = (np.ascontiguousarray(prof[0] * fac),) + tuple(prof[1:])
         meshes.append(c if prof is None else replace(c, error=prof))
     return system.with_changes(meshes=tuple(meshes))

@@ -621,6 +621,17 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
                 for k in range(m):
                     t1 = wk[o_tb + k] + phase[0, k] + wk[o_wq + k]
                     t2 = wk[o_tb + k] + 0.5 * wk[o_td + k] + phase[0, k] + wk[o_wq + k] + hh * wk[o_wd + k]
+                    if twist and errors:
+                        wh = kin[1] if unit_rates else mesh_base(phase[1, k], phase[2, k], kin[1], tau_ref)[1]
+                        x1 = wk[o_xq + k]
+                        x2 = wk[o_xq + k] + hh * wk[o_xd + k]
+                        wk[o_f1 + k], wk[o_c1 + k] = twist_force(
+                            k, m, tab, tint, tflt, t1, x1 - mesh_error(lin, lint, m, k, wh + t1, x1, tflt[k, 0], tflt[k, 1]),
+                            wk[o_cq + k])
+                        wk[o_f2 + k], wk[o_c2 + k] = twist_force(
+                            k, m, tab, tint, tflt, t2, x2 - mesh_error(lin, lint, m, k, wh + t2, x2, tflt[k, 0], tflt[k, 1]),
+                            wk[o_cq + k] + hh * wk[o_cd + k])
+                        continue
                     if twist:
                         wk[o_f1 + k], wk[o_c1 + k] = twist_force(k, m, tab, tint, tflt, t1, wk[o_xq + k], wk[o_cq + k])
                         wk[o_f2 + k], wk[o_c2 + k] = twist_force(k, m, tab, tint, tflt, t2, wk[o_xq + k] + hh * wk[o_xd + k],
@@ -702,6 +713,17 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
                             e2 -= mf[o_cv + k * m + j] * wk[o_f2 + j] + mf[o_cvc + k * m + j] * wk[o_c2 + j]
                     t3 = wk[o_tb + k] + 0.5 * wk[o_td + k] + phase[0, k] + wk[o_wq + k] + hh * (wk[o_wd + k] + hh * b)
                     t4 = wk[o_tb + k] + wk[o_td + k] + phase[0, k] + wk[o_wq + k] + h * (wk[o_wd + k] + hh * d)
+                    if twist and errors:
+                        wh = kin[1] if unit_rates else mesh_base(phase[1, k], phase[2, k], kin[1], tau_ref)[1]
+                        x3 = wk[o_xq + k] + hh * (wk[o_xd + k] + hh * a)
+                        x4 = wk[o_xq + k] + h * (wk[o_xd + k] + hh * c)
+                        wk[o_f3 + k], wk[o_c3 + k] = twist_force(
+                            k, m, tab, tint, tflt, t3, x3 - mesh_error(lin, lint, m, k, wh + t3, x3, tflt[k, 0], tflt[k, 1]),
+                            wk[o_cq + k] + hh * (wk[o_cd + k] + hh * e1))
+                        wk[o_f4 + k], wk[o_c4 + k] = twist_force(
+                            k, m, tab, tint, tflt, t4, x4 - mesh_error(lin, lint, m, k, wh + t4, x4, tflt[k, 0], tflt[k, 1]),
+                            wk[o_cq + k] + h * (wk[o_cd + k] + hh * e2))
+                        continue
                     if twist:
                         wk[o_f3 + k], wk[o_c3 + k] = twist_force(k, m, tab, tint, tflt, t3,
                                                                  wk[o_xq + k] + hh * (wk[o_xd + k] + hh * a),
@@ -799,7 +821,8 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
                     rec_out[nrec, REC * k + REC_DTE] = d
                     rec_out[nrec, REC * k + REC_COAST_APPROACH] = xc
                     if twist:
-                        wt, mt = twist_force(k, m, tab, tint, tflt, t, x, xc)
+                        xl = x - mesh_error(lin, lint, m, k, whole + t, x, tflt[k, 0], tflt[k, 1]) if errors else x
+                        wt, mt = twist_force(k, m, tab, tint, tflt, t, xl, xc)
                         rec_out[nrec, REC * k + REC_FORCE] = wt
                         rec_out[nrec, REC * k + REC_COAST_FORCE] = mt
                     else:
@@ -830,6 +853,7 @@ _linear_s2 = _make_loop("_linear_s2", 0, 0, LAW_LINEAR | VARIANT_SPARSE | VARIAN
 _twist_12_1 = _make_loop("_twist_12_1", 12, 1, LAW_TABLE | VARIANT_TWIST)
 _twist_s = _make_loop("_twist_s", 0, 0, LAW_TABLE | VARIANT_SPARSE | VARIANT_TWIST)
 
+_twist_s_e = _make_loop("_twist_s_e", 0, 0, LAW_TABLE | VARIANT_SPARSE | VARIANT_TWIST | VARIANT_ERRORS)
 _table_s1_e = _make_loop("_table_s1_e", 0, 0, LAW_TABLE | VARIANT_SPARSE | VARIANT_ERRORS)
 _linear_s1_e = _make_loop("_linear_s1_e", 0, 0, LAW_LINEAR | VARIANT_SPARSE | VARIANT_ERRORS)
 _table_s2_e = _make_loop("_table_s2_e", 0, 0, LAW_TABLE | VARIANT_SPARSE | VARIANT_TWO_SIDED | VARIANT_ERRORS)
@@ -879,7 +903,7 @@ def select_kernel(law: int, n: int, m: int, two_sided: bool = False, errors: boo
             raise ValueError("helical meshes (LAW_TWIST) take their coast side as meshes m..2m-1 of the same loop "
                              "(two_sided = False)")
         if errors:
-            raise ValueError("manufacturing errors are not supported on helical meshes (LAW_TWIST) yet")
+            return _twist_s_e
         return _twist_12_1 if (n, m) == (12, 1) else _twist_s
     two_sided = bool(two_sided)
     if errors:

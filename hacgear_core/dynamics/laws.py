@@ -409,7 +409,8 @@ class TwistTableLaw(MeshLaw):
         f, x = self._kinematic_fields(system, q, tau, offset, rec)
         m = self.m
         g = system.T @ q
-        wm = np.array([self.generalized(k, tau[k], x[k], g[k]) for k in range(m)]).reshape(m, 2)
+        xl = _lookup_deflections(system, x, offset + np.asarray(tau, float))
+        wm = np.array([self.generalized(k, tau[k], xl[k], g[k]) for k in range(m)]).reshape(m, 2)
         f["mesh_force_N"][:m] = wm[:, 0]
         f["coast_approach_m"][:m] = g
         f["coast_force_N"][:m] = wm[:, 1]
@@ -441,21 +442,25 @@ class TwistTableLaw(MeshLaw):
         # approach xc = v_c . q, coast twist gamma_c = t_c . q)
         m = self.m
         x, g = system.V @ q, system.T @ q
-        wm = np.array([self.generalized(k, tau[k], x[k], g[k]) for k in range(m)]).reshape(m, 2)
+        xl = _lookup_deflections(system, x, tau)
+        wm = np.array([self.generalized(k, tau[k], xl[k], g[k]) for k in range(m)]).reshape(m, 2)
         terms = [system.V.T @ wm[:, 0], system.T.T @ wm[:, 1]]
         xc, gc = system.Vc @ q, system.Tc @ q
         wmc = np.zeros((m, 2))
         if self.coast:
             wmc = np.array([self.generalized(k, tau[k], xc[k], gc[k], coast=True) for k in range(m)]).reshape(m, 2)
             terms += [system.Vc.T @ wmc[:, 0], system.Tc.T @ wmc[:, 1]]
-        return terms, {"mesh_deflection_m": x, "mesh_force_N": wm[:, 0], "mesh_twist_rad": g,
-                     "twist_moment_Nm": wm[:, 1], "coast_approach_m": xc if self.coast else np.zeros(m),
-                     "coast_force_N": wmc[:, 0], "coast_twist_rad": gc, "coast_twist_moment_Nm": wmc[:, 1]}
+        fields = {"mesh_deflection_m": x, "mesh_force_N": wm[:, 0], "mesh_twist_rad": g,
+                  "twist_moment_Nm": wm[:, 1], "coast_approach_m": xc if self.coast else np.zeros(m),
+                  "coast_force_N": wmc[:, 0], "coast_twist_rad": gc, "coast_twist_moment_Nm": wmc[:, 1]}
+        if xl is not x:
+            fields["lookup_deflection_m"] = xl
+        return terms, fields
 
     def tangent(self, system, keff, tau, fields, kbar_floor, coast_loaded):
         # the generalized law's 2 x 2 slopes per mesh (the table's rule) on [v t] (and [v_c t_c]); the floor on
         # the flanks the load presses
-        x, g = fields["mesh_deflection_m"], fields["mesh_twist_rad"]
+        x, g = fields.get("lookup_deflection_m", fields["mesh_deflection_m"]), fields["mesh_twist_rad"]
         a = keff.copy()
         for k in range(self.m):
             c = self.meshes[k]

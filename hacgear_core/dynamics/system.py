@@ -399,7 +399,9 @@ class LumpedSystem:
         tab, tint, tflt = self.mesh_law.kernel_tables(self)
         lin, lint = kernels.flatten_linear([lw.lin for lw in self.laws])
         if getattr(self, "has_errors", False):
-            lin, lint = kernels.flatten_errors(lin, lint, [c.error for c in self.meshes])
+            # one row per kernel mesh (a helical mesh's coast side is a kernel mesh of its own, without errors)
+            lint = np.vstack([lint, np.zeros((mq - lint.shape[0], 2), np.int64)]) if lint.shape[0] < mq else lint
+            lin, lint = kernels.flatten_errors(lin, lint, [c.error for c in self.meshes] + [None] * (mq - self.m))
         vmi = kv @ minv.T
         vci = vc2 @ minv.T
         pattern = (kv != 0) | (kw_ != 0) | (vmi != 0) | (vc2 != 0) | (vci != 0)

@@ -98,14 +98,20 @@ def _with_model_errors(model: Any, system: LumpedSystem) -> LumpedSystem:
     from hacgear_core.dynamics.gear_errors import with_gear_errors
     from hacgear_core.geometry import mesh_geometry
 
-    if model.kind not in ("spur_pair", "idler_chain"):
+    if model.kind not in ("spur_pair", "idler_chain", "helical_pair"):
         bad = [g.name for g in model.gears if g.errors is not None and g.errors.any]
         raise ModelError(f"{model.path or model.name}: [gears.errors] of {bad}: manufacturing errors are supported "
-                         f"on kinds spur_pair and idler_chain, not yet on '{model.kind}'")
+                         f"on kinds spur_pair, idler_chain and helical_pair (runout), not yet on '{model.kind}'")
     gears = {g.name: (g.errors, 0.5 * g.module_m * g.teeth, g.module_m * math.cos(g.helix_angle_rad))
              for g in model.gears}
     alpha = {m.name: mesh_geometry(model, m.name).operating_pressure_angle_rad for m in model.meshes}
-    return with_gear_errors(system, gears, alpha)
+    # a helical mesh's deflection is along the flank normal: cos(beta_b) of a transverse displacement
+    # (tan beta_b = tan beta cos alpha_t)
+    gd = {g.name: g for g in model.gears}
+    factor = {m.name: math.cos(math.atan(abs(math.tan(gd[m.gear_a].helix_angle_rad))
+                                         * math.cos(gd[m.gear_a].flanks["drive"].pressure_angle_rad)))
+              for m in model.meshes}
+    return with_gear_errors(system, gears, alpha, normal_factor=factor)
 
 
 def structural_parameters(model: Any) -> tuple[StructuralParameter, ...]:

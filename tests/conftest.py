@@ -31,6 +31,8 @@ WARM_KERNELS = {
     "test_fmu_helical.py::test_helical_fmu_equals_the_library": ("fmu:_twist_s", "lib:_twist_s"),
     "test_fmu_planetary.py::test_planetary_fmu_equals_the_library": ("fmu:_table_s2", "lib:_table_s2"),
     "test_fmu_ssp.py::test_two_stage_gearbox": ("fmu:_table_2_1_s1",),
+    "test_gear_errors.py::test_runout_mesh_force_sidebands_follow_the_stiffness_variation": ("lib:_table_s2_e",),
+    "test_gear_errors.py::test_helical_runout_through_the_kernel": ("lib:_twist_s_e",),
     "test_idler.py::test_chain_with_a_decoupled_third_gear_reproduces_the_spur_pair": ("lib:_table_3_2_s1",),
     "test_kernels.py::test_conventional_laws_equal_hac_for_constant_stiffness": ("lib:_linear_s1",),
     "test_kernels.py::test_specialised_and_generic_loops_agree": ("lib:_table_s1",),

@@ -80,7 +80,7 @@ def batch_rows(n: int, m: int, nnz: int, rotating: bool) -> int:
 def batch_supported(system) -> bool:
     """Whether the batched kernel runs ``system`` (a :class:`~hacgear_core.dynamics.system.LumpedSystem`): the
     table and linear laws' loops, not the twist law of helical meshes."""
-    return system.mesh_law.kernel_law in (LAW_TABLE, LAW_LINEAR)
+    return system.mesh_law.kernel_law in (LAW_TABLE, LAW_LINEAR) and not getattr(system, "has_errors", False)
 
 
 #: whether the CPU the loops are compiled for has fused multiply-add: the single-state loop's compiler contracts

@@ -45,6 +45,12 @@ Force laws (one per kernel variant, so the dispatch folds away at compile time):
     drive-only table's coast side is a zero table whose range ends at the backlash (:func:`flatten_twist_tables`).
 The coast side is always its table.
 
+Manufacturing errors (variant bit ``VARIANT_ERRORS``, the generic table and linear-law loops): the drive-flank
+force of mesh k is its law at ``x_k - e_k(c_k, x_k)``, ``c_k`` the unwrapped mesh position (whole cycles + ``tau_k``)
+and ``e_k`` its error profile (:func:`mesh_error`; :mod:`hacgear_core.dynamics.gear_errors`), carried after the
+conventional-law arrays in ``lin`` / ``lint`` (:func:`flatten_errors`).  Loops without the bit are the error-free
+loops, unchanged.
+
 Tables travel flattened: row ``r`` (drive tables of meshes 0..m-1, then their coast tables m..2m-1) is
 ``tab[o : o + Np * Nd]`` reshaped (Np, Nd) with ``(o, Np, Nd) = tint[r]`` and ``(x0, 1/dx, x_on, x_max) =
 tflt[r]``: below ``x_on`` the table's force is 0 (no lookup), beyond ``x_max`` the state has left the table
@@ -101,6 +107,9 @@ __all__ = [
     "record_width",
     "record_fields",
     "flatten_linear",
+    "flatten_errors",
+    "mesh_error",
+    "VARIANT_ERRORS",
 ]
 
 LAW_TABLE = 0
@@ -112,6 +121,9 @@ MODE_TORQUE = int(Experiment.TORQUE)
 VARIANT_SPARSE = 2
 VARIANT_TWO_SIDED = 4
 VARIANT_TWIST = 8
+#: manufacturing errors (pitch, runout): each mesh's drive-flank lookup deflection is shifted by its error profile
+#: (:func:`mesh_error`); loops without the bit are the error-free loops, unchanged
+VARIANT_ERRORS = 16
 REC = 6
 REC_POSITION = 0
 REC_DEFLECTION = 1
@@ -147,6 +159,48 @@ def mesh_base(p, q, cycles, tau_ref):
     s = r / q + tau_ref / (q / p)
     f = math.floor(s)
     return s - f, (p * cycles - r) / q + f
+
+
+@njit(cache=True, inline="always", fastmath=_FM)
+def mesh_error(lin, lint, m, k, pos, x, x0, inv_dx):
+    """Error [m] of mesh ``k`` (of ``m``) at unwrapped mesh position ``pos`` [cycles] and approach ``x`` [m]: its
+    error profile, linear and periodic over ``L`` mesh cycles at ``npc`` samples per cycle, ``lin[o : o + L npc]``
+    (``nd = 0``: the same at every approach) or ``lin[o : o + L npc nd]`` (rows of ``nd`` approaches on the drive
+    table's deflection grid ``x0 + j / inv_dx``, linear between them, constant beyond), with ``(o, npc) =
+    lint[m + k]`` and ``(L, nd) = lint[2 m + k]`` (:func:`flatten_errors`; ``npc = 0``: no error, 0)."""
+    npc = lint[m + k, 1]
+    if npc == 0:
+        return 0.0
+    o = lint[m + k, 0]
+    cyc = float(lint[2 * m + k, 0])
+    nd = lint[2 * m + k, 1]
+    u = (pos - cyc * math.floor(pos / cyc)) * npc
+    ntot = lint[2 * m + k, 0] * npc
+    i = int(math.floor(u))
+    a = u - i
+    if i >= ntot:
+        i -= ntot
+    if i < 0:
+        i += ntot
+    i1 = i + 1
+    if i1 >= ntot:
+        i1 = 0
+    if nd == 0:
+        return lin[o + i] + a * (lin[o + i1] - lin[o + i])
+    r = (x - x0) * inv_dx
+    j = int(math.floor(r))
+    b = r - j
+    if j < 0:
+        j = 0
+        b = 0.0
+    elif j > nd - 2:
+        j = nd - 2
+        b = 1.0
+    r0 = o + i * nd + j
+    r1 = o + i1 * nd + j
+    v0 = lin[r0] + b * (lin[r0 + 1] - lin[r0])
+    v1 = lin[r1] + b * (lin[r1 + 1] - lin[r1])
+    return v0 + a * (v1 - v0)
 
 
 @njit(cache=True, inline="always")
@@ -391,6 +445,7 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
     sparse_c = (variant & 2) != 0
     two_sided_c = (variant & 4) != 0
     twist_c = (variant & 8) != 0
+    errors_c = (variant & VARIANT_ERRORS) != 0
 
     def loop(s, kin, n_steps, h, mode, fext, rec_every, rec_state, rec_out, mats, vecs, mmat, phase, u, scal, iref,
              tab, tint, tflt, lin, lint, work, eff, kidx, kval, nz):
@@ -400,6 +455,7 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
         sparse = sparse_c
         two_sided = two_sided_c
         twist = twist_c
+        errors = errors_c
         # RK4 of q'' = a(q, q', F).  The force-free acceleration is linear in (q, q'), so every stage's is the
         # first stage's g0 plus products with the earlier stages' accelerations a1..a3 (hh = h/2):
         #   a2 = g0 + hh p - hh C a1                  - F2 M^-1 v - Fc2 M^-1 vc      (p = -K q')
@@ -567,13 +623,35 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
                 for k in range(m):
                     t1 = wk[o_tb + k] + phase[0, k] + wk[o_wq + k]
                     t2 = wk[o_tb + k] + 0.5 * wk[o_td + k] + phase[0, k] + wk[o_wq + k] + hh * wk[o_wd + k]
+                    if twist and errors:
+                        wh = kin[1] if unit_rates else mesh_base(phase[1, k], phase[2, k], kin[1], tau_ref)[1]
+                        x1 = wk[o_xq + k]
+                        x2 = wk[o_xq + k] + hh * wk[o_xd + k]
+                        wk[o_f1 + k], wk[o_c1 + k] = twist_force(
+                            k, m, tab, tint, tflt, t1, x1 - mesh_error(lin, lint, m, k, wh + t1, x1, tflt[k, 0], tflt[k, 1]),
+                            wk[o_cq + k])
+                        wk[o_f2 + k], wk[o_c2 + k] = twist_force(
+                            k, m, tab, tint, tflt, t2, x2 - mesh_error(lin, lint, m, k, wh + t2, x2, tflt[k, 0], tflt[k, 1]),
+                            wk[o_cq + k] + hh * wk[o_cd + k])
+                        continue
                     if twist:
                         wk[o_f1 + k], wk[o_c1 + k] = twist_force(k, m, tab, tint, tflt, t1, wk[o_xq + k], wk[o_cq + k])
                         wk[o_f2 + k], wk[o_c2 + k] = twist_force(k, m, tab, tint, tflt, t2, wk[o_xq + k] + hh * wk[o_xd + k],
                                                                  wk[o_cq + k] + hh * wk[o_cd + k])
                         continue
-                    wk[o_f1 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t1, wk[o_xq + k])
-                    wk[o_f2 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t2, wk[o_xq + k] + hh * wk[o_xd + k])
+                    if errors:
+                        # the drive flanks' lookup deflection less the error of the tooth pairs in contact
+                        wh = kin[1] if unit_rates else mesh_base(phase[1, k], phase[2, k], kin[1], tau_ref)[1]
+                        x1 = wk[o_xq + k]
+                        x2 = wk[o_xq + k] + hh * wk[o_xd + k]
+                        wk[o_f1 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t1,
+                                                  x1 - mesh_error(lin, lint, m, k, wh + t1, x1, tflt[k, 0], tflt[k, 1]))
+                        wk[o_f2 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t2,
+                                                  x2 - mesh_error(lin, lint, m, k, wh + t2, x2, tflt[k, 0], tflt[k, 1]))
+                    else:
+                        wk[o_f1 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t1, wk[o_xq + k])
+                        wk[o_f2 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t2,
+                                                  wk[o_xq + k] + hh * wk[o_xd + k])
                     if coast_on:
                         wk[o_c1 + k] = table_row_force(tab, tint, tflt, m + k, t1, wk[o_cq + k])
                         wk[o_c2 + k] = table_row_force(tab, tint, tflt, m + k, t2, wk[o_cq + k] + hh * wk[o_cd + k])
@@ -637,6 +715,17 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
                             e2 -= mf[o_cv + k * m + j] * wk[o_f2 + j] + mf[o_cvc + k * m + j] * wk[o_c2 + j]
                     t3 = wk[o_tb + k] + 0.5 * wk[o_td + k] + phase[0, k] + wk[o_wq + k] + hh * (wk[o_wd + k] + hh * b)
                     t4 = wk[o_tb + k] + wk[o_td + k] + phase[0, k] + wk[o_wq + k] + h * (wk[o_wd + k] + hh * d)
+                    if twist and errors:
+                        wh = kin[1] if unit_rates else mesh_base(phase[1, k], phase[2, k], kin[1], tau_ref)[1]
+                        x3 = wk[o_xq + k] + hh * (wk[o_xd + k] + hh * a)
+                        x4 = wk[o_xq + k] + h * (wk[o_xd + k] + hh * c)
+                        wk[o_f3 + k], wk[o_c3 + k] = twist_force(
+                            k, m, tab, tint, tflt, t3, x3 - mesh_error(lin, lint, m, k, wh + t3, x3, tflt[k, 0], tflt[k, 1]),
+                            wk[o_cq + k] + hh * (wk[o_cd + k] + hh * e1))
+                        wk[o_f4 + k], wk[o_c4 + k] = twist_force(
+                            k, m, tab, tint, tflt, t4, x4 - mesh_error(lin, lint, m, k, wh + t4, x4, tflt[k, 0], tflt[k, 1]),
+                            wk[o_cq + k] + h * (wk[o_cd + k] + hh * e2))
+                        continue
                     if twist:
                         wk[o_f3 + k], wk[o_c3 + k] = twist_force(k, m, tab, tint, tflt, t3,
                                                                  wk[o_xq + k] + hh * (wk[o_xd + k] + hh * a),
@@ -645,10 +734,19 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
                                                                  wk[o_xq + k] + h * (wk[o_xd + k] + hh * c),
                                                                  wk[o_cq + k] + h * (wk[o_cd + k] + hh * e2))
                         continue
-                    wk[o_f3 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t3,
-                                              wk[o_xq + k] + hh * (wk[o_xd + k] + hh * a))
-                    wk[o_f4 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t4,
-                                              wk[o_xq + k] + h * (wk[o_xd + k] + hh * c))
+                    if errors:
+                        wh = kin[1] if unit_rates else mesh_base(phase[1, k], phase[2, k], kin[1], tau_ref)[1]
+                        x3 = wk[o_xq + k] + hh * (wk[o_xd + k] + hh * a)
+                        x4 = wk[o_xq + k] + h * (wk[o_xd + k] + hh * c)
+                        wk[o_f3 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t3,
+                                                  x3 - mesh_error(lin, lint, m, k, wh + t3, x3, tflt[k, 0], tflt[k, 1]))
+                        wk[o_f4 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t4,
+                                                  x4 - mesh_error(lin, lint, m, k, wh + t4, x4, tflt[k, 0], tflt[k, 1]))
+                    else:
+                        wk[o_f3 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t3,
+                                                  wk[o_xq + k] + hh * (wk[o_xd + k] + hh * a))
+                        wk[o_f4 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t4,
+                                                  wk[o_xq + k] + h * (wk[o_xd + k] + hh * c))
                     if coast_on:
                         wk[o_c3 + k] = table_row_force(tab, tint, tflt, m + k, t3,
                                                        wk[o_cq + k] + hh * (wk[o_cd + k] + hh * e1))
@@ -725,11 +823,13 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
                     rec_out[nrec, REC * k + REC_DTE] = d
                     rec_out[nrec, REC * k + REC_COAST_APPROACH] = xc
                     if twist:
-                        wt, mt = twist_force(k, m, tab, tint, tflt, t, x, xc)
+                        xl = x - mesh_error(lin, lint, m, k, whole + t, x, tflt[k, 0], tflt[k, 1]) if errors else x
+                        wt, mt = twist_force(k, m, tab, tint, tflt, t, xl, xc)
                         rec_out[nrec, REC * k + REC_FORCE] = wt
                         rec_out[nrec, REC * k + REC_COAST_FORCE] = mt
                     else:
-                        rec_out[nrec, REC * k + REC_FORCE] = mesh_force(law, k, tab, tint, tflt, lin, lint, t, x)
+                        xl = x - mesh_error(lin, lint, m, k, whole + t, x, tflt[k, 0], tflt[k, 1]) if errors else x
+                        rec_out[nrec, REC * k + REC_FORCE] = mesh_force(law, k, tab, tint, tflt, lin, lint, t, xl)
                         rec_out[nrec, REC * k + REC_COAST_FORCE] = (table_row_force(tab, tint, tflt, m + k, t, xc)
                                                                     if two_sided else 0.0)
                 rec_out[nrec, REC * m] = (step + 1) * h
@@ -755,15 +855,25 @@ _linear_s2 = _make_loop("_linear_s2", 0, 0, LAW_LINEAR | VARIANT_SPARSE | VARIAN
 _twist_12_1 = _make_loop("_twist_12_1", 12, 1, LAW_TABLE | VARIANT_TWIST)
 _twist_s = _make_loop("_twist_s", 0, 0, LAW_TABLE | VARIANT_SPARSE | VARIANT_TWIST)
 
+_twist_s_e = _make_loop("_twist_s_e", 0, 0, LAW_TABLE | VARIANT_SPARSE | VARIANT_TWIST | VARIANT_ERRORS)
+_table_s1_e = _make_loop("_table_s1_e", 0, 0, LAW_TABLE | VARIANT_SPARSE | VARIANT_ERRORS)
+_linear_s1_e = _make_loop("_linear_s1_e", 0, 0, LAW_LINEAR | VARIANT_SPARSE | VARIANT_ERRORS)
+_table_s2_e = _make_loop("_table_s2_e", 0, 0, LAW_TABLE | VARIANT_SPARSE | VARIANT_TWO_SIDED | VARIANT_ERRORS)
+_linear_s2_e = _make_loop("_linear_s2_e", 0, 0, LAW_LINEAR | VARIANT_SPARSE | VARIANT_TWO_SIDED | VARIANT_ERRORS)
+
 _SPECIAL = {(LAW_TABLE, 2, 1, False): _table_2_1_s1, (LAW_TABLE, 4, 1, False): _table_4_1_s1,
             (LAW_TABLE, 3, 2, False): _table_3_2_s1, (LAW_TABLE, 2, 1, True): _table_2_1_s2,
             (LAW_TABLE, 4, 1, True): _table_4_1_s2, (LAW_TABLE, 3, 2, True): _table_3_2_s2}
 _GENERIC = {(LAW_TABLE, False): _table_s1, (LAW_TABLE, True): _table_s2, (LAW_LINEAR, False): _linear_s1,
             (LAW_LINEAR, True): _linear_s2}
+_ERRORS = {(LAW_TABLE, False): _table_s1_e, (LAW_TABLE, True): _table_s2_e, (LAW_LINEAR, False): _linear_s1_e,
+           (LAW_LINEAR, True): _linear_s2_e}
 
 
-def select_kernel(law: int, n: int, m: int, two_sided: bool = False):
-    """The compiled loop for force law ``law``, ``n`` DOFs, ``m`` meshes, with coast-flank contact or without.
+def select_kernel(law: int, n: int, m: int, two_sided: bool = False, errors: bool = False):
+    """The compiled loop for force law ``law``, ``n`` DOFs, ``m`` meshes, with coast-flank contact or without,
+    with manufacturing errors (``errors``: the generic loops of bit ``VARIANT_ERRORS``; ``lin``, ``lint`` then
+    carry the error profiles, :func:`flatten_errors`) or without.
 
     Arguments of the returned function (float64 arrays, C-contiguous, unless noted)::
 
@@ -794,8 +904,12 @@ def select_kernel(law: int, n: int, m: int, two_sided: bool = False):
         if two_sided:
             raise ValueError("helical meshes (LAW_TWIST) take their coast side as meshes m..2m-1 of the same loop "
                              "(two_sided = False)")
+        if errors:
+            return _twist_s_e
         return _twist_12_1 if (n, m) == (12, 1) else _twist_s
     two_sided = bool(two_sided)
+    if errors:
+        return _ERRORS[(law, two_sided)]
     return _SPECIAL.get((law, n, m, two_sided), _GENERIC[(law, two_sided)])
 
 
@@ -809,10 +923,10 @@ COMPILE_LOGGER = "hacgear.compile"
 COMPILE_CPU_S = 15
 
 
-def kernel_label(law: int, n: int, m: int, two_sided: bool = False) -> str:
+def kernel_label(law: int, n: int, m: int, two_sided: bool = False, errors: bool = False) -> str:
     """What :func:`select_kernel` selects, in words: ``"the integration kernel for 12 DOF x 1 mesh (helical)"``."""
     kind = {LAW_TABLE: "force tables", LAW_LINEAR: "conventional force law", LAW_TWIST: "helical"}[law]
-    sides = ", both flanks" if two_sided else ""
+    sides = (", both flanks" if two_sided else "") + (", with tooth errors" if errors else "")
     return f"the integration kernel for {n} DOF x {m} mesh{'es' if m != 1 else ''} ({kind}{sides})"
 
 
@@ -985,3 +1099,35 @@ def flatten_twist_tables(tables) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     cat = np.concatenate(parts) if parts else np.zeros(0)
     return (np.ascontiguousarray(cat), np.array(rows_d + rows_t, np.int64).reshape(-1, 3),
             np.array(fl_d + fl_t, float).reshape(-1, 4))
+
+
+def flatten_errors(lin: np.ndarray, lint: np.ndarray, profiles) -> tuple[np.ndarray, np.ndarray]:
+    """``(lin, lint)`` of :func:`flatten_linear` extended by the error profiles of the kernel's ``m`` meshes
+    (``profiles``: per mesh None, ``(samples (L npc,) [m], L cycles, npc samples per cycle)`` or ``(samples (L npc
+    nd,), L, npc, nd)`` over the drive table's ``nd`` deflections): the samples appended to ``lin``, rows ``m + k`` =
+    (offset, npc) and ``2 m + k`` = (L, nd) appended to ``lint`` (npc = 0: no error on that mesh; nd = 0: the same
+    error at every approach), as :func:`mesh_error` reads them."""
+    m = len(profiles)
+    lint = np.asarray(lint, np.int64).reshape(-1, 2)
+    if lint.shape[0] != m:
+        raise ValueError(f"lint must have one row per mesh ({m}), got {lint.shape[0]}")
+    parts = [np.asarray(lin, float)]
+    o = parts[0].size
+    rows_a, rows_b = [], []
+    for p in profiles:
+        if p is None:
+            rows_a.append((0, 0))
+            rows_b.append((1, 0))
+            continue
+        samples, cycles, npc = p[:3]
+        nd = int(p[3]) if len(p) > 3 else 0
+        samples = np.ascontiguousarray(samples, dtype=np.float64)
+        if samples.shape != (int(cycles) * int(npc) * max(nd, 1),) or nd == 1:
+            raise ValueError(f"an error profile of {cycles} cycles x {npc} samples per cycle x {nd} approaches needs "
+                             f"{int(cycles) * int(npc) * max(nd, 1)} samples (nd = 0 or >= 2), got {samples.shape}")
+        parts.append(samples)
+        rows_a.append((o, int(npc)))
+        rows_b.append((int(cycles), nd))
+        o += samples.size
+    return (np.ascontiguousarray(np.concatenate(parts)),
+            np.ascontiguousarray(np.vstack([lint, np.array(rows_a, np.int64), np.array(rows_b, np.int64)])))

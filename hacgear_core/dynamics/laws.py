@@ -193,7 +193,8 @@ class MeshLaw:
         f, x = self._kinematic_fields(system, q, tau, offset, rec)
         m = self.m
         xc = system.Vc @ q
-        f["mesh_force_N"][:] = [float(self.mesh_force(k, tau[k], x[k])) for k in range(m)]
+        xl = _lookup_deflections(system, x, offset + np.asarray(tau, float))
+        f["mesh_force_N"][:] = [float(self.mesh_force(k, tau[k], xl[k])) for k in range(m)]
         f["coast_approach_m"][:] = xc
         f["coast_force_N"][:] = [float(self.coast_force(k, tau[k], xc[k])) for k in range(m)]
 
@@ -215,14 +216,18 @@ class MeshLaw:
         came from."""
         m = self.m
         x = system.V @ q
-        f = np.array([float(self.mesh_force(k, tau[k], x[k])) for k in range(m)])
+        xl = _lookup_deflections(system, x, tau)
+        f = np.array([float(self.mesh_force(k, tau[k], xl[k])) for k in range(m)])
         terms = [system.V.T @ f]
         xc = system.Vc @ q
         fc = np.zeros(m)
         if self.two_sided:
             fc = np.array([float(self.coast_force(k, tau[k], xc[k])) for k in range(m)])
             terms.append(system.Vc.T @ fc)
-        return terms, {"mesh_deflection_m": x, "mesh_force_N": f, "coast_approach_m": xc, "coast_force_N": fc}
+        fields = {"mesh_deflection_m": x, "mesh_force_N": f, "coast_approach_m": xc, "coast_force_N": fc}
+        if xl is not x:
+            fields["lookup_deflection_m"] = xl
+        return terms, fields
 
     def elastic_energy(self, system, q: np.ndarray, tau: np.ndarray) -> float:
         """Strain energy [J] of the meshes at state ``q`` (n,) and positions ``tau`` (m,): the work of their forces
@@ -244,7 +249,7 @@ class MeshLaw:
         """The tangent stiffness ``keff`` plus the meshes' slopes at ``fields`` (of :meth:`static_forces`), each
         loaded flank's slope at least ``kbar_floor`` (m,)."""
         m = self.m
-        x, xc = fields["mesh_deflection_m"], fields["coast_approach_m"]
+        x, xc = fields.get("lookup_deflection_m", fields["mesh_deflection_m"]), fields["coast_approach_m"]
         ks = np.array([float(self.mesh_slope(k, tau[k], x[k])) for k in range(m)])
         a = keff + (system.V.T * np.maximum(ks, 0.0 if coast_loaded else kbar_floor)) @ system.V
         if self.two_sided:
@@ -404,7 +409,8 @@ class TwistTableLaw(MeshLaw):
         f, x = self._kinematic_fields(system, q, tau, offset, rec)
         m = self.m
         g = system.T @ q
-        wm = np.array([self.generalized(k, tau[k], x[k], g[k]) for k in range(m)]).reshape(m, 2)
+        xl = _lookup_deflections(system, x, offset + np.asarray(tau, float))
+        wm = np.array([self.generalized(k, tau[k], xl[k], g[k]) for k in range(m)]).reshape(m, 2)
         f["mesh_force_N"][:m] = wm[:, 0]
         f["coast_approach_m"][:m] = g
         f["coast_force_N"][:m] = wm[:, 1]
@@ -436,21 +442,25 @@ class TwistTableLaw(MeshLaw):
         # approach xc = v_c . q, coast twist gamma_c = t_c . q)
         m = self.m
         x, g = system.V @ q, system.T @ q
-        wm = np.array([self.generalized(k, tau[k], x[k], g[k]) for k in range(m)]).reshape(m, 2)
+        xl = _lookup_deflections(system, x, tau)
+        wm = np.array([self.generalized(k, tau[k], xl[k], g[k]) for k in range(m)]).reshape(m, 2)
         terms = [system.V.T @ wm[:, 0], system.T.T @ wm[:, 1]]
         xc, gc = system.Vc @ q, system.Tc @ q
         wmc = np.zeros((m, 2))
         if self.coast:
             wmc = np.array([self.generalized(k, tau[k], xc[k], gc[k], coast=True) for k in range(m)]).reshape(m, 2)
             terms += [system.Vc.T @ wmc[:, 0], system.Tc.T @ wmc[:, 1]]
-        return terms, {"mesh_deflection_m": x, "mesh_force_N": wm[:, 0], "mesh_twist_rad": g,
-                     "twist_moment_Nm": wm[:, 1], "coast_approach_m": xc if self.coast else np.zeros(m),
-                     "coast_force_N": wmc[:, 0], "coast_twist_rad": gc, "coast_twist_moment_Nm": wmc[:, 1]}
+        fields = {"mesh_deflection_m": x, "mesh_force_N": wm[:, 0], "mesh_twist_rad": g,
+                  "twist_moment_Nm": wm[:, 1], "coast_approach_m": xc if self.coast else np.zeros(m),
+                  "coast_force_N": wmc[:, 0], "coast_twist_rad": gc, "coast_twist_moment_Nm": wmc[:, 1]}
+        if xl is not x:
+            fields["lookup_deflection_m"] = xl
+        return terms, fields
 
     def tangent(self, system, keff, tau, fields, kbar_floor, coast_loaded):
         # the generalized law's 2 x 2 slopes per mesh (the table's rule) on [v t] (and [v_c t_c]); the floor on
         # the flanks the load presses
-        x, g = fields["mesh_deflection_m"], fields["mesh_twist_rad"]
+        x, g = fields.get("lookup_deflection_m", fields["mesh_deflection_m"]), fields["mesh_twist_rad"]
         a = keff.copy()
         for k in range(self.m):
             c = self.meshes[k]
@@ -486,6 +496,15 @@ def _energy_rule() -> tuple[np.ndarray, np.ndarray]:
 
 _RULE = tuple(np.array(a) for a in (0.5 * (np.polynomial.legendre.leggauss(ENERGY_NODES)[0] + 1.0),
                                     0.5 * np.polynomial.legendre.leggauss(ENERGY_NODES)[1]))
+
+
+def _lookup_deflections(system, x: np.ndarray, positions: np.ndarray) -> np.ndarray:
+    """The drive flanks' lookup deflections (m,): ``x`` itself without manufacturing errors, else ``x`` less each
+    mesh's error at its unwrapped position (:meth:`~hacgear_core.dynamics.system.LumpedSystem.mesh_errors_m`, the
+    kernel's rule)."""
+    if not getattr(system, "has_errors", False):
+        return x
+    return x - system.mesh_errors_m(positions, x)
 
 
 def mesh_law(system_name: str, meshes: Sequence[Any], force_law: str) -> MeshLaw:

@@ -116,7 +116,14 @@ class MeshCoupling:
 
     ``rate`` ``(p, q)``: the mesh runs at ``p/q`` times the reference mesh frequency (integers > 0; (1, 1) for
     every mesh of a pair, idler chain, planetary set; a gear train's stages with other tooth counts differ): its
-    kinematic position is ``p/q`` times the reference position (:meth:`LumpedSystem.kinematic_positions`)."""
+    kinematic position is ``p/q`` times the reference position (:meth:`LumpedSystem.kinematic_positions`).
+
+    ``error`` (manufacturing errors of the gears' teeth, :mod:`hacgear_core.dynamics.gear_errors`): None, or the
+    mesh's error profile ``(samples (L npc,) [m], L, npc)``: the error ``e`` [m] of the tooth pairs in contact along
+    the line of action (positive: the flanks meet earlier) at the unwrapped mesh position ``c`` [cycles], linear
+    between samples ``c = i / npc`` and periodic over ``L`` mesh cycles, or ``(samples (L npc nd,), L, npc, nd)``
+    the same over the ``nd`` approaches of the drive table's deflection grid too; the drive flanks' force is their
+    law at the deflection ``x - e(c[, x])`` (the coast flanks keep the ideal geometry)."""
 
     name: str
     gear_a: str
@@ -139,6 +146,7 @@ class MeshCoupling:
     t: np.ndarray | None = None
     t_c: np.ndarray | None = None
     rate: tuple[int, int] = (1, 1)
+    error: tuple | None = None
 
     @property
     def coast_table(self):
@@ -301,6 +309,14 @@ class LumpedSystem:
         self.unit_rates = bool(np.all(self.rate[:, 0] == self.rate[:, 1]))
         #: reference mesh cycles after which every mesh is back at its start position (lcm of the q / gcd(p, q))
         self.period_cycles = math.lcm(*(q // math.gcd(p, q) for p, q in (c.rate for c in self.meshes)))
+        #: any mesh has a manufacturing-error profile (``MeshCoupling.error``): the kernel's error loops
+        self.has_errors = any(c.error is not None for c in self.meshes)
+        if self.has_errors:
+            # a mesh at rate p/q with an error profile of L of its cycles repeats after L q / gcd(L p, q) reference
+            # cycles (the hunting-tooth period of its gears)
+            self.period_cycles = math.lcm(self.period_cycles, *(
+                (int(c.error[1]) * c.rate[1]) // math.gcd(int(c.error[1]) * c.rate[0], c.rate[1])
+                for c in self.meshes if c.error is not None))
         self.Vc = np.ascontiguousarray(np.array([np.zeros(n) if c.v_c is None else c.v_c for c in self.meshes],
                                                 dtype=float))
         self.T = np.ascontiguousarray(np.array([np.zeros(n) if c.t is None else c.t for c in self.meshes],
@@ -324,6 +340,8 @@ class LumpedSystem:
 
     def _select_kernel(self):
         law = self.mesh_law
+        if getattr(self, "has_errors", False):
+            return kernels.select_kernel(law.kernel_law, self.n, law.m_kernel, law.kernel_two_sided, errors=True)
         return kernels.select_kernel(law.kernel_law, self.n, law.m_kernel, law.kernel_two_sided)
 
     # ------------------------------------------------------------------ linearisation, damping, step bound
@@ -384,6 +402,10 @@ class LumpedSystem:
         kv, kw_, kvr, vc2, kph = self.mesh_law.kernel_meshes(self)
         tab, tint, tflt = self.mesh_law.kernel_tables(self)
         lin, lint = kernels.flatten_linear([lw.lin for lw in self.laws])
+        if getattr(self, "has_errors", False):
+            # one row per kernel mesh (a helical mesh's coast side is a kernel mesh of its own, without errors)
+            lint = np.vstack([lint, np.zeros((mq - lint.shape[0], 2), np.int64)]) if lint.shape[0] < mq else lint
+            lin, lint = kernels.flatten_errors(lin, lint, [c.error for c in self.meshes] + [None] * (mq - self.m))
         vmi = kv @ minv.T
         vci = vc2 @ minv.T
         pattern = (kv != 0) | (kw_ != 0) | (vmi != 0) | (vc2 != 0) | (vci != 0)
@@ -447,6 +469,11 @@ class LumpedSystem:
             h.update(ta.ftab.tobytes())
             h.update(np.array([ta.x0, ta.dx]).tobytes())
         self.mesh_law.fingerprint(self, h)
+        if getattr(self, "has_errors", False):
+            for c in self.meshes:
+                if c.error is not None:
+                    h.update(np.ascontiguousarray(c.error[0], np.float64).tobytes())
+                    h.update(repr((c.name,) + tuple(int(v) for v in c.error[1:])).encode())
         h.update(repr((self.force_law_name, self.torque_Nm, self.modal_damping_ratio, self.carrier_ratio,
                        self.dof_names, self.mesh_names, self.reference_gear)).encode())
         return h.hexdigest()
@@ -647,6 +674,40 @@ class LumpedSystem:
         """The meshes' kinematic positions [cycles] (..., m) in [0, 1) (:meth:`mesh_kinematics`)."""
         return self.mesh_kinematics(tau_ref, cycles)[0]
 
+    def mesh_errors_m(self, positions, x=None) -> np.ndarray:
+        """Manufacturing errors [m] (..., m) of the meshes at unwrapped mesh positions ``positions`` (..., m)
+        [cycles] and approaches ``x`` (..., m) [m] (each mesh's error profile, ``MeshCoupling.error``, by the
+        kernel's rule, :func:`kernels.mesh_error`; 0 without one; ``x`` is needed by profiles over the approach)."""
+        pos = np.asarray(positions, dtype=float)
+        xx = None if x is None else np.broadcast_to(np.asarray(x, dtype=float), pos.shape)
+        out = np.zeros(pos.shape)
+        for k, c in enumerate(self.meshes):
+            if c.error is None:
+                continue
+            samples, cycles, npc = c.error[:3]
+            nd = int(c.error[3]) if len(c.error) > 3 else 0
+            u = np.mod(pos[..., k], float(cycles)) * float(npc)
+            i = np.floor(u)
+            a = u - i
+            nt = int(cycles) * int(npc)
+            i = np.mod(i.astype(np.int64), nt)
+            i1 = (i + 1) % nt
+            if nd == 0:
+                out[..., k] = samples[i] + a * (samples[i1] - samples[i])
+                continue
+            if xx is None:
+                raise ValueError(f"mesh '{c.name}': its error profile depends on the approach; give x")
+            ta = self.table_arrays[k]
+            r = (xx[..., k] - ta.x0) * ta.inv_dx
+            j = np.floor(r)
+            b = r - j
+            b = np.where(j < 0, 0.0, np.where(j > nd - 2, 1.0, b))
+            j = np.clip(j, 0, nd - 2).astype(np.int64)
+            v0 = samples[i * nd + j] + b * (samples[i * nd + j + 1] - samples[i * nd + j])
+            v1 = samples[i1 * nd + j] + b * (samples[i1 * nd + j + 1] - samples[i1 * nd + j])
+            out[..., k] = v0 + a * (v1 - v0)
+        return out
+
     def unwrapped_positions(self, c) -> np.ndarray:
         """Kinematic positions [cycles] (..., m) of the meshes, unwrapped, with the reference mesh at ``c`` (...)
         unwrapped reference cycles: ``rate_k c``."""
@@ -705,7 +766,8 @@ class LumpedSystem:
     def kernel_label(self) -> str:
         """This system's kernel specialisation in words (the compile notice's)."""
         law = self.mesh_law
-        return kernels.kernel_label(law.kernel_law, self.n, law.m_kernel, law.kernel_two_sided)
+        return kernels.kernel_label(law.kernel_law, self.n, law.m_kernel, law.kernel_two_sided,
+                                    errors=getattr(self, "has_errors", False))
 
     def with_changes(self, **changes) -> "LumpedSystem":
         """A copy rebuilt with some constructor arguments changed (torque, damping, force law...)."""

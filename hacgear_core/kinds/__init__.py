@@ -3,6 +3,7 @@ hands to the one assembly, and the model loader and system builder that dispatch
 from __future__ import annotations
 
 import difflib
+import math
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -81,8 +82,36 @@ def build_system(model: Any, tables: Any, **options) -> LumpedSystem:
     """The lumped system of ``model`` on its mesh ``tables`` (a :class:`~hacgear_core.tables.SystemTables` or
     {mesh name: MeshTable}; None for a lumped model): its kind's train, assembled.  ``options``: ``force_law``,
     ``torque_Nm``, ``bearing_stiffness_N_per_m``, ``modal_damping_ratio``, ``shafts`` and the kind's structural
-    parameters (planetary sets: ``planet_count``, ``pin_errors_m``)."""
-    return assemble(kind_of(model).train(model, tables, **options))
+    parameters (planetary sets: ``planet_count``, ``pin_errors_m``).  Gears with manufacturing errors
+    (``[gears.errors]``) give their meshes error profiles (:mod:`hacgear_core.dynamics.gear_errors`; spur pairs and
+    idler chains)."""
+    system = assemble(kind_of(model).train(model, tables, **options))
+    gears = getattr(model, "gears", ())
+    if any(getattr(g, "errors", None) is not None and g.errors.any for g in gears):
+        system = _with_model_errors(model, system)
+    return system
+
+
+def _with_model_errors(model: Any, system: LumpedSystem) -> LumpedSystem:
+    """``system`` with the error profiles of ``model``'s gears (:func:`~hacgear_core.dynamics.gear_errors.
+    with_gear_errors`); kinds other than spur pairs and idler chains are refused."""
+    from hacgear_core.dynamics.gear_errors import with_gear_errors
+    from hacgear_core.geometry import mesh_geometry
+
+    if model.kind not in ("spur_pair", "idler_chain", "helical_pair"):
+        bad = [g.name for g in model.gears if g.errors is not None and g.errors.any]
+        raise ModelError(f"{model.path or model.name}: [gears.errors] of {bad}: manufacturing errors are supported "
+                         f"on kinds spur_pair, idler_chain and helical_pair (runout), not yet on '{model.kind}'")
+    gears = {g.name: (g.errors, 0.5 * g.module_m * g.teeth, g.module_m * math.cos(g.helix_angle_rad))
+             for g in model.gears}
+    alpha = {m.name: mesh_geometry(model, m.name).operating_pressure_angle_rad for m in model.meshes}
+    # a helical mesh's deflection is along the flank normal: cos(beta_b) of a transverse displacement
+    # (tan beta_b = tan beta cos alpha_t)
+    gd = {g.name: g for g in model.gears}
+    factor = {m.name: math.cos(math.atan(abs(math.tan(gd[m.gear_a].helix_angle_rad))
+                                         * math.cos(gd[m.gear_a].flanks["drive"].pressure_angle_rad)))
+              for m in model.meshes}
+    return with_gear_errors(system, gears, alpha, normal_factor=factor)
 
 
 def structural_parameters(model: Any) -> tuple[StructuralParameter, ...]:

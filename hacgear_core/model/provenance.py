@@ -39,7 +39,8 @@ EXCLUDED: dict[type, frozenset[str]] = {
     # a kind's own section holds dynamics parameters (shafts, supports), not what the tables depend on
     Model: frozenset({"name", "title", "source", "damping", "operating", "path", "sha256", "defaults_applied",
                       "sections", "section"}),
-    Gear: frozenset({"support", "mass_kg", "inertia_kgm2"}),
+    # manufacturing errors enter the dynamics as a shift of the lookup deflection, not the static contact analyses
+    Gear: frozenset({"support", "mass_kg", "inertia_kgm2", "errors"}),
     Material: frozenset({"name", "density_kg_per_m3"}),
     # the power flow's output member names the driver of each mesh, which the meshes' own gear order already holds
     Planetary: frozenset({"planet_count", "carrier_mass_kg", "carrier_inertia_kgm2", "carrier_support",

@@ -23,6 +23,8 @@ __all__ = [
     "Gauge",
     "Support",
     "Web",
+    "GearErrors",
+    "ISO1328_GRADES",
     "Gear",
     "IsoGear",
     "HANDS",
@@ -238,6 +240,54 @@ class Support:
     @property
     def rigid_translation(self) -> bool:
         return math.isinf(self.translational_stiffness_N_per_m)
+
+
+#: accuracy grades of ISO 1328-1:2013 (single pitch tolerance ``f_pT``, :func:`hacgear_core.dynamics.gear_errors.iso1328_single_pitch_tolerance_m`)
+ISO1328_GRADES = (1, 11)
+
+
+@dataclass(frozen=True)
+class GearErrors:
+    """Manufacturing errors of one gear (SI; docs/spectra.md "Manufacturing errors").
+
+    ``single_pitch_deviations_m``: the single pitch deviation ``f_p,j`` [m] of every pitch, on the reference
+    circle, ``j = 0 .. z-1`` the pitch ending at tooth ``j`` (from tooth ``j - 1``, tooth ``-1`` = tooth ``z - 1``;
+    teeth counted in the order they reach a mesh); positive: a longer pitch, tooth ``j`` and the teeth after it
+    arrive later.  They close (their sum is 0, within 1e-9 m).  Empty: none, or generated from ``iso1328_grade``
+    (ISO 1328-1:2013 accuracy grade, an integer in [1, 11]) with the random ``seed`` (an integer >= 0).
+    ``runout_m``: eccentricity [m] of the gear's teeth about its axis of rotation (the runout ``F_r`` of ISO
+    1328-2 is about twice it), in [0, 1e-3]; ``runout_phase_rad``: the direction of the offset of the teeth's
+    centre, from tooth 0's centre line in the gear's sense of rotation, in [-2 pi, 2 pi]."""
+
+    single_pitch_deviations_m: tuple[float, ...] = ()
+    iso1328_grade: int | None = None
+    seed: int = 0
+    runout_m: float = 0.0
+    runout_phase_rad: float = 0.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "single_pitch_deviations_m", tuple(float(v) for v in self.single_pitch_deviations_m))
+        for v in self.single_pitch_deviations_m:
+            _check_range("errors.single_pitch_deviations_m", v, "m", -1e-3, 1e-3)
+        if self.single_pitch_deviations_m and abs(sum(self.single_pitch_deviations_m)) > 1e-9:
+            raise ModelError(f"errors.single_pitch_deviations_m [m] must close (sum 0 within 1e-9 m: the pitches "
+                             f"make up the whole circle), got sum {sum(self.single_pitch_deviations_m):.6g} m")
+        if self.iso1328_grade is not None:
+            lo, hi = ISO1328_GRADES
+            if isinstance(self.iso1328_grade, bool) or not isinstance(self.iso1328_grade, int) or not (
+                    lo <= self.iso1328_grade <= hi):
+                raise _fail("errors.iso1328_grade", "-", f"integer in [{lo}, {hi}]", self.iso1328_grade)
+            if self.single_pitch_deviations_m:
+                raise ModelError("errors: give single_pitch_deviations_m or iso1328_grade, not both")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or not 0 <= self.seed < 2 ** 63:
+            raise _fail("errors.seed", "-", "integer in [0, 2**63)", self.seed)
+        _check_range("errors.runout_m", self.runout_m, "m", 0.0, 1e-3)
+        _check_range("errors.runout_phase_rad", self.runout_phase_rad, "rad", -2 * math.pi, 2 * math.pi)
+
+    @property
+    def any(self) -> bool:
+        """Whether the gear has any error."""
+        return bool(self.single_pitch_deviations_m) or self.iso1328_grade is not None or self.runout_m != 0.0
 
 
 #: smallest radial rim thickness a web may leave below the root circle: outer_diameter <= root - 2 * this
@@ -456,9 +506,14 @@ class Gear:
     support: Support = field(default_factory=Support)
     web: Web | None = None
     iso: IsoGear | None = None
+    errors: GearErrors | None = None
 
     def __post_init__(self) -> None:
         where = f"gear '{self.name}'"
+        if self.errors is not None and self.errors.single_pitch_deviations_m and len(
+                self.errors.single_pitch_deviations_m) != self.teeth:
+            raise ModelError(f"{where}: errors.single_pitch_deviations_m needs one value per tooth ({self.teeth}), "
+                             f"got {len(self.errors.single_pitch_deviations_m)}")
         if not isinstance(self.teeth, int) or self.teeth < 6 or self.teeth > 1000:
             raise _fail("teeth", "-", "integer in [6, 1000]", self.teeth, where)
         for name, unit, lo, hi in (

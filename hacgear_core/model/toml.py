@@ -106,7 +106,7 @@ from typing import Any, Callable
 from hacgear_core.errors import ModelError
 from hacgear_core.model import iso21771 as _iso
 from hacgear_core.model.schema import (
-    FE_LENGTH_CHOICES, FLANKS, HANDS, PLANETARY_MEMBERS, RELIEF_SHAPES, WEB_MIN_RIM_M, Damping, Flank, Gauge, Gear,
+    FE_LENGTH_CHOICES, FLANKS, HANDS, PLANETARY_MEMBERS, RELIEF_SHAPES, WEB_MIN_RIM_M, Damping, Flank, Gauge, Gear, GearErrors,
     IsoGear, LumpedGear, RANGES, Material, Mesh, Model, Operating, PinError, Planetary, StaticsGrid, Support, Web,
 )
 
@@ -241,6 +241,7 @@ class _Section:
 _MATERIAL_KEYS = ("density_kg_per_m3", "youngs_modulus_GPa", "poisson_ratio")
 _FLANK_KEYS = ("pressure_angle_deg", "tip_relief_um", "tip_relief_start_roll_deg", "tip_relief_shape")
 _GAUGE_KEYS = ("name", "flank", "radius_mm", "face_fraction")
+_ERROR_KEYS = ("single_pitch_deviations_um", "iso1328_grade", "seed", "runout_um", "runout_phase_deg")
 _SUPPORT_KEYS = (
     "translational_stiffness_N_per_m", "rotational_stiffness_Nm_per_rad", "axial_stiffness_N_per_m",
     "tilting_stiffness_Nm_per_rad",
@@ -249,7 +250,7 @@ _GEAR_KEYS = (
     "name", "teeth", "module_mm", "tip_diameter_mm", "root_diameter_mm", "tooth_thickness_mm", "hob_tip_radius_mm",
     "face_width_mm", "bore_diameter_mm", "material", "internal", "helix_angle_deg", "axial_position_mm",
     "lead_crowning_um", "tip_edge_radius_mm", "mass_kg", "inertia_kgm2", "drive", "coast", "gauges", "support",
-    "web",
+    "web", "errors",
 )
 #: the ISO 21771 form of [[gears]] (marked by normal_module_mm)
 _ISO_GEAR_KEYS = (
@@ -258,6 +259,7 @@ _ISO_GEAR_KEYS = (
     "rack_dedendum_coefficient", "rack_root_radius_coefficient", "thickness_allowance_upper_mm",
     "thickness_allowance_lower_mm", "face_width_mm", "bore_diameter_mm", "material", "axial_position_mm",
     "lead_crowning_um", "tip_edge_radius_mm", "mass_kg", "inertia_kgm2", "drive", "coast", "gauges", "support", "web",
+    "errors",
 )
 #: keys of the transverse (dissertation) form that the ISO form derives, and from what
 _TRANSVERSE_ONLY = {
@@ -280,7 +282,7 @@ _STATICS_KEYS = ("positions", "loads", "deflections", "max_torque_factor", "face
                  "max_twist_mrad", "fe_lengths")
 _SYSTEM_KEYS = ("name", "kind", "title", "source", "lumped")
 #: every key a model file may hold: a missing required key next to an unknown key close to it is a misspelling
-_KNOWN_KEYS = frozenset(_MATERIAL_KEYS + _FLANK_KEYS + _GAUGE_KEYS + _SUPPORT_KEYS + _GEAR_KEYS + _ISO_GEAR_KEYS
+_KNOWN_KEYS = frozenset(_MATERIAL_KEYS + _FLANK_KEYS + _GAUGE_KEYS + _ERROR_KEYS + _SUPPORT_KEYS + _GEAR_KEYS + _ISO_GEAR_KEYS
                         + _WEB_KEYS + _MESH_KEYS
                         + _LUMPED_GEAR_KEYS + _LUMPED_MESH_KEYS + _PLANETARY_KEYS + _PIN_ERROR_KEYS + _TOP_KEYS
                         + _STATICS_KEYS + _SYSTEM_KEYS + ("torque_Nm", "torque_gear", "modal_damping_ratio"))
@@ -338,6 +340,28 @@ def _read_gauges(sec: _Section) -> list:
         gsec.done(_GAUGE_KEYS)
         gauges.append(_wrap(gsec, gsec.path, lambda: Gauge(gname, gflank, grad * 1e-3, gface)))
     return gauges
+
+
+def _read_errors(esec: "_Section | None") -> GearErrors | None:
+    """``[gears.errors]`` → :class:`GearErrors` (None when absent)."""
+    if esec is None:
+        return None
+    pitch = esec._get("single_pitch_deviations_um", False, (), "um", "an array of numbers, one per tooth")
+    if not isinstance(pitch, (list, tuple)) or not all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) for v in pitch):
+        raise esec.error(esec.key("single_pitch_deviations_um"), "um", "an array of numbers in [-1000, 1000], one "
+                         "per tooth", pitch, problem=f"wrong type ({pitch!r})")
+    for v in pitch:
+        if not (-1000.0 <= float(v) <= 1000.0):
+            raise esec.error(esec.key("single_pitch_deviations_um"), "um", "numbers in [-1000, 1000]", v,
+                             problem=f"value {v:g} out of range")
+    grade = esec.integer("iso1328_grade", 1, 11, required=False, default=None)
+    seed = esec.integer("seed", 0, 2 ** 63 - 1, required=False, default=0)
+    runout = esec.number("runout_um", "um", 0.0, 1000.0, required=False, default=0.0)
+    phase = esec.number("runout_phase_deg", "deg", -360.0, 360.0, required=False, default=0.0)
+    esec.done(_ERROR_KEYS)
+    return _wrap(esec, esec.path, lambda: GearErrors(tuple(float(v) * 1e-6 for v in pitch), grade, seed,
+                                                     runout * 1e-6, math.radians(phase)))
 
 
 def _read_flank(sec: _Section) -> Flank:
@@ -421,6 +445,7 @@ def _read_gear(sec: _Section, materials: dict[str, Material]) -> Gear:
     gauges = _read_gauges(sec)
     support = _read_support(sec.table("support", required=False))
     web = _read_web(sec.table("web", required=False), face, bore, root, internal)
+    errors = _read_errors(sec.table("errors", required=False))
     sec.done(_GEAR_KEYS)
     return _wrap(sec, sec.path, lambda: Gear(
         name=name, teeth=teeth, module_m=module * 1e-3, tip_diameter_m=tip * 1e-3, root_diameter_m=root * 1e-3,
@@ -428,7 +453,7 @@ def _read_gear(sec: _Section, materials: dict[str, Material]) -> Gear:
         bore_diameter_m=bore * 1e-3, material=materials[mat_name], flanks={"drive": drive, "coast": coast},
         internal=internal, helix_angle_rad=math.radians(helix), axial_position_m=axial * 1e-3,
         lead_crowning_m=crown * 1e-6, tip_edge_radius_m=tip_edge * 1e-3, mass_kg=mass, inertia_kgm2=inertia,
-        gauges=tuple(gauges), support=support, web=web,
+        gauges=tuple(gauges), support=support, web=web, errors=errors,
     ))
 
 
@@ -526,6 +551,7 @@ def _read_iso_gear(sec: _Section, materials: dict[str, Material]) -> Gear:
     support = _read_support(sec.table("support", required=False))
     root_mm = iso.root_diameter_m * 1e3
     web = _read_web(sec.table("web", required=False), face, bore, root_mm, internal)
+    errors = _read_errors(sec.table("errors", required=False))
     sec.done(_ISO_GEAR_KEYS)
     return _wrap(sec, sec.path, lambda: Gear(
         name=name, teeth=teeth, module_m=iso.transverse_module_m, tip_diameter_m=iso.tip_diameter_m,
@@ -534,7 +560,7 @@ def _read_iso_gear(sec: _Section, materials: dict[str, Material]) -> Gear:
         material=materials[mat_name], flanks={"drive": drive, "coast": coast}, internal=internal,
         helix_angle_rad=iso.signed_helix_angle_rad, axial_position_m=axial * 1e-3, lead_crowning_m=crown * 1e-6,
         tip_edge_radius_m=tip_edge * 1e-3, mass_kg=mass, inertia_kgm2=inertia, gauges=tuple(gauges), support=support,
-        web=web, iso=iso,
+        web=web, iso=iso, errors=errors,
     ))
 
 
@@ -592,6 +618,10 @@ DEFAULT_MEANINGS = {
     "coast": "coast flank = drive flank (symmetric tooth)", "gauges": "no strain gauges",
     "support": "rigid bearings (translational, axial, tilting stiffness inf), free rotation",
     "web": "solid blank from the bore to the root",
+    "errors": "ideal teeth (no pitch or runout errors)",
+    "single_pitch_deviations_um": "no pitch deviations (unless iso1328_grade draws them)",
+    "iso1328_grade": "no generated pitch deviations", "seed": "seed 0 of the generated pitch deviations",
+    "runout_um": "no runout", "runout_phase_deg": "runout towards tooth 0",
     "tip_relief_um": "no tip relief", "tip_relief_start_roll_deg": "no tip relief",
     "tip_relief_shape": "none without tip relief, parabolic with",
     "translational_stiffness_N_per_m": "rigid bearing (purely rotational model)",

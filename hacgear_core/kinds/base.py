@@ -192,6 +192,22 @@ class ExtraOutput:
     read: Any
 
 
+def shaft_torque_output(name: str, member_a: str, member_b: str, stiffness_Nm_per_rad: float) -> ExtraOutput:
+    """The ``<name>.torque`` output of a torsional shaft from ``member_a`` to ``member_b``: its elastic torque k (the
+    twist of the two members' rotation deviations, each in its sense of rotation) [N m], positive when member_a
+    drives member_b (the kinematic rotations of the members of one shaft are equal and cancel)."""
+    k = float(stiffness_Nm_per_rad)
+
+    def read(sim: Any) -> float:
+        ga, gb = sim.system.gears[member_a], sim.system.gears[member_b]
+        return k * (ga.sense * sim.s[ga.rotation] - gb.sense * sim.s[gb.rotation])
+    return ExtraOutput(name=f"{name}.torque", unit="N.m",
+                       description=f"elastic torque of shaft {name} ({member_a} -> {member_b}): k (angle of "
+                                   f"{member_a} - angle of {member_b}), k = {k:g} N m/rad, positive when {member_a} "
+                                   f"drives {member_b}",
+                       read=read)
+
+
 @dataclass(frozen=True)
 class MeshPair:
     """A pair of gears that mesh, for the statics (one table per pair): the table's mesh name and its gears."""

@@ -53,7 +53,7 @@ import numpy as np
 from hacgear_core.errors import ModelError
 from hacgear_core.geometry import gear_geometry, mesh_geometry, train_geometry
 from hacgear_core.geometry.train import MeshPlacement, TrainGeometry
-from hacgear_core.kinds.base import Body, Coupling, Dof, ExtraOutput, Kind, Spring, Train
+from hacgear_core.kinds.base import Body, Coupling, Dof, ExtraOutput, Kind, Spring, Train, shaft_torque_output
 from hacgear_core.kinds.fixed_axis import train_from_model
 from hacgear_core.kinds.helical_pair import helical_from_model
 
@@ -416,24 +416,10 @@ class GearTrain(Kind):
             nominal_torques_per_Nm={model.operating.torque_gear: 1.0, chain.into[last]: -chain.torque[last]})
 
     def extra_outputs(self, model: Any, system: Any) -> tuple[ExtraOutput, ...]:
-        """``<shaft>.torque`` of every shaft: its elastic torque k (angle_a - angle_b), the gears' angles in the
-        axis's sense of rotation (positive when gear_a drives gear_b)."""
-        return tuple(ExtraOutput(
-            name=f"{s.name}.torque", unit="N.m",
-            description=f"elastic torque of shaft {s.name} ({s.gear_a} -> {s.gear_b}): k (angle of {s.gear_a} - angle "
-                        f"of {s.gear_b}), k = {s.torsional_stiffness_Nm_per_rad:g} N m/rad, positive when {s.gear_a} "
-                        f"drives {s.gear_b}",
-            read=_shaft_torque(s)) for s in _section_of(model).shafts)
-
-
-def _shaft_torque(shaft: Shaft):
-    """The reader of ``<shaft>.torque`` on a :class:`~hacgear_core.dynamics.simulator.Simulator` (its gears' angles,
-    each in its sense of rotation: the same sense for the gears of one shaft)."""
-    k = shaft.torsional_stiffness_Nm_per_rad
-
-    def read(sim: Any) -> float:
-        return k * (sim.angle_rad[sim.gear_index(shaft.gear_a)] - sim.angle_rad[sim.gear_index(shaft.gear_b)])
-    return read
+        """``<shaft>.torque`` of every shaft (:func:`~hacgear_core.kinds.base.shaft_torque_output`: positive when
+        gear_a drives gear_b)."""
+        return tuple(shaft_torque_output(s.name, s.gear_a, s.gear_b, s.torsional_stiffness_Nm_per_rad)
+                     for s in _section_of(model).shafts)
 
 
 def _mesh_groups(model: Any) -> list[list]:

@@ -67,7 +67,7 @@ from hacgear_core.errors import GeometryError, ModelError
 from hacgear_core.geometry import nominal_mesh_forces as fixed_axis_forces
 from hacgear_core.geometry.planetary import planetary_geometry, planetary_members, planetary_torques
 from hacgear_core.geometry.train import TrainGeometry
-from hacgear_core.kinds.base import Body, Coupling, ExtraOutput, Kind, Spring, Train
+from hacgear_core.kinds.base import ExtraOutput, Kind, Spring, Train, shaft_torque_output
 from hacgear_core.kinds.fixed_axis import train_from_model
 from hacgear_core.kinds.gear_train import _mesh_groups
 from hacgear_core.kinds.helical_pair import helical_from_model
@@ -524,21 +524,6 @@ class GearboxKind(Kind):
             nominal_torques_per_Nm=nominal, support_reports=tuple(reports_s), bearing_reports=tuple(reports_b))
 
     def extra_outputs(self, model: Any, system: Any) -> tuple[ExtraOutput, ...]:
-        """``<shaft>.torque`` of every shaft: its elastic torque, positive when member_a drives member_b."""
-        return tuple(ExtraOutput(
-            name=f"{s.name}.torque", unit="N.m",
-            description=f"elastic torque of shaft {s.name} ({s.member_a} -> {s.member_b}), k = "
-                        f"{s.torsional_stiffness_Nm_per_rad:g} N m/rad, positive when {s.member_a} drives "
-                        f"{s.member_b}",
-            read=_shaft_torque(s)) for s in _section_of(model).shafts)
-
-
-def _shaft_torque(shaft: GearboxShaft):
-    """The reader of ``<shaft>.torque`` on a Simulator: k times the twist of the deviations, each measured in its
-    member's sense of rotation."""
-    k = shaft.torsional_stiffness_Nm_per_rad
-
-    def read(sim: Any) -> float:
-        ga, gb = sim.system.gears[shaft.member_a], sim.system.gears[shaft.member_b]
-        return k * (ga.sense * sim.s[ga.rotation] - gb.sense * sim.s[gb.rotation])
-    return read
+        """``<shaft>.torque`` of every shaft (:func:`~hacgear_core.kinds.base.shaft_torque_output`)."""
+        return tuple(shaft_torque_output(s.name, s.member_a, s.member_b, s.torsional_stiffness_Nm_per_rad)
+                     for s in _section_of(model).shafts)

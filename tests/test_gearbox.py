@@ -193,3 +193,20 @@ def test_fmu_equals_the_library(tmp_path):
     for k in names:
         v = np.asarray(lib[k])
         assert np.max(np.abs(res[k][1:] - v)) <= 1e-9 * np.max(np.abs(v)), k
+
+
+@pytest.mark.slow
+def test_sweep_reports_every_stage_at_its_mesh_frequency(capsys):
+    """`hacgear sweep nrel_5mw_gearbox --fm 9:11:2 --json`: each speed settles (quasi-periodic, one input revolution
+    per window) and each mesh's record carries its own mesh frequency, rate x the input mesh frequency."""
+    import json
+
+    from hacgear_core.cli import main
+
+    assert main(["sweep", GEARBOX, "--fm", "9:11:2", "--direction", "up", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    b = out["branches"]["up"]
+    assert all(b["converged"]) and b["period_cycles"] == [56, 56]
+    for mesh, rate in (("s1_ring_planet_2", 1.0), ("s2_sun_planet_3", 6975 / 1064), ("s3_wheel_pinion", 4625 / 112)):
+        assert b["meshes"][mesh]["mesh_frequency_Hz"] == pytest.approx([9.0 * rate, 11.0 * rate], rel=1e-12)
+        assert all(1.0 < f < 1.3 for f in b["meshes"][mesh]["dynamic_factor_force"])

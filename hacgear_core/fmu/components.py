@@ -126,7 +126,9 @@ class Load:
 class Rotor:
     """Wind-turbine rotor (module docstring): inertia [kg m^2], aerodynamic torque [N m] before ``step_time`` [s]
     and ``step_torque`` [N m] from then on, initial speed [rad/s] and angle [rad].  The torque of a step is the one
-    at its start time (held over the step, as every input)."""
+    at its start time (held over the step, as every input); the step happens at the communication point nearest
+    ``step_time`` (a start time within half a step of it counts: time accumulated in floats, or a master's whole
+    nanoseconds, do not move it by a step)."""
 
     def __init__(self, inertia, aero_torque, step_time, step_torque, speed_start, angle_start=0.0) -> None:
         self.inertia, self.aero_torque = float(inertia), float(aero_torque)
@@ -136,11 +138,11 @@ class Rotor:
         self.shaft_torque = 0.0
         self.torque = self._torque(0.0)
 
-    def _torque(self, t: float) -> float:
-        return self.aero_torque if t < self.step_time else self.step_torque
+    def _torque(self, t: float, h: float = 0.0) -> float:
+        return self.aero_torque if t < self.step_time - 0.5 * h else self.step_torque
 
     def advance(self, h: float) -> StepResult:
-        self.torque = self._torque(self.time)
+        self.torque = self._torque(self.time, h)
         self.speed += h * (self.torque - self.shaft_torque) / self.inertia
         self.angle += h * self.speed
         self.time += h
@@ -157,7 +159,8 @@ class Generator:
     """Generator on side a of a shaft (module docstring): inertia [kg m^2], the speed-torque law's rated torque
     [N m] at rated speed [rad/s] and slope [N m s/rad], the torque after ``reversal_time`` [s]
     ``reversal_torque`` [N m] (positive brakes), initial speed [rad/s] and angle [rad].  The electrical torque of a
-    step is the law's at the speed and time at its start."""
+    step is the law's at the speed at its end (implicit in the speed: stable for a stiff law on a small inertia);
+    the reversal from the communication point nearest ``reversal_time`` on (as :class:`Rotor`'s step)."""
 
     def __init__(self, inertia, rated_torque, rated_speed, slope, reversal_time, reversal_torque, speed_start,
                  angle_start=0.0) -> None:
@@ -169,20 +172,20 @@ class Generator:
         self.torque = self._torque(0.0, self.speed)
         self.power = self.torque * self.speed
 
-    def _torque(self, t: float, w: float) -> float:
-        if t >= self.reversal_time:
+    def _torque(self, t: float, w: float, h: float = 0.0) -> float:
+        if t >= self.reversal_time - 0.5 * h:
             return self.reversal_torque
         return self.rated_torque + self.slope * (w - self.rated_speed)
 
     def advance(self, h: float) -> StepResult:
-        if self.time >= self.reversal_time:
+        if self.time >= self.reversal_time - 0.5 * h:
             self.torque = self.reversal_torque
             self.speed += h * (-self.shaft_torque - self.torque) / self.inertia
         else:  # the law implicit in the step's end speed: stable for any slope h / inertia
             g = h / self.inertia
             self.speed = (self.speed + g * (-self.shaft_torque - self.rated_torque + self.slope * self.rated_speed)) / (
                 1.0 + g * self.slope)
-            self.torque = self._torque(self.time, self.speed)
+            self.torque = self._torque(self.time, self.speed, h)
         self.power = self.torque * self.speed
         self.angle += h * self.speed
         self.time += h

@@ -31,9 +31,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_model_options(p)
     p.add_argument("--no-impulse", action="store_true", help="skip the impulse test")
     p.add_argument("--carrier-speed", type=float, default=None,
-                   help="planetary sets: carrier speed [rad/s] of the gyroscopic modes (default 0)")
+                   help="planetary sets: carrier speed [rad/s] of the gyroscopic modes (default 0); gearboxes: the "
+                        "input member's speed [rad/s] (each stage's carrier at its own ratio)")
     p.add_argument("--fm", type=float, default=None,
-                   help="planetary sets: mesh frequency [Hz] whose carrier speed the gyroscopic modes use")
+                   help="planetary sets and gearboxes: mesh frequency [Hz] of the reference mesh (a gearbox's "
+                        "first stage) whose speed the gyroscopic modes use")
     p.set_defaults(func=run)
 
 
@@ -53,12 +55,19 @@ def _run_planetary(args: argparse.Namespace, inp) -> int:
     if args.json:
         print(dumps(rep))
         return 0
-    ks = ", ".join(f"{m} {k / 1e6:.2f} N/um" for m, k in zip(sy.mesh_names[:2], gm.mesh_stiffness_N_per_m[:2]))
-    print(f"{inp.label}: {n_pl} planets, torque {sy.torque_Nm:g} N*m, carrier speed {wc:g} rad/s, mesh stiffness "
-          f"{ks}")
-    print("  mode  frequency [Hz]  type           multiplicity")
-    for i, (f, t, k) in enumerate(zip(gm.natural_frequencies_Hz, gm.types, gm.multiplicity)):
-        print(f"  {i + 1:4d}  {f:14.1f}  {t:13s}  {k}")
+    staged = any(g.stage for g in sy.gears.values())
+    if staged:
+        # a gearbox: every stage's carrier turns at its own ratio of the input speed
+        ks = ", ".join(f"{m} {k / 1e6:.2f} N/um" for m, k in zip(sy.mesh_names, gm.mesh_stiffness_N_per_m))
+        print(f"{inp.label}: torque {sy.torque_Nm:g} N*m, input speed {wc:g} rad/s, mesh stiffness {ks}")
+    else:
+        ks = ", ".join(f"{m} {k / 1e6:.2f} N/um" for m, k in zip(sy.mesh_names[:2], gm.mesh_stiffness_N_per_m[:2]))
+        print(f"{inp.label}: {n_pl} planets, torque {sy.torque_Nm:g} N*m, carrier speed {wc:g} rad/s, mesh "
+              f"stiffness {ks}")
+    print("  mode  frequency [Hz]  type           multiplicity  dominant member (share of kinetic energy)")
+    for i, (f, t, k, d) in enumerate(zip(gm.natural_frequencies_Hz, gm.types, gm.multiplicity, gm.dominant)):
+        where = f"{d[0]}: {d[1]}" if d[0] else d[1]
+        print(f"  {i + 1:4d}  {f:14.1f}  {t:13s}  {k:12d}  {where} ({d[2]:.0%})")
     if "impulse_test" in rep:
         it = rep["impulse_test"]
         for key, pos in (("single_contact_Hz", "single_contact_position"), ("double_contact_Hz", "double_contact_position")):

@@ -41,7 +41,7 @@ from hacgear_core.errors import ModelError, SolverError
 from hacgear_core.tables.fdf import contact_count, static_stiffness
 
 __all__ = ["ModalResult", "ImpulseResult", "modal_analysis", "impulse_test", "contact_positions",
-           "identical_pair_mass_properties", "GyroscopicModes", "gyroscopic_modes", "MODE_TYPES"]
+           "identical_pair_mass_properties", "GyroscopicModes", "gyroscopic_modes", "MODE_TYPES", "dominant_members"]
 
 #: mode types of :func:`gyroscopic_modes`
 MODE_TYPES = ("rigid", "rotational", "translational", "planet", "mixed")
@@ -293,13 +293,17 @@ class GyroscopicModes:
     carrier_speed_rad_s: float
     mesh_stiffness_N_per_m: np.ndarray
     mesh_names: tuple = ()
+    dominant: tuple = ()
 
     def to_json(self) -> dict:
         return {
             "carrier_speed_rad_s": self.carrier_speed_rad_s,
             "natural_frequencies_Hz": self.natural_frequencies_Hz.tolist(),
-            "modes": [{"frequency_Hz": float(f), "type": t, "multiplicity": int(k)}
-                      for f, t, k in zip(self.natural_frequencies_Hz, self.types, self.multiplicity)],
+            "modes": [{"frequency_Hz": float(f), "type": t, "multiplicity": int(k),
+                       **({} if not self.dominant else dict(zip(("stage", "member", "kinetic_energy_share"),
+                                                                 self.dominant[i])))}
+                      for i, (f, t, k) in enumerate(zip(self.natural_frequencies_Hz, self.types,
+                                                        self.multiplicity))],
             "mode_shapes": {"dof_names": list(self.dof_names),
                             "note": "one row per mode, magnitudes; rotations as radius*theta [m]",
                             "shapes": np.abs(self.mode_shapes).T.tolist()},
@@ -384,6 +388,7 @@ def gyroscopic_modes(system: LumpedSystem, carrier_speed_rad_s: float = 0.0, *, 
     omega, shapes = omega[order], shapes[:, order]
     if n_rigid:
         omega[:n_rigid] = 0.0
+    dominant = dominant_members(system, shapes)
     ct, cr, _, scale = _dof_roles(system)
     shapes = shapes * scale[:, None]
     for c in range(n):
@@ -400,4 +405,22 @@ def gyroscopic_modes(system: LumpedSystem, carrier_speed_rad_s: float = 0.0, *, 
         same = [j for j in range(n) if types[j] == types[i] and abs(f[j] - f[i]) <= multiplicity_rtol * top]
         mult[i] = len(same)
     return GyroscopicModes(f, tuple(types), mult, shapes, system.dof_names, wc, system.mesh_stiffness_N_per_m.copy(),
-                           system.mesh_names)
+                           system.mesh_names, dominant)
+
+
+def dominant_members(system: LumpedSystem, shapes: np.ndarray) -> tuple[tuple[str, str, float], ...]:
+    """Per mode (columns of ``shapes`` (n, k), real or complex, in the system's coordinates): the body with the
+    largest share of the mode's kinetic energy ``|phi_i|^2 M_ii`` over its DOFs, as (its stage ('' outside a
+    gearbox), its name, its share in [0, 1])."""
+    owner = [name.rsplit(".", 1)[0] for name in system.dof_names]
+    bodies = sorted(set(owner), key=owner.index)
+    pick = np.array([[o == b for o in owner] for b in bodies], float)      # (bodies, n)
+    e = (np.abs(np.asarray(shapes)) ** 2) * np.diag(system.M)[:, None]     # (n, k)
+    share = pick @ e
+    total = share.sum(axis=0)
+    out = []
+    for c in range(share.shape[1]):
+        i = int(np.argmax(share[:, c]))
+        out.append((system.gears[bodies[i]].stage, bodies[i],
+                    float(share[i, c] / total[c]) if total[c] > 0 else 0.0))
+    return tuple(out)

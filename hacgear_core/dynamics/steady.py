@@ -18,6 +18,16 @@ after ``system.period_cycles`` reference mesh cycles (the lcm of the ``q``): its
 system period, and ``min_cycles``, ``max_cycles``, ``max_period``, ``chunk_cycles`` and ``cap_record_cycles`` count
 system periods; the result's ``period_cycles`` and ``cycles_run`` are in reference mesh cycles.
 
+Where that period exceeds ``max_system_period`` reference mesh cycles (a wind-turbine gearbox repeats after tens of
+input revolutions) the response is taken as quasi-periodic: the run first settles for the decay time of the
+slowest elastic mode, ``ln(1 / rtol) / (zeta omega_1)`` (modal damping ratio ``zeta``, lowest elastic natural
+frequency ``omega_1``), then records two observation windows of ``window_revolutions`` revolutions of the slowest
+shaft each (whole reference mesh cycles, every mesh recorded at least 32 times per its own cycle).  The second
+window's metrics are the result; it is ``converged`` (status ``quasi-periodic``) when every metric of the two
+windows agrees within ``window_rtol`` of the larger, else ``cap``.  ``period_cycles`` is then the window's length
+in reference mesh cycles, and the end state lies on a reference mesh cycle boundary only (the faster stages
+elsewhere in their cycles: a sweep's next speed starts with a short transient, which its settling absorbs).
+
 Stability (``stability=True``).  Detection alone can accept an unstable orbit: a symmetric system (identical,
 in-phase planets) keeps a symmetric solution to rounding even where it is unstable, because the perturbation that
 would grow starts at 1e-16 and grows by only a few per cent per cycle.  With ``stability`` every detected orbit is
@@ -50,7 +60,8 @@ from hacgear_core.encodings import contact_state
 from hacgear_core.errors import ModelError
 from hacgear_core.response import skipped_tooth_fraction, static_strain_max, strain_dynamic_factor
 
-__all__ = ["SteadyStateOptions", "SteadyStateResult", "steady_state", "steady_run", "drive", "METRIC_NAMES", "trace_metrics"]
+__all__ = ["SteadyStateOptions", "SteadyStateResult", "steady_state", "steady_run", "drive", "METRIC_NAMES", "trace_metrics",
+           "window_cycles"]
 
 METRIC_NAMES = (
     "mean_deflection_m",
@@ -84,8 +95,18 @@ class SteadyStateOptions:
     max_kicks: int = 3
     kick: float = 1e-2
     cap_record_cycles: int = 4
+    max_system_period: int = 64
+    window_revolutions: int = 1
+    window_rtol: float = 1e-2
 
     def __post_init__(self) -> None:
+        if not 1 <= self.max_system_period <= 100000:
+            raise ModelError(f"max_system_period [reference mesh cycles] must be in [1, 100000], got "
+                             f"{self.max_system_period}")
+        if not 1 <= self.window_revolutions <= 100:
+            raise ModelError(f"window_revolutions [-] must be in [1, 100], got {self.window_revolutions}")
+        if not (0 < self.window_rtol < 1):
+            raise ModelError(f"window_rtol [-] must be in (0, 1), got {self.window_rtol}")
         if not (0 < self.rtol < 1):
             raise ModelError(f"rtol [-] must be in (0, 1), got {self.rtol}")
         if not (1 <= self.min_cycles <= self.max_cycles):
@@ -289,6 +310,8 @@ def steady_run(system: LumpedSystem, mesh_frequency_Hz: float, state0: np.ndarra
         raise ModelError(f"state0 must have shape ({n2},), got {s.shape}")
     nsp = system.steps_per_cycle(fm, minimum=opt.min_steps_per_cycle)
     h = 1.0 / (fm * nsp)
+    if system.period_cycles > opt.max_system_period:
+        return (yield from _quasi_periodic_run(system, fm, s, opt, fext, nsp, h, torque_Nm, keep_trace))
     # one sample per system period (every mesh back at its start position): 1 reference mesh cycle, or
     # period_cycles of them for meshes at different rates; the options' cycles count these periods
     per_p = system.period_cycles
@@ -365,3 +388,59 @@ def steady_run(system: LumpedSystem, mesh_frequency_Hz: float, state0: np.ndarra
     return SteadyStateResult(fm, converged, status, period * per_p if converged else 0, (cycles + nrec_cyc) * per_p,
                              nsp, s.copy(),
                              metrics, trace, mu_max, kicks)
+
+
+def window_cycles(system: LumpedSystem, revolutions: int = 1) -> int:
+    """Whole reference mesh cycles that cover ``revolutions`` revolutions of the system's slowest turning body."""
+    slow = min(abs(g.speed_ratio) for g in system.gears.values() if abs(g.speed_ratio) > 1e-12)
+    return int(math.ceil(revolutions * 2 * math.pi * system.zref_2pi / slow - 1e-9))
+
+
+def _quasi_periodic_run(system: LumpedSystem, fm: float, s: np.ndarray, opt: SteadyStateOptions, fext: np.ndarray,
+                        nsp: int, h: float, torque_Nm: float | None, keep_trace: bool):
+    """The steady state of a system whose period exceeds ``opt.max_system_period`` (module docstring)."""
+    n2 = 2 * system.n
+    omega = system.reference_speed(fm)
+    el = np.sort(system.natural_frequencies_Hz())
+    f1 = float(el[el > 0][0]) if np.any(el > 0) else fm
+    zeta = max(system.modal_damping_ratio, 1e-6)
+    settle = int(math.ceil(math.log(1.0 / opt.rtol) / (zeta * 2 * math.pi * f1) * fm))
+    win = window_cycles(system, opt.window_revolutions)
+    dec = max(1, int(nsp // (32 * max(1.0, float(np.max(system.rates))))))
+    while nsp % dec:
+        dec -= 1
+    kin = np.array([0.0, 0.0, omega])
+    one_s, one_o = np.zeros((1, n2)), np.zeros((1, system.record_width))
+    yield s, kin, settle * nsp, h, fext, settle * nsp, one_s, one_o
+    if not np.all(np.isfinite(s)):
+        raise ModelError(f"integration diverged at f_m = {fm:g} Hz (state not finite)")
+    fs = system.nominal_forces_N(torque_Nm)
+    fsc = system.nominal_coast_forces_N(torque_Nm)
+    windows = []
+    for _ in range(2):
+        nr = win * nsp // dec
+        rs, ro = np.zeros((nr, n2)), np.zeros((nr, system.record_width))
+        yield s, kin, win * nsp, h, fext, dec, rs, ro
+        if not np.all(np.isfinite(s)):
+            raise ModelError(f"integration diverged at f_m = {fm:g} Hz (state not finite)")
+        rf = system.record_fields(ro)
+        metrics = trace_metrics(system, rf["mesh_deflection_m"], rf["mesh_force_N"],
+                                rf["dynamic_transmission_error_m"], tau=rf["mesh_position"], static_forces_N=fs,
+                                fc=rf["coast_force_N"], cycles=win, coast_static_forces_N=fsc,
+                                xc=rf["coast_approach_m"], periodic=False)
+        windows.append((metrics, rf, rs))
+    (m1, _, _), (m2, rf, rs) = windows
+    converged = True
+    for name in METRIC_NAMES:
+        a, b = np.asarray(m1[name], float), np.asarray(m2[name], float)
+        ok = np.isfinite(a) & np.isfinite(b)
+        top = np.maximum(np.abs(a), np.abs(b))
+        if np.any(np.abs(a - b)[ok] > opt.window_rtol * top[ok] + 1e-300):
+            converged = False
+    trace = {}
+    if keep_trace:
+        trace = dict(rf)
+        trace["contact_state"] = contact_state(rf["mesh_force_N"], rf["coast_force_N"])
+        trace["state"] = rs
+    return SteadyStateResult(fm, converged, "quasi-periodic" if converged else "cap", win, settle + 2 * win, nsp,
+                             s.copy(), m2, trace)

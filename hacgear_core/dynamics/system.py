@@ -67,7 +67,8 @@ class GearBody:
     ``directions`` (k, 2) in the fixed frame; ``radius_m``: characteristic radius (base radius of its first
     mesh) used to express rotations as arc lengths; ``teeth``; ``support``: (translational [N/m],
     rotational [N m/rad]) stiffness; ``frame_ratio``: the speed of the frame its translations live in over the
-    reference speed (a planetary stage's carrier; None: the system's ``carrier_ratio``).
+    reference speed (a planetary stage's carrier; None: the system's ``carrier_ratio``); ``stage``: the stage it
+    belongs to (a gearbox's; '' elsewhere).
     """
 
     name: str
@@ -82,6 +83,7 @@ class GearBody:
     inertia_kgm2: float = 0.0
     support: tuple[float, float] = (math.inf, 0.0)
     frame_ratio: float | None = None
+    stage: str = ""
 
 
 @dataclass(frozen=True, eq=False)

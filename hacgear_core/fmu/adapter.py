@@ -154,24 +154,13 @@ class Adapter:
                 "nominal": self.nominal, "structural": self.structural}
 
     def _model_bearings(self, model) -> tuple:
-        """Translational support stiffness of every gear of the model (and the carrier of a planetary set)."""
-        out = [model.gear(g).support.translational_stiffness_N_per_m for g in self.bearing_gears if g != "carrier"]
-        if "carrier" in self.bearing_gears:
-            out.append(model.planetary.carrier_support.translational_stiffness_N_per_m)
-        return tuple(out)
+        """Translational support stiffness [N/m] of every member of :attr:`bearing_gears` (its kind's rule)."""
+        kind = kind_of(model)
+        return tuple(kind.bearing_stiffness(model, g) for g in self.bearing_gears)
 
     def _with_bearings(self, bearings: tuple):
         """The model with the translational support stiffnesses ``bearings`` (order of :attr:`bearing_gears`)."""
-        model = self.model
-        k = dict(zip(self.bearing_gears, bearings))
-        gears = tuple(replace(g, support=replace(g.support, translational_stiffness_N_per_m=k[g.name]))
-                      for g in model.gears)
-        model = replace(model, gears=gears)
-        if "carrier" in k:
-            pl = model.planetary
-            model = replace(model, planetary=replace(pl, carrier_support=replace(
-                pl.carrier_support, translational_stiffness_N_per_m=k["carrier"])))
-        return model
+        return kind_of(self.model).with_bearing_stiffness(self.model, dict(zip(self.bearing_gears, bearings)))
 
     @staticmethod
     def _key(torque, zeta, bearings, h, shafts, structure=()):
@@ -454,19 +443,20 @@ class Adapter:
         w_res = self.nominal["resonance_speed_rad_s"]
         p_nom = abs(self.port_torques_Nm[inp] * w_res) or None
         out = []
-        for g in self.ports:
+        free = self._drive_system   # the ports' nominal inertias: of the free train (a port held at constant speed
+        for g in self.ports:        # has no rotation in the constant-speed system)
             g_ = ident(g)
-            rot = sy.gears[g].rotation
+            rot = free.gears[g].rotation
             out += [
                 V(f"{g_}.speed_ratio", "Real", "calculatedParameter", "fixed", "1",
                   f"speed of gear {g} over the speed of the input gear {inp}, each in its own sense of rotation "
                   "(rigid train)", read=Reading(call=lambda s, _, g=g: self.speed_ratio(g))),
                 V(f"{g_}.inertia", "Real", "calculatedParameter", "fixed", "kg.m2",
                   f"moment of inertia of gear {g} about its axis (its own body, as the lumped model holds it)",
-                  nominal=float(sy.M[rot, rot]), read=Reading(call=lambda s, _, g=g: self.inertia(self.free_system(), g))),
+                  nominal=float(free.M[rot, rot]), read=Reading(call=lambda s, _, g=g: self.inertia(self.free_system(), g))),
                 V(f"{g_}.train_inertia", "Real", "calculatedParameter", "fixed", "kg.m2",
                   f"moment of inertia of the whole rigid train referred to gear {g}: sum of J_i (w_i/w_{g_})^2 "
-                  f"(what a shaft on {g} accelerates)", nominal=self.train_inertia(sy, g),
+                  f"(what a shaft on {g} accelerates)", nominal=self.train_inertia(free, g),
                   read=Reading(call=lambda s, _, g=g: self.train_inertia(self.free_system(), g))),
             ]
         if len(self.ports) == 2:

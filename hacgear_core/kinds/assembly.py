@@ -126,7 +126,8 @@ def assemble(train: Train) -> LumpedSystem:
                                directions=np.array([d for _, d in tr], dtype=float).reshape(-1, 2),
                                radius_m=float(b.radius_m), mass_kg=b.mass_kg, inertia_kgm2=b.inertia_kgm2,
                                support=tuple(b.support),
-                               frame_ratio=None if b.frame_ratio is None else float(b.frame_ratio)))
+                               frame_ratio=None if b.frame_ratio is None else float(b.frame_ratio),
+                               stage=b.stage))
     u = dm.vector(train.rigid_mode)
     motion = u
     if u is not None:

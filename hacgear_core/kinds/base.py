@@ -15,7 +15,7 @@ sprung (a diagonal spring to ground), 0 free.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Mapping
 
 import numpy as np
@@ -69,7 +69,8 @@ class Body:
     reference gear's sense), ``rotation`` (the label of its rotation DOF, '' for none), ``radius_m`` (its
     characteristic radius), ``mass_kg``, ``inertia_kgm2`` and ``support`` (translational [N/m], rotational [N m/rad])
     as reported; ``frame_ratio``: the speed of the frame its translations live in over the reference speed (a
-    planetary stage's carrier; None: the train's ``carrier_ratio``)."""
+    planetary stage's carrier; None: the train's ``carrier_ratio``); ``stage``: the stage it belongs to (a
+    gearbox's; '' elsewhere)."""
 
     name: str
     dofs: tuple[Dof, ...]
@@ -82,6 +83,7 @@ class Body:
     inertia_kgm2: float = 0.0
     support: tuple[float, float] = (math.inf, 0.0)
     frame_ratio: float | None = None
+    stage: str = ""
 
 
 @dataclass(frozen=True)
@@ -243,6 +245,17 @@ class Kind:
     def members(self, model: Any) -> tuple[str, ...]:
         """Names a torque or a bearing output may refer to: the gears (and members such as a carrier)."""
         return tuple(g.name for g in model.gears)
+
+    def bearing_stiffness(self, model: Any, member: str) -> float:
+        """The translational support stiffness [N/m] of ``member`` (a gear; kinds with other members such as a
+        carrier override this)."""
+        return float(model.gear(member).support.translational_stiffness_N_per_m)
+
+    def with_bearing_stiffness(self, model: Any, stiffness: Mapping[str, float]) -> Any:
+        """``model`` with the translational support stiffness [N/m] of each member ``stiffness`` names."""
+        return replace(model, gears=tuple(
+            replace(g, support=replace(g.support, translational_stiffness_N_per_m=float(stiffness[g.name])))
+            if g.name in stiffness else g for g in model.gears))
 
     def check(self, model: Any) -> None:
         """Refuse a model of this kind that the kind cannot build (mesh count, helix, section, members); raises

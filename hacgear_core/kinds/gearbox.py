@@ -47,10 +47,12 @@ at the static torque the chain brings to it, and the trains are joined:
   offered (a planetary stage's translations turn with its carrier, a shaft's bending spring to a fixed-axis gear
   would not be constant in either frame): the members' own bearings carry them.
 
-Constant-speed experiment: the torque acts on the input member and the output member brakes with the torque the
-stages deliver to it (the nominal torques, as a gear train's ends); every turning member is free on its shafts and
-the train keeps its free rotation.  Drivetrain coupling (``shafts=False``): the same members, the input and output
-members torque ports; the fixed members keep their supports.
+Constant-speed experiment (``shafts=True``): the torque acts on the input member, the output member follows the
+kinematics (its rotation held to the reference motion, as a generator on the grid and as the planetary stage
+models hold their output), every turning member in between is free on its shafts.  (With both ends free the
+linearised centrifugal terms of the carrier frames, exact only to ``O(m_p W^2 / k_p)``, would push the free
+rotation by a constant torque.)  Drivetrain coupling (``shafts=False``): input and output members are free torque
+ports; the fixed members keep their supports.
 """
 from __future__ import annotations
 
@@ -61,8 +63,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from hacgear_core.errors import ModelError
-from hacgear_core.geometry import train_geometry
+from hacgear_core.errors import GeometryError, ModelError
+from hacgear_core.geometry import nominal_mesh_forces as fixed_axis_forces
 from hacgear_core.geometry.planetary import planetary_geometry, planetary_members, planetary_torques
 from hacgear_core.geometry.train import TrainGeometry
 from hacgear_core.kinds.base import Body, Coupling, ExtraOutput, Kind, Spring, Train
@@ -285,9 +287,10 @@ def mesh_rates(model: Any, stages: tuple[Stage, ...] | None = None) -> dict[str,
 
 
 def _planetary_model(model: Any, st: PlanetaryStage, gears: tuple[str, ...], meshes: tuple[str, ...],
-                     input_member: str) -> Any:
+                     input_member: str, held: str | None = None) -> Any:
     """The planetary model of stage ``st``: its gears and meshes, its carrier called ``carrier``, its turning
-    members free on their shafts (rotational support 0), its fixed member as given."""
+    members free on their shafts (rotational support 0) but ``held`` (inf: its rotation follows the kinematics),
+    its fixed member as given."""
     sub = replace(model, kind="planetary", gears=tuple(g for g in model.gears if g.name in gears),
                   meshes=tuple(m for m in model.meshes if m.name in meshes), section=None,
                   planetary=replace(st.planetary, output_member=None), sections={},
@@ -296,15 +299,19 @@ def _planetary_model(model: Any, st: PlanetaryStage, gears: tuple[str, ...], mes
     mem = planetary_members(sub)
     fixed = st.planetary.fixed_member
     cs = st.planetary.carrier_support
-    carrier_support = cs if fixed == "carrier" else Support(cs.translational_stiffness_N_per_m, 0.0)
+    carrier_support = cs if fixed == "carrier" else Support(cs.translational_stiffness_N_per_m,
+                                                            math.inf if held == st.carrier else 0.0)
     return replace(sub, planetary=replace(sub.planetary, carrier_support=carrier_support), gears=tuple(
         g if {mem.sun: "sun", mem.ring: "ring"}.get(g.name) in (None, fixed) else replace(
-            g, support=replace(g.support, rotational_stiffness_Nm_per_rad=0.0)) for g in sub.gears))
+            g, support=replace(g.support, rotational_stiffness_Nm_per_rad=math.inf if g.name == held else 0.0))
+        for g in sub.gears))
 
 
-def _fixed_axis_model(model: Any, stage: Stage) -> Any:
-    """The fixed-axis model of ``stage``: its gears and meshes, its input gear carrying the torque."""
-    sub_gears = tuple(g for g in model.gears if g.name in stage.gears)
+def _fixed_axis_model(model: Any, stage: Stage, held: str | None = None) -> Any:
+    """The fixed-axis model of ``stage``: its gears (the ``held`` one's rotation following the kinematics) and
+    meshes, its input gear carrying the torque."""
+    sub_gears = tuple(replace(g, support=replace(g.support, rotational_stiffness_Nm_per_rad=math.inf))
+                      if g.name == held else g for g in model.gears if g.name in stage.gears)
     helical = any(g.is_helical for g in sub_gears)
     kind = "helical_pair" if helical else ("spur_pair" if len(stage.meshes) == 1 else "idler_chain")
     return replace(model, kind=kind, gears=sub_gears, meshes=tuple(m for m in model.meshes if m.name in stage.meshes),
@@ -373,6 +380,21 @@ class GearboxKind(Kind):
     def members(self, model: Any) -> tuple[str, ...]:
         return tuple(g.name for g in model.gears) + tuple(st.carrier for st in _section_of(model).planetary)
 
+    def bearing_stiffness(self, model: Any, member: str) -> float:
+        for st in _section_of(model).planetary:
+            if st.carrier == member:
+                return float(st.planetary.carrier_support.translational_stiffness_N_per_m)
+        return super().bearing_stiffness(model, member)
+
+    def with_bearing_stiffness(self, model: Any, stiffness: Mapping[str, float]) -> Any:
+        model = super().with_bearing_stiffness(model, stiffness)
+        sec = _section_of(model)
+        stages = tuple(st if st.carrier not in stiffness else replace(st, planetary=replace(
+            st.planetary, carrier_support=replace(st.planetary.carrier_support,
+                                                  translational_stiffness_N_per_m=float(stiffness[st.carrier]))))
+            for st in sec.planetary)
+        return replace(model, section=replace(sec, planetary=stages))
+
     def check(self, model: Any) -> None:
         super().check(model)
         fixed = set()
@@ -399,14 +421,15 @@ class GearboxKind(Kind):
                              "are the drivetrain's: FMU mode 1)")
 
     def placement(self, model: Any, gears: Mapping, meshes: Mapping) -> TrainGeometry:
-        """Each stage placed in its own frame (a planetary stage's sun at the origin, a parallel stage by
-        :func:`~hacgear_core.geometry.train_geometry`), the stages side by side along x."""
-        raise ModelError("a gearbox's stages are placed each in its own frame: `hacgear info` shows them per stage")
+        """None placement of the whole: each stage is placed in its own frame when its train is built (a planetary
+        stage by :func:`~hacgear_core.geometry.planetary.planetary_geometry`, a parallel one by
+        :func:`~hacgear_core.geometry.train_geometry`); raises GeometryError (``hacgear info`` then shows no mesh
+        phases)."""
+        raise GeometryError(f"{model.name}: a gearbox's stages are placed each in its own frame (no single placement)")
 
     def nominal_mesh_forces(self, model: Any, base_radii: Mapping[str, tuple[float, float]]) -> dict[str, float]:
         """Per contact: a planetary stage's force per planet, a fixed-axis stage's mesh force, at the static
         torque the chain brings to the stage."""
-        from hacgear_core.statics.grid import nominal_mesh_forces as forces_of
         out = {}
         t = abs(model.operating.torque_Nm)
         for s in gearbox_stages(model):
@@ -416,7 +439,7 @@ class GearboxKind(Kind):
                 out.update({m: flow["force_N"][f"{m}_1"] for m in s.meshes})
             else:
                 sub = _fixed_axis_model(model, s)
-                out.update(forces_of(sub, {m: base_radii[m] for m in s.meshes}, torque_Nm=t * s.torque_in))
+                out.update(fixed_axis_forces(sub, {m: base_radii[m] for m in s.meshes}, torque_Nm=t * s.torque_in))
         return out
 
     def train(self, model: Any, tables: Any, *, force_law: str = "hac", torque_Nm: float | None = None,
@@ -428,15 +451,18 @@ class GearboxKind(Kind):
         rates = mesh_rates(model, stages)
         parts: list[tuple[Stage, Train, float, float]] = []   # stage, train, lambda, c_s
         u: dict[tuple[str, str], float] = {}
+        # constant speed: the output member follows the kinematics (a generator on the grid); drivetrain coupling:
+        # free (a torque port)
+        held = stages[-1].output if shafts else None
         for s in stages:
             opts = dict(force_law=force_law, torque_Nm=torque * s.torque_in,
                         bearing_stiffness_N_per_m=bearing_stiffness_N_per_m, modal_damping_ratio=modal_damping_ratio,
                         shafts=shafts)
             if s.planetary is not None:
-                sub = _planetary_model(model, s.planetary, s.gears, s.meshes, s.input)
+                sub = _planetary_model(model, s.planetary, s.gears, s.meshes, s.input, held)
                 part = _renamed(planetary_from_model(sub, tables, **opts), {"carrier": s.planetary.carrier})
             else:
-                sub = _fixed_axis_model(model, s)
+                sub = _fixed_axis_model(model, s, held)
                 build = helical_from_model if sub.kind == "helical_pair" else train_from_model
                 part = build(sub, tables, **opts)
             local = dict(part.rigid_mode)
@@ -454,7 +480,8 @@ class GearboxKind(Kind):
         ref_cycles = float(stages[0].mesh_frequency) / (2 * math.pi)
         for s, part, lam, c_s in parts:
             rotating = part.carrier_ratio != 0.0
-            bodies += [replace(b, speed_ratio=b.speed_ratio * abs(lam), frame_ratio=c_s if rotating else 0.0)
+            bodies += [replace(b, speed_ratio=b.speed_ratio * abs(lam), frame_ratio=c_s if rotating else 0.0,
+                               stage=s.name)
                        for b in part.bodies]
             for c in part.couplings:
                 mesh = c.group if s.planetary is not None else c.name
@@ -465,8 +492,9 @@ class GearboxKind(Kind):
                                      f"input, its tooth counts say {ref_cycles * p / q:.12g} (internal error)")
                 couplings.append(replace(c, rate=(p, q)))
             springs += list(part.springs)
-            gyro += [(a, b, c_s * v / part.carrier_ratio) for a, b, v in part.gyroscopic] if rotating else []
-            centri += [(a, b, (c_s / part.carrier_ratio) ** 2 * v) for a, b, v in part.centripetal] if rotating else []
+            # the stage's G and K_W at its own carrier speed W_s = c_s omega_ref (the kernel's W = omega_ref)
+            gyro += [(a, b, c_s * v) for a, b, v in part.gyroscopic] if rotating else []
+            centri += [(a, b, c_s * c_s * v) for a, b, v in part.centripetal] if rotating else []
             reports_s += list(part.support_reports)
             reports_b += list(part.bearing_reports)
         by_name = {b.name: b for b in bodies}
@@ -479,11 +507,12 @@ class GearboxKind(Kind):
         nominal = {model.operating.torque_gear: (first.nominal_torques_per_Nm or {}).get(
             model.operating.torque_gear, 1.0)}
         s, part, _, _ = lastp
-        tq = (part.nominal_torques_per_Nm or {}).get(s.output)
-        if tq is None:
-            # a fixed-axis stage's output brakes with the torque its meshes deliver (in its sense of rotation)
-            tq = -float(s.speed_in / s.speed_out)
-        nominal[s.output] = tq * s.torque_in
+        if held is None:
+            tq = (part.nominal_torques_per_Nm or {}).get(s.output)
+            if tq is None:
+                # a fixed-axis stage's output brakes with the torque its meshes deliver (in its sense of rotation)
+                tq = -float(s.speed_in / s.speed_out)
+            nominal[s.output] = tq * s.torque_in
         zeta = model.damping.modal_damping_ratio if modal_damping_ratio is None else float(modal_damping_ratio)
         any_rot = any(c_s != 0.0 for _, _, _, c_s in parts)
         return Train(

@@ -39,8 +39,8 @@ __all__ = ["HelicalPair", "helical_from_model", "DOF_LABELS", "RIGID_SUPPORT_STI
 
 #: labels of a gear's six DOFs, in order
 DOF_LABELS = ("x", "y", "z", "theta_x", "theta_y", "theta_z")
-#: a rigid support of a helical gear is a spring of this stiffness [N/m or N m/rad]: every gear keeps its six
-#: DOFs (the table's 12-vectors are over all of them)
+#: a rigid translational or tilting support of a helical gear is a spring of this stiffness [N/m or N m/rad]: the
+#: gear keeps those DOFs (the table's 12-vectors are over all of them); a held rotation (inf) leaves theta_z out
 RIGID_SUPPORT_STIFFNESS = 1e15
 
 
@@ -163,8 +163,9 @@ def helical_from_model(model: Any, tables: Any, *, force_law: str = "hac", torqu
         ktilt = sup.tilting_stiffness_Nm_per_rad if tilting_stiffness_Nm_per_rad is None \
             else tilting_stiffness_Nm_per_rad
         krot = sup.rotational_stiffness_Nm_per_rad if shafts else 0.0
-        kdiag = [kt, kt, sup.axial_stiffness_N_per_m, ktilt, ktilt, krot]
-        kdiag = [min(float(k), RIGID_SUPPORT_STIFFNESS) for k in kdiag]
+        kdiag = [kt, kt, sup.axial_stiffness_N_per_m, ktilt, ktilt]
+        # rigid bearings as very stiff springs; a rotation held (inf) follows the kinematics (its DOF left out)
+        kdiag = [min(float(k), RIGID_SUPPORT_STIFFNESS) for k in kdiag] + [float(krot)]
         o = 6 * gi
         bodies.append(Body(name=name, dofs=tuple(Dof(lab, mi, Support(k), d) for lab, mi, k, d in zip(
                                DOF_LABELS, (m, m, m, it, it, ip), kdiag, ((1.0, 0.0), (0.0, 1.0), None, None, None,

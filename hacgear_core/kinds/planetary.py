@@ -41,6 +41,7 @@ equilibrium (equal sharing for identical, equally spaced planets).
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any, Mapping
 
 import numpy as np
@@ -145,7 +146,7 @@ def planetary_from_model(model: Any, tables: Any = None, *, force_law: str = "ha
     torque = model.operating.torque_Nm if torque_Nm is None else float(torque_Nm)
     flow = planetary_torques(model, geo, torque)
     props = _member_properties(model, geo, bearing_stiffness_N_per_m)
-    fixed = geo.fixed_member
+    fixed = {"sun": mem.sun, "ring": mem.ring, "carrier": "carrier"}[geo.fixed_member]  # its name
     inp = flow["input"]
     if props[mem.planet][3] != 0.0:
         raise ModelError(f"gear '{mem.planet}': rotational_stiffness_Nm_per_rad [N*m/rad] = {props[mem.planet][3]:g}; "
@@ -355,6 +356,19 @@ class PlanetaryKind(Kind):
 
     def members(self, model: Any) -> tuple[str, ...]:
         return tuple(g.name for g in model.gears) + ("carrier",)
+
+    def bearing_stiffness(self, model: Any, member: str) -> float:
+        if member == "carrier":
+            return float(model.planetary.carrier_support.translational_stiffness_N_per_m)
+        return super().bearing_stiffness(model, member)
+
+    def with_bearing_stiffness(self, model: Any, stiffness: Mapping[str, float]) -> Any:
+        model = super().with_bearing_stiffness(model, stiffness)
+        if "carrier" not in stiffness:
+            return model
+        pl = model.planetary
+        return replace(model, planetary=replace(pl, carrier_support=replace(
+            pl.carrier_support, translational_stiffness_N_per_m=float(stiffness["carrier"]))))
 
     def check(self, model: Any) -> None:
         if model.planetary is None:

@@ -1,0 +1,160 @@
+"""kinds/gearbox.py: planetary and parallel stages in series (the NREL 5 MW reference gearbox as one system)."""
+from __future__ import annotations
+
+import math
+from fractions import Fraction
+
+import numpy as np
+import pytest
+import scipy.linalg
+
+from hacgear_core.dynamics import Simulator, static_equilibrium, steady_state
+from hacgear_core.dynamics.modes import gyroscopic_modes
+from hacgear_core.dynamics.steady import SteadyStateOptions, window_cycles
+from hacgear_core.errors import ModelError
+from hacgear_core.kinds import build_system, kind_of, load_model, parse_model
+from hacgear_core.kinds.gearbox import gearbox_stages, mesh_rates
+from hacgear_core.model import resolve_model_path
+from hacgear_core.tables import load_system_tables
+
+GEARBOX = "nrel_5mw_gearbox"
+
+
+@pytest.fixture(scope="module")
+def model():
+    return load_model(GEARBOX)
+
+
+@pytest.fixture(scope="module")
+def system(model):
+    return build_system(model, load_system_tables(GEARBOX))
+
+
+@pytest.fixture(scope="module")
+def stage_systems():
+    return {i: build_system(load_model(f"nrel_5mw_stage{i}"), load_system_tables(f"nrel_5mw_stage{i}"))
+            for i in (1, 2)}
+
+
+def test_stage_kinematics_are_exact(model):
+    """Each stage's ratio from its tooth counts (Willis for the planetary stages), the overall ratio 96.354166...
+    exact, and the rated mesh frequencies the issue quotes (11.29, 74.03, 466.35 Hz at 12.1 rpm)."""
+    st = gearbox_stages(model)
+    assert [s.name for s in st] == ["stage1", "stage2", "s3_wheel_pinion"]
+    assert [(s.input, s.output) for s in st] == [("carrier1", "sun1"), ("carrier2", "sun2"), ("wheel3", "pinion3")]
+    assert [s.speed_out / s.speed_in for s in st] == [Fraction(75, 19), Fraction(111, 18), Fraction(95, 24)]
+    assert st[-1].speed_out == Fraction(4625, 48) and float(st[-1].speed_out) == pytest.approx(96.354166666, 1e-9)
+    fm = [float(s.mesh_frequency) * 12.1 / 60 for s in st]
+    assert fm == pytest.approx([11.29, 74.03, 466.35], abs=5e-3)
+    assert mesh_rates(model)["s3_wheel_pinion"] == (4625, 112)
+    assert mesh_rates(model)["s2_ring_planet"] == (6975, 1064)
+
+
+def test_system_period_and_window(system):
+    """The rates' common period is 2128 reference cycles (38 input revolutions); the observation window is one
+    revolution of the slowest shaft (the input carrier: 56 reference cycles)."""
+    assert system.period_cycles == 2128
+    assert window_cycles(system) == 56
+    assert window_cycles(system, 3) == 168
+
+
+def test_static_torques_follow_the_ratios(model, system):
+    """Static equilibrium at the rated torque: each shaft carries the input torque times its stage ratios (1e-9),
+    the issue's 999 650.88 / 162 105.55 / 40 952.98 N m within the rounding of the input torque (1e-6)."""
+    eq = static_equilibrium(system)
+    assert eq.success
+    sim = Simulator(system)
+    sim.s[:system.n] = eq.q
+    out = {e.name: e.read(sim) for e in kind_of(model).extra_outputs(model, system)}
+    t = model.operating.torque_Nm
+    assert out["ims_shaft.torque"] == pytest.approx(t * 19 / 75, rel=1e-9)
+    assert out["hs_ims_shaft.torque"] == pytest.approx(t * 19 / 75 * 18 / 111, rel=1e-9)
+    assert out["ims_shaft.torque"] == pytest.approx(999650.88, rel=1e-6)
+    assert out["hs_ims_shaft.torque"] == pytest.approx(162105.55, rel=1e-6)
+    # the generator side: the helical mesh carries the high-speed shaft's torque; the pinion's, T * 48 / 4625
+    k3 = system.mesh_names.index("s3_wheel_pinion")
+    assert eq.mesh_forces_N[k3] == pytest.approx(system.meshes[k3].nominal_force_N, rel=2e-3)
+    assert t * 48 / 4625 == pytest.approx(40952.98, rel=1e-6)
+    # every planet of a stage carries its share of the stage torque
+    for stage in ("s1_sun_planet", "s2_ring_planet"):
+        idx = [k for k, c in enumerate(system.meshes) if c.group == stage]
+        assert len(idx) == 3
+        assert eq.mesh_forces_N[idx] == pytest.approx(system.meshes[idx[0]].nominal_force_N, rel=2e-3)
+
+
+def test_each_planetary_stage_turns_in_its_own_frame(model, system, stage_systems):
+    """G and K_W: stage s's blocks are its own planetary model's (models/nrel_5mw_stage<s>, the same DOFs) at its
+    carrier speed, c_s = (its carrier ratio) x (its input speed over the gearbox's), exact from the tooth counts;
+    the helical stage has none; each body's bearing force turns with its stage's frame."""
+    names = system.dof_names
+    speed_in = {i + 1: float(s.speed_in) for i, s in enumerate(gearbox_stages(model)[:2])}
+    for i, sub in stage_systems.items():
+        c = sub.carrier_ratio * speed_in[i]
+        ren = {"carrier": f"carrier{i}", "sun": f"sun{i}", "ring": f"ring{i}"}
+        ren.update({f"planet_{k}": f"planet{i}_{k}" for k in (1, 2, 3)})
+        idx = [names.index(f"{ren[d.rsplit('.', 1)[0]]}.{d.rsplit('.', 1)[1]}") for d in sub.dof_names]
+        np.testing.assert_allclose(system.G[np.ix_(idx, idx)], c * sub.G, rtol=1e-12, atol=0)
+        np.testing.assert_allclose(system.K_W[np.ix_(idx, idx)], c * c * sub.K_W, rtol=1e-12, atol=0)
+        assert abs(c) == pytest.approx(1.0 if i == 1 else 75 / 19, rel=1e-12)
+        for body in (f"carrier{i}", f"sun{i}", f"planet{i}_2"):
+            assert system.frame_ratio(body) == pytest.approx(c, rel=1e-12)
+    n3 = [k for k, d in enumerate(names) if d.startswith(("wheel3", "pinion3"))]
+    assert not np.any(system.G[n3]) and not np.any(system.K_W[n3])
+    assert system.frame_ratio("wheel3") == 0.0 and system.carrier_ratio == 1.0
+
+
+def _independent_modes(M, K, G, w):
+    """Natural frequencies [Hz] of M q'' + w G q' + K q = 0 from the first-order companion form (written here,
+    independently of hacgear_core.dynamics.modes)."""
+    n = M.shape[0]
+    a = np.block([[np.zeros((n, n)), np.eye(n)], [-np.linalg.solve(M, K), -w * np.linalg.solve(M, G)]])
+    lam = scipy.linalg.eigvals(a)
+    f = np.sort(np.abs(lam.imag[lam.imag > 1e-6])) / (2 * math.pi)
+    return f
+
+
+@pytest.mark.parametrize("speed_rad_s", [0.0, 12.1 * 2 * math.pi / 60])
+def test_modes_equal_an_independent_eigensolution(system, speed_rad_s):
+    """The gyroscopic modes at rest and at rated input speed equal the eigen-solution of the same M, K, G, K_W
+    computed here (relative 1e-8); every mode is labelled with its stage and member."""
+    gm = gyroscopic_modes(system, speed_rad_s)
+    keff = system.k_lin - speed_rad_s ** 2 * system.K_W
+    if speed_rad_s == 0.0:
+        ref = np.sqrt(np.clip(scipy.linalg.eigh(keff, system.M, eigvals_only=True), 0, None)) / (2 * math.pi)
+        ref = np.sort(ref[ref > 1e-3])
+    else:
+        ref = _independent_modes(system.M, keff, system.G, speed_rad_s)
+    ours = np.sort(gm.natural_frequencies_Hz[gm.natural_frequencies_Hz > 1e-3])
+    assert len(ours) == len(ref) == system.n
+    np.testing.assert_allclose(ours, ref, rtol=1e-8)
+    stages = {d[0] for d in gm.dominant}
+    assert stages == {"stage1", "stage2", "s3_wheel_pinion"}
+    assert all(0 < d[2] <= 1 for d in gm.dominant)
+
+
+def test_refusals_name_the_key():
+    text = resolve_model_path(GEARBOX).read_text()
+    cases = [
+        (text.replace('member_b = "carrier2"', 'member_b = "carrier9"'), "gearbox.shafts 'ims_shaft'.member_b"),
+        (text.replace('member_b = "carrier2"', 'member_b = "planet1"'), "joins two members of one stage"),
+        (text.replace('output_member = "pinion3"', 'output_member = "sun1"'), "not a member of the last stage"),
+        (text.replace("  rotational_stiffness_Nm_per_rad = 0.0   # turns on its shaft to the next stage's carrier",
+                      "  rotational_stiffness_Nm_per_rad = 5.0e6", 1), "must be 0 for a turning member"),
+        (text.replace('sun = "sun2"', 'sun = "sun1"'), "name the same set"),
+        (text.replace('member_a = "sun2"', 'member_a = "sun1"'), "all leave one stage"),
+    ]
+    for bad, words in cases:
+        with pytest.raises(ModelError, match=None) as exc:
+            parse_model(bad, file="gearbox.toml")
+        assert words in str(exc.value), (words, str(exc.value))
+
+
+@pytest.mark.slow
+def test_quasi_periodic_steady_state_at_rated_speed(system):
+    """At rated speed the response settles: two windows of one input revolution agree within 1 %, the mean mesh
+    forces equal the static ones within 0.1 %, no contact loss."""
+    r = steady_state(system, 56 * 12.1 / 60, options=SteadyStateOptions())
+    assert r.status == "quasi-periodic" and r.period_cycles == 56
+    m = r.metrics
+    assert np.all(m["contact_loss_fraction"] == 0)
+    assert np.all(m["dynamic_factor_force"] > 1.0) and np.all(m["dynamic_factor_force"] < 1.3)

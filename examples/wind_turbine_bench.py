@@ -9,13 +9,12 @@ with ``--ssp``, as SSP files under fmpy and libcosim.
                                                              # (with its FMUs), run under fmpy and libcosim
     python examples/wind_turbine_bench.py --ssp examples --structure-only   # the shipped SSPs
 
-The gearbox is the FMU of ``--system`` (built from its committed tables into a temporary folder) or ``--fmu``.
-``SYSTEM`` is the stand-in until the NREL 5 MW gearbox FMU exists: ``nrel_5mw_stage1`` (the gearbox's first
-stage alone, ports ``carrier`` -> ``sun``, ratio 75/19), with the generator inertia referred to its output by
-``(4625/48 / (75/19))^2`` so that the drivetrain's rigid-body dynamics are the turbine's (``generator_side_ratio``
-of :class:`~hacgear_core.fmu.wind_turbine.WindTurbineConfig`); with ``nrel_5mw_gearbox`` (ports ``carrier1`` ->
-``pinion3``, ratio 4625/48) nothing is referred.  Swap: ``SYSTEM = "nrel_5mw_gearbox"``, then rewrite the shipped
-SSPs and the figures with the commands above.  The communication step is the gearbox FMU's ``drivetrain_step`` or
+The gearbox is the FMU of ``--system`` (built from its committed tables into a temporary folder) or ``--fmu``:
+``nrel_5mw_gearbox`` (ports ``carrier1`` -> ``pinion3``, ratio 4625/48).  Another two-port FMU works as a stand-in
+(``--system nrel_5mw_stage1``: the first stage alone, ``carrier`` -> ``sun``, ratio 75/19); the generator inertia
+is then referred to its output by ``(4625/48 / ratio)^2`` so that the drivetrain's rigid-body dynamics stay the
+turbine's (``generator_side_ratio`` of :class:`~hacgear_core.fmu.wind_turbine.WindTurbineConfig`), and the output
+names it a stand-in.  The communication step is the gearbox FMU's ``drivetrain_step`` or
 less where a shaft on its port gear needs it (:func:`~hacgear_core.fmu.wind_turbine.bench_step`).
 ``examples/wind_turbine_<scenario>.ssp`` hold the structure only; ``python -m hacgear_core.fmu.ssp
 examples/wind_turbine_gust.ssp gust.ssp`` builds the FMUs and writes the SSP with them.
@@ -35,8 +34,8 @@ from hacgear_core.fmu.wind_turbine import (SCENARIOS, WindTurbineConfig, couplin
                                            run_wind_turbine, summary, wind_turbine_layout, write_wind_turbine_ssp)
 from hacgear_core.model import resolve_model_path
 
-#: the gearbox system: the stand-in stage until the NREL 5 MW gearbox's FMU builds (then "nrel_5mw_gearbox")
-SYSTEM = "nrel_5mw_stage1"
+#: the gearbox system (the NREL 5 MW reference gearbox: stage 1 planetary, stage 2 planetary, stage 3 helical)
+SYSTEM = "nrel_5mw_gearbox"
 #: name of each scenario's SSP file (and its ``SystemStructureDescription`` name)
 SSP_NAME = "wind_turbine_{scenario}"
 #: the bench: 2.5 s, the event (gust, torque reversal) at 0.2 s: the gust's response (the rotor on the main shaft
@@ -64,12 +63,24 @@ def report(res: dict) -> list[str]:
              f"high-speed shaft (carried): static {st['hss_torque_Nm']:.6g} N m, mean over the last 20 % "
              f"{s['hss_mean_Nm']:.6g} N m, range {s['hss_min_Nm']:.6g} .. {s['hss_max_Nm']:.6g} N m",
              f"rotor {s['rotor_speed_end_rpm']:.4f} rpm, generator {s['generator_speed_end_rpm']:.2f} rpm at the end"]
+    t = res["time_s"]
+    ms = res["main_shaft.torque"]
+    lines.append(f"main shaft: largest {ms.max():.6g} N m ({ms.max() / st['rotor_torque_Nm']:.4f} x static) at "
+                 f"{t[np.argmax(ms)]:.4f} s, smallest {ms.min():.6g} N m ({ms.min() / st['rotor_torque_Nm']:.4f} x "
+                 f"static) at {t[np.argmin(ms)]:.4f} s")
     fmax = max(v["force_max_N"] for v in s["meshes"].values())
     cmax = max(v["coast_force_max_N"] for v in s["meshes"].values())
     n_coast = sum(v["coast"] for v in s["meshes"].values())
     first = "none" if s["first_coast_s"] is None else f"first at {s['first_coast_s']:.5f} s"
     lines.append(f"meshes: largest drive-flank force {fmax:.6g} N, largest coast-flank force {cmax:.6g} N; coast-flank "
-                 f"contact in {n_coast} mesh samples ({first})")
+                 f"contact in {n_coast} of {len(t) * len(s['meshes'])} mesh samples ({first})")
+    info = res["layout"].infos["gearbox"]
+    scale = st["rotor_torque_Nm"] / info["ports"][info["input"]]["nominal_torque_Nm"]
+    for m, v in s["meshes"].items():
+        fs = info["meshes"][m]["nominal_force_N"] * scale
+        lines.append(f"  {m}: drive flank up to {v['force_max_N'] / fs:.3f}, coast flank up to "
+                     f"{v['coast_force_max_N'] / fs:.3f} x its rated static force; samples drive / coast / separated "
+                     f"{v['drive']} / {v['coast']} / {v['separated']}")
     return lines
 
 

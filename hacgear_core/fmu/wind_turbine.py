@@ -43,6 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from hacgear_core.encodings import Experiment
+from hacgear_core.fmu.adapter import _nice_floor
 from hacgear_core.fmu.bench import FmuComponent, Layout, PythonComponent, run_layout, stage_info
 
 __all__ = ["WindTurbineConfig", "SCENARIOS", "shaft_stiffness", "coupling", "wind_turbine_layout",
@@ -173,15 +174,6 @@ def _reduced(a: float, b: float) -> float:
     return a * b / (a + b)
 
 
-def _round_down_125(x: float) -> float:
-    """The largest 1, 2 or 5 x 10^k not above ``x``."""
-    e = math.floor(math.log10(x))
-    for m in (5.0, 2.0, 1.0):
-        if m * 10.0 ** e <= x * (1 + 1e-12):
-            return float(f"{m * 10.0 ** e:.12g}")
-    return float(f"{10.0 ** (e - 1) * 5:.12g}")  # pragma: no cover - m = 1 always fits
-
-
 def bench_step(cp: dict, cfg: WindTurbineConfig = WindTurbineConfig()) -> float:
     """The bench's communication step [s]: the FMU's ``drivetrain_step`` and, no larger, 1/10 of 1/omega of each
     shaft on the reduced inertia of its ends, the port gear's own inertia (in the backlash the port gear is alone on
@@ -192,7 +184,7 @@ def bench_step(cp: dict, cfg: WindTurbineConfig = WindTurbineConfig()) -> float:
     jg, k2 = generator_side(cp, cfg)
     w = max(math.sqrt(cfg.main_shaft_stiffness_Nm_per_rad / _reduced(cfg.rotor_inertia_kg_m2, cp["inertia_in"])),
             math.sqrt(k2 / _reduced(jg, cp["inertia_out"])))
-    h = _round_down_125(0.1 / w)
+    h = _nice_floor(0.1 / w)
     return min(h, cp["drivetrain_step"]) if cp["drivetrain_step"] is not None else h
 
 
@@ -350,9 +342,10 @@ def plot_wind_turbine(res: dict, path: str | Path, title: str = "") -> Path:
                label=f"generator / {st['ratio']:.4f} (referred to the rotor)")
     ax[0].set_ylabel("speed [rpm]")
     ax[0].legend(fontsize=8, loc="best")
-    ax[1].plot(t, res["main_shaft.torque"] / 1e6, lw=1, label="main shaft (on the gearbox's rotor-side port)")
-    ax[1].plot(t, -res["hss.torque"] * st["ratio"] / 1e6, lw=1,
+    ax[1].plot(t, -res["hss.torque"] * st["ratio"] / 1e6, lw=0.6, alpha=0.7, color="C1",
                label=f"high-speed shaft (carried) x {st['ratio']:.4f}")
+    ax[1].plot(t, res["main_shaft.torque"] / 1e6, lw=1.2, color="C0",
+               label="main shaft (on the gearbox's rotor-side port)")
     ax[1].plot(t, res["rotor.torque"] / 1e6, "k:", lw=1, label="aerodynamic torque")
     ax[1].plot(t, res["generator.torque"] * st["ratio"] / 1e6, "k--", lw=0.8,
                label=f"generator torque x {st['ratio']:.4f}")
@@ -360,14 +353,21 @@ def plot_wind_turbine(res: dict, path: str | Path, title: str = "") -> Path:
     ax[1].set_ylabel("torque [MN·m] (rotor scale)")
     ax[1].legend(fontsize=8, loc="best")
     scale = st["rotor_torque_Nm"] / info["ports"][info["input"]]["nominal_torque_Nm"]
+    groups: dict[str, list[str]] = {}  # meshes by stage (a gearbox's "s<k>_" prefix), one colour each
     for m in info["meshes"]:
-        fs = info["meshes"][m]["nominal_force_N"] * scale
-        (line,) = ax[2].plot(t, res[f"gearbox.{m}.force"] / fs, lw=0.7, label=f"{m}")
-        ax[2].plot(t, -res[f"gearbox.{m}.coast_force"] / fs, lw=0.7, ls="--", color=line.get_color())
+        head = m.split("_", 1)[0]
+        groups.setdefault(head if head[:1] == "s" and head[1:].isdigit() else "", []).append(m)
+    for k, (stage, meshes) in enumerate(groups.items()):
+        for j, m in enumerate(meshes):
+            fs = info["meshes"][m]["nominal_force_N"] * scale
+            kinds = ", ".join(sorted({q.rstrip("0123456789").rstrip("_") for q in meshes}))
+            lab = None if j else (f"stage {stage[1:]}" if stage else "gearbox") + f": {len(meshes)} meshes ({kinds})"
+            ax[2].plot(t, res[f"gearbox.{m}.force"] / fs, lw=0.5, color=f"C{k}", alpha=0.8, label=lab)
+            ax[2].plot(t, -res[f"gearbox.{m}.coast_force"] / fs, lw=0.5, color=f"C{k}", alpha=0.8, ls="--")
     ax[2].axhline(0.0, color="grey", lw=0.5)
     ax[2].set_xlabel("time [s]")
     ax[2].set_ylabel("mesh force / rated static force [–]\n(drive flank > 0, coast flank < 0, dashed)")
-    ax[2].legend(fontsize=7, loc="best", ncol=2)
+    ax[2].legend(fontsize=6, loc="best")
     fig.suptitle(title or f"wind-turbine drivetrain: {st['scenario']}", fontsize=10)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -23,7 +23,9 @@ Stated choices (none published for this bench):
 * shaft damping: ``c = 2 zeta sqrt(k J_red)`` with ``zeta`` = 0.02 (the gear models' modal damping ratio) and
   ``J_red`` the reduced inertia of the shaft's two ends (rotor or generator, and the gearbox's rigid train referred
   to its port, ``<port>.train_inertia``);
-* the aerodynamic torque is prescribed (no aerodynamics): rated ``P / w_rated`` = 3.94599e6 N m.
+* the aerodynamic torque is prescribed (no aerodynamics): rated ``P / w_rated`` = 3.94599e6 N m;
+* the generator's rated speed is the rotor's times the gearbox FMU's ratio: 1165.885 rpm for 4625/48 (NREL's
+  1173.7 rpm belongs to its 97:1 gearbox), its rated torque the rotor's over that ratio (40 952.98 N m).
 
 Scenarios (:data:`SCENARIOS`), each from the static state at rated speed and torque (shafts pre-twisted):
 

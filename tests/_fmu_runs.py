@@ -5,9 +5,10 @@ from __future__ import annotations
 import numpy as np
 
 
-def fmu_and_library_runs(system: str, out_dir, names, read, speed_rad_s: float, n: int, dt: float = 1e-4):
+def fmu_and_library_runs(system: str, out_dir, names, read, speed_rad_s: float, n: int, dt: float = 1e-4,
+                         port: str = "pinion1"):
     """``(path, fmu_result, library)``: the native FMI 2.0 FMU of ``system`` built into ``out_dir`` and run by fmpy
-    for ``n`` communication steps of ``dt`` [s] with its input gear at ``speed_rad_s`` [rad/s] (internal step
+    for ``n`` communication steps of ``dt`` [s] with its input gear ``port`` at ``speed_rad_s`` [rad/s] (internal step
     2e-6 s), and the library's Simulator over the same steps; ``read(sim)`` gives the library's values of ``names``
     after each step (library: name -> (n,) array)."""
     import fmpy
@@ -21,7 +22,7 @@ def fmu_and_library_runs(system: str, out_dir, names, read, speed_rad_s: float, 
     path = resolve_model_path(system)
     fmu = build_fmu(path.parent, out_dir)
     res = fmpy.simulate_fmu(str(fmu), stop_time=n * dt, output_interval=dt, output=list(names),
-                            start_values={"pinion1.speed_in": speed_rad_s, "internal_step": 2e-6})
+                            start_values={f"{port}.speed_in": speed_rad_s, "internal_step": 2e-6})
     sim = Simulator(build_system(load_model(path), load_system_tables(path)), internal_step_s=2e-6)
     sim.reset(speed_rad_s=speed_rad_s)
     lib = {k: [] for k in names}

@@ -17,6 +17,8 @@ from hacgear_core.kinds.gearbox import gearbox_stages, mesh_rates
 from hacgear_core.model import resolve_model_path
 from hacgear_core.tables import load_system_tables
 
+from _fmu_runs import fmu_and_library_runs
+
 GEARBOX = "nrel_5mw_gearbox"
 
 
@@ -158,3 +160,36 @@ def test_quasi_periodic_steady_state_at_rated_speed(system):
     m = r.metrics
     assert np.all(m["contact_loss_fraction"] == 0)
     assert np.all(m["dynamic_factor_force"] > 1.0) and np.all(m["dynamic_factor_force"] < 1.3)
+
+
+def test_drivetrain_coupling_frees_the_ports_and_keeps_the_rings_held(model):
+    """shafts=False: carrier1 and pinion3 are free torque ports (the train turns freely), every ring stays held
+    (a planetary stage's fixed member is found by its role whatever its gear is called)."""
+    sy = build_system(model, load_system_tables(GEARBOX), shafts=False)
+    assert sy.rigid_mode is not None
+    assert sy.gears["ring1"].rotation == -1 and sy.gears["ring2"].rotation == -1
+    assert sy.gears["pinion3"].rotation >= 0 and sy.gears["carrier1"].rotation >= 0
+    held = build_system(model, load_system_tables(GEARBOX))
+    assert held.rigid_mode is None and held.gears["pinion3"].rotation == -1
+
+
+@pytest.mark.slow
+def test_fmu_equals_the_library(tmp_path):
+    """The native FMI 2.0 FMU against the library's Simulator at rated input speed, step for step (1e-9): a mesh
+    force of each stage, the high-speed mesh's position and both shaft torques."""
+    pytest.importorskip("fmpy")
+    speed = 12.1 * 2 * math.pi / 60
+    names = ["s1_sun_planet_1.force", "s2_ring_planet_2.force", "s3_wheel_pinion.force", "s3_wheel_pinion.position",
+             "ims_shaft.torque", "hs_ims_shaft.torque"]
+    model = load_model(GEARBOX)
+
+    def read(sim):
+        sy = sim.system
+        out = {e.name: e.read(sim) for e in kind_of(model).extra_outputs(model, sy)}
+        k = [sy.mesh_names.index(n.rsplit(".", 1)[0]) for n in names[:4]]
+        return (sim.mesh_force_N[k[0]], sim.mesh_force_N[k[1]], sim.mesh_force_N[k[2]], sim.mesh_position[k[3]],
+                out["ims_shaft.torque"], out["hs_ims_shaft.torque"])
+    _, res, lib = fmu_and_library_runs(GEARBOX, tmp_path, names, read, speed, 50, port="carrier1")
+    for k in names:
+        v = np.asarray(lib[k])
+        assert np.max(np.abs(res[k][1:] - v)) <= 1e-9 * np.max(np.abs(v)), k

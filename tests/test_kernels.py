@@ -358,3 +358,20 @@ def test_mesh_base_is_the_exact_fraction_of_the_rate_times_the_reference_positio
             assert base == pytest.approx(float(exact - whole), abs=4e-16 * max(1.0, p / q) * 4)
             if p == q:
                 assert (base, n) == (tau, cycles)
+
+
+def test_an_open_helical_side_beyond_its_twist_grid_is_not_out_of_range():
+    """NREL stage 3 under its rated torque: the coast side's twist coordinate sits at 2.6 mrad, beyond the tables'
+    +-0.5 mrad, while its flanks are apart (no force, no moment): no step counts as beyond the tables (before the
+    count looked at open sides too, every step counted)."""
+    from hacgear_core.dynamics import Simulator
+    from hacgear_core.kinds import build_system, load_model
+    from hacgear_core.tables import load_system_tables
+
+    sy = build_system(load_model("nrel_5mw_stage3"), load_system_tables("nrel_5mw_stage3"))
+    sim = Simulator(sy)
+    sim.reset(speed_rad_s=30.8)
+    rec = sim.run(0.005, 1e-3)
+    assert np.all(np.abs(rec["coast_twist_rad"][:, 0]) > 2e-3)
+    assert np.all(rec["coast_approach_m"][:, 0] < 0.0) and np.all(rec["coast_force_N"][:, 0] == 0.0)   # open
+    assert sim.out_of_range_steps == [0]

@@ -544,8 +544,10 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
                 wk[o_wd + k] = wd
             if count:
                 for k in range(m):
+                    # a helical side's twist counts where its flanks touch (an open side carries no moment)
                     if wk[o_xq + k] > tflt[k, 3] or (two_sided and wk[o_cq + k] > tflt[m + k, 3]) or (
-                            twist and (wk[o_cq + k] < tflt[m + k, 2] or wk[o_cq + k] > tflt[m + k, 3])):
+                            twist and wk[o_xq + k] > tflt[k, 2]
+                            and (wk[o_cq + k] < tflt[m + k, 2] or wk[o_cq + k] > tflt[m + k, 3])):
                         kin[3 + k] += 1.0
             # Coast terms only in steps where the coast flanks may touch: stages 1 and 2 are checked from the
             # step-start scalars; a step staged without them is checked again with its stage accelerations (vc . a1,

@@ -3,7 +3,9 @@ and the speeds where an order line crosses a natural frequency (the resonances a
 
 Order lines.  At input speed ``w_in`` [rad/s] the mesh frequency is ``f_m = a w_in`` with ``a = (z_ref / 2 pi) /
 |i_in|`` [Hz per rad/s] (``z_ref / 2 pi`` mesh cycles per radian of the reference gear, ``i_in`` the input gear's
-speed ratio to it).  The lines are the mesh harmonics ``k f_m`` (k = 1 .. ``harmonics``) and the shaft orders
+speed ratio to it).  The lines are the mesh harmonics ``k f_m`` (k = 1 .. ``harmonics``; in a gear train or
+gearbox whose stages run at their own mesh frequencies ``r f_m``, the harmonics ``k r f_m`` of every stage,
+labelled by the stage) and the shaft orders
 ``n r_s f_m`` (n = 1 .. ``shaft_orders``) of each shaft group of :func:`~hacgear_core.spectra.spectrum.order_basis`
 (``r_s = 1 / z`` for a gear: the once-per-revolution excitation of runout, relative to the carrier in a planetary
 set).  Every line is a ray through the origin, ``f = c w_in``.
@@ -111,6 +113,18 @@ def _modes(system: LumpedSystem, speed: float, a_ref: float) -> tuple[np.ndarray
     return g.natural_frequencies_Hz[keep], tuple(t for t, k in zip(g.types, keep) if k)
 
 
+def _mesh_rates(system: LumpedSystem) -> list[tuple[str, float]]:
+    """The distinct mesh frequencies of ``system`` over the reference mesh's, each with the label its lines carry:
+    '' for a system at one mesh frequency, else `` <stage>`` (a gearbox's stage, else the first mesh at that
+    rate)."""
+    out: dict[float, str] = {}
+    for c, r in zip(system.meshes, system.rates):
+        out.setdefault(float(r), system.gears[c.gear_a].stage or c.name)
+    if len(out) == 1:
+        return [("", next(iter(out)))]
+    return [(f" {label}", r) for r, label in out.items()]
+
+
 def campbell(system: LumpedSystem, input_speeds_rad_s, *, harmonics: int = 3, shaft_orders: int = 1) -> CampbellResult:
     """Campbell diagram of ``system`` over ``input_speeds_rad_s`` [rad/s] (ascending, >= 2 values, >= 0) with
     ``harmonics`` mesh harmonics and ``shaft_orders`` shaft orders per shaft group (see the module docstring)."""
@@ -125,7 +139,9 @@ def campbell(system: LumpedSystem, input_speeds_rad_s, *, harmonics: int = 3, sh
         raise ModelError(f"{system.name}: the input gear {gin.name!r} does not turn")
     a_ref = 1.0 / abs(gin.speed_ratio)              # reference speed per input speed
     a = system.zref_2pi * a_ref                     # mesh frequency [Hz] per input rad/s
-    lines = [OrderLine(f"{k} x f_m", "mesh", k, "", float(k), k * a) for k in range(1, harmonics + 1)]
+    lines = []
+    for label, rate in _mesh_rates(system):
+        lines += [OrderLine(f"{k} x f_m{label}", "mesh", k, "", k * rate, k * rate * a) for k in range(1, harmonics + 1)]
     for label, r in order_basis(system).groups:
         lines += [OrderLine(f"{n} x {label}", "shaft", n, label, n * r, n * r * a) for n in range(1, shaft_orders + 1)]
     rotating = system.carrier_ratio != 0.0

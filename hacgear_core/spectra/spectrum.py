@@ -145,14 +145,18 @@ def order_basis(system) -> OrderBasis:
     cr = float(system.carrier_ratio)
     shafts: dict[str, float | Fraction] = {}
     for g in system.gears.values():
+        fr = system.frame_ratio(g.name)            # its meshes' frame: its stage's carrier (or the fixed frame)
         if g.teeth > 0:
-            rel = abs(g.speed_ratio - cr) / per_rad
+            rel = abs(g.speed_ratio - fr) / per_rad
             if rel <= 0:
                 continue
-            exact = Fraction(1, int(g.teeth))
+            # its mesh's frequency over the reference mesh's, p / q, over its teeth (1 / z at the reference rate)
+            p, q = next((tuple(int(x) for x in r) for c, r in zip(system.meshes, system.rate)
+                         if g.name in (c.gear_a, c.gear_b) or g.name in c.gear_alias), (1, 1))
+            exact = Fraction(p, q * int(g.teeth))
             shafts[g.name] = exact if abs(rel - float(exact)) <= 1e-9 * rel else rel
-        elif g.speed_ratio != 0 and cr != 0 and abs(g.speed_ratio - cr) <= 1e-12 * abs(cr):   # the carrier
-            shafts[g.name] = abs(cr) / per_rad
+        elif g.speed_ratio != 0 and fr != 0 and abs(g.speed_ratio - fr) <= 1e-12 * abs(fr):   # a carrier
+            shafts[g.name] = abs(fr) / per_rad
     if cr != 0 and not any(g.teeth == 0 for g in system.gears.values()):
         shafts["carrier"] = abs(cr) / per_rad
     return OrderBasis(shafts)

@@ -9,7 +9,13 @@ coupling: its outputs at the end of the step feed the others' next step):
   the shaft whose torque ``shaft_torque`` loads it: ``J dw/dt = T_drive - shaft_torque`` (semi-implicit Euler);
 * :class:`Shaft`: torsion spring-damper between side a and side b; its twist integrates the speed difference,
   ``torque = k twist + c (w_a - w_b)`` is the torque on side b, ``torque_a = -torque`` the one on side a;
-* :class:`Load`: inertia on side a of a shaft, braked by a constant torque: ``J dw/dt = -shaft_torque - T_brake``.
+* :class:`Load`: inertia on side a of a shaft, braked by a constant torque: ``J dw/dt = -shaft_torque - T_brake``;
+* :class:`Rotor`: a wind-turbine rotor, an inertia driven by a prescribed aerodynamic torque (a step at
+  ``step_time``: a gust) that drives the shaft on its side a: ``J dw/dt = T_aero(t) - shaft_torque``;
+* :class:`Generator`: inertia on side a of a shaft, braked by its electrical torque, a linear speed-torque law
+  ``T_gen = rated_torque + slope (w - rated_speed)`` until ``reversal_time``, ``reversal_torque`` from then on (an
+  emergency stop's torque reversal): ``J dw/dt = -shaft_torque - T_gen``, the law taken at the step's end speed
+  (implicit Euler: stable for a stiff law on a small inertia).
 
 Angles and speeds are positive in each body's sense of rotation (the gear's at the shaft it is coupled to).
 """
@@ -21,7 +27,7 @@ from hacgear_core.dynamics.simulator import StepResult
 from hacgear_core.errors import ModelError
 from hacgear_core.fmu.spec import FmuVariable, Reading, output_expressions, output_getters
 
-__all__ = ["Motor", "Shaft", "Load", "COMPONENTS", "ComponentAdapter"]
+__all__ = ["Motor", "Shaft", "Load", "Rotor", "Generator", "COMPONENTS", "ComponentAdapter"]
 
 _OK = StepResult(True, "", 1)
 
@@ -117,6 +123,81 @@ class Load:
         self.speed, self.angle, self.shaft_torque = st
 
 
+class Rotor:
+    """Wind-turbine rotor (module docstring): inertia [kg m^2], aerodynamic torque [N m] before ``step_time`` [s]
+    and ``step_torque`` [N m] from then on, initial speed [rad/s] and angle [rad].  The torque of a step is the one
+    at its start time (held over the step, as every input); the step happens at the communication point nearest
+    ``step_time`` (a start time within half a step of it counts: time accumulated in floats, or a master's whole
+    nanoseconds, do not move it by a step)."""
+
+    def __init__(self, inertia, aero_torque, step_time, step_torque, speed_start, angle_start=0.0) -> None:
+        self.inertia, self.aero_torque = float(inertia), float(aero_torque)
+        self.step_time, self.step_torque = float(step_time), float(step_torque)
+        self.speed, self.angle = float(speed_start), float(angle_start)
+        self.time = 0.0
+        self.shaft_torque = 0.0
+        self.torque = self._torque(0.0)
+
+    def _torque(self, t: float, h: float = 0.0) -> float:
+        return self.aero_torque if t < self.step_time - 0.5 * h else self.step_torque
+
+    def advance(self, h: float) -> StepResult:
+        self.torque = self._torque(self.time, h)
+        self.speed += h * (self.torque - self.shaft_torque) / self.inertia
+        self.angle += h * self.speed
+        self.time += h
+        return _OK
+
+    def state(self) -> tuple:
+        return (self.time, self.speed, self.angle, self.shaft_torque, self.torque)
+
+    def set_state(self, st) -> None:
+        self.time, self.speed, self.angle, self.shaft_torque, self.torque = st
+
+
+class Generator:
+    """Generator on side a of a shaft (module docstring): inertia [kg m^2], the speed-torque law's rated torque
+    [N m] at rated speed [rad/s] and slope [N m s/rad], the torque after ``reversal_time`` [s]
+    ``reversal_torque`` [N m] (positive brakes), initial speed [rad/s] and angle [rad].  The electrical torque of a
+    step is the law's at the speed at its end (implicit in the speed: stable for a stiff law on a small inertia);
+    the reversal from the communication point nearest ``reversal_time`` on (as :class:`Rotor`'s step)."""
+
+    def __init__(self, inertia, rated_torque, rated_speed, slope, reversal_time, reversal_torque, speed_start,
+                 angle_start=0.0) -> None:
+        self.inertia, self.rated_torque, self.rated_speed = float(inertia), float(rated_torque), float(rated_speed)
+        self.slope, self.reversal_time, self.reversal_torque = float(slope), float(reversal_time), float(reversal_torque)
+        self.speed, self.angle = float(speed_start), float(angle_start)
+        self.time = 0.0
+        self.shaft_torque = 0.0
+        self.torque = self._torque(0.0, self.speed)
+        self.power = self.torque * self.speed
+
+    def _torque(self, t: float, w: float, h: float = 0.0) -> float:
+        if t >= self.reversal_time - 0.5 * h:
+            return self.reversal_torque
+        return self.rated_torque + self.slope * (w - self.rated_speed)
+
+    def advance(self, h: float) -> StepResult:
+        if self.time >= self.reversal_time - 0.5 * h:
+            self.torque = self.reversal_torque
+            self.speed += h * (-self.shaft_torque - self.torque) / self.inertia
+        else:  # the law implicit in the step's end speed: stable for any slope h / inertia
+            g = h / self.inertia
+            self.speed = (self.speed + g * (-self.shaft_torque - self.rated_torque + self.slope * self.rated_speed)) / (
+                1.0 + g * self.slope)
+            self.torque = self._torque(self.time, self.speed, h)
+        self.power = self.torque * self.speed
+        self.angle += h * self.speed
+        self.time += h
+        return _OK
+
+    def state(self) -> tuple:
+        return (self.time, self.speed, self.angle, self.shaft_torque, self.torque, self.power)
+
+    def set_state(self, st) -> None:
+        self.time, self.speed, self.angle, self.shaft_torque, self.torque, self.power = st
+
+
 def _v(name, causality, unit, description, start=None, lo=None, hi=None, display=""):
     """A Real variable; an output is read from the component's attribute of its own name."""
     variability = {"parameter": "fixed", "input": "continuous", "output": "continuous"}[causality]
@@ -166,6 +247,35 @@ COMPONENTS = {
         _v("angle", "output", "rad", "load angle"),
         _v("speed", "output", "rad/s", "load speed", display="rpm"),
     ), {"shaft_torque": "shaft_torque"}, "braked load inertia"),
+    "rotor": (Rotor, (
+        _v("inertia", "parameter", "kg.m2", "rotor inertia", 57231535.0, 1e-9, 1e10),
+        _v("aero_torque", "parameter", "N.m", "aerodynamic torque before step_time", 3.94599e6, -1e9, 1e9),
+        _v("step_time", "parameter", "s", "time of the torque step (a gust)", 1e9, 0.0, 1e9),
+        _v("step_torque", "parameter", "N.m", "aerodynamic torque from step_time on", 3.94599e6, -1e9, 1e9),
+        _v("speed_start", "parameter", "rad/s", "initial speed", 1.26711, -1e4, 1e4, "rpm"),
+        _v("angle_start", "parameter", "rad", "initial angle", 0.0, -1e9, 1e9),
+        _v("shaft_torque", "input", "N.m", "torque of the driven shaft (loads the rotor)", 0.0, -1e9, 1e9),
+        _v("angle", "output", "rad", "rotor angle"),
+        _v("speed", "output", "rad/s", "rotor speed", display="rpm"),
+        _v("torque", "output", "N.m", "aerodynamic torque of the last step"),
+    ), {"shaft_torque": "shaft_torque"}, "wind-turbine rotor (inertia, prescribed aerodynamic torque with a step)"),
+    "generator": (Generator, (
+        _v("inertia", "parameter", "kg.m2", "generator rotor inertia", 534.116, 1e-9, 1e10),
+        _v("rated_torque", "parameter", "N.m", "electrical torque at rated_speed (positive brakes)", 40952.98, -1e9,
+           1e9),
+        _v("rated_speed", "parameter", "rad/s", "rated speed", 122.909, -1e5, 1e5, "rpm"),
+        _v("slope", "parameter", "N.m.s/rad", "slope of the speed-torque law", 33318.6, 0.0, 1e12),
+        _v("reversal_time", "parameter", "s", "time from which the torque is reversal_torque", 1e9, 0.0, 1e9),
+        _v("reversal_torque", "parameter", "N.m", "electrical torque from reversal_time on (negative: motoring)",
+           -40952.98, -1e9, 1e9),
+        _v("speed_start", "parameter", "rad/s", "initial speed", 122.909, -1e5, 1e5, "rpm"),
+        _v("angle_start", "parameter", "rad", "initial angle", 0.0, -1e9, 1e9),
+        _v("shaft_torque", "input", "N.m", "torque of the shaft on whose side a the generator sits", 0.0, -1e9, 1e9),
+        _v("angle", "output", "rad", "generator angle"),
+        _v("speed", "output", "rad/s", "generator speed", display="rpm"),
+        _v("torque", "output", "N.m", "electrical torque of the last step (positive brakes)"),
+        _v("power", "output", "W", "electrical power of the last step (torque x speed at its end)"),
+    ), {"shaft_torque": "shaft_torque"}, "generator (inertia, linear speed-torque law, torque reversal)"),
 }
 
 

@@ -28,7 +28,7 @@ import numpy as np
 from hacgear_core.errors import HacgearError
 from hacgear_core.fmu.bench import BenchConfig, FmuComponent, Layout, drivetrain_layout, run_layout
 
-__all__ = ["write_bench_ssp", "bench_ssd", "drivetrain_step", "complete_ssp", "read_ssp", "ssp_step",
+__all__ = ["write_bench_ssp", "bench_ssd", "layout_ssd", "write_layout_ssp", "drivetrain_step", "complete_ssp", "read_ssp", "ssp_step",
            "fmpy_parameter_set", "run_ssp_fmpy", "run_ssp_libcosim", "SSD_FILE", "OSP_ANNOTATION"]
 
 SSD_FILE = "SystemStructure.ssd"
@@ -63,14 +63,24 @@ def bench_ssd(stage_fmus, config: BenchConfig = BenchConfig(), name: str = "driv
     Platform's ``osp:FixedStepAlgorithm`` annotation (read by libcosim; SSP 1.0 itself has no step size)."""
     lay = drivetrain_layout(stage_fmus, config)
     chain = " -> ".join(["motor"] + [f"{n} ({Path(p).stem})" for n, (p, _) in lay.stages.items()] + ["load"])
+    description = (f"hacgear drivetrain bench: {chain}, coupled by torsion shafts; every stage FMU in drivetrain "
+                   f"mode (mode = 1); communication step {config.step_s:g} s (the osp:FixedStepAlgorithm annotation "
+                   "of the DefaultExperiment, which libcosim reads; other masters: step no coarser, or the "
+                   "coupling of the shafts and the gears' small inertias is not resolved). "
+                   "The FMUs are under resources/; where this file carries none, `python -m hacgear_core.fmu.ssp "
+                   "THIS.ssp COMPLETE.ssp` builds them and writes the SSP with them")
+    return layout_ssd(lay, config.steps * config.step_s, config.step_s, name, description,
+                      "hacgear (hacgear_core.fmu.ssp.bench_ssd)")
+
+
+def layout_ssd(lay: Layout, stop_time_s: float, step_s: float, name: str, description: str,
+               generation_tool: str = "hacgear (hacgear_core.fmu.ssp.layout_ssd)") -> bytes:
+    """``SystemStructure.ssd`` (UTF-8 XML) of the co-simulation ``lay`` (a :class:`~hacgear_core.fmu.bench.Layout`:
+    its components as hacgear's component FMUs ``resources/hacgear_<kind>.fmu``, its stages as their FMU files
+    under ``resources/``), default experiment 0 to ``stop_time_s`` [s] at the communication step ``step_s`` [s]
+    (the ``osp:FixedStepAlgorithm`` annotation); what :func:`bench_ssd` writes for a drivetrain bench."""
     root = ET.Element(_q("ssd", "SystemStructureDescription"), {
-        "version": "1.0", "name": name, "generationTool": "hacgear (hacgear_core.fmu.ssp.bench_ssd)",
-        "description": f"hacgear drivetrain bench: {chain}, coupled by torsion shafts; every stage FMU in drivetrain "
-                       f"mode (mode = 1); communication step {config.step_s:g} s (the osp:FixedStepAlgorithm annotation "
-                       "of the DefaultExperiment, which libcosim reads; other masters: step no coarser, or the "
-                       "coupling of the shafts and the gears' small inertias is not resolved). "
-                       "The FMUs are under resources/; where this file carries none, `python -m hacgear_core.fmu.ssp "
-                       "THIS.ssp COMPLETE.ssp` builds them and writes the SSP with them"})
+        "version": "1.0", "name": name, "generationTool": generation_tool, "description": description})
     system = ET.SubElement(root, _q("ssd", "System"), {"name": "drivetrain"})
     elements = ET.SubElement(system, _q("ssd", "Elements"))
     conn_of = {}
@@ -101,11 +111,11 @@ def bench_ssd(stage_fmus, config: BenchConfig = BenchConfig(), name: str = "driv
         ET.SubElement(cons, _q("ssd", "Connection"),
                       {"startElement": a, "startConnector": av, "endElement": b, "endConnector": bv})
     exp = ET.SubElement(root, _q("ssd", "DefaultExperiment"),
-                        {"startTime": "0.0", "stopTime": f"{config.steps * config.step_s:.12g}"})
+                        {"startTime": "0.0", "stopTime": f"{stop_time_s:.12g}"})
     note = ET.SubElement(ET.SubElement(exp, _q("ssd", "Annotations")), _q("ssc", "Annotation"),
                          {"type": OSP_ANNOTATION})
     ET.SubElement(ET.SubElement(note, _q("osp", "Algorithm")), _q("osp", "FixedStepAlgorithm"),
-                  {"baseStepSize": f"{config.step_s:.12g}"})
+                  {"baseStepSize": f"{step_s:.12g}"})
     ET.indent(root)
     return ET.tostring(root, encoding="UTF-8", xml_declaration=True) + b"\n"
 
@@ -133,14 +143,28 @@ def write_bench_ssp(stage_fmus, dest: str | Path, config: BenchConfig = BenchCon
     ``SystemStructure.ssd`` and, with ``fmus``, the stage FMUs and hacgear's motor, shaft and load FMUs (built
     here) in ``resources/``; ``fmus=False``: the structure alone (what ``examples/*.ssp`` are; :func:`complete_ssp`
     adds the FMUs)."""
-    ssd = bench_ssd(stage_fmus, config, name)
+    stages = [Path(p) for p in ([stage_fmus] if isinstance(stage_fmus, (str, Path)) else stage_fmus)]
+    return write_ssd(bench_ssd(stage_fmus, config, name), dest, stages if fmus else None)
+
+
+def write_layout_ssp(lay: Layout, dest: str | Path, stop_time_s: float, step_s: float, name: str, description: str,
+                     *, fmus: bool = True) -> Path:
+    """Write the co-simulation ``lay`` as the SSP ``dest`` (:func:`layout_ssd`); with ``fmus`` its stage FMUs and
+    hacgear's component FMUs (built here) in ``resources/``, ``fmus=False``: the structure alone."""
+    ssd = layout_ssd(lay, stop_time_s, step_s, name, description)
+    return write_ssd(ssd, dest, [Path(p) for p, _ in lay.stages.values()] if fmus else None)
+
+
+def write_ssd(ssd: bytes, dest: str | Path, stage_fmus: list | None) -> Path:
+    """Write the SSP ``dest`` of ``ssd``: with the FMUs (``stage_fmus`` paths, the components built here), or,
+    ``stage_fmus`` None, the structure alone."""
     dest = Path(dest)
     dest.parent.mkdir(parents=True, exist_ok=True)
-    if not fmus:
+    if stage_fmus is None:
         with zipfile.ZipFile(dest, "w", zipfile.ZIP_DEFLATED) as z:
             z.writestr(SSD_FILE, ssd)
         return dest
-    stages = [Path(p) for p in ([stage_fmus] if isinstance(stage_fmus, (str, Path)) else stage_fmus)]
+    stages = [Path(p) for p in stage_fmus]
     with tempfile.TemporaryDirectory(prefix="hacgear_ssp_") as td:
         with zipfile.ZipFile(Path(td) / "structure.ssp", "w") as z:
             z.writestr(SSD_FILE, ssd)

@@ -11,7 +11,7 @@ as fractions of it.  About 30 s.
 """
 from __future__ import annotations
 
-import sys
+import argparse
 from dataclasses import replace
 
 import numpy as np
@@ -65,4 +65,7 @@ def main(ds_um) -> None:
 
 
 if __name__ == "__main__":
-    main([float(a) for a in sys.argv[1:]] or [5.0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("d_um", nargs="*", type=float, default=[5.0],
+                    help="displacement of the one pinion tooth [um] (several: one line each; default 5)")
+    main(ap.parse_args().d_um)

@@ -18,8 +18,8 @@ after ``system.period_cycles`` reference mesh cycles (the lcm of the ``q``): its
 system period, and ``min_cycles``, ``max_cycles``, ``max_period``, ``chunk_cycles`` and ``cap_record_cycles`` count
 system periods; the result's ``period_cycles`` and ``cycles_run`` are in reference mesh cycles.
 
-Where that period exceeds ``max_system_period`` reference mesh cycles (a wind-turbine gearbox repeats after tens of
-input revolutions) the response is taken as quasi-periodic: the run first settles for the decay time of the
+Where that period exceeds ``max_system_period`` reference mesh cycles (default 512; a wind-turbine gearbox repeats
+after tens of input revolutions) the response is taken as quasi-periodic: the run first settles for the decay time of the
 slowest elastic mode, ``ln(1 / rtol) / (zeta omega_1)`` (modal damping ratio ``zeta``, lowest elastic natural
 frequency ``omega_1``), then records two observation windows of ``window_revolutions`` revolutions of the slowest
 shaft each (whole reference mesh cycles, every mesh recorded at least 32 times per its own cycle).  The second
@@ -95,7 +95,7 @@ class SteadyStateOptions:
     max_kicks: int = 3
     kick: float = 1e-2
     cap_record_cycles: int = 4
-    max_system_period: int = 64
+    max_system_period: int = 512
     window_revolutions: int = 1
     window_rtol: float = 1e-2
 

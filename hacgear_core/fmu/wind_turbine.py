@@ -27,7 +27,7 @@ Stated choices (none published for this bench):
 * the generator's rated speed is the rotor's times the gearbox FMU's ratio: 1165.885 rpm for 4625/48 (NREL's
   1173.7 rpm belongs to its 97:1 gearbox), its rated torque the rotor's over that ratio (40 952.98 N m).
 
-Scenarios (:data:`SCENARIOS`), each from the static state at rated speed and torque (shafts pre-twisted):
+Scenarios (:data:`SCENARIOS`), each from the static state at rated speed and torque (shafts wound up by their static torque):
 
 * ``rated``: constant rated torque: every torque stays at its static value (the steady state is the start);
 * ``gust``: the aerodynamic torque steps to ``gust_factor`` x rated at ``event_time_s``;
@@ -194,7 +194,7 @@ def wind_turbine_layout(gearbox_fmu: str | Path, cfg: WindTurbineConfig = WindTu
                         scenario: str = "rated", cp: dict | None = None) -> Layout:
     """The bench of ``gearbox_fmu`` in ``scenario`` (:data:`SCENARIOS`): components ``rotor``, ``main_shaft``,
     ``hss``, ``generator`` and the stage ``gearbox``, everything at the static state of rated operation (shafts
-    pre-twisted by their static torque).  ``cp``: :func:`coupling` of the FMU (None: computed here).
+    wound up by their static torque).  ``cp``: :func:`coupling` of the FMU (None: computed here).
     ``static`` holds ``rotor_torque_Nm``, ``gearbox_output_torque_Nm`` (on the output gear, negative: braking),
     ``hss_torque_Nm`` (carried, = -that), ``ratio``, ``rotor_speed_rad_s``, ``generator_speed_rad_s``,
     ``main_shaft_stiffness_Nm_per_rad``, ``hss_stiffness_Nm_per_rad``, their ``..._damping_Nm_s_per_rad``,

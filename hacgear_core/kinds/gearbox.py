@@ -61,8 +61,6 @@ from dataclasses import dataclass, replace
 from fractions import Fraction
 from typing import Any, Mapping
 
-import numpy as np
-
 from hacgear_core.errors import GeometryError, ModelError
 from hacgear_core.geometry import nominal_mesh_forces as fixed_axis_forces
 from hacgear_core.geometry.planetary import planetary_geometry, planetary_members, planetary_torques
@@ -421,7 +419,7 @@ class GearboxKind(Kind):
                              "are the drivetrain's: FMU mode 1)")
 
     def placement(self, model: Any, gears: Mapping, meshes: Mapping) -> TrainGeometry:
-        """None placement of the whole: each stage is placed in its own frame when its train is built (a planetary
+        """No placement of the whole: each stage is placed in its own frame when its train is built (a planetary
         stage by :func:`~hacgear_core.geometry.planetary.planetary_geometry`, a parallel one by
         :func:`~hacgear_core.geometry.train_geometry`); raises GeometryError (``hacgear info`` then shows no mesh
         phases)."""

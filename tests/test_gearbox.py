@@ -144,6 +144,11 @@ def test_refusals_name_the_key():
                       "  rotational_stiffness_Nm_per_rad = 5.0e6", 1), "must be 0 for a turning member"),
         (text.replace('sun = "sun2"', 'sun = "sun1"'), "name the same set"),
         (text.replace('member_a = "sun2"', 'member_a = "sun1"'), "all leave one stage"),
+        (text.replace("torsional_stiffness_Nm_per_rad = 1.25555e9", "torsional_stiffness_Nm_per_rad = 1.25555e9\n"
+                      "bending_stiffness_N_per_m = 1e9"), "'sun1' belongs to planetary stage 'stage1', whose "
+         "translations turn with its carrier"),
+        (text.replace("torsional_stiffness_Nm_per_rad = 1.25555e9", "torsional_stiffness_Nm_per_rad = 1.25555e9\n"
+                      "bending_stiffness_N_per_m = -1"), "bending_stiffness_N_per_m' [N/m]: value -1 out of range"),
     ]
     for bad, words in cases:
         with pytest.raises(ModelError, match=None) as exc:
@@ -210,3 +215,40 @@ def test_sweep_reports_every_stage_at_its_mesh_frequency(capsys):
     for mesh, rate in (("s1_ring_planet_2", 1.0), ("s2_sun_planet_3", 6975 / 1064), ("s3_wheel_pinion", 4625 / 112)):
         assert b["meshes"][mesh]["mesh_frequency_Hz"] == pytest.approx([9.0 * rate, 11.0 * rate], rel=1e-12)
         assert all(1.0 < f < 1.3 for f in b["meshes"][mesh]["dynamic_factor_force"])
+
+
+def _reducer_texts(bending_N_per_m: float) -> tuple[str, str]:
+    """The two-stage reducer's model file as a gear_train and as a gearbox, its intermediate shaft with the given
+    bending stiffness [N/m]."""
+    text = resolve_model_path("reducer_19_71_23_83").read_text().replace(
+        "torsional_stiffness_Nm_per_rad = 1.34e5",
+        f"torsional_stiffness_Nm_per_rad = 1.34e5\nbending_stiffness_N_per_m = {bending_N_per_m!r}")
+    box = (text.replace('kind = "gear_train"', 'kind = "gearbox"').replace("[[gear_train.shafts]]", "[[gearbox.shafts]]")
+           .replace('gear_a = "wheel1"\ngear_b = "pinion2"', 'member_a = "wheel1"\nmember_b = "pinion2"'))
+    assert box.count("member_a") == 1
+    return text, box
+
+
+def test_shaft_bending_between_parallel_stages_equals_the_gear_trains():
+    """A gearbox of two parallel spur stages joined by a shaft with bending stiffness has the gear_train's M, K and
+    mesh vectors (which join the two gears' x and y in one frame), and the bending spring moves its modes."""
+    tables = load_system_tables("reducer_19_71_23_83")
+    kb = 3.0e8
+    as_train, as_box = (parse_model(t, file=f) for t, f in zip(_reducer_texts(kb), ("train.toml", "box.toml")))
+    st = build_system(as_train, tables, shafts=False)
+    sb = build_system(as_box, tables, shafts=False)
+    assert sorted(st.dof_names) == sorted(sb.dof_names)
+    assert {"wheel1.x", "wheel1.y", "pinion2.x", "pinion2.y"} <= set(sb.dof_names)
+    p = [list(sb.dof_names).index(n) for n in st.dof_names]
+    for a, b in ((st.M, sb.M), (st.K, sb.K)):
+        np.testing.assert_allclose(np.asarray(b)[np.ix_(p, p)], a, rtol=0, atol=1e-12 * np.max(np.abs(a)))
+    np.testing.assert_allclose(np.asarray(sb.V)[:, p], st.V, rtol=0, atol=1e-12)
+    i, j = list(sb.dof_names).index("wheel1.x"), list(sb.dof_names).index("pinion2.x")
+    assert np.asarray(sb.K)[i, j] == pytest.approx(-kb, rel=1e-12)
+    free = build_system(parse_model(_reducer_texts(0.0)[1], file="free.toml"), tables, shafts=False)
+    f_bent, f_free = sb.natural_frequencies_Hz(), free.natural_frequencies_Hz()
+    assert len(f_bent) == len(f_free) + 2    # x and y of each intermediate gear instead of its line of action
+    assert f_bent[2] > 1.05 * f_free[2]      # the shaft stiffens the intermediate gears' translation
+    # the constant-speed experiment (output held) builds with the same springs
+    held = build_system(as_box, tables)
+    assert held.n == sb.n - 1

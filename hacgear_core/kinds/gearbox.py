@@ -27,6 +27,7 @@ Model section::
     member_a = "sun1"                          # upstream member
     member_b = "carrier2"                      # downstream member
     torsional_stiffness_Nm_per_rad = 1.4e9     # (0, 1e12]
+    bending_stiffness_N_per_m = 0.0            # [0, 1e15]; 0: the members' own bearings only (default)
 
 Dynamics: each stage is built by its kind's builder (:func:`~hacgear_core.kinds.planetary.planetary_from_model`,
 :func:`~hacgear_core.kinds.fixed_axis.train_from_model`, :func:`~hacgear_core.kinds.helical_pair.helical_from_model`)
@@ -43,9 +44,15 @@ at the static torque the chain brings to it, and the trains are joined:
   denominators in reference mesh cycles (``period_cycles``), which for a wind-turbine gearbox is tens of input
   revolutions: steady-state analyses then run over a stated number of revolutions of the slowest shaft.
 * **shafts** act between the rotations of the members they join, each measured in its direction of motion (the
-  stages' frames are independent: a stage may be built mirrored to the next); shaft bending between stages is not
-  offered (a planetary stage's translations turn with its carrier, a shaft's bending spring to a fixed-axis gear
-  would not be constant in either frame): the members' own bearings carry them.
+  stages' frames are independent: a stage may be built mirrored to the next).  A shaft's optional
+  ``bending_stiffness_N_per_m`` acts between the in-plane translations of its members' centres, in the model's
+  fixed frame (x, y of the model file: parallel stages are placed by their meshes' ``line_of_centres_deg``, a
+  planetary stage's planets at their angles from x); a spur gear with one mesh then gets x and y instead of its
+  line-of-action translation.  It joins members whose translations live in the fixed frame: gears of parallel
+  spur stages and members of planetary stages with a fixed carrier.  A member of a planetary stage whose carrier
+  turns is refused (its translations turn with its carrier, so a bending spring to it would not be constant in
+  either stage's frame), and so is a helical gear (its translations live in its pair's own frame): their bearings
+  carry them.
 
 Constant-speed experiment (``shafts=True``): the torque acts on the input member, the output member follows the
 kinematics (its rotation held to the reference motion, as a generator on the grid and as the planetary stage
@@ -63,11 +70,12 @@ from typing import Any, Mapping
 
 from hacgear_core.errors import GeometryError, ModelError
 from hacgear_core.geometry import nominal_mesh_forces as fixed_axis_forces
+from hacgear_core.geometry import train_geometry
 from hacgear_core.geometry.planetary import planetary_geometry, planetary_members, planetary_torques
 from hacgear_core.geometry.train import TrainGeometry
 from hacgear_core.kinds.base import ExtraOutput, Kind, Spring, Train, shaft_torque_output
 from hacgear_core.kinds.fixed_axis import train_from_model
-from hacgear_core.kinds.gear_train import _mesh_groups
+from hacgear_core.kinds.gear_train import _in_plane, _mesh_groups
 from hacgear_core.kinds.helical_pair import helical_from_model
 from hacgear_core.kinds.planetary import planetary_from_model
 from hacgear_core.model.schema import Planetary, Support
@@ -77,7 +85,7 @@ __all__ = ["GearboxKind", "GearboxSection", "PlanetaryStage", "GearboxShaft", "S
            "mesh_rates"]
 
 _STAGE_KEYS = ("name", "sun", "carrier")
-_SHAFT_KEYS = ("name", "member_a", "member_b", "torsional_stiffness_Nm_per_rad")
+_SHAFT_KEYS = ("name", "member_a", "member_b", "torsional_stiffness_Nm_per_rad", "bending_stiffness_N_per_m")
 
 
 @dataclass(frozen=True)
@@ -94,12 +102,14 @@ class PlanetaryStage:
 @dataclass(frozen=True)
 class GearboxShaft:
     """A shaft from member ``member_a`` of one stage to ``member_b`` of the next (SI): torsional stiffness
-    [N m/rad] between their rotations."""
+    [N m/rad] between their rotations, bending stiffness [N/m] between their centres' in-plane translations (0:
+    none; members whose translations live in the fixed frame only, :meth:`GearboxKind.check`)."""
 
     name: str
     member_a: str
     member_b: str
     torsional_stiffness_Nm_per_rad: float
+    bending_stiffness_N_per_m: float = 0.0
 
     def __post_init__(self) -> None:
         where = f"gearbox.shafts '{self.name}'"
@@ -108,7 +118,11 @@ class GearboxShaft:
         k = float(self.torsional_stiffness_Nm_per_rad)
         if not (0.0 < k <= 1e12):
             raise ModelError(f"{where}: torsional_stiffness_Nm_per_rad [N*m/rad] must be in (0, 1e12], got {k!r}")
+        kb = float(self.bending_stiffness_N_per_m)
+        if not (0.0 <= kb <= 1e15):
+            raise ModelError(f"{where}: bending_stiffness_N_per_m [N/m] must be in [0, 1e15], got {kb!r}")
         object.__setattr__(self, "torsional_stiffness_Nm_per_rad", k)
+        object.__setattr__(self, "bending_stiffness_N_per_m", kb)
 
 
 @dataclass(frozen=True)
@@ -316,6 +330,13 @@ def _fixed_axis_model(model: Any, stage: Stage, held: str | None = None) -> Any:
                    section=None, sections={}, operating=replace(model.operating, torque_gear=stage.input))
 
 
+def _centre_row(body: Any, axis: int, sign: float = 1.0) -> tuple:
+    """The KeyVector of ``body``'s centre displacement along the fixed frame's ``axis`` (0: x, 1: y), times
+    ``sign``: its translation DOFs weighted by their directions (a rigidly held centre has none)."""
+    return tuple(((body.name, d.label), sign * d.direction[axis]) for d in body.dofs
+                 if d.direction is not None and d.direction[axis] != 0.0)
+
+
 def _renamed(train: Train, names: Mapping[str, str]) -> Train:
     """``train`` with its bodies renamed by ``names`` (every key that names one)."""
     def key(k):
@@ -362,7 +383,9 @@ class GearboxKind(Kind):
             values = dict(name=ssec.string("name"), member_a=ssec.string("member_a"),
                           member_b=ssec.string("member_b"),
                           torsional_stiffness_Nm_per_rad=ssec.number("torsional_stiffness_Nm_per_rad", "N*m/rad",
-                                                                     0.0, 1e12, lo_open=True))
+                                                                     0.0, 1e12, lo_open=True),
+                          bending_stiffness_N_per_m=ssec.number("bending_stiffness_N_per_m", "N/m", 0.0, 1e15,
+                                                                required=False, default=0.0))
             ssec.done(_SHAFT_KEYS)
             try:
                 shafts.append(GearboxShaft(**values))
@@ -396,7 +419,26 @@ class GearboxKind(Kind):
     def check(self, model: Any) -> None:
         super().check(model)
         fixed = set()
-        for s in gearbox_stages(model):
+        stages = gearbox_stages(model)
+        stage_of = {m: s for s in stages for m in s.members}
+        for sh in _section_of(model).shafts:
+            if sh.bending_stiffness_N_per_m == 0:
+                continue
+            for name in (sh.member_a, sh.member_b):
+                s = stage_of[name]
+                if s.planetary is not None and s.planetary.planetary.fixed_member != "carrier":
+                    raise ModelError(
+                        f"gearbox.shafts '{sh.name}'.bending_stiffness_N_per_m [N/m] = "
+                        f"{sh.bending_stiffness_N_per_m:g}: member {name!r} belongs to planetary stage "
+                        f"'{s.planetary.name}', whose translations turn with its carrier; a bending spring to it "
+                        "would not be constant in either stage's frame (allowed: 0, its bearings carry it; bending "
+                        "joins members of parallel spur stages and of planetary stages with a fixed carrier)")
+                if s.planetary is None and model.gear(name).is_helical:
+                    raise ModelError(
+                        f"gearbox.shafts '{sh.name}'.bending_stiffness_N_per_m [N/m] = "
+                        f"{sh.bending_stiffness_N_per_m:g}: member {name!r} is a helical gear, whose translations "
+                        "live in its pair's own frame (allowed: 0, its bearings carry it)")
+        for s in stages:
             if s.planetary is None:
                 if any(model.gear(g).is_helical for g in s.gears) and len(s.meshes) != 1:
                     raise ModelError(f"stage {s.name}: a helical stage of a gearbox is one pair (one mesh), got "
@@ -496,11 +538,25 @@ class GearboxKind(Kind):
             reports_s += list(part.support_reports)
             reports_b += list(part.bearing_reports)
         by_name = {b.name: b for b in bodies}
+        by_mesh = {c.name: c for c in couplings}
+        stage_of = {m: s for s in stages for m in s.members}
         for sh in _section_of(model).shafts:
             # each member's rotation measured in its sense of rotation (its stage's frame)
             a, b = by_name[sh.member_a], by_name[sh.member_b]
             springs.append(Spring(sh.torsional_stiffness_Nm_per_rad,
                                   rows=((((a.name, a.rotation), a.sense), ((b.name, b.rotation), -b.sense)),)))
+            if sh.bending_stiffness_N_per_m > 0:
+                for name in (sh.member_a, sh.member_b):
+                    s = stage_of[name]
+                    if s.planetary is None:
+                        # a gear on one mesh translates along its line of action only: give it x and y
+                        placed = train_geometry(_fixed_axis_model(model, s))
+                        by_name[name], by_mesh = _in_plane(by_name[name], by_mesh, placed)
+                springs.append(Spring(sh.bending_stiffness_N_per_m,
+                                      rows=tuple(_centre_row(by_name[sh.member_a], i)
+                                                 + _centre_row(by_name[sh.member_b], i, -1.0) for i in (0, 1))))
+        bodies = [by_name[b.name] for b in bodies]
+        couplings = [by_mesh[c.name] for c in couplings]
         first, lastp = parts[0][1], parts[-1]
         nominal = {model.operating.torque_gear: (first.nominal_torques_per_Nm or {}).get(
             model.operating.torque_gear, 1.0)}

@@ -2,6 +2,7 @@
 diagrams (natural frequencies and order lines over the input speed, crossings marked)."""
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import matplotlib
@@ -16,6 +17,8 @@ __all__ = ["spectrum_figure", "campbell_figure", "waterfall_figure", "save_spect
            "save_waterfall_figure"]
 
 _FAMILY_STYLE = {"mesh": ("C3", "o"), "sideband": ("C0", "v"), "shaft": ("C2", "s")}
+#: a mesh harmonic's track label: "k" (the reference mesh) or "k <label>" (another mesh rate)
+_MESH_TRACK = re.compile(r"^\d+( [^;+\- ]+)?$")
 
 
 def spectrum_figure(spectra: dict, *, unit: str = "", scale: float = 1.0, title: str = "",
@@ -24,13 +27,13 @@ def spectrum_figure(spectra: dict, *, unit: str = "", scale: float = 1.0, title:
     channel: bin amplitudes (times ``scale``, in ``unit``) over mesh order on a log axis, the marked lines as
     symbols (mesh harmonics red circles, sidebands blue triangles, shaft orders green squares), labelled where
     their amplitude exceeds ``label_fraction`` of the panel's largest AC line.  ``max_order``: right end of the
-    axis (default: the highest marked harmonic + 0.5)."""
+    axis (default: the highest marked mesh harmonic's order + 0.5)."""
     n = len(spectra)
     fig, axes = plt.subplots(n, 1, figsize=(9.0, 2.9 * n + 0.4), squeeze=False)
     for ax, (name, sp) in zip(axes[:, 0], spectra.items()):
         o, amp = sp.mesh_order[1:], sp.amplitude[1:] * scale
         top = max(o[-1] if o.size else 1.0, 1.0)
-        right = max_order or min(top, max([ln.harmonic for ln in sp.lines] + [1]) + 0.5)
+        right = max_order or min(top, max([ln.mesh_order for ln in sp.lines if ln.family == "mesh"] + [1]) + 0.5)
         keep = o <= right
         floor = max(float(np.max(amp[keep])) * 1e-9, 1e-300) if np.any(keep) else 1e-300
         ax.semilogy(o[keep], np.maximum(amp[keep], floor), color="0.55", lw=0.7, label="bins")
@@ -139,7 +142,7 @@ def waterfall_figure(waterfalls: dict, *, unit: str = "", scale: float = 1.0, ti
         ax.set_ylabel("mesh order [-]")
         ax.set_title(f"{name}: order spectrum over the run-up ({wf.segment_cycles} mesh cycles per segment)",
                      fontsize=9)
-        for k, (label, tr) in enumerate((lb, t) for lb, t in wf.tracks.items() if lb.isdigit()):
+        for k, (label, tr) in enumerate((lb, t) for lb, t in wf.tracks.items() if _MESH_TRACK.match(lb)):
             ax2.semilogy(wf.mesh_frequency_Hz, np.maximum(tr * scale, 1e-300), color=f"C{k}", lw=1.2,
                          label=f"order {label}")
         ax2.set_xlabel("mesh frequency f_m [Hz]")

@@ -7,10 +7,14 @@ order ratio*, :class:`OrderBasis`); its *shaft order* of a frequency is ``o / r_
 ``r = 1 / z`` (mesh order = z x shaft order); in a planetary set the meshes run in the carrier frame, so a gear's
 shaft order counts its rotation *relative to the carrier* (``f_m = z |f_gear - f_carrier|``) and the carrier itself
 is a shaft of ratio ``|f_carrier| / f_m`` (:func:`order_basis`).  Shafts of equal ratio (a 28:28 pair, the planets
-of a set, a fixed ring and the carrier) form one group and one label.
+of a set, a fixed ring and the carrier) form one group and one label.  In a system whose meshes run at several
+rates (gear trains and gearboxes with unequal tooth counts), the orders are those of the reference mesh (the first)
+and every other mesh rate ``p / q`` (its mesh frequency over the reference's, :attr:`OrderBasis.meshes`, labelled by
+its stage or its meshes' names) has its own harmonics ``k p / q``, labelled ``"k <label>"`` (``"1 m34"``).
 
-Marked lines (:class:`SpectralLine`): mesh harmonics ``k`` (k = 1 .. ``harmonics``), sidebands ``k +- n r_s`` (n =
-1 .. ``sideband_orders``, every shaft group; a sideband that falls on a mesh harmonic, ``n r_s`` whole, is not one),
+Marked lines (:class:`SpectralLine`): mesh harmonics ``k`` (k = 1 .. ``harmonics``; and ``k p / q`` of each other
+mesh rate), sidebands ``k +- n r_s`` around each of them (n = 1 .. ``sideband_orders``, every shaft group; a
+sideband that falls on a harmonic of its mesh, ``n r_s`` a whole number of its mesh orders, is not one),
 and shaft orders ``n r_s`` (the once-, twice-... per revolution lines of runout and pitch errors).  Lines that fall
 on one bin share it: their labels are joined and the family is the first of mesh > sideband > shaft.  Combination
 sidebands of two shafts (``k + r_a - r_b``) are not marked.
@@ -46,7 +50,8 @@ import numpy as np
 
 from hacgear_core.errors import ModelError
 
-__all__ = ["OrderBasis", "SpectralLine", "OrderSpectrum", "order_basis", "order_spectrum", "FLATTOP_SCALLOPING",
+__all__ = ["OrderBasis", "SpectralLine", "OrderSpectrum", "order_basis", "order_spectrum", "mesh_rate_groups",
+           "mesh_harmonic_label", "FLATTOP_SCALLOPING",
            "FLATTOP_SIDELOBE", "FLATTOP_HALF_WIDTH_BINS", "LINE_FAMILIES"]
 
 #: kinds of marked lines, in the priority that names a bin several lines share
@@ -90,17 +95,24 @@ FLATTOP_SIDELOBE = 1.01 * _flattop_response()[1]
 
 @dataclass(frozen=True)
 class OrderBasis:
-    """The shafts of a record: ``shafts`` {name: shaft order ratio r [-] = shaft turns per mesh cycle} (> 0).
+    """The shafts of a record: ``shafts`` {name: shaft order ratio r [-] = shaft turns per mesh cycle} (> 0), and
+    ``meshes`` {label: rate [-]}: the mesh frequencies of the other meshes over the reference mesh's (> 0, not 1;
+    each rate's harmonics are marked as mesh lines "k <label>").
 
     Names of shafts with equal ratio (to 1e-12 relative) are grouped (:attr:`groups`) and marked as one."""
 
     shafts: Mapping[str, float] = field(default_factory=dict)
+    meshes: Mapping[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        for name, r in self.shafts.items():
-            if not (isinstance(r, (int, float, Fraction)) and math.isfinite(float(r)) and 0 < float(r) < 1e6):
-                raise ModelError(f"shaft order ratio of {name!r} [shaft turns per mesh cycle] must be finite and in "
-                                 f"(0, 1e6), got {r!r}")
+        for what, items in (("shaft order ratio", self.shafts), ("mesh rate", self.meshes)):
+            for name, r in items.items():
+                if not (isinstance(r, (int, float, Fraction)) and math.isfinite(float(r)) and 0 < float(r) < 1e6):
+                    raise ModelError(f"{what} of {name!r} [turns or mesh cycles per reference mesh cycle] must be "
+                                     f"finite and in (0, 1e6), got {r!r}")
+        same = [name for name, r in self.meshes.items() if abs(float(r) - 1.0) <= 1e-12]
+        if same:
+            raise ModelError(f"mesh rates {same} equal the reference mesh's (1): their harmonics are its own")
 
     @property
     def groups(self) -> tuple[tuple[str, float], ...]:
@@ -115,8 +127,9 @@ class OrderBasis:
         return tuple(("/".join(names), r) for names, r in out)
 
     def fraction(self, name: str) -> Fraction | None:
-        """Shaft ``name``'s ratio as an exact fraction (None: no fraction with a denominator up to 1e6 matches)."""
-        r = self.shafts[name]
+        """Shaft ``name``'s ratio (or mesh rate ``name``) as an exact fraction (None: no fraction with a denominator
+        up to 1e6 matches)."""
+        r = self.shafts[name] if name in self.shafts else self.meshes[name]
         if isinstance(r, (int, Fraction)):
             return Fraction(r)
         f = Fraction(float(r)).limit_denominator(_MAX_DENOMINATOR)
@@ -126,7 +139,7 @@ class OrderBasis:
         """Mesh cycles after which the mesh and every shaft are back in place: the least common multiple of 1 and
         every shaft's period ``1 / r`` (None when a ratio is not a fraction, :meth:`fraction`)."""
         num, den = 1, 0
-        for name in self.shafts:
+        for name in (*self.shafts, *self.meshes):
             f = self.fraction(name)
             if f is None:
                 return None
@@ -159,7 +172,35 @@ def order_basis(system) -> OrderBasis:
             shafts[g.name] = abs(fr) / per_rad
     if cr != 0 and not any(g.teeth == 0 for g in system.gears.values()):
         shafts["carrier"] = abs(cr) / per_rad
-    return OrderBasis(shafts)
+    return OrderBasis(shafts, {label: rate for label, (rate, _) in mesh_rate_groups(system).items()})
+
+
+def mesh_rate_groups(system) -> dict[str, tuple[Fraction, tuple[str, ...]]]:
+    """{label: (rate p / q, mesh names)} of the meshes of ``system`` that run at a rate other than the reference
+    mesh's, one entry per rate: labelled by the stage of their gears where the system has stages (a gearbox), else by
+    their names joined with "/"."""
+    by_rate: dict[Fraction, list[str]] = {}
+    stage: dict[Fraction, str] = {}
+    for c, (p, q) in zip(system.meshes, system.rate):
+        rate = Fraction(int(p), int(q))
+        if rate == 1:
+            continue
+        by_rate.setdefault(rate, []).append(c.name)
+        g = system.gears.get(c.gear_a)
+        if g is not None and getattr(g, "stage", ""):
+            stage.setdefault(rate, g.stage)
+    return {(stage.get(r) or "/".join(names)): (r, tuple(names)) for r, names in sorted(by_rate.items())}
+
+
+def mesh_harmonic_label(system, mesh: str, k: int = 1) -> str:
+    """The label of mesh ``mesh``'s ``k``-th harmonic in the spectra of ``system``: ``"k"`` at the reference rate,
+    else ``"k <label>"`` (:func:`mesh_rate_groups`)."""
+    for label, (_, names) in mesh_rate_groups(system).items():
+        if mesh in names:
+            return f"{k} {label}"
+    if mesh not in {c.name for c in system.meshes}:
+        raise ModelError(f"no mesh {mesh!r}; meshes: {[c.name for c in system.meshes]}")
+    return str(k)
 
 
 @dataclass(frozen=True)
@@ -221,7 +262,8 @@ class OrderSpectrum:
     ac_rms : float
         RMS about the mean of the analysed samples.
     mesh_harmonic_power_fraction : float
-        Share of the AC power at integer mesh orders (every harmonic up to Nyquist) [-]; NaN when not coherent.
+        Share of the AC power at the mesh harmonics (integer mesh orders and every other mesh rate's multiples, up to
+        Nyquist) [-]; NaN when not coherent.
     marked_power_fraction : float
         Share of the AC power at marked lines plus every mesh harmonic [-]; NaN when not coherent.
     mesh_frequency_Hz : float
@@ -281,20 +323,30 @@ def _failed(message: str, mesh_frequency_Hz: float) -> OrderSpectrum:
 
 
 def _candidates(basis: OrderBasis, harmonics: int, sideband_orders: int, max_order: float) -> list[tuple]:
-    """(order, family, label, k, shaft, n) of every line to mark below ``max_order``."""
-    out = [(float(k), "mesh", str(k), k, "", 0) for k in range(1, harmonics + 1) if k < max_order]
+    """(order, family, label, k, shaft, n) of every line to mark below ``max_order``: each mesh rate's harmonics
+    (the reference mesh's first, labelled "k"; another rate's "k <label>"), their sidebands, the shaft orders."""
+    out = []
+    for mesh, rate in (("", 1.0), *((m, float(r)) for m, r in basis.meshes.items())):
+        tag = f" {mesh}" if mesh else ""
+        out += [(k * rate, "mesh", f"{k}{tag}", k, "", 0) for k in range(1, harmonics + 1) if k * rate < max_order]
+        for label, r in basis.groups:
+            for n in range(1, sideband_orders + 1):
+                nr = n * r / rate          # in orders of this mesh
+                if abs(nr - round(nr)) <= 1e-9 * max(1.0, nr):
+                    continue               # on a harmonic of this mesh: not a sideband
+                for k in range(1, harmonics + 1):
+                    for sign in (-1, 1):
+                        o = (k + sign * nr) * rate
+                        if 0 < o < max_order:
+                            out.append((o, "sideband", f"{k}{tag}{'+' if sign > 0 else '-'}{n} {label}", k, label,
+                                        sign * n))
     for label, r in basis.groups:
         for n in range(1, sideband_orders + 1):
             nr = n * r
             if abs(nr - round(nr)) <= 1e-9 * max(1.0, nr):
-                continue               # on a mesh harmonic: not a sideband
+                continue               # on a mesh harmonic: not a shaft order line
             if nr < max_order:
                 out.append((nr, "shaft", f"{n} x {label}" if n > 1 else f"1 x {label}", 0, label, n))
-            for k in range(1, harmonics + 1):
-                for sign in (-1, 1):
-                    o = k + sign * nr
-                    if 0 < o < max_order:
-                        out.append((o, "sideband", f"{k}{'+' if sign > 0 else '-'}{n} {label}", k, label, sign * n))
     return out
 
 
@@ -402,8 +454,13 @@ def order_spectrum(signal, samples_per_cycle: float, basis: OrderBasis | None = 
         power[0] = 0.0
         total = float(power.sum())
         step = int(round(n / spc))                      # bins per mesh order (whole: coherent)
-        harm = float(power[step::step].sum())
-        marked = harm + float(sum(power[b] for b in bins_sorted if b % step))
+        hbins = set(range(step, power.size, step))
+        for rate in basis.meshes.values():              # every other mesh's harmonics (whole bins: coherent)
+            per = float(rate) * n / spc
+            hbins.update(int(round(k * per)) for k in range(1, int(power.size / per) + 1)
+                         if round(k * per) < power.size and abs(k * per - round(k * per)) <= 1e-6)
+        harm = float(power[sorted(hbins)].sum())
+        marked = harm + float(sum(power[b] for b in bins_sorted if b not in hbins))
         fh = harm / total if total > 0 else math.nan
         fmk = marked / total if total > 0 else math.nan
         if total > 0 and abs(total - ac_power) > 1e-9 * ac_power + 1e-300:

@@ -207,3 +207,30 @@ def test_transducer_sideband_patterns_of_the_planetary_set():
         top = max(pin[m * ZR + k] for k in allowed[m])
         assert pin[m * ZR] > 0.5 * top and pin[m * ZR] > 50 * perfect[m * ZR]
         assert pin[m * ZR + (1 if m == 1 else -1)] > 0.1 * top
+
+
+def test_sun_runout_sidebands_turn_with_the_sun():
+    """A 20 um sun runout in the fixed transducer's signal (13 carrier revolutions = lcm(65, 175) mesh cycles):
+    planet i's ring force is planet 1's delayed by the z_s psi_i / 2 pi mesh cycles the sun takes to bring the
+    runout from one planet to the next (the sun's tooth tracking), so the lines m f_m + l f_s + k f_c (f_s = f_m /
+    z_s the sun's frequency relative to the carrier) add over the planets with exp(j 2 pi (i - 1) (k - m z_s -
+    l) / N): present where k = m z_s + l (mod 3), each other line within |k| <= 4 below 2 % of the largest
+    (measured: l = +1: k = 0 9.07 N, others <= 0.009 N; l = -1: k = +1 1.67 N, k = -2 0.60 N, others <= 0.010
+    N), and the runout's lines at l = +-1 of the size of the mesh sidebands."""
+    from hacgear_core.spectra.records import steady_record
+    model, _ = _planetary()
+    geo = planetary_geometry(model)
+    sy = _system({"sun": GearErrors(runout_m=20e-6)})
+    cyc, spc = math.lcm(ZS, ZR), 64
+    rec = steady_record(sy, 1000.0, "force", cyc, samples_per_cycle=spc, settle_cycles=400)
+    f = np.column_stack([rec.channels[f"ring_planet_{i}"] for i in (1, 2, 3)])
+    c = 400 + np.arange(1, f.shape[0] + 1) / spc
+    s = fixed_transducer_signal(f, 2 * math.pi * c / ZR, np.array(geo.positions_rad))
+    amp = np.abs(np.fft.rfft(s)) * 2 / s.size                  # bin b: b / cyc per mesh cycle
+    m = 1
+    for ll in (-1, 1):
+        a = {k: amp[int(round(cyc * (m + ll / ZS + k / ZR)))] for k in range(-4, 5)}
+        on = [k for k in a if (k - m * ZS - ll) % N == 0]
+        top = max(a[k] for k in on)
+        assert top > 1.0                                       # N
+        assert all(a[k] < 0.02 * top for k in a if k not in on), (ll, a)

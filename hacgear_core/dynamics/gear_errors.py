@@ -24,7 +24,11 @@ Runout.  The teeth of gear ``g`` turn about a centre offset by ``e_g`` (eccentri
 gear's sense of rotation (``phi_g`` from tooth 0's centre line).  The offset's component along the line of action
 moves every flank of the gear alike: ``R_a(c) = e_a sin(beta_a + alpha_w)``, ``R_b(c) = e_b sin(alpha_w -
 beta_b)`` (``alpha_w`` the operating pressure angle of the drive flanks; an offset towards the mating gear,
-``beta = 0``, closes the mesh by ``e sin alpha_w``).  The offset's component across the line of action (a change
+``beta = 0``, closes the mesh by ``e sin alpha_w``); an internal gear's offset towards the pitch point moves its
+teeth away from the mating gear: ``R_a(c) = e_a sin(beta_a - alpha_w)``, ``R_b(c) = -e_b sin(alpha_w + beta_b)``
+(``internal``).  A planetary set is the fixed-axis train of its gear instances in the carrier frame, each mesh
+instance with its own passages (:func:`~hacgear_core.kinds.planetary.planetary_error_inputs`).  The offset's
+component across the line of action (a change
 of the centre distance and of the roll angles) is left out: it changes the contact ratio and the mesh position by
 ``e / p_b`` of a cycle at most, a second-order effect for ``e`` of micrometres.
 

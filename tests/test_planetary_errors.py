@@ -71,7 +71,8 @@ def test_tooth_tracking_of_every_gear_instance():
     inp = planetary_error_inputs(_model({"planet": GearErrors(runout_m=1e-6)}), N)
     rp = inp["runout_passage"]
     assert set(inp["gears"]) == {"sun", "ring", "planet_1", "planet_2", "planet_3"}
-    assert all(inp["gears"][f"planet_{i}"][0].runout_m == 1e-6 for i in (1, 2, 3)) and inp["internal_gears"] == ("ring",)
+    assert all(inp["gears"][f"planet_{i}"][0].runout_m == 1e-6 for i in (1, 2, 3))
+    assert inp["internal_gears"] == ("ring",)
     for i in (1, 2, 3):
         sm, rm = geo.meshes[f"sun_planet_{i}"], geo.meshes[f"ring_planet_{i}"]
         psi = geo.positions_rad[i - 1]
@@ -125,8 +126,9 @@ def test_rigid_sun_runout_loads_the_planets_unequally_as_the_closed_form():
     by dF_i = -k_i (R_i - R_bar), R_i the runout's line-of-action component at its sun mesh, k_i its branch
     stiffness (sun mesh and ring mesh in series through the planet's rotation, each the table's tangent stiffness
     at its own position), R_bar = sum k_i R_i / sum k_i (the sun's rotation keeps the total).  Within 1 % at
-    positions away from a change of the number of tooth pairs (measured: <= 0.4 % of the largest change); the pattern turns with the
-    sun relative to the carrier (period z_s mesh cycles), planet to planet shifted by the planet angle."""
+    positions away from a change of the number of tooth pairs (measured: <= 0.4 % of the largest change); the
+    pattern turns with the sun relative to the carrier (period z_s mesh cycles), planet to planet shifted by the
+    planet angle."""
     kt = {"sun": math.inf, "planet": 1e12}
     s0 = _system(kt=kt, carrier_kt=math.inf)
     s1 = _system({"sun": GearErrors(runout_m=1e-6, runout_phase_rad=0.5)}, kt=kt, carrier_kt=math.inf)

@@ -107,7 +107,8 @@ def _with_model_errors(model: Any, system: LumpedSystem) -> LumpedSystem:
     if model.kind not in ("spur_pair", "idler_chain", "helical_pair"):
         bad = [g.name for g in model.gears if g.errors is not None and g.errors.any]
         raise ModelError(f"{model.path or model.name}: [gears.errors] of {bad}: manufacturing errors are supported "
-                         f"on kinds spur_pair, idler_chain, helical_pair (runout) and planetary, not yet on '{model.kind}'")
+                         f"on kinds spur_pair, idler_chain, helical_pair (runout) and planetary, not yet on "
+                         f"'{model.kind}'")
     gears = {g.name: (g.errors, 0.5 * g.module_m * g.teeth, g.module_m * math.cos(g.helix_angle_rad))
              for g in model.gears}
     alpha = {m.name: mesh_geometry(model, m.name).operating_pressure_angle_rad for m in model.meshes}

@@ -121,6 +121,26 @@ def test_floating_sun_absorbs_a_sun_runout():
         assert du == pytest.approx([math.cos(phi), math.sin(phi)], abs=2e-3)
 
 
+def test_floating_ring_absorbs_a_ring_runout_as_an_internal_gear():
+    """A floating ring (translational stiffness 0, held in rotation) with a 10 um runout: the ring's translation
+    takes it up (mesh forces within 1e-9 of the force without it) along its offset direction -(2 pi c_r / z_r +
+    phase) (the ring turns clockwise relative to the carrier; c_r its mesh position at planet 1), as the sun does:
+    the internal gear's line-of-action component -e sin(alpha_w + beta) is the projection of that offset (an
+    external gear's e sin(alpha_w - beta) would send the ring along the mirrored direction)."""
+    e, phase = 10e-6, 0.5
+    model, _ = _planetary()
+    c1 = planetary_geometry(model).meshes["ring_planet_1"].phase
+    s0 = _system(kt={"ring": 0.0})
+    s1 = _system({"ring": GearErrors(runout_m=e, runout_phase_rad=phase)}, kt={"ring": 0.0})
+    ix, iy = s0.dof_names.index("ring.x"), s0.dof_names.index("ring.y")
+    for tau in (0.3, 7.6, 40.45):
+        q0, q1 = static_equilibrium(s0, tau), static_equilibrium(s1, tau)
+        assert np.allclose(q1.mesh_forces_N, q0.mesh_forces_N, rtol=1e-9, atol=0)
+        phi = -(2 * math.pi * (tau + c1) / ZR + phase)
+        du = (q1.q[[ix, iy]] - q0.q[[ix, iy]]) / e
+        assert du == pytest.approx([math.cos(phi), math.sin(phi)], abs=2e-3)
+
+
 def test_rigid_sun_runout_loads_the_planets_unequally_as_the_closed_form():
     """A rigidly supported sun (and carrier; planet bearings 1e12 N/m) with a 1 um runout: planet i's load changes
     by dF_i = -k_i (R_i - R_bar), R_i the runout's line-of-action component at its sun mesh, k_i its branch

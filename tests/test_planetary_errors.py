@@ -168,6 +168,27 @@ def test_rigid_sun_runout_loads_the_planets_unequally_as_the_closed_form():
         assert np.allclose(q1.mesh_forces_N[0::2], q1.mesh_forces_N[1::2], rtol=1e-9)   # each planet's two meshes
 
 
+def test_sun_runout_reaches_each_planet_a_planet_angle_later():
+    """Dynamics (steady state at f_m = 1000 Hz, 400 settling cycles, one sun revolution relative to the carrier =
+    65 mesh cycles at 48 samples per cycle) with a 20 um sun runout: every mesh force of planet i is planet 1's
+    delayed by the z_s psi_i / 2 pi = 65 (i - 1) / 3 mesh cycles the sun takes to turn its runout from planet 1 to
+    planet i (within 1e-4 of the force's span; measured 5.6e-5), and the modulation at the sun's order 1 / 65 has
+    the same size at every planet (363.3 N)."""
+    from hacgear_core.spectra.records import steady_record
+    sy = _system({"sun": GearErrors(runout_m=20e-6, runout_phase_rad=0.5)})
+    spc = 48
+    rec = steady_record(sy, 1000.0, "force", ZS, samples_per_cycle=spc, settle_cycles=400)
+    assert rec.periodicity_error < 1e-4
+    for kind in ("sun_planet", "ring_planet"):
+        f = [rec.channels[f"{kind}_{i}"] for i in (1, 2, 3)]
+        span = np.ptp(f[0])
+        for i in (2, 3):
+            assert np.max(np.abs(f[i - 1] - np.roll(f[0], (i - 1) * ZS * spc // N))) < 1e-4 * span
+            assert np.max(np.abs(f[i - 1] - np.roll(f[0], -(i - 1) * ZS * spc // N))) > 0.1 * span
+        sun_order = [np.abs(np.fft.rfft(x))[1] * 2 / x.size for x in f]
+        assert sun_order == pytest.approx([sun_order[0]] * N, rel=1e-6) and sun_order[0] > 100.0
+
+
 def test_transducer_window_and_planet_sum_rule_on_synthetic_forces():
     """Identical forces, each planet at its ring mesh's phase: the windowed sum over one carrier revolution holds
     exactly the carrier orders m z_r + k whose planet-sum factor |P(m, k)| is not 0 (here: m z_r + k a multiple

@@ -28,9 +28,9 @@ beta_b)`` (``alpha_w`` the operating pressure angle of the drive flanks; an offs
 teeth away from the mating gear: ``R_a(c) = e_a sin(beta_a - alpha_w)``, ``R_b(c) = -e_b sin(alpha_w + beta_b)``
 (``internal``).  A planetary set is the fixed-axis train of its gear instances in the carrier frame, each mesh
 instance with its own passages (:func:`~hacgear_core.kinds.planetary.planetary_error_inputs`).  The offset's
-component across the line of action (a change
-of the centre distance and of the roll angles) is left out: it changes the contact ratio and the mesh position by
-``e / p_b`` of a cycle at most, a second-order effect for ``e`` of micrometres.
+component across the line of action (a change of the centre distance and of the roll angles) is left out: it
+changes the contact ratio and the mesh position by ``e / p_b`` of a cycle at most, a second-order effect for ``e``
+of micrometres.
 
 Several pairs in contact.  The table holds the force of all pairs together at one approach; with pairs of different
 errors ``e_o(c) = E_a(j_a,o) + E_b(j_b,o)`` in contact each pair is taken at its own approach: the mesh force is

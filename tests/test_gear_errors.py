@@ -207,9 +207,9 @@ def test_single_pitch_error_spectrum_is_its_fourier_series(d, rtol):
 
 def test_errors_refused_on_other_kinds():
     from hacgear_core.kinds import _with_model_errors
-    model = load_model(resolve_model_path("planetary_65_55_175"))
+    model = load_model(resolve_model_path("gear_train_2stage"))
     model = replace(model, gears=(replace(model.gears[0], errors=GearErrors(runout_m=1e-6)),) + tuple(model.gears[1:]))
-    with pytest.raises(ModelError, match="not yet on 'planetary'"):
+    with pytest.raises(ModelError, match="not yet on 'gear_train'"):
         _with_model_errors(model, None)
 
 

@@ -24,9 +24,13 @@ Runout.  The teeth of gear ``g`` turn about a centre offset by ``e_g`` (eccentri
 gear's sense of rotation (``phi_g`` from tooth 0's centre line).  The offset's component along the line of action
 moves every flank of the gear alike: ``R_a(c) = e_a sin(beta_a + alpha_w)``, ``R_b(c) = e_b sin(alpha_w -
 beta_b)`` (``alpha_w`` the operating pressure angle of the drive flanks; an offset towards the mating gear,
-``beta = 0``, closes the mesh by ``e sin alpha_w``).  The offset's component across the line of action (a change
-of the centre distance and of the roll angles) is left out: it changes the contact ratio and the mesh position by
-``e / p_b`` of a cycle at most, a second-order effect for ``e`` of micrometres.
+``beta = 0``, closes the mesh by ``e sin alpha_w``); an internal gear's offset towards the pitch point moves its
+teeth away from the mating gear: ``R_a(c) = e_a sin(beta_a - alpha_w)``, ``R_b(c) = -e_b sin(alpha_w + beta_b)``
+(``internal``).  A planetary set is the fixed-axis train of its gear instances in the carrier frame, each mesh
+instance with its own passages (:func:`~hacgear_core.kinds.planetary.planetary_error_inputs`).  The offset's
+component across the line of action (a change of the centre distance and of the roll angles) is left out: it
+changes the contact ratio and the mesh position by ``e / p_b`` of a cycle at most, a second-order effect for ``e``
+of micrometres.
 
 Several pairs in contact.  The table holds the force of all pairs together at one approach; with pairs of different
 errors ``e_o(c) = E_a(j_a,o) + E_b(j_b,o)`` in contact each pair is taken at its own approach: the mesh force is
@@ -207,7 +211,7 @@ def mesh_error_profile(*, teeth: tuple[int, int], passage: tuple[float, float], 
                        np.ndarray | None], runout: tuple[tuple[float, float], tuple[float, float]],
                        pitch_to_loa: tuple[float, float], pressure_angle_rad: float, table: Any, force_N: float,
                        samples_per_cycle: int | None = None, approach_grid: tuple[float, float, int] | None = None,
-                       table_force: Any = None) -> tuple | None:
+                       table_force: Any = None, internal: tuple[bool, bool] = (False, False)) -> tuple | None:
     """Error profile ``(samples (L npc,) [m], L, npc)`` of one mesh (module docstring), None when neither gear has
     an error.
 
@@ -215,7 +219,10 @@ def mesh_error_profile(*, teeth: tuple[int, int], passage: tuple[float, float], 
     cumulative pitch deviations (z,) [m] on the reference circle (None: none); ``runout`` each gear's
     (eccentricity [m], phase [rad]); ``pitch_to_loa`` each gear's ``r_b / r`` (reference circle to line of
     action); ``pressure_angle_rad`` the drive flanks' operating pressure angle; ``table`` the mesh table (load
-    shares, positions per cycle); ``force_N`` the static mesh force the shares are taken at.
+    shares, positions per cycle); ``force_N`` the static mesh force the shares are taken at; ``internal`` whether
+    each gear is an internal (ring) gear: its offset towards the pitch point moves its teeth away from the mating
+    gear, ``R_a = e_a sin(beta_a - alpha_w)``, ``R_b = -e_b sin(alpha_w + beta_b)`` (the tangential part as for an
+    external gear).
 
     ``approach_grid`` ``(x0, dx, nd)`` (the drive table's deflection grid) and ``table_force`` (the force the
     kernel reads, ``f(tau, x)``): with pitch errors and a table with tooth loads, the profile over (position,
@@ -239,7 +246,10 @@ def mesh_error_profile(*, teeth: tuple[int, int], passage: tuple[float, float], 
         if ecc == 0.0:
             continue
         beta = 2.0 * math.pi * (c - float(tp)) / z + float(phi)
-        run += ecc * (np.sin(beta + alpha) if g == 0 else np.sin(alpha - beta))
+        if internal[g]:
+            run += ecc * (np.sin(beta - alpha) if g == 0 else -np.sin(alpha + beta))
+        else:
+            run += ecc * (np.sin(beta + alpha) if g == 0 else np.sin(alpha - beta))
     if any(has_pitch):
         offs = np.asarray(getattr(table, "tooth_offsets", [0]), int)
         eo = np.zeros((L * npc, offs.size))                              # each pair's own error
@@ -264,7 +274,8 @@ GearErrorData = tuple
 
 def with_gear_errors(system: Any, gears: Mapping[str, GearErrorData],
                      pressure_angles_rad: Mapping[str, float], *, approach: bool = True,
-                     normal_factor: Mapping[str, float] | None = None) -> Any:
+                     normal_factor: Mapping[str, float] | None = None, internal_gears: tuple[str, ...] = (),
+                     runout_passage: Mapping[str, Mapping[str, float]] | None = None) -> Any:
     """``system`` (a :class:`~hacgear_core.dynamics.system.LumpedSystem` of a fixed-axis train) with the error
     profile of every mesh one of whose gears has errors (:func:`mesh_error_profile`); the system itself when no
     gear has any.
@@ -274,7 +285,11 @@ def with_gear_errors(system: Any, gears: Mapping[str, GearErrorData],
     on force tables get profiles over (position, approach) (:func:`approach_profile`: the pairs at their own
     approaches at every load); False, or a conventional law: the static shift at each mesh's nominal force.
     ``normal_factor`` {mesh: factor}: the mesh deflection's share of a transverse line-of-action displacement
-    (``cos beta_b`` for a helical mesh, whose deflection is along the flank normal; default 1)."""
+    (``cos beta_b`` for a helical mesh, whose deflection is along the flank normal; default 1).  ``internal_gears``:
+    the internal (ring) gears (:func:`mesh_error_profile` ``internal``).  ``runout_passage`` {mesh: {gear: tooth
+    passage [cycles]}}: the exact (fractional) passage the runout's direction is counted from, within half a cycle
+    of the coupling's integer ``tooth_passage`` (a planet's two meshes on opposite sides of it,
+    :func:`~hacgear_core.kinds.planetary.planetary_error_inputs`); the pitch errors keep the integer passage."""
     if not any(ge is not None and ge.any for ge, _, _ in gears.values()):
         return system
     if system.mesh_law.kernel_law not in (0, 1) and any(
@@ -306,8 +321,10 @@ def with_gear_errors(system: Any, gears: Mapping[str, GearErrorData],
             ta = system.table_arrays[k]
             grid = (float(ta.x0), float(ta.dx), int(ta.ftab.shape[1]))
             force = (lambda kk: (lambda t, x: system.mesh_force(kk, t, x)))(k)
+        passage = tuple(float((runout_passage or {}).get(c.name, {}).get(g, c.tooth_passage.get(g, 0)))
+                        for g in (ga, gb))
         prof = mesh_error_profile(
-            teeth=tuple(c.teeth), passage=(c.tooth_passage.get(ga, 0), c.tooth_passage.get(gb, 0)),
+            teeth=tuple(c.teeth), passage=passage, internal=(ga in internal_gears, gb in internal_gears),
             pitch_m=(cum.get(ga), cum.get(gb)),
             runout=tuple(((ge.runout_m, ge.runout_phase_rad) if ge is not None else (0.0, 0.0)) for ge in (ea, eb)),
             pitch_to_loa=ratio, pressure_angle_rad=float(pressure_angles_rad[c.name]), table=c.table,

@@ -83,8 +83,8 @@ def build_system(model: Any, tables: Any, **options) -> LumpedSystem:
     {mesh name: MeshTable}; None for a lumped model): its kind's train, assembled.  ``options``: ``force_law``,
     ``torque_Nm``, ``bearing_stiffness_N_per_m``, ``modal_damping_ratio``, ``shafts`` and the kind's structural
     parameters (planetary sets: ``planet_count``, ``pin_errors_m``).  Gears with manufacturing errors
-    (``[gears.errors]``) give their meshes error profiles (:mod:`hacgear_core.dynamics.gear_errors`; spur pairs and
-    idler chains)."""
+    (``[gears.errors]``) give their meshes error profiles (:mod:`hacgear_core.dynamics.gear_errors`; spur pairs,
+    idler chains, helical pairs and planetary sets)."""
     system = assemble(kind_of(model).train(model, tables, **options))
     gears = getattr(model, "gears", ())
     if any(getattr(g, "errors", None) is not None and g.errors.any for g in gears):
@@ -94,14 +94,21 @@ def build_system(model: Any, tables: Any, **options) -> LumpedSystem:
 
 def _with_model_errors(model: Any, system: LumpedSystem) -> LumpedSystem:
     """``system`` with the error profiles of ``model``'s gears (:func:`~hacgear_core.dynamics.gear_errors.
-    with_gear_errors`); kinds other than spur pairs and idler chains are refused."""
+    with_gear_errors`; planetary sets: :func:`~hacgear_core.kinds.planetary.planetary_error_inputs`); other kinds
+    are refused."""
     from hacgear_core.dynamics.gear_errors import with_gear_errors
     from hacgear_core.geometry import mesh_geometry
 
+    if model.kind == "planetary":
+        from hacgear_core.kinds.planetary import planetary_error_inputs
+        inp = planetary_error_inputs(model, len(system.meshes) // 2)
+        return with_gear_errors(system, inp["gears"], inp["pressure_angles_rad"],
+                                internal_gears=inp["internal_gears"], runout_passage=inp["runout_passage"])
     if model.kind not in ("spur_pair", "idler_chain", "helical_pair"):
         bad = [g.name for g in model.gears if g.errors is not None and g.errors.any]
         raise ModelError(f"{model.path or model.name}: [gears.errors] of {bad}: manufacturing errors are supported "
-                         f"on kinds spur_pair, idler_chain and helical_pair (runout), not yet on '{model.kind}'")
+                         f"on kinds spur_pair, idler_chain, helical_pair (runout) and planetary, not yet on "
+                         f"'{model.kind}'")
     gears = {g.name: (g.errors, 0.5 * g.module_m * g.teeth, g.module_m * math.cos(g.helix_angle_rad))
              for g in model.gears}
     alpha = {m.name: mesh_geometry(model, m.name).operating_pressure_angle_rad for m in model.meshes}

@@ -54,7 +54,8 @@ from hacgear_core.kinds.fixed_axis import mesh_table
 from hacgear_core.model.schema import RANGES
 from hacgear_core.tables import MeshTable
 
-__all__ = ["PlanetaryKind", "planetary_from_model", "constant_stiffness_table", "PLANETARY_DOF_ORDER"]
+__all__ = ["PlanetaryKind", "planetary_from_model", "constant_stiffness_table", "PLANETARY_DOF_ORDER",
+           "planetary_error_inputs"]
 
 #: order of the central members in q (dissertation Eq. 4.5b)
 PLANETARY_DOF_ORDER = ("carrier", "ring", "sun")
@@ -334,6 +335,76 @@ def planetary_from_model(model: Any, tables: Any = None, *, force_law: str = "ha
         rigid_mode=tuple(u), held_tolerance=1e-9, mesh_cycles_per_rad=cycles_per_rad, nominal_torques_per_Nm=torques,
         support_reports=tuple(b for b in central.values() if trans[b]),
         bearing_reports=() if trans["carrier"] else ("carrier",))
+
+
+def planetary_error_inputs(model: Any, planet_count: int) -> dict:
+    """What :func:`~hacgear_core.dynamics.gear_errors.with_gear_errors` needs for the manufacturing errors
+    (``[gears.errors]``) of a planetary set with ``planet_count`` equally spaced planets, in the carrier frame.
+
+    Every gear instance is its own gear of the carrier-frame train (``sun``, ``ring``, ``planet_1 .. planet_N``),
+    each mesh instance (``sun_planet_i``, ``ring_planet_i``) its own coupling, so the teeth are tracked by the
+    instances' tooth passages (:func:`~hacgear_core.geometry.planetary.planetary_geometry`): the sun's tooth at
+    planet ``i``'s mesh is ``z_s psi_i / 2 pi`` teeth on from planet 1's, the ring's likewise in its sense, and a
+    planet's teeth at its sun and ring meshes are half a revolution apart.  The planet gear's errors apply to every
+    planet alike, each counted from its own tooth 0 (identical planets, mounted alike).  Runout direction
+    (``runout_phase_rad`` from tooth 0's centre line in the gear's sense of rotation *relative to the carrier*): the
+    sun's offset turns with the sun relative to the carrier, a planet's with the planet, the ring's with the ring
+    (a fixed ring's at minus the carrier speed); at each mesh instance its line-of-action component is that of
+    the offset's direction from the gear's centre to that mesh's pitch point (an internal ring: an offset towards
+    the pitch point moves its teeth away from the planet, :func:`~hacgear_core.dynamics.gear_errors.
+    mesh_error_profile` ``internal``).  The direction is counted from each instance's exact (fractional) tooth
+    passage ``tp_g,k = tp_g,ref + (phase_k - phase_ref) + s_g z_g (theta_k - theta_ref) / 2 pi`` (``ref`` the
+    gear's first mesh, ``theta`` the direction of the pitch point from the gear's centre, ``s_g`` its sense), not
+    the integer one the pitch errors use: a planet's ring-mesh passage is a fraction of a cycle off the integer.
+
+    Returns ``{"gears": {instance: (GearErrors, reference radius [m], normal module [m])}, "pressure_angles_rad":
+    {mesh: rad}, "internal_gears": (ring,), "runout_passage": {mesh: {gear: cycles}}}``.
+
+    Raises
+    ------
+    ModelError
+        A lumped model (no tooth geometry to count teeth on).
+    """
+    from hacgear_core.geometry import mesh_geometry
+    if getattr(model, "lumped", False):
+        raise ModelError(f"{model.path or model.name}: [gears.errors] need the tooth geometry; a lumped planetary "
+                         "model has none")
+    geo = planetary_geometry(model, planet_count)
+    mem = geo.members
+    rc = geo.carrier_radius_m
+    gd = {g.name: g for g in model.gears}
+
+    def data(name):
+        g = gd[name]
+        return g.errors, 0.5 * g.module_m * g.teeth, g.module_m * math.cos(g.helix_angle_rad)
+
+    gears = {mem.sun: data(mem.sun), mem.ring: data(mem.ring), **{p: data(mem.planet) for p in geo.planets}}
+    alpha = {kind: mesh_geometry(model, kind).operating_pressure_angle_rad for kind in (mem.sun_mesh, mem.ring_mesh)}
+    centre = {mem.sun: np.zeros(2), mem.ring: np.zeros(2)}
+    for i, p in enumerate(geo.planets):
+        centre[p] = rc * np.array([math.cos(geo.positions_rad[i]), math.sin(geo.positions_rad[i])])
+    ref: dict[str, tuple] = {}
+    passage: dict[str, dict[str, float]] = {}
+    for mn, pm in geo.meshes.items():
+        passage[mn] = {}
+        for g in (pm.gear_a, pm.gear_b):
+            d = np.asarray(pm.pitch_point_m, float) - centre[g]
+            theta = math.atan2(d[1], d[0])
+            tp = float(pm.tooth_passage[g])
+            if g not in ref:
+                ref[g] = (tp, float(pm.phase), theta)
+                passage[mn][g] = tp
+                continue
+            tp0, ph0, th0 = ref[g]
+            z = geo.teeth[g]
+            exact = tp0 + (float(pm.phase) - ph0) + geo.relative_sense[g] * z * (theta - th0) / (2 * math.pi)
+            off = exact - tp
+            off -= z * round(off / z)
+            # the integer passage where the exact one is whole (the sun, the ring), the exact one where it is a
+            # fraction of a cycle off (a planet's far side)
+            passage[mn][g] = tp + off if 1e-9 < abs(off) < 0.5 - 1e-9 else tp
+    return {"gears": gears, "pressure_angles_rad": {mn: alpha[pm.kind] for mn, pm in geo.meshes.items()},
+            "internal_gears": (mem.ring,), "runout_passage": passage}
 
 
 def _planets_fit(model: Any, count: int) -> bool:

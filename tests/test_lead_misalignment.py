@@ -226,6 +226,31 @@ def test_elastic_face_redistributes_more_than_the_closed_form(helical):
         assert 2.5 < (k_change - 1.0) / (k_iso - 1.0) < 3.5, (g0, k_change, k_iso)
 
 
+def test_shipped_table_face_load_against_the_closed_form(helical, table):
+    """The shipped table (elastic coupling, 5 um lead crowning on both gears) at +-250 urad: the face load is not
+    uniform at zero twist (peak/mean 1.462); the change of its linear fit over the face is 2.54 / 2.59 x the closed
+    form with the table's dW/dx (157.14e6 N/m): a miss for the reason of the elastic face (slow test above).
+    Asserted: the measured ratio within (2.0, 3.2) and the loaded end."""
+    from hacgear_core.tables.fdf import generalized_stiffness
+
+    tw = table.twist
+    W = 200.0 / float(tw.lever_arm_m[0])
+    k = generalized_stiffness(table, W).means()["k_xx_N_per_m"]
+    z = tw.slice_z_m
+    b = float(z.size * np.mean(np.diff(z)))
+    zeta = z - z.mean()
+    cb = math.cos(tw.base_helix_angle_rad)
+    p0 = _nominal_pattern(table, W, 0.0)
+    assert p0.max() / p0.mean() == pytest.approx(1.462, abs=0.005)
+    s0 = np.polyfit(zeta, p0 / (b / z.size), 1)[0]
+    for g0 in (2.5e-4, -2.5e-4):
+        p = _nominal_pattern(table, W, g0)
+        slope, mean = np.polyfit(zeta, p / (b / z.size), 1)
+        ratio = (abs(slope - s0) * b / 2 / mean) / (abs(g0) * cb * b * k / (2.0 * W))
+        assert 2.0 < ratio < 3.2, (g0, ratio)
+        assert (slope < s0) == (g0 > 0)
+
+
 def test_twist_offset_linearises_the_exact_lead_slope(slices_solver):
     """A lead slope f on gear_a as the exact flank deviation against its twist offset gamma_0 = -f / b_a: the face
     load change agrees within 2 % of its peak; the twist moment change of the twist offset is 1.37 x the exact

@@ -316,3 +316,36 @@ def test_zero_speed_run_rests_at_the_statics_at_the_offset_twist(helical, table)
                   - table.twist_quantity(table.twist.generalized_fdf, tau, x, g + psi - 1e-5)[1]) / 2e-5)
     assert abs(eq.twist_rad[0] - eq0.twist_rad[0]) < 0.05 * psi
     assert eq.twist_moment_Nm[0] - eq0.twist_moment_Nm[0] == pytest.approx(k_gg * psi, rel=0.25)
+
+
+def test_fmu_adapter_builds_the_same_shifted_system(helical, table):
+    """The FMUs run the generic adapter on ``build_system``: a model with a misalignment gives its constant-speed
+    and drivetrain systems the same twist offset and the same kernel twist origin as the library's system."""
+    from hacgear_core.fmu.adapter import Adapter
+    from hacgear_core.tables import SystemTables
+
+    model = _with(helical, (1e-6, 0.0), 2e-4)
+    lib = build_system(model, {"m12": table})
+    tables = load_system_tables(helical.path)
+    assert isinstance(tables, SystemTables)
+    ad = Adapter(model, tables)
+    for sy in (ad.base_system, ad._drive_system):
+        assert sy.meshes[0].table.twist.twist_offset_rad == pytest.approx(2e-4 - 1e-4, rel=1e-12)
+        assert sy.meshes[0].coast_table.twist.twist_offset_rad == lib.meshes[0].coast_table.twist.twist_offset_rad
+    assert np.array_equal(ad.base_system.arrays.tflt, lib.arrays.tflt)
+
+
+def test_helical_stage_of_a_gear_train_takes_the_offset_and_its_spur_stage_refuses_it():
+    """reducer_helical_19_71_23_83 (helical m12, spur m34): the helical stage's builder shifts its table; a
+    misalignment on the spur stage is refused (its table has no twist axis)."""
+    m = load_model("reducer_helical_19_71_23_83")
+    t = load_system_tables(m.path)
+
+    def misaligned(name):
+        return replace(m, meshes=tuple(replace(x, misalignment_in_plane_rad=1e-4) if x.name == name else x
+                                       for x in m.meshes))
+
+    sy = build_system(misaligned("m12"), t)
+    assert sy.meshes[sy.mesh_names.index("m12")].table.twist.twist_offset_rad == pytest.approx(1e-4, rel=1e-12)
+    with pytest.raises(ModelError, match=r"mesh 'm34' \(\[\[meshes\]\] misalignment_in_plane_urad\).*twist axis"):
+        build_system(misaligned("m34"), t)

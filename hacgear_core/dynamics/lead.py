@@ -67,7 +67,7 @@ def twist_offsets_rad(model: Any, mesh: Any, r_twist: np.ndarray, r_twist_coast:
     sides' twist vectors ``[0, e1, 0, -e1]`` (None: no coast side)."""
     gears = {g.name: g for g in model.gears}
     ga, gb = gears[mesh.gear_a], gears[mesh.gear_b]
-    lead = tuple(getattr(g.errors, "lead_slope_m", 0.0) if g.errors is not None else 0.0 for g in (ga, gb))
+    lead = tuple(getattr(getattr(g, "errors", None), "lead_slope_m", 0.0) for g in (ga, gb))
     psi = float(getattr(mesh, "misalignment_in_plane_rad", 0.0))
     g0 = lead_twist_offset_rad(lead, (ga.face_width_m, gb.face_width_m), psi)
     if r_twist_coast is None or psi == 0.0:
@@ -107,7 +107,7 @@ def with_twist_offsets(table: Any, model: Any, mesh: Any, r_twist_coast: np.ndar
     gears = {g.name: g for g in model.gears}
     parts = [f"[gears.errors] lead_slope_um = {g.errors.lead_slope_m * 1e6:g} um of '{g.name}' (face width "
              f"{g.face_width_m * 1e3:g} mm)" for g in (gears[mesh.gear_a], gears[mesh.gear_b])
-             if g.errors is not None and g.errors.lead_slope_m != 0.0]
+             if getattr(getattr(g, "errors", None), "lead_slope_m", 0.0) != 0.0]
     if mesh.misalignment_in_plane_rad != 0.0:
         parts.append(f"[[meshes]] misalignment_in_plane_urad = {mesh.misalignment_in_plane_rad * 1e6:g} urad")
     what = " and ".join(parts)
@@ -125,8 +125,8 @@ def check_lead_inputs(model: Any, system: Any) -> None:
              for c in system.meshes}
     bad = []
     for m in getattr(model, "meshes", ()):
-        lead = [n for n in (m.gear_a, m.gear_b) if n in gears and gears[n].errors is not None
-                and gears[n].errors.lead_slope_m != 0.0]
+        lead = [n for n in (m.gear_a, m.gear_b) if n in gears
+                and getattr(getattr(gears[n], "errors", None), "lead_slope_m", 0.0) != 0.0]
         mis = getattr(m, "misalignment_in_plane_rad", 0.0) != 0.0
         if (lead or mis) and not twist.get(m.name, False):
             what = [f"[gears.errors] lead_slope_um of {lead}"] if lead else []

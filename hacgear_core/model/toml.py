@@ -626,7 +626,7 @@ DEFAULT_MEANINGS = {
     "iso1328_grade": "no generated pitch deviations", "seed": "seed 0 of the generated pitch deviations",
     "runout_um": "no runout", "runout_phase_deg": "runout towards tooth 0",
     "lead_slope_um": "no lead slope deviation",
-    "misalignment_in_plane_urad": "aligned shafts", "misalignment_out_of_plane_urad": "aligned shafts",
+    "misalignment_in_plane_urad": "aligned shafts",
     "tip_relief_um": "no tip relief", "tip_relief_start_roll_deg": "no tip relief",
     "tip_relief_shape": "none without tip relief, parabolic with",
     "translational_stiffness_N_per_m": "rigid bearing (purely rotational model)",
@@ -730,7 +730,9 @@ def parse_model(text: str, *, file: str = "<model>", path: Path | None = None, s
         cd = msec.number("center_distance_mm", "mm", 0.0, 20000.0, required=False, default=None, lo_open=True)
         loc = msec.number("line_of_centres_deg", "deg", -360.0, 360.0, required=False, default=0.0)
         mis = msec.number("misalignment_in_plane_urad", "urad", -1e4, 1e4, required=False, default=0.0)
-        out_of_plane = msec.number("misalignment_out_of_plane_urad", "urad", -1e4, 1e4, required=False, default=0.0)
+        # read only when given (its only allowed value is 0: no default to report)
+        out_of_plane = (msec.number("misalignment_out_of_plane_urad", "urad", -1e4, 1e4)
+                        if "misalignment_out_of_plane_urad" in msec.data else 0.0)
         if out_of_plane != 0.0:
             # a tilt about the line of action moves the flanks along the normal to the plane of action: their gap
             # changes by ~ angle^2 x (face width)^2 / (2 radius of curvature), second order (docs/helical.md)

@@ -260,8 +260,9 @@ class GearErrors:
     centre, from tooth 0's centre line in the gear's sense of rotation, in [-2 pi, 2 pi].
     ``lead_slope_m``: the helix slope deviation ``f_Hbeta`` [m] of the flank the gear loads in its mesh, over the
     gear's own face width, measured along the transverse line of action (tangent to the base circle, as ISO 1328-1
-    measures helix deviations); positive: material added at the gear's +z face end relative to its -z end (ISO
-    1328-1's plus-material rule, the trace read in the +z direction), in [-1e-3, 1e-3].  It enters the dynamics as a
+    measures helix deviations); positive: material added at the gear's +z face end relative to its -z end, in
+    [-1e-3, 1e-3].  The sign is geometric: an inspection report's signed f_Hbeta follows its own rule (helix angle,
+    flank, reference face), so check which face end of this flank gains material before copying a value.  It enters the dynamics as a
     constant offset of the mesh twist (:mod:`hacgear_core.dynamics.lead`; helical meshes only), not through the
     error profile (:attr:`any` leaves it out)."""
 

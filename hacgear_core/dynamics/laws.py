@@ -336,7 +336,7 @@ class TwistTableLaw(MeshLaw):
                       for c, ca in zip(self.meshes, self.coast_arrays)]
         return kernels.flatten_twist_tables(
             [(None, ta) if t is None else
-             (t.twist.generalized_fdf, ta.x0, ta.inv_dx, float(t.twist.twist_rad[0]), 1.0 / t.twist.dg)
+             (t.twist.generalized_fdf, ta.x0, ta.inv_dx, t.twist.lookup_origin_rad, 1.0 / t.twist.dg)
              for t, ta in sides])
 
     def fingerprint(self, system, h) -> None:
@@ -344,11 +344,15 @@ class TwistTableLaw(MeshLaw):
         for c in self.meshes:
             h.update(np.ascontiguousarray(c.table.twist.generalized_fdf).tobytes())
             h.update(np.ascontiguousarray(c.table.twist.twist_rad).tobytes())
+            if c.table.twist.twist_offset_rad != 0.0:
+                h.update(np.float64(c.table.twist.twist_offset_rad).tobytes())
         if self.coast:
             h.update(system.Tc.tobytes())
             for c in self.meshes:
                 if c.coast_table is not None:
                     h.update(np.ascontiguousarray(c.coast_table.twist.generalized_fdf).tobytes())
+                    if c.coast_table.twist.twist_offset_rad != 0.0:
+                        h.update(np.float64(c.coast_table.twist.twist_offset_rad).tobytes())
             if any(c.coast_table is None for c in self.meshes):
                 # drive-only tables: the coast approach and the backlash of the range guard
                 h.update(system.Vc.tobytes())

@@ -8,6 +8,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from hacgear_core.dynamics.lead import check_lead_inputs
 from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import ModelError
 from hacgear_core.kinds.assembly import assemble
@@ -86,6 +87,7 @@ def build_system(model: Any, tables: Any, **options) -> LumpedSystem:
     (``[gears.errors]``) give their meshes error profiles (:mod:`hacgear_core.dynamics.gear_errors`; spur pairs,
     idler chains, helical pairs and planetary sets)."""
     system = assemble(kind_of(model).train(model, tables, **options))
+    check_lead_inputs(model, system)
     gears = getattr(model, "gears", ())
     if any(getattr(g, "errors", None) is not None and g.errors.any for g in gears):
         system = _with_model_errors(model, system)

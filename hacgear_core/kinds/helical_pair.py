@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from hacgear_core.dynamics.lead import with_twist_offsets
 from hacgear_core.errors import ModelError
 from hacgear_core.geometry import gear_geometry, mesh_geometry, nominal_mesh_forces
 from hacgear_core.kinds.base import Body, Coupling, Dof, Kind, KeyVector, Support, Train
@@ -146,6 +147,10 @@ def helical_from_model(model: Any, tables: Any, *, force_law: str = "hac", torqu
     if tgear not in names:
         raise ModelError(f"[operating] torque_gear {tgear!r} is not a gear of the pair {names}")
     zeta = float(model.damping.modal_damping_ratio if modal_damping_ratio is None else modal_damping_ratio)
+    # lead slope deviations and in-plane misalignment: the system's table reads the grid at the mesh twist plus
+    # their offset (dynamics/lead.py); the coast side gets the misalignment on its own twist axis
+    table = with_twist_offsets(table, model, mesh)
+    tw = table.twist
     r_mesh = np.asarray(tw.r_mesh, float)
     r_twist = np.asarray(tw.r_twist, float)
     lever = np.asarray(tw.lever_arm_m, float)

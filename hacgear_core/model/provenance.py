@@ -26,7 +26,7 @@ import json
 import math
 from typing import Any, Mapping
 
-from hacgear_core.model.schema import Gear, Material, Model, Planetary
+from hacgear_core.model.schema import Gear, Material, Mesh, Model, Planetary
 
 __all__ = ["CANONICAL_VERSION", "EXCLUDED", "model_values", "model_values_json", "model_values_sha256",
            "values_diff"]
@@ -41,6 +41,8 @@ EXCLUDED: dict[type, frozenset[str]] = {
                       "sections", "section"}),
     # manufacturing errors enter the dynamics as a shift of the lookup deflection, not the static contact analyses
     Gear: frozenset({"support", "mass_kg", "inertia_kgm2", "errors"}),
+    # a shaft misalignment enters the dynamics as an offset of the tables' twist axis (dynamics/lead.py)
+    Mesh: frozenset({"misalignment_in_plane_rad"}),
     Material: frozenset({"name", "density_kg_per_m3"}),
     # the power flow's output member names the driver of each mesh, which the meshes' own gear order already holds
     Planetary: frozenset({"planet_count", "carrier_mass_kg", "carrier_inertia_kgm2", "carrier_support",

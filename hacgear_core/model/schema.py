@@ -257,13 +257,21 @@ class GearErrors:
     (ISO 1328-1:2013 accuracy grade, an integer in [1, 11]) with the random ``seed`` (an integer >= 0).
     ``runout_m``: eccentricity [m] of the gear's teeth about its axis of rotation (the runout ``F_r`` of ISO
     1328-2 is about twice it), in [0, 1e-3]; ``runout_phase_rad``: the direction of the offset of the teeth's
-    centre, from tooth 0's centre line in the gear's sense of rotation, in [-2 pi, 2 pi]."""
+    centre, from tooth 0's centre line in the gear's sense of rotation, in [-2 pi, 2 pi].
+    ``lead_slope_m``: the helix slope deviation ``f_Hbeta`` [m] of the flank the gear loads in its mesh, over the
+    gear's own face width, measured along the transverse line of action (tangent to the base circle, as ISO 1328-1
+    measures helix deviations); positive: material added at the gear's +z face end relative to its -z end, in
+    [-1e-3, 1e-3].  The sign is geometric: an inspection report's signed f_Hbeta follows its own rule (helix angle,
+    flank, reference face), so check which face end of this flank gains material before copying a value.  It enters the dynamics as a
+    constant offset of the mesh twist (:mod:`hacgear_core.dynamics.lead`; helical meshes only), not through the
+    error profile (:attr:`any` leaves it out)."""
 
     single_pitch_deviations_m: tuple[float, ...] = ()
     iso1328_grade: int | None = None
     seed: int = 0
     runout_m: float = 0.0
     runout_phase_rad: float = 0.0
+    lead_slope_m: float = 0.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "single_pitch_deviations_m", tuple(float(v) for v in self.single_pitch_deviations_m))
@@ -283,10 +291,12 @@ class GearErrors:
             raise _fail("errors.seed", "-", "integer in [0, 2**63)", self.seed)
         _check_range("errors.runout_m", self.runout_m, "m", 0.0, 1e-3)
         _check_range("errors.runout_phase_rad", self.runout_phase_rad, "rad", -2 * math.pi, 2 * math.pi)
+        _check_range("errors.lead_slope_m", self.lead_slope_m, "m", -1e-3, 1e-3)
 
     @property
     def any(self) -> bool:
-        """Whether the gear has any error."""
+        """Whether the gear has a pitch or runout error (the errors of the mesh error profile,
+        :mod:`hacgear_core.dynamics.gear_errors`; a lead slope deviation acts through the mesh twist instead)."""
         return bool(self.single_pitch_deviations_m) or self.iso1328_grade is not None or self.runout_m != 0.0
 
 
@@ -639,7 +649,11 @@ class Mesh:
     ``line_of_centres_rad``: direction of the vector from gear_a's centre to gear_b's centre in the fixed
     frame (counter-clockwise from the x axis), which places the gears of a train and sets the phase between
     its meshes (:mod:`hacgear_core.geometry.train`).  Lumped models (``Model.lumped``) give instead a constant
-    ``mesh_stiffness_N_per_m`` and the operating ``pressure_angle_rad`` of the mesh (no tooth geometry)."""
+    ``mesh_stiffness_N_per_m`` and the operating ``pressure_angle_rad`` of the mesh (no tooth geometry).
+    ``misalignment_in_plane_rad``: the installed relative tilt of the two gears' axes in the plane of action, as a
+    rotation ``(theta_a - theta_b) . e1`` about the normal to the plane of action (the sign of the mesh twist,
+    docs/helical.md: positive closes the flanks at the -z end of the face), in [-0.01, 0.01] rad; helical meshes
+    only (:mod:`hacgear_core.dynamics.lead`)."""
 
     name: str
     gear_a: str
@@ -650,8 +664,10 @@ class Mesh:
     line_of_centres_rad: float = 0.0
     mesh_stiffness_N_per_m: float | None = None
     pressure_angle_rad: float | None = None
+    misalignment_in_plane_rad: float = 0.0
 
     def __post_init__(self) -> None:
+        _check_range("misalignment_in_plane_rad", self.misalignment_in_plane_rad, "rad", -0.01, 0.01)
         for attr in ("flank_a", "flank_b"):
             if getattr(self, attr) not in FLANKS:
                 raise _fail(attr, "", " | ".join(FLANKS), getattr(self, attr), f"mesh '{self.name}'")

@@ -241,7 +241,8 @@ class _Section:
 _MATERIAL_KEYS = ("density_kg_per_m3", "youngs_modulus_GPa", "poisson_ratio")
 _FLANK_KEYS = ("pressure_angle_deg", "tip_relief_um", "tip_relief_start_roll_deg", "tip_relief_shape")
 _GAUGE_KEYS = ("name", "flank", "radius_mm", "face_fraction")
-_ERROR_KEYS = ("single_pitch_deviations_um", "iso1328_grade", "seed", "runout_um", "runout_phase_deg")
+_ERROR_KEYS = ("single_pitch_deviations_um", "iso1328_grade", "seed", "runout_um", "runout_phase_deg",
+               "lead_slope_um")
 _SUPPORT_KEYS = (
     "translational_stiffness_N_per_m", "rotational_stiffness_Nm_per_rad", "axial_stiffness_N_per_m",
     "tilting_stiffness_Nm_per_rad",
@@ -271,7 +272,8 @@ _TRANSVERSE_ONLY = {
 _ISO_FLANK_KEYS = ("tip_relief_um", "tip_relief_start_roll_deg", "tip_relief_shape")
 _RACK_KEYS = ("rack_addendum_coefficient", "rack_dedendum_coefficient", "rack_root_radius_coefficient")
 _WEB_KEYS = ("thickness_mm", "inner_diameter_mm", "outer_diameter_mm")
-_MESH_KEYS = ("name", "gear_a", "gear_b", "flank_a", "flank_b", "center_distance_mm", "line_of_centres_deg")
+_MESH_KEYS = ("name", "gear_a", "gear_b", "flank_a", "flank_b", "center_distance_mm", "line_of_centres_deg",
+              "misalignment_in_plane_urad", "misalignment_out_of_plane_urad")
 _LUMPED_GEAR_KEYS = ("name", "teeth", "internal", "mass_kg", "inertia_kgm2", "base_radius_mm", "support")
 _LUMPED_MESH_KEYS = ("name", "gear_a", "gear_b", "mesh_stiffness_N_per_m", "pressure_angle_deg")
 _PLANETARY_KEYS = ("planet_count", "planet_positions_deg", "carrier_radius_mm", "carrier_mass_kg",
@@ -359,9 +361,10 @@ def _read_errors(esec: "_Section | None") -> GearErrors | None:
     seed = esec.integer("seed", 0, 2 ** 63 - 1, required=False, default=0)
     runout = esec.number("runout_um", "um", 0.0, 1000.0, required=False, default=0.0)
     phase = esec.number("runout_phase_deg", "deg", -360.0, 360.0, required=False, default=0.0)
+    lead = esec.number("lead_slope_um", "um", -1000.0, 1000.0, required=False, default=0.0)
     esec.done(_ERROR_KEYS)
     return _wrap(esec, esec.path, lambda: GearErrors(tuple(float(v) * 1e-6 for v in pitch), grade, seed,
-                                                     runout * 1e-6, math.radians(phase)))
+                                                     runout * 1e-6, math.radians(phase), lead * 1e-6))
 
 
 def _read_flank(sec: _Section) -> Flank:
@@ -622,6 +625,8 @@ DEFAULT_MEANINGS = {
     "single_pitch_deviations_um": "no pitch deviations (unless iso1328_grade draws them)",
     "iso1328_grade": "no generated pitch deviations", "seed": "seed 0 of the generated pitch deviations",
     "runout_um": "no runout", "runout_phase_deg": "runout towards tooth 0",
+    "lead_slope_um": "no lead slope deviation",
+    "misalignment_in_plane_urad": "aligned shafts",
     "tip_relief_um": "no tip relief", "tip_relief_start_roll_deg": "no tip relief",
     "tip_relief_shape": "none without tip relief, parabolic with",
     "translational_stiffness_N_per_m": "rigid bearing (purely rotational model)",
@@ -724,9 +729,21 @@ def parse_model(text: str, *, file: str = "<model>", path: Path | None = None, s
         fb = msec.string("flank_b", FLANKS, required=False, default="drive")
         cd = msec.number("center_distance_mm", "mm", 0.0, 20000.0, required=False, default=None, lo_open=True)
         loc = msec.number("line_of_centres_deg", "deg", -360.0, 360.0, required=False, default=0.0)
+        mis = msec.number("misalignment_in_plane_urad", "urad", -1e4, 1e4, required=False, default=0.0)
+        # read only when given (its only allowed value is 0: no default to report)
+        out_of_plane = (msec.number("misalignment_out_of_plane_urad", "urad", -1e4, 1e4)
+                        if "misalignment_out_of_plane_urad" in msec.data else 0.0)
+        if out_of_plane != 0.0:
+            # a tilt about the line of action moves the flanks along the normal to the plane of action: their gap
+            # changes by ~ angle^2 x (face width)^2 / (2 radius of curvature), second order (docs/helical.md)
+            raise msec.error(msec.key("misalignment_out_of_plane_urad"), "urad", "0 (not modelled)", out_of_plane,
+                             problem="a tilt about the line of action changes the flank gap only to second order "
+                             "in the angle (docs/helical.md, 'Lead slope and misalignment'); it is not modelled: "
+                             "leave it out, or give its in-plane share as misalignment_in_plane_urad")
         msec.done(_MESH_KEYS)
         meshes.append(_wrap(msec, msec.path, lambda: Mesh(mname, ga, gb, fa, fb, None if cd is None else cd * 1e-3,
-                                                                    math.radians(loc))))
+                                                                    math.radians(loc),
+                                                                    misalignment_in_plane_rad=mis * 1e-6)))
 
     dsec = top.table("damping")
     damping = Damping(dsec.ranged("modal_damping_ratio", "modal_damping_ratio"))

@@ -103,7 +103,9 @@ class TwistTable:
     ``slice_load_N``, ``slice_pressure_Pa`` (Np, Nd, Nt, Ns) at ``slice_z_m`` (Ns,) (global axial coordinate);
     ``strain`` gauge → (Np, Nd, Nt, Nw); ``r_mesh``, ``r_twist`` (12,): x = r_mesh·q, gamma = r_twist·q;
     ``frame``: e1, e2, e3, P_ref, n_ref, O_a, O_b (global frame), ``base_helix_angle_rad``, ``lever_arm_m``
-    (2,), ``reference_plane_z_m``."""
+    (2,), ``reference_plane_z_m``.  ``twist_offset_rad`` [rad] (not stored in the file; 0 as read): every lookup
+    reads the grid at the mesh twist plus it, the constant twist at which the flanks of a lead slope deviation or an
+    in-plane shaft misalignment meet (:mod:`hacgear_core.dynamics.lead`; set on the system's copy of the table)."""
 
     twist_rad: np.ndarray
     no_load_deflection_m: np.ndarray
@@ -124,8 +126,12 @@ class TwistTable:
     reference_plane_z_m: float
     flank_pressure_Pa: np.ndarray | None = None
     edge_pressure_Pa: np.ndarray | None = None
+    twist_offset_rad: float = 0.0
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "twist_offset_rad", float(self.twist_offset_rad))
+        if not math.isfinite(self.twist_offset_rad):
+            raise TableError(f"twist_offset_rad [rad] must be finite, got {self.twist_offset_rad!r}")
         for k in ("flank_pressure_Pa", "edge_pressure_Pa"):
             if getattr(self, k) is not None:
                 object.__setattr__(self, k, _f64(getattr(self, k)))
@@ -162,6 +168,12 @@ class TwistTable:
     def dg(self) -> float:
         return float(self.twist_rad[1] - self.twist_rad[0]) if self.twist_rad.size > 1 else 1.0
 
+    @property
+    def lookup_origin_rad(self) -> float:
+        """The mesh twist [rad] that reads the grid's first twist: ``twist_rad[0] - twist_offset_rad`` (every
+        lookup of this table, and the kernel's, is at the mesh twist plus :attr:`twist_offset_rad`)."""
+        return float(self.twist_rad[0]) - self.twist_offset_rad
+
     def _lookup(self, values: np.ndarray, x0: float, inv_dx: float, position, deflection, twist) -> np.ndarray:
         p, x, g = np.broadcast_arrays(*(np.asarray(a, float) for a in (position, deflection, twist)))
         v = values
@@ -170,7 +182,7 @@ class TwistTable:
         tail = v.shape[3:]
         v4 = np.ascontiguousarray(v.reshape(v.shape[:3] + (-1,)))
         out = np.empty((p.size, v4.shape[3]))
-        trilinear_many(v4, x0, inv_dx, float(self.twist_rad[0]), 1.0 / self.dg, np.ascontiguousarray(p.ravel()),
+        trilinear_many(v4, x0, inv_dx, self.lookup_origin_rad, 1.0 / self.dg, np.ascontiguousarray(p.ravel()),
                        np.ascontiguousarray(x.ravel()), np.ascontiguousarray(g.ravel()), out)
         return out.reshape(p.shape + tail)
 
@@ -226,8 +238,12 @@ class MeshTable:
     coast: "MeshTable | None" = None
     flank_pressure_Pa: np.ndarray | None = None
     edge_pressure_Pa: np.ndarray | None = None
+    twist_offset_rad: float = 0.0
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "twist_offset_rad", float(self.twist_offset_rad))
+        if not math.isfinite(self.twist_offset_rad):
+            raise TableError(f"twist_offset_rad [rad] must be finite, got {self.twist_offset_rad!r}")
         for k in ("flank_pressure_Pa", "edge_pressure_Pa"):
             if getattr(self, k) is not None:
                 object.__setattr__(self, k, _f64(getattr(self, k)))
@@ -445,7 +461,7 @@ class MeshTable:
         nt = len(slices)
         if nt == 1:
             return self.interpolate_pair(slices[0], ph, x)
-        r = (g - float(tw.twist_rad[0])) / tw.dg
+        r = (g - tw.lookup_origin_rad) / tw.dg
         k = np.clip(np.floor(r).astype(int), 0, nt - 2)
         t = r - k
         out = np.zeros(ph.shape)

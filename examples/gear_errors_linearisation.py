@@ -34,7 +34,8 @@ def main(ds_um) -> None:
         sy = build_system(replace(model, gears=(g0,) + tuple(model.gears[1:])), tabs)
         c = sy.meshes[0]
         tab, fn, tp = c.table, c.nominal_force_N, c.tooth_passage[c.gear_a]
-        E = -(c.base_radius_m[0] / (0.5 * model.gears[0].module_m * z)) * cumulative_pitch_deviations_m(f)
+        # each pair's opening: a late driving tooth (positive cumulative deviation) meets later
+        E = (c.base_radius_m[0] / (0.5 * model.gears[0].module_m * z)) * cumulative_pitch_deviations_m(f)
         offs = [int(o) for o in tab.tooth_offsets]
         cs = np.arange(5 * 64) / 64 + 2.0
         rows = []

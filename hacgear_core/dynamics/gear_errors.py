@@ -3,8 +3,9 @@
 A pitch or runout error of a gear moves the flanks of its teeth along the line of action: the tooth pairs in
 contact meet earlier or later than ideal teeth would.  The dynamics take that as a shift of the drive flanks'
 lookup deflection: the mesh force is the table's force at ``x - e(c)`` (``x = v . q`` the approach of the gear
-bodies, ``c`` the unwrapped mesh position [cycles], ``e`` the mesh's *error profile*, positive where the flanks
-meet earlier, which may depend on ``x`` too; :class:`~hacgear_core.dynamics.system.MeshCoupling` ``error``, the
+bodies, ``c`` the unwrapped mesh position [cycles], ``e`` the mesh's *error profile*: the opening of the flanks,
+positive where they meet later (the bodies must approach by ``e`` more for the same force), minus the closings
+``E`` and ``R`` below, which may depend on ``x`` too; :class:`~hacgear_core.dynamics.system.MeshCoupling` ``error``, the
 kernel's ``VARIANT_ERRORS`` loops).  This module builds ``e(c)`` from each gear's :class:`~hacgear_core.model.GearErrors`.
 
 Conventions.  Teeth are counted in the order they reach a mesh: tooth ``j`` of gear ``g`` is at the pitch point of
@@ -17,14 +18,14 @@ longer pitch) give each tooth's cumulative pitch deviation ``F_j = sum_{i <= j} 
 offset is a rotation of the whole gear, not an error): tooth ``j`` arrives ``F_j`` late on the reference circle,
 ``F_j r_b / r`` along the line of action.  A late tooth of the driving gear (gear_a) meets its partner later
 (``E = -F_j r_b / r``); a late tooth of the driven gear (gear_b) waits nearer the driving flank (``E = +F_j r_b /
-r``).  The pair's error is ``E_a(j_a) + E_b(j_b)``.
+r``).  ``E`` is a closing, positive where the pair meets earlier; the pair's closing is ``E_a(j_a) + E_b(j_b)``.
 
 Runout.  The teeth of gear ``g`` turn about a centre offset by ``e_g`` (eccentricity) in the direction
 ``beta_g(c) = 2 pi (c - tooth_passage[g]) / z_g + phi_g`` from the direction of the pitch point, measured in the
 gear's sense of rotation (``phi_g`` from tooth 0's centre line).  The offset's component along the line of action
 moves every flank of the gear alike: ``R_a(c) = e_a sin(beta_a + alpha_w)``, ``R_b(c) = e_b sin(alpha_w -
 beta_b)`` (``alpha_w`` the operating pressure angle of the drive flanks; an offset towards the mating gear,
-``beta = 0``, closes the mesh by ``e sin alpha_w``); an internal gear's offset towards the pitch point moves its
+``beta = 0``, closes the mesh by ``e sin alpha_w``: ``R`` is a closing, as ``E``); an internal gear's offset towards the pitch point moves its
 teeth away from the mating gear: ``R_a(c) = e_a sin(beta_a - alpha_w)``, ``R_b(c) = -e_b sin(alpha_w + beta_b)``
 (``internal``).  A planetary set is the fixed-axis train of its gear instances in the carrier frame, each mesh
 instance with its own passages (:func:`~hacgear_core.kinds.planetary.planetary_error_inputs`).  The offset's
@@ -33,13 +34,13 @@ changes the contact ratio and the mesh position by ``e / p_b`` of a cycle at mos
 of micrometres.
 
 Several pairs in contact.  The table holds the force of all pairs together at one approach; with pairs of different
-errors ``e_o(c) = E_a(j_a,o) + E_b(j_b,o)`` in contact each pair is taken at its own approach: the mesh force is
-``sum_o P_o(tau, x - e_o - R)`` (``P_o`` the table's tooth load of pair ``o``, ``R = R_a + R_b``; a pair an error
-lifts off carries nothing).  The kernel keeps its one table lookup: the profile is tabulated over (mesh position,
+openings ``e_o(c) = -(E_a(j_a,o) + E_b(j_b,o))`` in contact each pair is taken at its own approach: the mesh force
+is ``sum_o P_o(tau, x - e_o - R)`` (``P_o`` the table's tooth load of pair ``o``, here ``R = -(R_a + R_b)`` the
+runout's opening; a pair an error lifts off carries nothing).  The kernel keeps its one table lookup: the profile is tabulated over (mesh position,
 approach) on the drive table's deflection grid, ``e(c, x)`` such that ``F(tau, x - e) = sum_o P_o(tau, x - e_o -
 R)`` at every grid approach, less the same without errors (:func:`approach_profile`; the tooth loads sum to the
 table's force within 0.2 % on spur_28t_asym), linear between grid approaches.  Measured against solving the pair
-sum directly (one tooth displaced 2-20 um, 0.5-1.5 x the nominal force): within 1.2 % RMS of the pulse
+sum directly (one tooth displaced 2-20 um, 0.5-1.5 x the nominal force): within 1.4 % RMS of the pulse
 (docs/validation.md "Manufacturing errors").  Runout alone (every pair alike) is a profile over the position only,
 exact at any load.  A conventional force law (no tooth loads) takes the static shift at the nominal force
 (:func:`pair_solve_shift`), a linearisation (20 % RMS of a single pitch error's pulse at 0.5 and 1.5 x the torque on
@@ -48,8 +49,10 @@ table's tooth loads come from the coupled solve at one common approach), and the
 (they keep the ideal geometry).  The profile is sampled at the table's positions per cycle (``npc``) over ``L =
 lcm`` of the tooth counts of the gears that carry errors, linear between samples (as the table itself); it takes
 ``L npc nd`` floats (28 x 256 x 64 = 3.7 MB for the 28:28 pair).  For small errors the pair sum is the
-stiffness-share rule ``e = R + sum_o (k_o / K) e_o`` (:func:`load_shares`), the closed form the tests compare
-spectra with.
+stiffness-share rule ``e = R + sum_o (k_o / K) e_o`` (openings; :func:`load_shares`), the closed form the tests
+compare spectra with.  Checked physically: a floating sun (or ring) takes up its runout by translating against its
+offset (``tests/test_planetary_errors.py``), and under a fixed torque a pinion runout towards the wheel lowers the
+static transmission error by ``e sin alpha_w`` (``tests/test_gear_errors.py``).
 """
 from __future__ import annotations
 
@@ -241,7 +244,7 @@ def mesh_error_profile(*, teeth: tuple[int, int], passage: tuple[float, float], 
     tau = (np.arange(L * npc) % npc) / npc
     e = np.zeros(L * npc)
     alpha = float(pressure_angle_rad)
-    run = np.zeros(L * npc)
+    run = np.zeros(L * npc)       # the runout's closing R_a + R_b, then its opening
     for g, (z, tp, (ecc, phi)) in enumerate(zip((za, zb), passage, runout)):
         if ecc == 0.0:
             continue
@@ -250,16 +253,17 @@ def mesh_error_profile(*, teeth: tuple[int, int], passage: tuple[float, float], 
             run += ecc * (np.sin(beta - alpha) if g == 0 else -np.sin(alpha + beta))
         else:
             run += ecc * (np.sin(beta + alpha) if g == 0 else np.sin(alpha - beta))
+    run = -run                    # the kernel reads the force at x - e: e opens the flanks
     if any(has_pitch):
         offs = np.asarray(getattr(table, "tooth_offsets", [0]), int)
-        eo = np.zeros((L * npc, offs.size))                              # each pair's own error
+        eo = np.zeros((L * npc, offs.size))                              # each pair's own opening
         for g, (z, tp, p, sign) in enumerate(zip((za, zb), passage, pitch_m, (-1.0, 1.0))):
             if not has_pitch[g]:
                 continue
-            E = sign * pitch_to_loa[g] * np.asarray(p, float)
+            E = sign * pitch_to_loa[g] * np.asarray(p, float)        # each tooth's closing
             tp_i = int(round(float(tp)))
             for w, o in enumerate(offs):
-                eo[:, w] += E[np.mod(n - tp_i + int(o), z)]
+                eo[:, w] -= E[np.mod(n - tp_i + int(o), z)]
         if approach_grid is not None and table_force is not None and getattr(table, "tooth_load_N", None) is not None:
             e2 = approach_profile(table, table_force, tau, npc, eo, run, approach_grid)
             return np.ascontiguousarray(e2.ravel()), int(L), npc, int(approach_grid[2])

@@ -274,16 +274,21 @@ def with_gear_errors(system: Any, gears: Mapping[str, GearErrorData],
     on force tables get profiles over (position, approach) (:func:`approach_profile`: the pairs at their own
     approaches at every load); False, or a conventional law: the static shift at each mesh's nominal force.
     ``normal_factor`` {mesh: factor}: the mesh deflection's share of a transverse line-of-action displacement
-    (``cos beta_b`` for a helical mesh, whose deflection is along the flank normal; default 1)."""
+    (``cos beta_b`` for a helical mesh, whose deflection is along the flank normal; default 1).
+
+    Meshes at their own rates (a gear train's or gearbox's stages, ``MeshCoupling.rate``): each profile is over its
+    own mesh's unwrapped position (the kernel's ``c_k``, ``p/q`` times the reference position), so the tooth count
+    of a gear indexes the cycles of the meshes it is in; the system's period counts it in reference cycles
+    (:attr:`~hacgear_core.dynamics.system.LumpedSystem.period_cycles`).  Pitch errors on a spur mesh of a system
+    that runs the twist law (a train with a helical stage) take the static shift at the mesh's nominal force."""
     if not any(ge is not None and ge.any for ge, _, _ in gears.values()):
         return system
-    if system.mesh_law.kernel_law not in (0, 1) and any(
-            ge is not None and (ge.single_pitch_deviations_m or ge.iso1328_grade is not None)
-            for ge, _, _ in gears.values()):
+    pitched = {g for g, (ge, _, _) in gears.items()
+               if ge is not None and (ge.single_pitch_deviations_m or ge.iso1328_grade is not None)}
+    helical = [c.name for c in system.meshes if c.t is not None and pitched & {c.gear_a, c.gear_b}]
+    if helical:
         raise ModelError(f"{system.name}: pitch errors are supported on spur meshes (force tables or a conventional "
-                         "law), not on helical meshes yet (runout is)")
-    if not system.unit_rates:
-        raise ModelError(f"{system.name}: manufacturing errors are not supported on meshes at their own rates yet")
+                         f"law), not on helical meshes yet (runout is): meshes {helical}")
     cum = {}
     for name, (ge, r_ref, mn) in gears.items():
         if ge is None or name not in system.gears:

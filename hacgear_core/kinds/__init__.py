@@ -98,20 +98,38 @@ def _with_model_errors(model: Any, system: LumpedSystem) -> LumpedSystem:
     from hacgear_core.dynamics.gear_errors import with_gear_errors
     from hacgear_core.geometry import mesh_geometry
 
-    if model.kind not in ("spur_pair", "idler_chain", "helical_pair"):
-        bad = [g.name for g in model.gears if g.errors is not None and g.errors.any]
+    bad = [g.name for g in model.gears if g.errors is not None and g.errors.any]
+    if model.kind == "gearbox":
+        _refuse_planetary_stage_errors(model, bad)
+    elif model.kind not in ("spur_pair", "idler_chain", "helical_pair", "gear_train"):
         raise ModelError(f"{model.path or model.name}: [gears.errors] of {bad}: manufacturing errors are supported "
-                         f"on kinds spur_pair, idler_chain and helical_pair (runout), not yet on '{model.kind}'")
+                         f"on kinds spur_pair, idler_chain, helical_pair (runout), gear_train and the fixed-axis "
+                         f"stages of gearbox, not yet on '{model.kind}'")
     gears = {g.name: (g.errors, 0.5 * g.module_m * g.teeth, g.module_m * math.cos(g.helix_angle_rad))
              for g in model.gears}
-    alpha = {m.name: mesh_geometry(model, m.name).operating_pressure_angle_rad for m in model.meshes}
+    # the meshes of the gears with errors (the others keep no profile)
+    erring = [m for m in model.meshes if {m.gear_a, m.gear_b} & set(bad)]
+    alpha = {m.name: mesh_geometry(model, m.name).operating_pressure_angle_rad for m in erring}
     # a helical mesh's deflection is along the flank normal: cos(beta_b) of a transverse displacement
     # (tan beta_b = tan beta cos alpha_t)
     gd = {g.name: g for g in model.gears}
     factor = {m.name: math.cos(math.atan(abs(math.tan(gd[m.gear_a].helix_angle_rad))
                                          * math.cos(gd[m.gear_a].flanks["drive"].pressure_angle_rad)))
-              for m in model.meshes}
+              for m in erring}
     return with_gear_errors(system, gears, alpha, normal_factor=factor)
+
+
+def _refuse_planetary_stage_errors(model: Any, bad: list[str]) -> None:
+    """Raise ModelError when a gear of a planetary stage of the gearbox ``model`` has errors (``bad``: the gears
+    with errors); those of its fixed-axis stages are taken."""
+    from hacgear_core.kinds.gearbox import gearbox_stages
+
+    stages = [s for s in gearbox_stages(model) if s.planetary is not None and set(bad) & set(s.gears)]
+    if stages:
+        gears = sorted({g for s in stages for g in s.gears} & set(bad))
+        raise ModelError(f"{model.path or model.name}: [gears.errors] of {gears} on the planetary stages "
+                         f"{[s.name for s in stages]}: manufacturing errors are supported on a gearbox's fixed-axis "
+                         "stages (spur, idler, helical: runout), not yet on its planetary stages")
 
 
 def structural_parameters(model: Any) -> tuple[StructuralParameter, ...]:

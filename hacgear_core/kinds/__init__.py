@@ -83,8 +83,8 @@ def build_system(model: Any, tables: Any, **options) -> LumpedSystem:
     {mesh name: MeshTable}; None for a lumped model): its kind's train, assembled.  ``options``: ``force_law``,
     ``torque_Nm``, ``bearing_stiffness_N_per_m``, ``modal_damping_ratio``, ``shafts`` and the kind's structural
     parameters (planetary sets: ``planet_count``, ``pin_errors_m``).  Gears with manufacturing errors
-    (``[gears.errors]``) give their meshes error profiles (:mod:`hacgear_core.dynamics.gear_errors`; spur pairs and
-    idler chains)."""
+    (``[gears.errors]``) give their meshes error profiles (:mod:`hacgear_core.dynamics.gear_errors`; spur and
+    helical pairs, idler chains, gear trains and the fixed-axis stages of gearboxes)."""
     system = assemble(kind_of(model).train(model, tables, **options))
     gears = getattr(model, "gears", ())
     if any(getattr(g, "errors", None) is not None and g.errors.any for g in gears):
@@ -94,7 +94,8 @@ def build_system(model: Any, tables: Any, **options) -> LumpedSystem:
 
 def _with_model_errors(model: Any, system: LumpedSystem) -> LumpedSystem:
     """``system`` with the error profiles of ``model``'s gears (:func:`~hacgear_core.dynamics.gear_errors.
-    with_gear_errors`); kinds other than spur pairs and idler chains are refused."""
+    with_gear_errors`); kinds other than fixed-axis trains (spur and helical pairs, idler chains, gear trains) and
+    gearboxes are refused, and so are errors on a gearbox's planetary stages."""
     from hacgear_core.dynamics.gear_errors import with_gear_errors
     from hacgear_core.geometry import mesh_geometry
 

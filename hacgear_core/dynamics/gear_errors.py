@@ -44,9 +44,9 @@ the static shift at the nominal force too, on the table's tooth loads (its zero-
 the nominal torque is a few microradians), along the flank normal (``cos beta_b`` of the transverse shift, as its
 runout): against the pair solve at 0.5 and 1.5 x the nominal force, 8.6 / 5.5 % RMS of a 5 um tooth's pulse on
 helical_28_33 (tests/test_gear_errors_helical.py).  Meshes at their own rates (gear trains, gearboxes) take their
-profiles over their own positions (:func:`with_gear_errors`).  Not held: the coupling of the pairs through the gear bodies when their approaches differ (the
-table's tooth loads come from the coupled solve at one common approach), and the errors' effect on the coast flanks
-(they keep the ideal geometry).  The profile is sampled at the table's positions per cycle (``npc``) over ``L =
+profiles over their own positions (:func:`with_gear_errors`).  Not held: the coupling of the pairs through the gear
+bodies when their approaches differ (the table's tooth loads come from the coupled solve at one common approach),
+and the errors' effect on the coast flanks (they keep the ideal geometry).  The profile is sampled at the table's positions per cycle (``npc``) over ``L =
 lcm`` of the tooth counts of the gears that carry errors, linear between samples (as the table itself); it takes
 ``L npc nd`` floats (28 x 256 x 64 = 3.7 MB for the 28:28 pair).  For small errors the pair sum is the
 stiffness-share rule ``e = R + sum_o (k_o / K) e_o`` (:func:`load_shares`), the closed form the tests compare

@@ -144,3 +144,12 @@ def test_gearbox_helical_stage_runout_and_planetary_stages_refused():
     assert "tooth errors" in sy.kernel_label
     with pytest.raises(ModelError, match=r"\['sun2'\] on the planetary stages \['stage2'\]"):
         _with("nrel_5mw_gearbox", sun2=GearErrors(runout_m=E_RUNOUT))
+
+
+def test_reducer_runout_steady_state_repeats_over_the_hunting_period():
+    """The steady state of the reducer with a pinion2 runout at 800 Hz is found (converged) over the 71-cycle
+    period, sampled once per period."""
+    from hacgear_core.dynamics.steady import steady_state
+    sy = _with("reducer_19_71_23_83", pinion2=GearErrors(runout_m=E_RUNOUT))
+    r = steady_state(sy, 800.0)
+    assert r.converged and r.period_cycles == SHAFT2 and r.cycles_run % SHAFT2 == 0

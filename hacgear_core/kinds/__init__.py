@@ -29,6 +29,7 @@ __all__ = [
     "parse_model",
     "check_model",
     "build_system",
+    "error_gears",
     "StructuralParameter",
     "structural_parameters",
     "assemble",
@@ -102,7 +103,7 @@ def _with_model_errors(model: Any, system: LumpedSystem) -> LumpedSystem:
     bad = [g.name for g in model.gears if g.errors is not None and g.errors.any]
     if model.kind == "gearbox":
         _refuse_planetary_stage_errors(model, bad)
-    elif model.kind not in ("spur_pair", "idler_chain", "helical_pair", "gear_train"):
+    elif not error_gears(model):
         raise ModelError(f"{model.path or model.name}: [gears.errors] of {bad}: manufacturing errors are supported "
                          f"on kinds spur_pair, idler_chain, helical_pair (runout), gear_train and the fixed-axis "
                          f"stages of gearbox, not yet on '{model.kind}'")
@@ -118,6 +119,19 @@ def _with_model_errors(model: Any, system: LumpedSystem) -> LumpedSystem:
                                          * math.cos(gd[m.gear_a].flanks["drive"].pressure_angle_rad)))
               for m in erring}
     return with_gear_errors(system, gears, alpha, normal_factor=factor)
+
+
+def error_gears(model: Any) -> tuple[str, ...]:
+    """The gears of ``model`` that may carry manufacturing errors (``[gears.errors]``, :func:`build_system`): every
+    gear of a fixed-axis train (spur and helical pairs, idler chains, gear trains), the gears of a gearbox's
+    fixed-axis stages; none of a planetary set."""
+    if model.kind == "gearbox":
+        from hacgear_core.kinds.gearbox import gearbox_stages
+
+        return tuple(g for s in gearbox_stages(model) if s.planetary is None for g in s.gears)
+    if model.kind in ("spur_pair", "idler_chain", "helical_pair", "gear_train"):
+        return tuple(g.name for g in model.gears)
+    return ()
 
 
 def _refuse_planetary_stage_errors(model: Any, bad: list[str]) -> None:

@@ -105,8 +105,8 @@ def _with_model_errors(model: Any, system: LumpedSystem) -> LumpedSystem:
         _refuse_planetary_stage_errors(model, bad)
     elif not error_gears(model):
         raise ModelError(f"{model.path or model.name}: [gears.errors] of {bad}: manufacturing errors are supported "
-                         f"on kinds spur_pair, idler_chain, helical_pair (runout), gear_train and the fixed-axis "
-                         f"stages of gearbox, not yet on '{model.kind}'")
+                         f"on kinds spur_pair, helical_pair, idler_chain, gear_train and the fixed-axis stages of "
+                         f"gearbox, not yet on '{model.kind}'")
     gears = {g.name: (g.errors, 0.5 * g.module_m * g.teeth, g.module_m * math.cos(g.helix_angle_rad))
              for g in model.gears}
     # the meshes of the gears with errors (the others keep no profile)
@@ -144,7 +144,7 @@ def _refuse_planetary_stage_errors(model: Any, bad: list[str]) -> None:
         gears = sorted({g for s in stages for g in s.gears} & set(bad))
         raise ModelError(f"{model.path or model.name}: [gears.errors] of {gears} on the planetary stages "
                          f"{[s.name for s in stages]}: manufacturing errors are supported on a gearbox's fixed-axis "
-                         "stages (spur, idler, helical: runout), not yet on its planetary stages")
+                         "stages (spur and helical pairs, idler chains), not yet on its planetary stages")
 
 
 def structural_parameters(model: Any) -> tuple[StructuralParameter, ...]:

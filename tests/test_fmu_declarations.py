@@ -35,7 +35,9 @@ ROOT = Path(__file__).resolve().parent.parent
 #: nominal inertias were taken from the free train (a port held at constant speed has no rotation in the
 #: constant-speed system, whose value was another DOF's): by name, only the nominal values of <port>.inertia and
 #: <port>.train_inertia of the held ports of nrel_5mw_stage1, nrel_5mw_stage2 and the two planetary_65_55_175
-#: systems changed
+#: systems changed; and when the runout parameters <gear>.runout and <gear>.runout_phase were added for every gear
+#: that may carry manufacturing errors (every gear of the spur, helical, idler and gear-train systems, wheel3 and
+#: pinion3 of nrel_5mw_gearbox; none of the planetary sets and stages): by name, nothing else changed
 REFERENCE = Path(__file__).resolve().parent / "data" / "model_descriptions.json.gz"
 
 

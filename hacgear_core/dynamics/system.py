@@ -312,10 +312,11 @@ class LumpedSystem:
         #: any mesh has a manufacturing-error profile (``MeshCoupling.error``): the kernel's error loops
         self.has_errors = any(c.error is not None for c in self.meshes)
         if self.has_errors:
-            # a mesh at rate p/q with an error profile of L of its cycles repeats after L q / gcd(L p, q) reference
-            # cycles (the hunting-tooth period of its gears)
+            # a mesh at rate p/q with an error profile of L of its cycles: N reference cycles advance it N p / q of
+            # its cycles, a whole number of profiles first at N = L q / gcd(L q, p) (the hunting-tooth period of its
+            # gears in reference cycles)
             self.period_cycles = math.lcm(self.period_cycles, *(
-                (int(c.error[1]) * c.rate[1]) // math.gcd(int(c.error[1]) * c.rate[0], c.rate[1])
+                (int(c.error[1]) * c.rate[1]) // math.gcd(int(c.error[1]) * c.rate[1], c.rate[0])
                 for c in self.meshes if c.error is not None))
         self.Vc = np.ascontiguousarray(np.array([np.zeros(n) if c.v_c is None else c.v_c for c in self.meshes],
                                                 dtype=float))

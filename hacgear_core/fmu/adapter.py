@@ -36,12 +36,12 @@ from typing import Callable
 
 import numpy as np
 
-from hacgear_core.kinds import build_system, kind_of, structural_parameters
+from hacgear_core.kinds import build_system, error_gears, kind_of, structural_parameters
 from hacgear_core.dynamics.simulator import Simulator, strain_of_tooth, system_gauges
 from hacgear_core.encodings import ContactState, Experiment
 from hacgear_core.errors import HacgearError, ModelError
 from hacgear_core.fmu.spec import FmuVariable, Reading, ident, output_expressions, output_getters, ranged
-from hacgear_core.model.schema import RANGES
+from hacgear_core.model.schema import RANGES, GearErrors
 from hacgear_core.kinds import load_model
 from hacgear_core.tables import read_tables
 from hacgear_core.tables.check import STEEL_PRESSURE_LIMIT_PA
@@ -119,8 +119,10 @@ class Adapter:
         self._drive_system = drive_system
         self.sim = Simulator(base)
         self.bearing_gears = kind_of(model).members(model)
+        #: the gears whose runout is a parameter (``<gear>.runout``, ``<gear>.runout_phase``)
+        self.runout_gears = error_gears(model)
         self._built_key = self._key(base.torque_Nm, base.modal_damping_ratio, self._model_bearings(model), None, True,
-                                    tuple((p.name, p.start) for p in self.structural))
+                                    tuple((p.name, p.start) for p in self.structural), self._model_runouts(model))
         self.ref = base.reference_gear
         drive_sim = Simulator(drive_system)
         self.ports = drive_sim.ports
@@ -162,9 +164,23 @@ class Adapter:
         """The model with the translational support stiffnesses ``bearings`` (order of :attr:`bearing_gears`)."""
         return kind_of(self.model).with_bearing_stiffness(self.model, dict(zip(self.bearing_gears, bearings)))
 
+    def _model_runouts(self, model) -> tuple:
+        """(runout [m], its phase [rad]) of every gear of :attr:`runout_gears` in ``model`` (0, 0 without errors)."""
+        gears = {g.name: g for g in model.gears}
+        return tuple((gears[g].errors.runout_m, gears[g].errors.runout_phase_rad) if gears[g].errors is not None
+                     else (0.0, 0.0) for g in self.runout_gears)
+
+    def _with_runouts(self, model, runouts: tuple):
+        """``model`` with the runouts ``runouts`` (order of :attr:`runout_gears`; each gear's other errors kept)."""
+        new = dict(zip(self.runout_gears, runouts))
+        return replace(model, gears=tuple(
+            g if g.name not in new else replace(g, errors=replace(g.errors or GearErrors(), runout_m=new[g.name][0],
+                                                                  runout_phase_rad=new[g.name][1]))
+            for g in model.gears))
+
     @staticmethod
-    def _key(torque, zeta, bearings, h, shafts, structure=()):
-        return (torque, zeta, bearings, h, shafts, structure)
+    def _key(torque, zeta, bearings, h, shafts, structure=(), runouts=()):
+        return (torque, zeta, bearings, h, shafts, structure, runouts)
 
     def _index(self) -> None:
         """Slots of the spec's meshes and gears in the current simulator (-1: absent in this structure)."""
@@ -271,6 +287,16 @@ class Adapter:
                           f"translational bearing stiffness of {what}; inf = rigid (no translation DOF), as in model "
                           "files and on the command line; 0 = no bearing (a floating member)",
                           k, display_unit="N/um", **ranged("translational_stiffness_N_per_m")))
+        for g, (e, phase) in zip(self.runout_gears, self._model_runouts(self.model)):
+            spec += [
+                V(f"{ident(g)}.runout", "Real", "parameter", "fixed", "m",
+                  f"runout of gear {g}: eccentricity of its teeth about its axis (the model file's "
+                  "[gears.errors] runout_um; its other errors stay as the model file gives them)", e, 0.0, 1e-3,
+                  display_unit="um"),
+                V(f"{ident(g)}.runout_phase", "Real", "parameter", "fixed", "rad",
+                  f"direction of the runout of gear {g} from its tooth 0's centre line, in its sense of rotation "
+                  "(runout_phase_deg)", phase, -2 * math.pi, 2 * math.pi, display_unit="deg"),
+            ]
         spec += [
             V("internal_step", "Real", "parameter", "fixed", "s",
               "largest internal RK4 step; 0 = automatic (mesh period / 128 at the current speed and 1/32 of the "
@@ -581,7 +607,10 @@ class Adapter:
         bearings = tuple(float(values[f"{ident(g)}.bearing_stiffness"]) for g in self.bearing_gears)
         h = float(values["internal_step"]) or None
         structure = tuple((p.name, int(values[p.name])) for p in self.structural)
-        key = self._key(float(values["torque"]), float(values["modal_damping_ratio"]), bearings, h, shafts, structure)
+        runouts = tuple((float(values[f"{ident(g)}.runout"]), float(values[f"{ident(g)}.runout_phase"]))
+                        for g in self.runout_gears)
+        key = self._key(float(values["torque"]), float(values["modal_damping_ratio"]), bearings, h, shafts, structure,
+                        runouts)
         if key != self._built_key:
             system = self._system(key)
             self.sim = Simulator(system, internal_step_s=h)
@@ -612,13 +641,15 @@ class Adapter:
     def _system(self, key: tuple):
         """The lumped system of the configuration ``key`` (:meth:`_key`), assembled or from the last few kept (masters
         that reset and re-initialize do not assemble them again)."""
-        torque, zeta, bearings, _, shafts, structure = key
+        torque, zeta, bearings, _, shafts, structure, runouts = key
         skey = key[:3] + key[4:]  # the lumped system does not depend on the internal step
         system = self._systems.pop(skey, None)
         if system is None:
             model = self.model
             if bearings != self._model_bearings(model):
                 model = self._with_bearings(bearings)
+            if runouts != self._model_runouts(model):
+                model = self._with_runouts(model, runouts)
             try:
                 system = build_system(model, self.tables, torque_Nm=torque, modal_damping_ratio=zeta, shafts=shafts,
                                       **dict(structure))

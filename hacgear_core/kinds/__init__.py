@@ -30,6 +30,7 @@ __all__ = [
     "parse_model",
     "check_model",
     "build_system",
+    "error_gears",
     "StructuralParameter",
     "structural_parameters",
     "assemble",
@@ -84,8 +85,8 @@ def build_system(model: Any, tables: Any, **options) -> LumpedSystem:
     {mesh name: MeshTable}; None for a lumped model): its kind's train, assembled.  ``options``: ``force_law``,
     ``torque_Nm``, ``bearing_stiffness_N_per_m``, ``modal_damping_ratio``, ``shafts`` and the kind's structural
     parameters (planetary sets: ``planet_count``, ``pin_errors_m``).  Gears with manufacturing errors
-    (``[gears.errors]``) give their meshes error profiles (:mod:`hacgear_core.dynamics.gear_errors`; spur pairs,
-    idler chains, helical pairs and planetary sets)."""
+    (``[gears.errors]``) give their meshes error profiles (:mod:`hacgear_core.dynamics.gear_errors`; spur and
+    helical pairs, idler chains, planetary sets, gear trains and the fixed-axis stages of gearboxes)."""
     system = assemble(kind_of(model).train(model, tables, **options))
     check_lead_inputs(model, system)
     gears = getattr(model, "gears", ())
@@ -96,8 +97,9 @@ def build_system(model: Any, tables: Any, **options) -> LumpedSystem:
 
 def _with_model_errors(model: Any, system: LumpedSystem) -> LumpedSystem:
     """``system`` with the error profiles of ``model``'s gears (:func:`~hacgear_core.dynamics.gear_errors.
-    with_gear_errors`; planetary sets: :func:`~hacgear_core.kinds.planetary.planetary_error_inputs`); other kinds
-    are refused."""
+    with_gear_errors`; planetary sets: :func:`~hacgear_core.kinds.planetary.planetary_error_inputs`); kinds other
+    than fixed-axis trains (spur and helical pairs, idler chains, gear trains), planetary sets and gearboxes are
+    refused, and so are errors on a gearbox's planetary stages."""
     from hacgear_core.dynamics.gear_errors import with_gear_errors
     from hacgear_core.geometry import mesh_geometry
 
@@ -106,21 +108,53 @@ def _with_model_errors(model: Any, system: LumpedSystem) -> LumpedSystem:
         inp = planetary_error_inputs(model, len(system.meshes) // 2)
         return with_gear_errors(system, inp["gears"], inp["pressure_angles_rad"],
                                 internal_gears=inp["internal_gears"], runout_passage=inp["runout_passage"])
-    if model.kind not in ("spur_pair", "idler_chain", "helical_pair"):
-        bad = [g.name for g in model.gears if g.errors is not None and g.errors.any]
+    bad = [g.name for g in model.gears if g.errors is not None and g.errors.any]
+    if model.kind == "gearbox":
+        _refuse_planetary_stage_errors(model, bad)
+    elif not error_gears(model):
         raise ModelError(f"{model.path or model.name}: [gears.errors] of {bad}: manufacturing errors are supported "
-                         f"on kinds spur_pair, idler_chain, helical_pair (runout) and planetary, not yet on "
-                         f"'{model.kind}'")
+                         f"on kinds spur_pair, helical_pair, idler_chain, planetary, gear_train and the fixed-axis "
+                         f"stages of gearbox, not yet on '{model.kind}'")
     gears = {g.name: (g.errors, 0.5 * g.module_m * g.teeth, g.module_m * math.cos(g.helix_angle_rad))
              for g in model.gears}
-    alpha = {m.name: mesh_geometry(model, m.name).operating_pressure_angle_rad for m in model.meshes}
+    # the meshes of the gears with errors (the others keep no profile)
+    erring = [m for m in model.meshes if {m.gear_a, m.gear_b} & set(bad)]
+    alpha = {m.name: mesh_geometry(model, m.name).operating_pressure_angle_rad for m in erring}
     # a helical mesh's deflection is along the flank normal: cos(beta_b) of a transverse displacement
     # (tan beta_b = tan beta cos alpha_t)
     gd = {g.name: g for g in model.gears}
     factor = {m.name: math.cos(math.atan(abs(math.tan(gd[m.gear_a].helix_angle_rad))
                                          * math.cos(gd[m.gear_a].flanks["drive"].pressure_angle_rad)))
-              for m in model.meshes}
+              for m in erring}
     return with_gear_errors(system, gears, alpha, normal_factor=factor)
+
+
+def error_gears(model: Any) -> tuple[str, ...]:
+    """The fixed-axis gears of ``model`` that may carry manufacturing errors (``[gears.errors]``,
+    :func:`build_system`) and whose runout an FMU takes as parameters: every gear of a spur or helical pair, idler
+    chain or gear train, the gears of a gearbox's fixed-axis stages.  A planetary set's gears take errors from the
+    model file through :func:`~hacgear_core.kinds.planetary.planetary_error_inputs` and are not listed (its FMU
+    declares no runout parameters)."""
+    if model.kind == "gearbox":
+        from hacgear_core.kinds.gearbox import gearbox_stages
+
+        return tuple(g for s in gearbox_stages(model) if s.planetary is None for g in s.gears)
+    if model.kind in ("spur_pair", "idler_chain", "helical_pair", "gear_train"):
+        return tuple(g.name for g in model.gears)
+    return ()
+
+
+def _refuse_planetary_stage_errors(model: Any, bad: list[str]) -> None:
+    """Raise ModelError when a gear of a planetary stage of the gearbox ``model`` has errors (``bad``: the gears
+    with errors); those of its fixed-axis stages are taken."""
+    from hacgear_core.kinds.gearbox import gearbox_stages
+
+    stages = [s for s in gearbox_stages(model) if s.planetary is not None and set(bad) & set(s.gears)]
+    if stages:
+        gears = sorted({g for s in stages for g in s.gears} & set(bad))
+        raise ModelError(f"{model.path or model.name}: [gears.errors] of {gears} on the planetary stages "
+                         f"{[s.name for s in stages]}: manufacturing errors are supported on a gearbox's fixed-axis "
+                         "stages (spur and helical pairs, idler chains), not yet on its planetary stages")
 
 
 def structural_parameters(model: Any) -> tuple[StructuralParameter, ...]:

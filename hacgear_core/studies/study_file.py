@@ -36,8 +36,12 @@ A variable's ``key`` is the path of a numeric key in the model file, dots betwee
 ``[pinion]`` the element whose ``name`` is ``pinion``, ``[0]`` the first element.  Examples:
 ``gears[*].drive.tip_relief_um`` (the drive-flank tip relief of every gear), ``gears[pinion].lead_crowning_um``,
 ``meshes[m12].center_distance_mm``, ``operating.torque_Nm``.  The last key may be absent in the base model (it then
-takes its default there); the tables above it must exist.  The key ``model`` is special: its values are base
-models (system names or paths), so one study can compare systems.
+takes its default there); the tables above it must exist, except a gear's ``errors`` table (manufacturing errors,
+all of its keys optional: :data:`OPTIONAL_TABLES`), created where absent, so ``gears[pinion].errors.runout_um``,
+``gears[pinion].errors.runout_phase_deg``, ``gears[*].errors.iso1328_grade`` and ``gears[*].errors.seed`` (integers
+for the last two) are variables of any model.  The errors leave the tables as they are (the variants share them:
+their model values hash is the same); they enter the dynamics (the ``[dynamic]`` sweeps).  The key ``model`` is
+special: its values are base models (system names or paths), so one study can compare systems.
 """
 from __future__ import annotations
 
@@ -54,10 +58,15 @@ from typing import Any
 from hacgear_core.errors import ModelError
 from hacgear_core.model.schema import RANGES
 
-__all__ = ["Variable", "StudySpec", "load_study", "parse_study", "apply_key", "MODEL_KEY"]
+__all__ = ["Variable", "StudySpec", "load_study", "parse_study", "apply_key", "MODEL_KEY", "OPTIONAL_TABLES"]
 
 #: the variable key whose values are base models
 MODEL_KEY = "model"
+
+#: (array of tables, table) pairs a variable key may name although the base model lacks the table: tables whose
+#: keys are all optional, created empty in each selected element (``gears[pinion].errors.runout_um`` on a model
+#: whose pinion has no ``[gears.errors]``)
+OPTIONAL_TABLES = frozenset({("gears", "errors")})
 
 _SEGMENT = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*)(?:\[([^\]]+)\])?$")
 _SOLVERS = ("fe", "analytic")
@@ -217,9 +226,12 @@ def apply_key(raw: dict, key: str, value: Any) -> int:
     segs = _segments(key)
     nodes = [raw]
     where = ""
+    parent = ""
     for name, sel in segs[:-1]:
         nxt = []
         for node in nodes:
+            if name not in node and sel is None and (parent, name) in OPTIONAL_TABLES:
+                node[name] = {}
             if name not in node:
                 raise ModelError(f"variable key {key!r}: the base model has no table {where + name!r}")
             child = node[name]
@@ -237,6 +249,7 @@ def apply_key(raw: dict, key: str, value: Any) -> int:
                 raise ModelError(f"variable key {key!r}: {where + name!r} is a value, not a table")
         nodes = nxt
         where += name + "."
+        parent = name
     last = segs[-1][0]
     for node in nodes:
         old = node.get(last)

@@ -1,0 +1,65 @@
+"""Runout as FMU parameters: ``<gear>.runout`` [m] and ``<gear>.runout_phase`` [rad] of every gear that may carry
+manufacturing errors (:func:`hacgear_core.kinds.error_gears`), their start values the model file's; the FMU's
+simulator (its adapter, in process) set to a runout runs the library's system with that runout, and a zero runout
+the FMU's own system."""
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import hacgear_core.fmu as hf
+from hacgear_core.dynamics.simulator import Simulator
+from hacgear_core.kinds import build_system, error_gears
+from hacgear_core.model import GearErrors
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _start(ad, **changes):
+    values = {v.name: v.start for v in ad.variables if v.causality in ("parameter", "input")}
+    values.update(changes)
+    return values
+
+
+def test_runout_parameters_drive_the_simulator():
+    """spur_28t_asym: one pair of parameters per gear, in [0, 1 mm] (displayed in um) and [-2 pi, 2 pi] (deg),
+    start 0; pinion.runout = 10 um at 0.4 rad gives the system (fingerprint) and the mesh-force trace of the library
+    run with that runout (the same simulator: equal); back to 0 the FMU's own system."""
+    ad = hf.make_adapter(ROOT / "models" / "spur_28t_asym")
+    names = [v.name for v in ad.variables if v.name.endswith((".runout", ".runout_phase"))]
+    assert names == ["pinion.runout", "pinion.runout_phase", "wheel.runout", "wheel.runout_phase"]
+    r, ph = ad.by_name["pinion.runout"], ad.by_name["pinion.runout_phase"]
+    assert (r.unit, r.display_unit, r.min, r.max, r.start) == ("m", "um", 0.0, 1e-3, 0.0)
+    assert (ph.unit, ph.display_unit, ph.min, ph.max) == ("rad", "deg", -2 * math.pi, 2 * math.pi)
+    assert r.check(2e-3) and not r.check(1e-5)
+    ad.configure(_start(ad, **{"pinion.runout": 10e-6, "pinion.runout_phase": 0.4}))
+    m = ad.model
+    ref = build_system(replace(m, gears=(replace(m.gears[0], errors=GearErrors(runout_m=10e-6, runout_phase_rad=0.4)),)
+                               + tuple(m.gears[1:])), ad.tables)
+    assert ad.sim.system.has_errors and ad.sim.system.fingerprint() == ref.fingerprint()
+    sim = Simulator(ref)
+    w = float(ad.by_name["pinion.speed_in"].start)
+    sim.reset(speed_rad_s=w)
+    sim.set_speed_input(speed_rad_s=w)
+    ours, lib = [], []
+    for _ in range(40):
+        assert ad.advance(2e-5) == ""
+        assert sim.advance(2e-5).success
+        ours.append(ad.sim.mesh_force_N[0])
+        lib.append(sim.mesh_force_N[0])
+    assert np.array_equal(ours, lib)
+    ad.configure(_start(ad))
+    assert ad.sim.system is ad.base_system and not ad.sim.system.has_errors
+
+
+@pytest.mark.parametrize("system, gears", [("planetary_65_55_175", ()),
+                                           ("reducer_19_71_23_83", ("pinion1", "wheel1", "pinion2", "wheel2"))])
+def test_runout_parameters_only_where_errors_are_taken(system, gears):
+    """A planetary set declares none (its errors are refused); the reducer one pair per gear."""
+    ad = hf.make_adapter(ROOT / "models" / system)
+    assert error_gears(ad.model) == gears
+    assert [v.name for v in ad.variables if v.name.endswith(".runout")] == [f"{g}.runout" for g in gears]

@@ -216,14 +216,6 @@ def test_single_pitch_error_spectrum_is_its_fourier_series(d, rtol):
                 assert math.remainder(ln.phase_rad - np.angle(want), 2 * math.pi) == pytest.approx(0, abs=rtol)
 
 
-def test_errors_refused_on_other_kinds():
-    from hacgear_core.kinds import _with_model_errors
-    model = load_model(resolve_model_path("gear_train_2stage"))
-    model = replace(model, gears=(replace(model.gears[0], errors=GearErrors(runout_m=1e-6)),) + tuple(model.gears[1:]))
-    with pytest.raises(ModelError, match="not yet on 'gear_train'"):
-        _with_model_errors(model, None)
-
-
 def test_profile_over_the_approach_is_the_pairs_own_solve_at_every_load():
     """One pinion tooth displaced 5 um: the static approach the kernel's rule gives (the table's force at
     x - e(c, x) equal to F) against each tooth pair at its own approach (sum_o P_o(tau, x - e_o) = F, the table's

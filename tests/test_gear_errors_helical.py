@@ -52,12 +52,12 @@ def test_helical_table_tooth_loads_are_its_zero_twist_slice():
 
 @pytest.mark.parametrize("d, rtol", [(0.5e-6, 0.02), (5e-6, 0.05)])
 def test_helical_single_pitch_error_static_te_is_its_fourier_series(d, rtol):
-    """One displaced pinion tooth (f_p = +d before it, -d after it): E_j = -(r_b / r) F_j cos(beta_b) along the
-    flank normal, the line at shaft order k is 2 |E^(k) G(k / z)| / z (G the Fourier transform of the pairs'
+    """One displaced pinion tooth (f_p = +d before it, -d after it): the opening E_j = (r_b / r) F_j cos(beta_b)
+    along the flank normal (a late driving tooth meets later), the line at shaft order k is 2 |E^(k) G(k / z)| / z (G the Fourier transform of the pairs'
     stiffness shares over their pair phases, :func:`load_shares`) times k / (k + k_sh), the share of the approach
     change the mesh takes against the shaft springs (5e4 N m/rad on both gears; as the helical runout test).  The
-    static TE over the revolution, shaft orders 1-10: within 2 % for d = 0.5 um (measured -0.95 ... +0.09 %; the
-    factor is the mean stiffness's), within 5 % for d = 5 um (measured +1.3 ... +2.5 %: the pairs' own approaches
+    static TE over the revolution, shaft orders 1-10: within 2 % for d = 0.5 um (measured -1.05 ... -0.09 %; the
+    factor is the mean stiffness's), within 5 % for d = 5 um (measured -2.5 ... -1.3 %: the pairs' own approaches
     make the shift nonlinear in the error), phases within 3e-3 rad (measured 2e-3)."""
     model, tabs = _helical()
     f = np.zeros(Z)
@@ -68,7 +68,7 @@ def test_helical_single_pitch_error_static_te_is_its_fourier_series(d, rtol):
     c = sy.meshes[0]
     assert c.error[1] == Z and len(c.error) == 3 and "tooth errors" in sy.kernel_label   # a profile over c only
     tp = c.tooth_passage["pinion"]
-    E = -(c.base_radius_m[0] / (0.5 * g[0].module_m * Z)) * cumulative_pitch_deviations_m(f) * _cos_beta_b(g[0])
+    E = (c.base_radius_m[0] / (0.5 * g[0].module_m * Z)) * cumulative_pitch_deviations_m(f) * _cos_beta_b(g[0])
     n = 512
     tau = np.arange(n) / n
     sh = load_shares(c.table, c.nominal_force_N, tau)

@@ -4,7 +4,7 @@ mesh frequency.  reducer_19_71_23_83 (stage 2 at 23/71 of stage 1's mesh frequen
 pinion2: the hunting period in reference cycles, the static TE (a shaft line of exactly the runout's line-of-action
 projection, at the phase the gear's static twist puts it), the mesh force under imposed kinematics (sidebands at
 h f_m2 +- f_shaft2 = the runout times the stage's mesh stiffness harmonics); zero errors leave the system as it
-was; nrel_5mw_gearbox: runout on its helical stage, errors on its planetary stages refused by name."""
+was; nrel_5mw_gearbox: runout on its helical stage, and on its planetary stages the profiles of the stage models."""
 from __future__ import annotations
 
 import math
@@ -131,10 +131,9 @@ def test_reducer_runout_force_sidebands_at_stage_2_mesh_frequency():
             assert a[b] == pytest.approx(K[h] * E_RUNOUT, rel=0.05), (h, b)
 
 
-def test_gearbox_helical_stage_runout_and_planetary_stages_refused():
+def test_gearbox_helical_stage_runout():
     """nrel_5mw_gearbox: a 10 um runout on pinion3 gives the helical stage 3 a profile along the flank normal (its
-    largest sample e cos(beta_b)) over pinion3's 24 cycles, the kernel's error loop; a runout on sun2 (planetary
-    stage 2) is refused, naming the gear and the stage."""
+    largest sample e cos(beta_b)) over pinion3's 24 cycles, the kernel's error loop."""
     model, tabs = _load("nrel_5mw_gearbox")
     sy = _with("nrel_5mw_gearbox", pinion3=GearErrors(runout_m=E_RUNOUT))
     g = next(g for g in model.gears if g.name == "pinion3")
@@ -142,8 +141,33 @@ def test_gearbox_helical_stage_runout_and_planetary_stages_refused():
     (c,) = [o for o in sy.meshes if o.error is not None]
     assert c.error[0].max() == pytest.approx(E_RUNOUT * cos_bb, rel=1e-5)
     assert "tooth errors" in sy.kernel_label
-    with pytest.raises(ModelError, match=r"\['sun2'\] on the planetary stages \['stage2'\]"):
-        _with("nrel_5mw_gearbox", sun2=GearErrors(runout_m=E_RUNOUT))
+
+
+@pytest.mark.parametrize("stage", [1, 2])
+def test_gearbox_planetary_stage_errors_are_the_stage_models(stage):
+    """nrel_5mw_gearbox with a 10 um runout on a planetary stage's sun (stage 2 runs at 6975/1064 of stage 1's mesh
+    frequency): each sun-planet mesh instance of that stage gets the error profile the stage's own model
+    (nrel_5mw_stage<n>, the same set) gives it, over its own mesh positions (samples equal within 1e-15 m), no
+    other mesh gets one; the gearbox's period is still the lcm of its rates (2128 reference cycles: the sun's
+    teeth divide it), and its static equilibrium solves."""
+    ge = GearErrors(runout_m=E_RUNOUT, runout_phase_rad=0.3)
+    sun = f"sun{stage}"
+    box = _with("nrel_5mw_gearbox", **{sun: ge})
+    own = _with(f"nrel_5mw_stage{stage}", sun=ge)
+    prefix = f"s{stage}_"
+    with_err = {c.name for c in box.meshes if c.error is not None}
+    assert with_err == {c.name for c in box.meshes if c.name.startswith(prefix + "sun")} and len(with_err) == 3
+    for c in own.meshes:
+        b = next(x for x in box.meshes if x.name == prefix + c.name)
+        if c.error is None:
+            assert b.error is None
+            continue
+        assert b.error[1:] == c.error[1:]
+        np.testing.assert_allclose(b.error[0], c.error[0], rtol=0, atol=1e-15)
+    assert box.period_cycles == 2128 and "tooth errors" in box.kernel_label
+    from hacgear_core.dynamics.equilibrium import static_equilibrium
+    q = static_equilibrium(box, 3.7)
+    assert q.success and np.all(np.isfinite(q.mesh_forces_N))
 
 
 def test_reducer_runout_steady_state_repeats_over_the_hunting_period():

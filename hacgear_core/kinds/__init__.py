@@ -97,9 +97,9 @@ def build_system(model: Any, tables: Any, **options) -> LumpedSystem:
 
 def _with_model_errors(model: Any, system: LumpedSystem) -> LumpedSystem:
     """``system`` with the error profiles of ``model``'s gears (:func:`~hacgear_core.dynamics.gear_errors.
-    with_gear_errors`; planetary sets: :func:`~hacgear_core.kinds.planetary.planetary_error_inputs`); kinds other
-    than fixed-axis trains (spur and helical pairs, idler chains, gear trains), planetary sets and gearboxes are
-    refused, and so are errors on a gearbox's planetary stages."""
+    with_gear_errors`; planetary sets and a gearbox's planetary stages: their gear and mesh instances in the carrier
+    frame, :func:`~hacgear_core.kinds.planetary.planetary_error_inputs`); kinds other than fixed-axis trains (spur
+    and helical pairs, idler chains, gear trains), planetary sets and gearboxes are refused."""
     from hacgear_core.dynamics.gear_errors import with_gear_errors
     from hacgear_core.geometry import mesh_geometry
 
@@ -109,16 +109,15 @@ def _with_model_errors(model: Any, system: LumpedSystem) -> LumpedSystem:
         return with_gear_errors(system, inp["gears"], inp["pressure_angles_rad"],
                                 internal_gears=inp["internal_gears"], runout_passage=inp["runout_passage"])
     bad = [g.name for g in model.gears if g.errors is not None and g.errors.any]
-    if model.kind == "gearbox":
-        _refuse_planetary_stage_errors(model, bad)
-    elif not error_gears(model):
+    fixed_axis = set(error_gears(model))
+    if not fixed_axis and model.kind != "gearbox":
         raise ModelError(f"{model.path or model.name}: [gears.errors] of {bad}: manufacturing errors are supported "
-                         f"on kinds spur_pair, helical_pair, idler_chain, planetary, gear_train and the fixed-axis "
-                         f"stages of gearbox, not yet on '{model.kind}'")
+                         f"on kinds spur_pair, helical_pair, idler_chain, planetary, gear_train and gearbox, not yet "
+                         f"on '{model.kind}'")
     gears = {g.name: (g.errors, 0.5 * g.module_m * g.teeth, g.module_m * math.cos(g.helix_angle_rad))
-             for g in model.gears}
-    # the meshes of the gears with errors (the others keep no profile)
-    erring = [m for m in model.meshes if {m.gear_a, m.gear_b} & set(bad)]
+             for g in model.gears if g.name in fixed_axis}
+    # the fixed-axis meshes of the gears with errors (the others keep no profile)
+    erring = [m for m in model.meshes if {m.gear_a, m.gear_b} & set(bad) and m.gear_a in fixed_axis]
     alpha = {m.name: mesh_geometry(model, m.name).operating_pressure_angle_rad for m in erring}
     # a helical mesh's deflection is along the flank normal: cos(beta_b) of a transverse displacement
     # (tan beta_b = tan beta cos alpha_t)
@@ -126,7 +125,15 @@ def _with_model_errors(model: Any, system: LumpedSystem) -> LumpedSystem:
     factor = {m.name: math.cos(math.atan(abs(math.tan(gd[m.gear_a].helix_angle_rad))
                                          * math.cos(gd[m.gear_a].flanks["drive"].pressure_angle_rad)))
               for m in erring}
-    return with_gear_errors(system, gears, alpha, normal_factor=factor)
+    internal, passage = (), None
+    if model.kind == "gearbox":
+        from hacgear_core.kinds.gearbox import planetary_stage_error_inputs
+        inp = planetary_stage_error_inputs(model)
+        gears.update(inp["gears"])
+        alpha.update(inp["pressure_angles_rad"])
+        internal, passage = inp["internal_gears"], inp["runout_passage"]
+    return with_gear_errors(system, gears, alpha, normal_factor=factor, internal_gears=internal,
+                            runout_passage=passage)
 
 
 def error_gears(model: Any) -> tuple[str, ...]:
@@ -142,19 +149,6 @@ def error_gears(model: Any) -> tuple[str, ...]:
     if model.kind in ("spur_pair", "idler_chain", "helical_pair", "gear_train"):
         return tuple(g.name for g in model.gears)
     return ()
-
-
-def _refuse_planetary_stage_errors(model: Any, bad: list[str]) -> None:
-    """Raise ModelError when a gear of a planetary stage of the gearbox ``model`` has errors (``bad``: the gears
-    with errors); those of its fixed-axis stages are taken."""
-    from hacgear_core.kinds.gearbox import gearbox_stages
-
-    stages = [s for s in gearbox_stages(model) if s.planetary is not None and set(bad) & set(s.gears)]
-    if stages:
-        gears = sorted({g for s in stages for g in s.gears} & set(bad))
-        raise ModelError(f"{model.path or model.name}: [gears.errors] of {gears} on the planetary stages "
-                         f"{[s.name for s in stages]}: manufacturing errors are supported on a gearbox's fixed-axis "
-                         "stages (spur and helical pairs, idler chains), not yet on its planetary stages")
 
 
 def structural_parameters(model: Any) -> tuple[StructuralParameter, ...]:

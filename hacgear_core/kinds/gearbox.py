@@ -77,12 +77,12 @@ from hacgear_core.kinds.base import ExtraOutput, Kind, Spring, Train, shaft_torq
 from hacgear_core.kinds.fixed_axis import train_from_model
 from hacgear_core.kinds.gear_train import _in_plane, _mesh_groups
 from hacgear_core.kinds.helical_pair import helical_from_model
-from hacgear_core.kinds.planetary import planetary_from_model
+from hacgear_core.kinds.planetary import planetary_error_inputs, planetary_from_model
 from hacgear_core.model.schema import Planetary, Support
 from hacgear_core.model.toml import read_planetary
 
 __all__ = ["GearboxKind", "GearboxSection", "PlanetaryStage", "GearboxShaft", "Stage", "gearbox_stages",
-           "mesh_rates"]
+           "mesh_rates", "planetary_stage_error_inputs"]
 
 _STAGE_KEYS = ("name", "sun", "carrier")
 _SHAFT_KEYS = ("name", "member_a", "member_b", "torsional_stiffness_Nm_per_rad", "bending_stiffness_N_per_m")
@@ -317,6 +317,24 @@ def _planetary_model(model: Any, st: PlanetaryStage, gears: tuple[str, ...], mes
         g if {mem.sun: "sun", mem.ring: "ring"}.get(g.name) in (None, fixed) else replace(
             g, support=replace(g.support, rotational_stiffness_Nm_per_rad=math.inf if g.name == held else 0.0))
         for g in sub.gears))
+
+
+def planetary_stage_error_inputs(model: Any) -> dict:
+    """What :func:`~hacgear_core.dynamics.gear_errors.with_gear_errors` needs for the manufacturing errors of the
+    gears of a gearbox's planetary stages: each stage's :func:`~hacgear_core.kinds.planetary.planetary_error_inputs`
+    on the stage model its train is built from (the same gear and mesh instances, tooth passages and carrier frame),
+    merged: ``{"gears", "pressure_angles_rad", "internal_gears", "runout_passage"}``."""
+    out: dict = {"gears": {}, "pressure_angles_rad": {}, "internal_gears": (), "runout_passage": {}}
+    for s in gearbox_stages(model):
+        if s.planetary is None:
+            continue
+        sub = _planetary_model(model, s.planetary, s.gears, s.meshes, s.input)
+        inp = planetary_error_inputs(sub, s.planetary.planetary.planet_count)
+        out["gears"].update(inp["gears"])
+        out["pressure_angles_rad"].update(inp["pressure_angles_rad"])
+        out["internal_gears"] += tuple(inp["internal_gears"])
+        out["runout_passage"].update(inp["runout_passage"])
+    return out
 
 
 def _fixed_axis_model(model: Any, stage: Stage, held: str | None = None) -> Any:

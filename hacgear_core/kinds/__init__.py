@@ -130,16 +130,21 @@ def _with_model_errors(model: Any, system: LumpedSystem) -> LumpedSystem:
 
 
 def error_gears(model: Any) -> tuple[str, ...]:
-    """The fixed-axis gears of ``model`` that may carry manufacturing errors (``[gears.errors]``,
-    :func:`build_system`) and whose runout an FMU takes as parameters: every gear of a spur or helical pair, idler
-    chain or gear train, the gears of a gearbox's fixed-axis stages.  A planetary set's gears take errors from the
-    model file through :func:`~hacgear_core.kinds.planetary.planetary_error_inputs` and are not listed (its FMU
-    declares no runout parameters)."""
+    """The gears of ``model`` (names of its ``[[gears]]``) that may carry manufacturing errors (``[gears.errors]``,
+    :func:`build_system`); an FMU takes the runout of each as parameters (``<gear>.runout``, ``.runout_phase``).
+
+    Every gear of a spur or helical pair, idler chain or gear train; the sun, planet and ring of a planetary set
+    (the planet's errors apply to every planet alike, :func:`~hacgear_core.kinds.planetary.planetary_error_inputs`);
+    the gears of a gearbox's fixed-axis stages (not those of its planetary stages).  Empty for the other kinds and
+    for lumped models (no tooth geometry).
+    """
+    if getattr(model, "lumped", False):
+        return ()
     if model.kind == "gearbox":
         from hacgear_core.kinds.gearbox import gearbox_stages
 
         return tuple(g for s in gearbox_stages(model) if s.planetary is None for g in s.gears)
-    if model.kind in ("spur_pair", "idler_chain", "helical_pair", "gear_train"):
+    if model.kind in ("spur_pair", "idler_chain", "helical_pair", "gear_train", "planetary"):
         return tuple(g.name for g in model.gears)
     return ()
 

@@ -37,7 +37,10 @@ ROOT = Path(__file__).resolve().parent.parent
 #: <port>.train_inertia of the held ports of nrel_5mw_stage1, nrel_5mw_stage2 and the two planetary_65_55_175
 #: systems changed; and when the runout parameters <gear>.runout and <gear>.runout_phase were added for every gear
 #: that may carry manufacturing errors (every gear of the spur, helical, idler and gear-train systems, wheel3 and
-#: pinion3 of nrel_5mw_gearbox; none of the planetary sets and stages): by name, nothing else changed
+#: pinion3 of nrel_5mw_gearbox; none of the planetary sets and stages): by name, nothing else changed; and when
+#: the planetary sets got them for their sun, planet and ring (sun.runout, planet.runout, ring.runout and their
+#: _phase of planetary_65_55_175, planetary_65_55_175_unmodified, nrel_5mw_stage1 and nrel_5mw_stage2; the
+#: gearbox's planetary stages still none): by name, nothing else changed (value references of later variables moved)
 REFERENCE = Path(__file__).resolve().parent / "data" / "model_descriptions.json.gz"
 
 

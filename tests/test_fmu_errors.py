@@ -1,11 +1,11 @@
 """Runout as FMU parameters: ``<gear>.runout`` [m] and ``<gear>.runout_phase`` [rad] of every gear that may carry
-manufacturing errors (:func:`hacgear_core.kinds.error_gears`), their start values the model file's; the FMU's
-simulator (its adapter, in process) set to a runout runs the library's system with that runout, and a zero runout
-the FMU's own system."""
+manufacturing errors (:func:`hacgear_core.kinds.error_gears`: fixed-axis gears, a planetary set's sun, planet and
+ring), their start values the model file's; the FMU's simulator (its adapter, in process) set to a runout runs the
+library's system with that runout, and a zero runout the FMU's own system."""
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from dataclasses import fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -56,10 +56,61 @@ def test_runout_parameters_drive_the_simulator():
     assert ad.sim.system is ad.base_system and not ad.sim.system.has_errors
 
 
-@pytest.mark.parametrize("system, gears", [("planetary_65_55_175", ()),
+@pytest.mark.parametrize("system, gears", [("planetary_65_55_175", ("sun", "planet", "ring")),
                                            ("reducer_19_71_23_83", ("pinion1", "wheel1", "pinion2", "wheel2"))])
 def test_runout_parameters_only_where_errors_are_taken(system, gears):
-    """A planetary set declares none (its errors are refused); the reducer one pair per gear."""
+    """One pair per gear that takes errors: the planetary set's sun, planet (every planet's) and ring, the
+    reducer's four gears."""
     ad = hf.make_adapter(ROOT / "models" / system)
     assert error_gears(ad.model) == gears
     assert [v.name for v in ad.variables if v.name.endswith(".runout")] == [f"{g}.runout" for g in gears]
+    assert [v.name for v in ad.variables if v.name.endswith(".runout_phase")] == [f"{g}.runout_phase" for g in gears]
+
+
+def _with_errors(model, errors: dict):
+    """``model`` with the errors ``errors`` {gear: GearErrors} (the other gears as the model file gives them)."""
+    return replace(model, gears=tuple(replace(g, errors=errors[g.name]) if g.name in errors else g
+                                      for g in model.gears))
+
+
+def test_planetary_sun_runout_parameter_runs_the_library_system():
+    """planetary_65_55_175: sun.runout = 10 um at 0.4 rad gives the library's system with that sun runout (the same
+    fingerprint, error profiles on the three sun-planet meshes equal to the library's and none on the ring meshes,
+    the same kernel arrays) and its mesh forces over a short run (within 1e-12 of their range); with planet_count
+    = 4 the library's 4-planet system; back to 0 the FMU's own system.  The parameters' bounds are the fixed-axis
+    ones."""
+    ad = hf.make_adapter(ROOT / "models" / "planetary_65_55_175")
+    r, ph = ad.by_name["sun.runout"], ad.by_name["sun.runout_phase"]
+    assert (r.unit, r.display_unit, r.min, r.max, r.start) == ("m", "um", 0.0, 1e-3, 0.0)
+    assert (ph.unit, ph.display_unit, ph.min, ph.max) == ("rad", "deg", -2 * math.pi, 2 * math.pi)
+    ad.configure(_start(ad, **{"sun.runout": 10e-6, "sun.runout_phase": 0.4}))
+    ref = build_system(_with_errors(ad.model, {"sun": GearErrors(runout_m=10e-6, runout_phase_rad=0.4)}), ad.tables)
+    sy = ad.sim.system
+    assert sy.has_errors and sy.fingerprint() == ref.fingerprint()
+    assert sy.mesh_names == ref.mesh_names
+    for c, cr in zip(sy.meshes, ref.meshes):
+        assert (c.error is None) == (cr.error is None) == c.name.startswith("ring_"), c.name
+        if c.error is not None:
+            assert np.array_equal(c.error[0], cr.error[0]) and tuple(c.error[1:]) == tuple(cr.error[1:])
+            assert np.ptp(c.error[0]) > 0.0
+    a, b = sy.arrays, ref.arrays
+    for f in fields(a):
+        assert np.array_equal(np.asarray(getattr(a, f.name)), np.asarray(getattr(b, f.name))), f.name
+    sim = Simulator(ref)
+    w = float(ad.by_name[f"{ad.ref_ident}.speed_in"].start)
+    sim.reset(speed_rad_s=w)
+    sim.set_speed_input(speed_rad_s=w)
+    ours, lib = [], []
+    for _ in range(40):
+        assert ad.advance(2e-5) == ""
+        assert sim.advance(2e-5).success
+        ours.append(np.array(ad.sim.mesh_force_N, float))
+        lib.append(np.array(sim.mesh_force_N, float))
+    ours, lib = np.array(ours), np.array(lib)
+    assert np.ptp(lib) > 0.0 and np.max(np.abs(ours - lib)) <= 1e-12 * np.ptp(lib)
+    ad.configure(_start(ad, planet_count=4, **{"sun.runout": 10e-6, "sun.runout_phase": 0.4}))
+    ref4 = build_system(_with_errors(ad.model, {"sun": GearErrors(runout_m=10e-6, runout_phase_rad=0.4)}),
+                        ad.tables, planet_count=4)
+    assert ad.sim.system.fingerprint() == ref4.fingerprint() and len(ref4.meshes) == 8
+    ad.configure(_start(ad))
+    assert ad.sim.system is ad.base_system and not ad.sim.system.has_errors

@@ -287,15 +287,18 @@ class Adapter:
                           f"translational bearing stiffness of {what}; inf = rigid (no translation DOF), as in model "
                           "files and on the command line; 0 = no bearing (a floating member)",
                           k, display_unit="N/um", **ranged("translational_stiffness_N_per_m")))
+        # a planetary set's runout turns with its gear relative to the carrier; its planet's is every planet's
+        sense = " relative to the carrier" if self.kind == "planetary" else ""
         for g, (e, phase) in zip(self.runout_gears, self._model_runouts(self.model)):
+            what = f"every planet (gear {g})" if g in planets else f"gear {g}"
             spec += [
                 V(f"{ident(g)}.runout", "Real", "parameter", "fixed", "m",
-                  f"runout of gear {g}: eccentricity of its teeth about its axis (the model file's "
+                  f"runout of {what}: eccentricity of its teeth about its axis (the model file's "
                   "[gears.errors] runout_um; its other errors stay as the model file gives them)", e, 0.0, 1e-3,
                   display_unit="um"),
                 V(f"{ident(g)}.runout_phase", "Real", "parameter", "fixed", "rad",
-                  f"direction of the runout of gear {g} from its tooth 0's centre line, in its sense of rotation "
-                  "(runout_phase_deg)", phase, -2 * math.pi, 2 * math.pi, display_unit="deg"),
+                  f"direction of the runout of {what} from its tooth 0's centre line, in its sense of rotation"
+                  f"{sense} (runout_phase_deg)", phase, -2 * math.pi, 2 * math.pi, display_unit="deg"),
             ]
         spec += [
             V("internal_step", "Real", "parameter", "fixed", "s",

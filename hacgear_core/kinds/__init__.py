@@ -109,7 +109,7 @@ def _with_model_errors(model: Any, system: LumpedSystem) -> LumpedSystem:
         return with_gear_errors(system, inp["gears"], inp["pressure_angles_rad"],
                                 internal_gears=inp["internal_gears"], runout_passage=inp["runout_passage"])
     bad = [g.name for g in model.gears if g.errors is not None and g.errors.any]
-    fixed_axis = set(error_gears(model))
+    fixed_axis = set(error_gears(model))      # here: the gears of the fixed-axis trains and stages
     if not fixed_axis and model.kind != "gearbox":
         raise ModelError(f"{model.path or model.name}: [gears.errors] of {bad}: manufacturing errors are supported "
                          f"on kinds spur_pair, helical_pair, idler_chain, planetary, gear_train and gearbox, not yet "
@@ -137,16 +137,22 @@ def _with_model_errors(model: Any, system: LumpedSystem) -> LumpedSystem:
 
 
 def error_gears(model: Any) -> tuple[str, ...]:
-    """The fixed-axis gears of ``model`` that may carry manufacturing errors (``[gears.errors]``,
-    :func:`build_system`) and whose runout an FMU takes as parameters: every gear of a spur or helical pair, idler
-    chain or gear train, the gears of a gearbox's fixed-axis stages.  A planetary set's gears take errors from the
-    model file through :func:`~hacgear_core.kinds.planetary.planetary_error_inputs` and are not listed (its FMU
-    declares no runout parameters)."""
+    """The gears of ``model`` (names of its ``[[gears]]``) that may carry manufacturing errors (``[gears.errors]``,
+    :func:`build_system`); an FMU takes the runout of each as parameters (``<gear>.runout``, ``.runout_phase``).
+
+    Every gear of a spur or helical pair, idler chain or gear train; the sun, planet and ring of a planetary set
+    (the planet's errors apply to every planet alike, :func:`~hacgear_core.kinds.planetary.planetary_error_inputs`);
+    the gears of a gearbox's fixed-axis stages (its planetary stages take errors from the model file,
+    :func:`~hacgear_core.kinds.gearbox.planetary_stage_error_inputs`, without runout parameters).  Empty for the
+    other kinds and for lumped models (no tooth geometry).
+    """
+    if getattr(model, "lumped", False):
+        return ()
     if model.kind == "gearbox":
         from hacgear_core.kinds.gearbox import gearbox_stages
 
         return tuple(g for s in gearbox_stages(model) if s.planetary is None for g in s.gears)
-    if model.kind in ("spur_pair", "idler_chain", "helical_pair", "gear_train"):
+    if model.kind in ("spur_pair", "idler_chain", "helical_pair", "gear_train", "planetary"):
         return tuple(g.name for g in model.gears)
     return ()
 

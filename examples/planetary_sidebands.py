@@ -93,5 +93,5 @@ def main(figure: str | None) -> None:
 
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--figure", default=None, help="write the figure to this path (PNG)")
+    ap.add_argument("--figure", default=None, help="write the figure to this path (PNG) (default: none, the table only)")
     main(ap.parse_args().figure)

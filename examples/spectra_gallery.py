@@ -4,17 +4,17 @@ Each system is taken at its model file's torque and at one operating mesh freque
 
 * the NREL 5 MW models at rated speed, 12.1 rpm on the stage-1 carrier (each stage at the speed the gearbox gives
   it);
-* every other system below its mesh mode: the mode with the largest share of its strain energy in the meshes,
-  ``f_op = 0.8 f_mode / r_max`` (``r_max`` the fastest mesh's rate over the reference mesh's), so its fastest
-  mesh's first harmonic lies at 80 % of that mode.
+* every other system below its mesh mode, the mode with the largest share of its strain energy in the meshes:
+  f_op = 0.8 f_mode / r_max (r_max the fastest mesh's rate over the reference mesh's), so its fastest mesh's first
+  harmonic lies at 80 % of that mode.
 
-Per system: the steady-state order spectrum (each mesh's harmonics marked at its own rate) of the dynamic transmission error (DTE) at ``f_op``
-(:func:`~hacgear_core.spectra.records.system_spectra`; one common period of the shafts where it is at most
-``--max-record-cycles`` and a million samples, else that many cycles with the flat-top window), a run-up from 0.5 to 1.5 ``f_op``
-(:func:`~hacgear_core.spectra.waterfall.system_waterfalls`, through the mesh mode), and the Campbell diagram from
-rest to 1.5 ``f_op`` (:func:`~hacgear_core.spectra.campbell.campbell`).  Figures go to ``--out`` (default
-docs/figures/gallery), the measured numbers to ``<out>/gallery.json``.  A planetary set or gearbox shows the first
-mesh of each stage and kind of contact (sun and ring meshes of planet 1).
+Per system: the steady-state order spectrum of the dynamic transmission error (DTE) at f_op, each mesh's harmonics
+marked at its own rate (hacgear_core.spectra.records.system_spectra; one common period of the shafts where it is at
+most --max-record-cycles and a million samples, else that many cycles with the flat-top window), a run-up from 0.5
+to 1.5 f_op (hacgear_core.spectra.waterfall.system_waterfalls, through the mesh mode), and the Campbell diagram from
+rest to 1.5 f_op (hacgear_core.spectra.campbell.campbell).  Figures go to --out (default docs/figures/gallery), the
+measured numbers to <out>/gallery.json, written after each system.  A planetary set or gearbox shows the first mesh
+of each stage and kind of contact (sun and ring meshes of planet 1).
 
     python examples/spectra_gallery.py [--systems spur_28t_asym,helical_28_33] [--out DIR]
 """

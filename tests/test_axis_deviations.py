@@ -119,8 +119,8 @@ def test_out_of_plane_part_is_second_order(helical, table):
 
 
 def test_combination_without_out_of_plane_part_is_the_direct_misalignment(helical, table):
-    """omega along e1 (built with a power-of-two factor so that omega . e2 is exactly 0 in floating point): the system equals the one
-    with psi = -omega . e1 given directly, bit for bit (twist offsets, kernel arrays)."""
+    """omega along e1 (built with a power-of-two factor so that omega . e2 is exactly 0 in floating point): the
+    system equals the one with psi = -omega . e1 given directly, bit for bit (twist offsets, kernel arrays)."""
     e1 = table.twist.r_twist[3:6]
     e2 = np.array([-e1[1], e1[0], 0.0])
     k = 2.0 ** -12                                      # 244 urad

@@ -701,7 +701,7 @@ def parse_model(text: str, *, file: str = "<model>", path: Path | None = None, s
     # gears that give no [gears.support]: the fixed member of a planetary set is then held (ring fixed)
     glist = raw.get("gears", [])
     no_support = {g.get("name") for g in (glist if isinstance(glist, list) else [])
-                  if isinstance(g, dict) and "support" not in g}
+                  if isinstance(g, dict) and "support" not in g and isinstance(g.get("name"), str)}
     if lumped:
         return _parse_lumped(top, name=name, kind=kind, title=title, source=source, file=file, path=path,
                              sha256=sha256, no_support=no_support)

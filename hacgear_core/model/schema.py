@@ -653,7 +653,13 @@ class Mesh:
     ``misalignment_in_plane_rad``: the installed relative tilt of the two gears' axes in the plane of action, as a
     rotation ``(theta_a - theta_b) . e1`` about the normal to the plane of action (the sign of the mesh twist,
     docs/helical.md: positive closes the flanks at the -z end of the face), in [-0.01, 0.01] rad; helical meshes
-    only (:mod:`hacgear_core.dynamics.lead`)."""
+    only (:mod:`hacgear_core.dynamics.lead`).  ``axis_deviation_in_axes_plane_rad`` (``f_Sigma_delta``) and
+    ``axis_deviation_normal_to_axes_plane_rad`` (``f_Sigma_beta``): the ISO 10064-4 axis parallelism deviations as
+    angles (the deviation over the bearing span divided by the span), the rotation of gear_b's axis relative to
+    gear_a's about the normal to the plane of the axes (positive: the +z end of gear_b's axis away from gear_a)
+    and about the line of centres (positive: right-handed about the direction from gear_a to gear_b), each in
+    [-0.01, 0.01] rad; their share about the normal to the plane of action adds to the misalignment (helical
+    meshes only, :func:`hacgear_core.dynamics.lead.axis_deviation_rotation`)."""
 
     name: str
     gear_a: str
@@ -665,9 +671,13 @@ class Mesh:
     mesh_stiffness_N_per_m: float | None = None
     pressure_angle_rad: float | None = None
     misalignment_in_plane_rad: float = 0.0
+    axis_deviation_in_axes_plane_rad: float = 0.0
+    axis_deviation_normal_to_axes_plane_rad: float = 0.0
 
     def __post_init__(self) -> None:
-        _check_range("misalignment_in_plane_rad", self.misalignment_in_plane_rad, "rad", -0.01, 0.01)
+        for attr in ("misalignment_in_plane_rad", "axis_deviation_in_axes_plane_rad",
+                     "axis_deviation_normal_to_axes_plane_rad"):
+            _check_range(attr, getattr(self, attr), "rad", -0.01, 0.01)
         for attr in ("flank_a", "flank_b"):
             if getattr(self, attr) not in FLANKS:
                 raise _fail(attr, "", " | ".join(FLANKS), getattr(self, attr), f"mesh '{self.name}'")

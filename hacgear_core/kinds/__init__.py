@@ -89,10 +89,20 @@ def build_system(model: Any, tables: Any, **options) -> LumpedSystem:
     helical pairs, idler chains, planetary sets, gear trains and the fixed-axis stages of gearboxes)."""
     system = assemble(kind_of(model).train(model, tables, **options))
     check_lead_inputs(model, system)
-    gears = getattr(model, "gears", ())
-    if any(getattr(g, "errors", None) is not None and g.errors.any for g in gears):
+    if _has_errors(model):
         system = _with_model_errors(model, system)
     return system
+
+
+def _has_errors(model: Any) -> bool:
+    """Whether a gear of ``model`` (``[gears.errors]``) or a single planet of one of its planetary sets
+    (``[[planetary.planet_errors]]``, a gearbox's stages included) has a pitch or runout error."""
+    if any(getattr(g, "errors", None) is not None and g.errors.any for g in getattr(model, "gears", ())):
+        return True
+    sets = [getattr(model, "planetary", None)]
+    sets += [st.planetary for st in getattr(getattr(model, "section", None), "planetary", ()) or ()
+             if hasattr(st, "planetary")]
+    return any(pe.errors.any for p in sets if p is not None for pe in getattr(p, "planet_errors", ()))
 
 
 def _with_model_errors(model: Any, system: LumpedSystem) -> LumpedSystem:

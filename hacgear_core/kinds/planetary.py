@@ -346,7 +346,8 @@ def planetary_error_inputs(model: Any, planet_count: int) -> dict:
     instances' tooth passages (:func:`~hacgear_core.geometry.planetary.planetary_geometry`): the sun's tooth at
     planet ``i``'s mesh is ``z_s psi_i / 2 pi`` teeth on from planet 1's, the ring's likewise in its sense, and a
     planet's teeth at its sun and ring meshes are half a revolution apart.  The planet gear's errors apply to every
-    planet alike, each counted from its own tooth 0 (identical planets, mounted alike).  Runout direction
+    planet alike, each counted from its own tooth 0 (identical planets, mounted alike), but for the planets
+    ``[[planetary.planet_errors]]`` gives errors of their own.  Runout direction
     (``runout_phase_rad`` from tooth 0's centre line in the gear's sense of rotation *relative to the carrier*): the
     sun's offset turns with the sun relative to the carrier, a planet's with the planet, the ring's with the ring
     (a fixed ring's at minus the carrier speed); at each mesh instance its line-of-action component is that of
@@ -379,6 +380,16 @@ def planetary_error_inputs(model: Any, planet_count: int) -> dict:
         return g.errors, 0.5 * g.module_m * g.teeth, g.module_m * math.cos(g.helix_angle_rad)
 
     gears = {mem.sun: data(mem.sun), mem.ring: data(mem.ring), **{p: data(mem.planet) for p in geo.planets}}
+    zp = gd[mem.planet].teeth
+    for pe in model.planetary.planet_errors:    # a single planet's own errors in place of the planet gear's
+        if pe.planet > len(geo.planets):
+            raise ModelError(f"planetary.planet_errors: planet {pe.planet} [-] is not one of the {len(geo.planets)} "
+                             f"planets; allowed: 1 .. {len(geo.planets)}")
+        if pe.errors.single_pitch_deviations_m and len(pe.errors.single_pitch_deviations_m) != zp:
+            raise ModelError(f"planetary.planet_errors (planet {pe.planet}): single_pitch_deviations_um [um] needs one "
+                             f"value per tooth of '{mem.planet}' ({zp}), got "
+                             f"{len(pe.errors.single_pitch_deviations_m)}")
+        gears[geo.planets[pe.planet - 1]] = (pe.errors,) + gears[geo.planets[pe.planet - 1]][1:]
     alpha = {kind: mesh_geometry(model, kind).operating_pressure_angle_rad for kind in (mem.sun_mesh, mem.ring_mesh)}
     centre = {mem.sun: np.zeros(2), mem.ring: np.zeros(2)}
     for i, p in enumerate(geo.planets):

@@ -48,7 +48,7 @@ EXCLUDED: dict[type, frozenset[str]] = {
     Material: frozenset({"name", "density_kg_per_m3"}),
     # the power flow's output member names the driver of each mesh, which the meshes' own gear order already holds
     Planetary: frozenset({"planet_count", "carrier_mass_kg", "carrier_inertia_kgm2", "carrier_support",
-                          "output_member"}),
+                          "output_member", "planet_errors"}),
 }
 
 

@@ -33,6 +33,7 @@ __all__ = [
     "Operating",
     "StaticsGrid",
     "PinError",
+    "PlanetErrors",
     "Planetary",
     "LumpedGear",
     "PLANETARY_MEMBERS",
@@ -763,6 +764,21 @@ class PinError:
             _check_range(f"pin_errors.{name}", getattr(self, name), "m", -1e-3, 1e-3)
 
 
+@dataclass(frozen=True)
+class PlanetErrors:
+    """Manufacturing errors of one planet (SI): ``planet`` (1-based, in the order of the planet positions) and its
+    :class:`GearErrors`, which that planet carries in place of the planet gear's ``[gears.errors]`` (the other
+    planets keep those)."""
+
+    planet: int
+    errors: GearErrors
+
+    def __post_init__(self) -> None:
+        RANGES["planet_count"].check("planet_errors.planet", self.planet)
+        if not isinstance(self.errors, GearErrors):
+            raise ModelError(f"planet_errors.errors must be GearErrors, got {type(self.errors).__name__}")
+
+
 def _prescribed_carrier() -> Support:
     return Support(_INF, _INF)
 
@@ -780,7 +796,7 @@ class Planetary:
     mount, ``0`` a free reaction port).  ``output_member``: the member the power leaves by (None: the one that is
     neither the input, ``[operating] torque_gear``, nor fixed); with the input and the fixed member it sets the
     power flow (:func:`hacgear_core.geometry.planetary.planetary_power_flow`).  ``pin_errors``: planet pin
-    position errors.
+    position errors; ``planet_errors``: manufacturing errors of single planets (:class:`PlanetErrors`).
     """
 
     planet_count: int
@@ -792,6 +808,7 @@ class Planetary:
     fixed_member: str = "ring"
     pin_errors: tuple[PinError, ...] = ()
     output_member: str | None = None
+    planet_errors: tuple[PlanetErrors, ...] = ()
 
     def __post_init__(self) -> None:
         RANGES["planet_count"].check("planet_count", self.planet_count)
@@ -826,6 +843,14 @@ class Planetary:
                             e.planet)
             if e.planet in seen:
                 raise ModelError(f"pin_errors: planet {e.planet} is given twice")
+            seen.add(e.planet)
+        seen = set()
+        for e in self.planet_errors:
+            if e.planet > self.planet_count:
+                raise _fail("planet_errors.planet", "-", f"integer in [1, planet_count = {self.planet_count}]",
+                            e.planet)
+            if e.planet in seen:
+                raise ModelError(f"planet_errors: planet {e.planet} is given twice")
             seen.add(e.planet)
 
     @property

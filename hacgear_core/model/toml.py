@@ -84,6 +84,8 @@ that drives it relative to the carrier)::
     translational_stiffness_N_per_m = 1e8; rotational_stiffness_Nm_per_rad = inf   # inf prescribed, 0 free
     [[planetary.pin_errors]]                     # optional: planet pin position errors
     planet = 2; radial_um = 0.0; tangential_um = 20.0
+    [[planetary.planet_errors]]                  # optional: one planet's manufacturing errors, in place of the
+    planet = 2; runout_um = 10.0                 # planet gear's [gears.errors] (the keys of [gears.errors])
 
 The planet's ``[gears.support]`` is its bearing on the pin (translational stiffness; rotational stiffness 0).
 A fully lumped planetary model (``[system] lumped = true``) has no materials, tooth geometry or statics: its gears
@@ -107,7 +109,7 @@ from hacgear_core.errors import ModelError
 from hacgear_core.model import iso21771 as _iso
 from hacgear_core.model.schema import (
     FE_LENGTH_CHOICES, FLANKS, HANDS, PLANETARY_MEMBERS, RELIEF_SHAPES, WEB_MIN_RIM_M, Damping, Flank, Gauge, Gear, GearErrors,
-    IsoGear, LumpedGear, RANGES, Material, Mesh, Model, Operating, PinError, Planetary, StaticsGrid, Support, Web,
+    IsoGear, LumpedGear, RANGES, Material, Mesh, Model, Operating, PinError, PlanetErrors, Planetary, StaticsGrid, Support, Web,
 )
 
 __all__ = ["read_model", "parse_model", "SectionReader", "TOP_LEVEL_KEYS", "model_sha256", "resolve_model_path", "shipped_systems", "shipped_systems_dir",
@@ -278,7 +280,8 @@ _MESH_KEYS = ("name", "gear_a", "gear_b", "flank_a", "flank_b", "center_distance
 _LUMPED_GEAR_KEYS = ("name", "teeth", "internal", "mass_kg", "inertia_kgm2", "base_radius_mm", "support")
 _LUMPED_MESH_KEYS = ("name", "gear_a", "gear_b", "mesh_stiffness_N_per_m", "pressure_angle_deg")
 _PLANETARY_KEYS = ("planet_count", "planet_positions_deg", "carrier_radius_mm", "carrier_mass_kg",
-                   "carrier_inertia_kgm2", "carrier_support", "fixed_member", "output_member", "pin_errors")
+                   "carrier_inertia_kgm2", "carrier_support", "fixed_member", "output_member", "pin_errors",
+                   "planet_errors")
 _PIN_ERROR_KEYS = ("planet", "radial_um", "tangential_um")
 _TOP_KEYS = ("system", "materials", "gears", "meshes", "damping", "operating", "statics", "planetary")
 _STATICS_KEYS = ("positions", "loads", "deflections", "max_torque_factor", "face_slices", "twist_points",
@@ -345,8 +348,9 @@ def _read_gauges(sec: _Section) -> list:
     return gauges
 
 
-def _read_errors(esec: "_Section | None") -> GearErrors | None:
-    """``[gears.errors]`` → :class:`GearErrors` (None when absent)."""
+def _read_errors(esec: "_Section | None", keys: tuple[str, ...] = ()) -> GearErrors | None:
+    """``[gears.errors]`` (or a table with its keys and the caller's ``keys``, read before) → :class:`GearErrors`
+    (None when absent)."""
     if esec is None:
         return None
     pitch = esec._get("single_pitch_deviations_um", False, (), "um", "an array of numbers, one per tooth")
@@ -363,7 +367,7 @@ def _read_errors(esec: "_Section | None") -> GearErrors | None:
     runout = esec.number("runout_um", "um", 0.0, 1000.0, required=False, default=0.0)
     phase = esec.number("runout_phase_deg", "deg", -360.0, 360.0, required=False, default=0.0)
     lead = esec.number("lead_slope_um", "um", -1000.0, 1000.0, required=False, default=0.0)
-    esec.done(_ERROR_KEYS)
+    esec.done(_ERROR_KEYS + tuple(keys))
     return _wrap(esec, esec.path, lambda: GearErrors(tuple(float(v) * 1e-6 for v in pitch), grade, seed,
                                                      runout * 1e-6, math.radians(phase), lead * 1e-6))
 
@@ -608,10 +612,15 @@ def read_planetary(psec: _Section, keys: tuple[str, ...] = ()) -> Planetary:
         tan = esec.number("tangential_um", "um", -1000.0, 1000.0, required=False, default=0.0)
         esec.done(_PIN_ERROR_KEYS)
         errors.append(PinError(planet, rad * 1e-6, tan * 1e-6))
+    planet_errors = []
+    for esec in psec.array_of_tables("planet_errors", required=False):
+        planet = esec.ranged("planet", "planet_count")
+        ge = _read_errors(esec, ("planet",))
+        planet_errors.append(_wrap(esec, esec.path, lambda: PlanetErrors(planet, ge)))
     psec.done(_PLANETARY_KEYS + tuple(keys))
     return _wrap(psec, psec.path, lambda: Planetary(
         pc, None if cr is None else cr * 1e-3, cm, ci, cs, planet_positions_rad=positions, fixed_member=fixed,
-        pin_errors=tuple(errors), output_member=output))
+        pin_errors=tuple(errors), output_member=output, planet_errors=tuple(planet_errors)))
 
 
 #: what a default means, by key name (the last part of the TOML key)
@@ -645,7 +654,7 @@ DEFAULT_MEANINGS = {
     "carrier_inertia_kgm2": "carrier without inertia", "carrier_support": "rigid carrier bearings, carrier rotation prescribed by the kinematics",
     "lumped": "gears with tooth geometry (not a lumped model)", "fixed_member": "the ring is held",
     "output_member": "the member neither the input (torque_gear) nor fixed",
-    "pin_errors": "no planet pin position errors", "planet_positions_deg": "equally spaced planets",
+    "pin_errors": "no planet pin position errors", "planet_errors": "every planet with the planet gear's errors", "planet_positions_deg": "equally spaced planets",
     "face_fraction": "gauge at mid face", "max_twist_mrad": "statics grid (mesh twist range, helical pairs)",
     "fe_lengths": "FE and contact lengths scale with the module for ISO-form gears, absolute for the transverse form",
     "hand": "spur gear (no hand)", "profile_shift": "no profile shift (x = 0)",

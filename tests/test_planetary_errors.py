@@ -142,6 +142,24 @@ def test_floating_ring_absorbs_a_ring_runout_as_an_internal_gear():
         assert du == pytest.approx([-math.cos(phi), -math.sin(phi)], abs=2e-3)
 
 
+def _branch_load_changes(s0, s1, tau, both_meshes=False):
+    """(got, want, branch openings) at reference position ``tau``: planet i's sun-mesh load change from ``s0`` to
+    ``s1`` (rigid sun and carrier) and the closed form dF_i = -k_i (R_i - R_bar), k_i the branch stiffness (sun and
+    ring mesh tangent stiffnesses in series, at s0's static state), R_i the branch's opening in ``s1`` at its sun
+    mesh (``both_meshes``: sun plus ring mesh), R_bar = sum k_i R_i / sum k_i."""
+    h = 0.5e-6
+    q0, q1 = static_equilibrium(s0, tau), static_equilibrium(s1, tau)
+    pos = s0.unwrapped_positions(tau) + s0.phase + s0.W @ q0.q
+    x = q0.mesh_deflections_m
+    k = np.array([(s0.mesh_force(j, [pos[j] % 1], [x[j] + h]) - s0.mesh_force(j, [pos[j] % 1], [x[j] - h]))[0]
+                  / (2 * h) for j in range(2 * N)])
+    kb = 1.0 / (1.0 / k[0::2] + 1.0 / k[1::2])
+    r = s1.mesh_errors_m(pos[None, :])[0]
+    branch = r[0::2] + (r[1::2] if both_meshes else 0.0)
+    want = -kb * (branch - np.sum(kb * branch) / np.sum(kb))
+    return (q1.mesh_forces_N - q0.mesh_forces_N)[0::2], want, branch, q1
+
+
 def test_rigid_sun_runout_loads_the_planets_unequally_as_the_closed_form():
     """A rigidly supported sun (and carrier; planet bearings 1e12 N/m) with a 1 um runout: planet i's load changes
     by dF_i = -k_i (R_i - R_bar), R_i the runout's line-of-action component at its sun mesh, k_i its branch
@@ -153,17 +171,8 @@ def test_rigid_sun_runout_loads_the_planets_unequally_as_the_closed_form():
     kt = {"sun": math.inf, "planet": 1e12}
     s0 = _system(kt=kt, carrier_kt=math.inf)
     s1 = _system({"sun": GearErrors(runout_m=1e-6, runout_phase_rad=0.5)}, kt=kt, carrier_kt=math.inf)
-    h = 0.5e-6
     for tau in (0.3, 7.6, 30.2, 52.2):
-        q0, q1 = static_equilibrium(s0, tau), static_equilibrium(s1, tau)
-        pos = s0.unwrapped_positions(tau) + s0.phase + s0.W @ q0.q
-        x = q0.mesh_deflections_m
-        k = np.array([(s0.mesh_force(j, [pos[j] % 1], [x[j] + h]) - s0.mesh_force(j, [pos[j] % 1], [x[j] - h]))[0]
-                      / (2 * h) for j in range(2 * N)])
-        kb = 1.0 / (1.0 / k[0::2] + 1.0 / k[1::2])
-        r = s1.mesh_errors_m(pos[None, :])[0][0::2]
-        want = -kb * (r - np.sum(kb * r) / np.sum(kb))
-        got = (q1.mesh_forces_N - q0.mesh_forces_N)[0::2]
+        got, want, _, q1 = _branch_load_changes(s0, s1, tau)
         assert np.max(np.abs(want)) > 20.0                      # N: a load change well above the solver's
         assert got == pytest.approx(want, rel=0.01, abs=0.01 * np.max(np.abs(want)))
         assert np.allclose(q1.mesh_forces_N[0::2], q1.mesh_forces_N[1::2], rtol=1e-9)   # each planet's two meshes
@@ -301,19 +310,9 @@ def test_one_planet_with_its_own_runout_loads_the_planets_as_the_closed_form():
         if c.error is not None:
             ref = next(x for x in every.meshes if x.name == c.name)
             assert c.error[1:] == ref.error[1:] and np.array_equal(c.error[0], ref.error[0])
-    h = 0.5e-6
     for tau in (0.3, 7.6, 30.2, 52.2):
-        q0, q1 = static_equilibrium(s0, tau), static_equilibrium(s1, tau)
-        pos = s0.unwrapped_positions(tau) + s0.phase + s0.W @ q0.q
-        x = q0.mesh_deflections_m
-        k = np.array([(s0.mesh_force(j, [pos[j] % 1], [x[j] + h]) - s0.mesh_force(j, [pos[j] % 1], [x[j] - h]))[0]
-                      / (2 * h) for j in range(2 * N)])
-        kb = 1.0 / (1.0 / k[0::2] + 1.0 / k[1::2])
-        r = s1.mesh_errors_m(pos[None, :])[0]
-        branch = r[0::2] + r[1::2]
+        got, want, branch, _ = _branch_load_changes(s0, s1, tau, both_meshes=True)
         assert branch[0] == branch[2] == 0.0 and abs(branch[1]) > 0.3e-6
-        want = -kb * (branch - np.sum(kb * branch) / np.sum(kb))
-        got = (q1.mesh_forces_N - q0.mesh_forces_N)[0::2]
         assert got == pytest.approx(want, rel=0.01, abs=0.01 * np.max(np.abs(want)))
 
 

@@ -836,22 +836,14 @@ class Planetary:
                     raise ModelError(f"planet_positions [deg] must increase strictly within [0, 360), got "
                                      f"{[round(math.degrees(v), 6) for v in pos]}")
             object.__setattr__(self, "planet_positions_rad", pos)
-        seen = set()
-        for e in self.pin_errors:
-            if e.planet > self.planet_count:
-                raise _fail("pin_errors.planet", "-", f"integer in [1, planet_count = {self.planet_count}]",
-                            e.planet)
-            if e.planet in seen:
-                raise ModelError(f"pin_errors: planet {e.planet} is given twice")
-            seen.add(e.planet)
-        seen = set()
-        for e in self.planet_errors:
-            if e.planet > self.planet_count:
-                raise _fail("planet_errors.planet", "-", f"integer in [1, planet_count = {self.planet_count}]",
-                            e.planet)
-            if e.planet in seen:
-                raise ModelError(f"planet_errors: planet {e.planet} is given twice")
-            seen.add(e.planet)
+        for key in ("pin_errors", "planet_errors"):   # per-planet entries: each planet once, within the count
+            seen = set()
+            for e in getattr(self, key):
+                if e.planet > self.planet_count:
+                    raise _fail(f"{key}.planet", "-", f"integer in [1, planet_count = {self.planet_count}]", e.planet)
+                if e.planet in seen:
+                    raise ModelError(f"{key}: planet {e.planet} is given twice")
+                seen.add(e.planet)
 
     @property
     def positions_rad(self) -> tuple[float, ...]:

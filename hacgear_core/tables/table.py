@@ -238,12 +238,8 @@ class MeshTable:
     coast: "MeshTable | None" = None
     flank_pressure_Pa: np.ndarray | None = None
     edge_pressure_Pa: np.ndarray | None = None
-    twist_offset_rad: float = 0.0
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "twist_offset_rad", float(self.twist_offset_rad))
-        if not math.isfinite(self.twist_offset_rad):
-            raise TableError(f"twist_offset_rad [rad] must be finite, got {self.twist_offset_rad!r}")
         for k in ("flank_pressure_Pa", "edge_pressure_Pa"):
             if getattr(self, k) is not None:
                 object.__setattr__(self, k, _f64(getattr(self, k)))

@@ -2,11 +2,14 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
+from fractions import Fraction
 
 import numpy as np
 import pytest
 
 from _dyn import K, params, simulator, system
+from hacgear_core.dynamics import kernels
 from hacgear_core.dynamics.equilibrium import static_state
 from hacgear_core.dynamics.steady import steady_state
 from hacgear_core.dynamics.synthetic import linear_fdf_table, spur_fdf_table, synthetic_28t_parameters
@@ -375,3 +378,83 @@ def test_an_open_helical_side_beyond_its_twist_grid_is_not_out_of_range():
     assert np.all(np.abs(rec["coast_twist_rad"][:, 0]) > 2e-3)
     assert np.all(rec["coast_approach_m"][:, 0] < 0.0) and np.all(rec["coast_force_N"][:, 0] == 0.0)   # open
     assert sim.out_of_range_steps == [0]
+
+
+def test_frame_coupling_matches_the_fixed_frame_closed_form():
+    """Two point masses on isotropic springs, each seen from its own frame turning at its own speed (gyroscopic and
+    centripetal terms), joined by a spring across the frames (a frame coupling, the stiffness periodic in the
+    frames' relative angle): turned back into the fixed frame, the kernel's free vibration is the fixed-frame
+    closed form of two masses and three springs, which knows nothing of frames.  The frames' relative angle D is
+    held at each step's middle, so the error is of second order in the angle a step turns, below (h D')^2
+    (here h D' = 2.8e-3 and 1.4e-3; in a gearbox h D' is ~1e-4 or less: docs/dynamics.md "Frame couplings")."""
+    from scipy.linalg import eigh
+    from hacgear_core.dynamics.system import FrameCoupling
+
+    base = system(params(modal_damping_ratio=0.0), linear_fdf_table(K))
+    n0 = base.n
+    n = n0 + 4
+    ma, mb, ka, kb, kab = 8.0, 12.0, 1.1e8, 0.7e8, 0.9e8
+    ca, cb = 0.3, -0.5                           # frame speeds over the reference speed (counter-clockwise)
+    z = base.zref_2pi * 2 * math.pi              # reference mesh cycles per reference revolution
+    rate = Fraction(cb - ca).limit_denominator(10) / Fraction(z).limit_denominator(1000)
+    assert float(rate) == pytest.approx((cb - ca) / z, rel=1e-12)
+    pad = np.zeros(4)
+    J = np.array([[0.0, -1.0], [1.0, 0.0]])
+    M = np.zeros((n, n))
+    M[:n0, :n0] = base.M
+    M[n0:, n0:] = np.diag([ma, ma, mb, mb])
+    Kt = np.zeros((n, n))
+    Kt[:n0, :n0] = base.K
+    Kt[n0:, n0:] = np.diag([ka + kab, ka + kab, kb + kab, kb + kab])
+    Kt[n0:n0 + 2, n0 + 2:] = Kt[n0 + 2:, n0:n0 + 2] = -kab * np.eye(2)       # the coupling at the assembly angle
+    Ba, Bb = np.zeros((2, n)), np.zeros((2, n))
+    Ba[:, n0:n0 + 2] = np.eye(2)
+    Bb[:, n0 + 2:] = np.eye(2)
+    fc = FrameCoupling("shaft", kc=-kab * (Ba.T @ Bb + Bb.T @ Ba), ks=-kab * (Ba.T @ J @ Bb + Bb.T @ J.T @ Ba),
+                       rate=(rate.numerator, rate.denominator))
+    G = np.zeros((n, n))
+    G[:n0, :n0] = base.G
+    G[n0:n0 + 2, n0:n0 + 2] = 2 * ma * ca * J
+    G[n0 + 2:, n0 + 2:] = 2 * mb * cb * J
+    KW = np.zeros((n, n))
+    KW[n0:, n0:] = np.diag([ma * ca ** 2, ma * ca ** 2, mb * cb ** 2, mb * cb ** 2])
+    meshes = tuple(replace(c, v=np.concatenate([c.v, pad]), w=np.concatenate([c.w, pad]),
+                           v_rot=np.concatenate([c.v_rot, pad])) for c in base.meshes)
+    sy = base.with_changes(dof_names=base.dof_names + ("xa", "ya", "xb", "yb"), mass=M, stiffness=Kt, meshes=meshes,
+                           gyroscopic=G, centripetal=KW, carrier_ratio=1.0, frame_couplings=(fc,),
+                           rigid_mode=None if base.rigid_mode is None else np.concatenate([base.rigid_mode, pad]),
+                           reference_motion=np.concatenate([base.reference_motion, pad]),
+                           static_forces=np.concatenate([base.static_forces, pad]), bearing_maps={})
+    assert sy.kernel is kernels._GENERIC[(kernels.LAW_TABLE, False)]
+    omega = 2000.0 / sy.zref_2pi
+    t_end = 40.0 / 2000.0                        # the frames turn 0.8 * omega * t_end = 5.0 rad against each other
+    s0 = np.zeros(2 * n)
+    s0[:n0] = static_state(base)[:n0]
+    qa, qb, va, vb = np.array([2e-5, -1e-5]), np.array([-0.5e-5, 1.5e-5]), np.array([0.02, 0.01]), np.array([0.0, -0.03])
+    s0[n0:n] = np.concatenate([qa, qb])
+    s0[n + n0:] = np.concatenate([va, vb])
+
+    # fixed frame: r = R(c omega t) q, r' = R (q' + c omega J q); per axis two masses, three springs
+    w2, phi = eigh(np.array([[ka + kab, -kab], [-kab, kb + kab]]), np.diag([ma, mb]))
+    w = np.sqrt(w2)
+
+    def rot(a):
+        return np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+    r0 = np.array([qa, qb])
+    v0 = np.array([va + ca * omega * J @ qa, vb + cb * omega * J @ qb])
+    eta0, etad0 = phi.T @ np.diag([ma, mb]) @ r0, phi.T @ np.diag([ma, mb]) @ v0
+    eta = eta0 * np.cos(w * t_end)[:, None] + (etad0 / w[:, None]) * np.sin(w * t_end)[:, None]
+    r_end = phi @ eta
+    exact = np.concatenate([rot(-ca * omega * t_end) @ r_end[0], rot(-cb * omega * t_end) @ r_end[1]])
+    err, hd = [], []
+    for steps in (40 * 64, 40 * 128):
+        s = s0.copy()
+        sy.integrate(s, np.array([0.0, 0.0, omega]), steps, t_end / steps, sy.fext_speed())
+        err.append(np.max(np.abs(s[n0:n] - exact)) / np.max(np.abs(exact)))
+        hd.append(t_end / steps * abs(cb - ca) * omega)
+    assert err[0] < hd[0] ** 2 and err[1] < hd[1] ** 2 and 3.5 < err[0] / err[1] < 6.0, (err, hd)
+    # the frames matter: without the periodic term (the coupling frozen at the assembly angle) it is far off
+    s = s0.copy()
+    sy.with_changes(frame_couplings=()).integrate(s, np.array([0.0, 0.0, omega]), steps, t_end / steps,
+                                                  sy.fext_speed())
+    assert np.max(np.abs(s[n0:n] - exact)) / np.max(np.abs(exact)) > 0.1

@@ -14,7 +14,7 @@ import sys
 import numpy as np
 
 CASES = (("spur_28t_asym", 1500.0), ("planetary_65_55_175", 900.0), ("helical_28_33", 2000.0),
-         ("idler_28_33_39", 1200.0), ("gear_train_2stage", 1400.0))
+         ("idler_28_33_39", 1200.0), ("gear_train_2stage", 1400.0), ("reducer_19_71_23_83", 1500.0))
 
 
 def save(path: str) -> None:

@@ -79,8 +79,10 @@ def batch_rows(n: int, m: int, nnz: int, rotating: bool) -> int:
 
 def batch_supported(system) -> bool:
     """Whether the batched kernel runs ``system`` (a :class:`~hacgear_core.dynamics.system.LumpedSystem`): the
-    table and linear laws' loops, not the twist law of helical meshes."""
-    return system.mesh_law.kernel_law in (LAW_TABLE, LAW_LINEAR) and not getattr(system, "has_errors", False)
+    table and linear laws' loops, not the twist law of helical meshes, without manufacturing errors and frame
+    couplings (such systems run state by state)."""
+    return (system.mesh_law.kernel_law in (LAW_TABLE, LAW_LINEAR) and not getattr(system, "has_errors", False)
+            and not getattr(system, "frame_couplings", ()))
 
 
 #: whether the CPU the loops are compiled for has fused multiply-add: the single-state loop's compiler contracts

@@ -109,6 +109,7 @@ __all__ = [
     "flatten_linear",
     "flatten_errors",
     "mesh_error",
+    "frame_angle",
     "VARIANT_ERRORS",
 ]
 
@@ -159,6 +160,16 @@ def mesh_base(p, q, cycles, tau_ref):
     s = r / q + tau_ref / (q / p)
     f = math.floor(s)
     return s - f, (p * cycles - r) / q + f
+
+
+@njit(cache=True, inline="always")
+def frame_angle(p, q, cycles, tau_ref):
+    """The angle [rad] of one frame relative to another that turns ``p / q`` revolutions against it per
+    reference mesh cycle, after ``cycles`` whole reference mesh cycles and ``tau_ref`` more (0 at the assembly
+    position): ``2 pi ((p cycles mod q) + p tau_ref) / q``, exact in the whole cycles (``p cycles`` is an
+    integer below 2**53, so the remainder is exact)."""
+    pc = p * cycles
+    return 2.0 * math.pi * (pc - q * math.floor(pc / q) + p * tau_ref) / q
 
 
 @njit(cache=True, inline="always", fastmath=_FM)
@@ -493,6 +504,11 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
         c_ratio = scal[0]
         sref = scal[1]
         zref_2pi = scal[2]
+        # frame couplings (the generic loops only): springs between translations in frames that turn against each
+        # other, K(t) = K + sum_p [(cos D_p - 1) Kc_p + sin D_p Ks_p] (:func:`frame_angle`), M^-1 Kc_p and M^-1 Ks_p
+        # in kval rows 3 + 2p and 4 + 2p, each frame pair's rate (p, q) in scal[3 + 2p], scal[4 + 2p]
+        nfr = (scal.shape[0] - 3) // 2 if sparse_c else 0
+        o_fr = 7 * n + 22 * m
         adt = eff.reshape(n * n)
         wk = work
         o_a1 = 0 * n
@@ -558,7 +574,25 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
         for step in range(n_steps):
             tau_ref = kin[0]
             omega = kin[2]
-            if rotating:
+            dtau = zref_2pi * omega * h
+            if nfr > 0:
+                # the frames' relative angles at the step's middle, held over the step
+                oc = c_ratio * omega
+                for ip in range(nfr):
+                    ang = frame_angle(scal[3 + 2 * ip], scal[4 + 2 * ip], kin[1], tau_ref + 0.5 * dtau)
+                    wk[o_fr + 2 * ip] = math.cos(ang) - 1.0
+                    wk[o_fr + 2 * ip + 1] = math.sin(ang)
+                for z in range(nnz):
+                    a = mk[z] - oc * oc * mkw[z]
+                    for ip in range(nfr):
+                        a += wk[o_fr + 2 * ip] * kval[3 + 2 * ip, z] + wk[o_fr + 2 * ip + 1] * kval[4 + 2 * ip, z]
+                    aqv[z] = a
+                if rotating and oc != omega_c_set:
+                    for i in range(n):
+                        for j in range(n):
+                            adt[j * n + i] = mc[i, j] + oc * mg[i, j]
+                    omega_c_set = oc
+            elif rotating:
                 oc = c_ratio * omega
                 if oc != omega_c_set:
                     for z in range(nnz):
@@ -567,7 +601,6 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
                         for j in range(n):
                             adt[j * n + i] = mc[i, j] + oc * mg[i, j]
                     omega_c_set = oc
-            dtau = zref_2pi * omega * h
             # each mesh's kinematic position at the step start and its advance over the step (mesh_base)
             for k in range(m):
                 if unit_rates:
@@ -870,10 +903,11 @@ _ERRORS = {(LAW_TABLE, False): _table_s1_e, (LAW_TABLE, True): _table_s2_e, (LAW
            (LAW_LINEAR, True): _linear_s2_e}
 
 
-def select_kernel(law: int, n: int, m: int, two_sided: bool = False, errors: bool = False):
+def select_kernel(law: int, n: int, m: int, two_sided: bool = False, errors: bool = False, frames: bool = False):
     """The compiled loop for force law ``law``, ``n`` DOFs, ``m`` meshes, with coast-flank contact or without,
     with manufacturing errors (``errors``: the generic loops of bit ``VARIANT_ERRORS``; ``lin``, ``lint`` then
-    carry the error profiles, :func:`flatten_errors`) or without.
+    carry the error profiles, :func:`flatten_errors`) or without, with frame couplings (``frames``: a generic loop)
+    or without.
 
     Arguments of the returned function (float64 arrays, C-contiguous, unless noted)::
 
@@ -883,14 +917,22 @@ def select_kernel(law: int, n: int, m: int, two_sided: bool = False, errors: boo
         vecs (6, m, n) = [v, w, v_rot, M^-1 v, vc, M^-1 vc],
         mmat (6, m, m) = [v M^-1 v^T, w M^-1 v^T, vc M^-1 v^T, v M^-1 vc^T, w M^-1 vc^T, vc M^-1 vc^T],
         phase (3, m) = [phase [cycles], rate numerator p, rate denominator q] (integers as floats; the mesh runs at
-            p/q times the reference mesh frequency), u (n,), scal (3,) = [c_ratio, sref, zref_2pi],
+            p/q times the reference mesh frequency), u (n,), scal (3 + 2P,) = [c_ratio, sref, zref_2pi, frame rates],
         iref int, tab (flat FDFs), tint (2m, 3) int64 = [offset, Np, Nd], tflt (2m, 4) = [x0, 1/dx, x_on, x_max]
             (rows: the drive tables, then the coast tables),
         lin (flat conventional-law arrays), lint (m, 2) int64 = [offset, Np],
-        work (7n + 22m,), eff (n, n) scratch,
+        work (7n + 22m + 2P,), eff (n, n) scratch,
         kidx (nnz, 2) int64 rows/columns of the entries of M^-1 K and M^-1 K_W the kernel multiplies: the n
             diagonal entries first (row i = column i = i), then the nonzero off-diagonal ones,
-        kval (3, nnz) = [their values in M^-1 K, in M^-1 K_W, scratch],
+        kval (3 + 2P, nnz) = [their values in M^-1 K, in M^-1 K_W, scratch, then per frame coupling p M^-1 Kc_p,
+            M^-1 Ks_p],
+
+    ``P`` frame couplings (springs between translations in frames that turn against each other, e.g. a shaft's
+    bending between two planetary stages' carrier frames; generic loops only): ``scal`` (3 + 2P,) then holds each
+    one's rate ``(p, q)``, ``p / q`` revolutions of its second frame relative to its first per reference mesh
+    cycle, and the stiffness is ``K + sum_p [(cos D_p - 1) Kc_p + sin D_p Ks_p]`` at ``D_p`` =
+    :func:`frame_angle` of the step's middle, held over the step (a frame turns ``2 pi p h f_ref / q`` in a step,
+    e.g. 1e-4 rad: the error of holding it is of second order in that);
         nz (m, 1 + w) int64: per mesh the count then the indices of the DOFs where its v, w, vc, M^-1 v or
             M^-1 vc is nonzero (the generic loop runs its mesh products over them; the specialised loops are dense)
 
@@ -906,10 +948,12 @@ def select_kernel(law: int, n: int, m: int, two_sided: bool = False, errors: boo
                              "(two_sided = False)")
         if errors:
             return _twist_s_e
-        return _twist_12_1 if (n, m) == (12, 1) else _twist_s
+        return _twist_12_1 if (n, m) == (12, 1) and not frames else _twist_s
     two_sided = bool(two_sided)
     if errors:
         return _ERRORS[(law, two_sided)]
+    if frames:
+        return _GENERIC[(law, two_sided)]
     return _SPECIAL.get((law, n, m, two_sided), _GENERIC[(law, two_sided)])
 
 

@@ -561,7 +561,8 @@ class Simulator:
         sy = self.system
         q = self.s[:sy.n]
         base = self.kin[0] if sy.unit_rates else sy.kinematic_positions(self.kin[0], self.kin[1])
-        return sy.elastic_energy_J(q, base + sy.phase + sy.W @ q, self.kin[2])
+        return sy.elastic_energy_J(q, base + sy.phase + sy.W @ q, self.kin[2],
+                                   reference_cycles=float(self.kin[1] + self.kin[0]))
 
     def dissipated_power_W(self) -> float:
         """Power [W] the modal damping dissipates now."""
@@ -594,8 +595,9 @@ class Simulator:
             a, b, c = sy.bearing_maps[gear]
             out = a @ self.s[:sy.n] + b + (fr * self._frame[1]) ** 2 * c
         elif g.translations:
+            # its own support springs (a shaft's bending spring on the same DOFs is not its bearing)
             for i, d in zip(g.translations, g.directions):
-                out += sy.K[i, i] * self.s[i] * d
+                out += g.support[0] * self.s[i] * d
         else:
             for k, c in enumerate(sy.meshes):
                 if gear in (c.gear_a, c.gear_b):

@@ -44,7 +44,7 @@ from hacgear_core.errors import ModelError
 from hacgear_core.model.schema import RANGES
 from hacgear_core.tables.fdf import static_stiffness
 
-__all__ = ["GearBody", "MeshCoupling", "LumpedSystem", "KernelArrays"]
+__all__ = ["GearBody", "MeshCoupling", "FrameCoupling", "LumpedSystem", "KernelArrays"]
 
 
 def _check_disjoint(**arrays: np.ndarray) -> None:
@@ -155,6 +155,22 @@ class MeshCoupling:
 
 
 @dataclass(frozen=True, eq=False)
+class FrameCoupling:
+    """A spring between translations that live in two frames turning against each other (a shaft's bending between
+    members of stages with different carrier frames).  With ``D`` the second frame's angle relative to the first
+    (0 at the assembly position, where ``LumpedSystem.K`` holds the spring), the system's stiffness is
+    ``K + (cos D - 1) kc + sin D ks``: ``kc``, ``ks`` (n, n) [N/m].  ``rate`` ``(p, q)`` (integers, ``q > 0``): the
+    second frame turns ``p / q`` revolutions relative to the first per reference mesh cycle (signed,
+    counter-clockwise positive), so ``D = 2 pi p / q`` times the reference mesh position in cycles
+    (:func:`~hacgear_core.dynamics.kernels.frame_angle`)."""
+
+    name: str
+    kc: np.ndarray
+    ks: np.ndarray
+    rate: tuple[int, int]
+
+
+@dataclass(frozen=True, eq=False)
 class KernelArrays:
     """Everything the compiled kernel takes besides the state, packed (see :func:`kernels.select_kernel`)."""
 
@@ -222,6 +238,10 @@ class LumpedSystem:
         DOF motion per radian of the reference motion (the train's rigid rotation, also where supports hold it):
         the absolute DOF velocities are ``q' + omega_ref * reference_motion`` (default: ``rigid_mode``, else each
         gear's speed ratio on its rotation).
+    frame_couplings : sequence of FrameCoupling, optional
+        Springs between frames that turn against each other: the stiffness then varies with the reference mesh
+        position (:meth:`stiffness_at`); ``stiffness`` is its value at the assembly position, which the linear
+        analyses (modes, damping, static equilibrium) take.
     """
 
     def __init__(self, *, name: str, kind: str, dof_names: Sequence[str], mass: np.ndarray, stiffness: np.ndarray,
@@ -232,7 +252,8 @@ class LumpedSystem:
                  mesh_cycles_per_rad: float | None = None, nominal_torques_per_Nm: Mapping[str, float] | None = None,
                  static_forces: np.ndarray | None = None,
                  bearing_maps: Mapping[str, tuple[np.ndarray, np.ndarray]] | None = None,
-                 reference_motion: np.ndarray | None = None) -> None:
+                 reference_motion: np.ndarray | None = None,
+                 frame_couplings: Sequence[FrameCoupling] = ()) -> None:
         n = len(dof_names)
         self.name = name
         self.kind = kind
@@ -245,6 +266,15 @@ class LumpedSystem:
         self.G = np.zeros((n, n)) if gyroscopic is None else np.ascontiguousarray(gyroscopic, dtype=float)
         self.K_W = np.zeros((n, n)) if centripetal is None else np.ascontiguousarray(centripetal, dtype=float)
         self.carrier_ratio = float(carrier_ratio)
+        self.frame_couplings = tuple(frame_couplings)
+        for fc in self.frame_couplings:
+            p, q = fc.rate
+            if not (isinstance(p, (int, np.integer)) and isinstance(q, (int, np.integer)) and p != 0
+                    and 0 < q < 2 ** 31 and abs(p) < 2 ** 31):
+                raise ModelError(f"{name}: frame coupling '{fc.name}' rate (p, q) must be integers, p != 0, "
+                                 f"0 < q < 2**31, got {fc.rate}")
+            if np.shape(fc.kc) != (n, n) or np.shape(fc.ks) != (n, n):
+                raise ModelError(f"{name}: frame coupling '{fc.name}' kc and ks must be ({n}, {n}) [N/m]")
         self.gears = {g.name: g for g in gears}
         self.meshes = tuple(meshes)
         self.m = len(self.meshes)
@@ -318,6 +348,9 @@ class LumpedSystem:
             self.period_cycles = math.lcm(self.period_cycles, *(
                 (int(c.error[1]) * c.rate[1]) // math.gcd(int(c.error[1]) * c.rate[1], c.rate[0])
                 for c in self.meshes if c.error is not None))
+        # a frame coupling repeats when its frames are back at their relative angle: q / gcd(p, q) reference cycles
+        self.period_cycles = math.lcm(self.period_cycles, *(
+            fc.rate[1] // math.gcd(int(fc.rate[0]), int(fc.rate[1])) for fc in self.frame_couplings))
         self.Vc = np.ascontiguousarray(np.array([np.zeros(n) if c.v_c is None else c.v_c for c in self.meshes],
                                                 dtype=float))
         self.T = np.ascontiguousarray(np.array([np.zeros(n) if c.t is None else c.t for c in self.meshes],
@@ -341,9 +374,9 @@ class LumpedSystem:
 
     def _select_kernel(self):
         law = self.mesh_law
-        if getattr(self, "has_errors", False):
-            return kernels.select_kernel(law.kernel_law, self.n, law.m_kernel, law.kernel_two_sided, errors=True)
-        return kernels.select_kernel(law.kernel_law, self.n, law.m_kernel, law.kernel_two_sided)
+        return kernels.select_kernel(law.kernel_law, self.n, law.m_kernel, law.kernel_two_sided,
+                                     errors=getattr(self, "has_errors", False),
+                                     frames=bool(getattr(self, "frame_couplings", ())))
 
     # ------------------------------------------------------------------ linearisation, damping, step bound
     @cached_property
@@ -397,7 +430,11 @@ class LumpedSystem:
         n, mq = self.n, self.m_kernel
         minv = self.minv
         mk, mkw = minv @ self.K, minv @ self.K_W
-        off = np.argwhere(((mk != 0) | (mkw != 0)) & ~np.eye(n, dtype=bool)).reshape(-1, 2)
+        mfr = [minv @ x for fc in self.frame_couplings for x in (fc.kc, fc.ks)]
+        nonzero = (mk != 0) | (mkw != 0)
+        for x in mfr:
+            nonzero |= x != 0
+        off = np.argwhere(nonzero & ~np.eye(n, dtype=bool)).reshape(-1, 2)
         kidx = np.ascontiguousarray(np.vstack([np.repeat(np.arange(n), 2).reshape(n, 2), off]).astype(np.int64))
         # the kernel's meshes and each one's second vector (the coast line of action, or a helical mesh's twist)
         kv, kw_, kvr, vc2, kph = self.mesh_law.kernel_meshes(self)
@@ -419,20 +456,23 @@ class LumpedSystem:
         return KernelArrays(
             mats=np.ascontiguousarray(np.stack([minv, minv @ self.C, minv @ self.G])),
             kidx=kidx, kval=np.ascontiguousarray(np.stack([mk[kidx[:, 0], kidx[:, 1]], mkw[kidx[:, 0], kidx[:, 1]],
-                                                         np.zeros(len(kidx))])),
+                                                         np.zeros(len(kidx))] + [x[kidx[:, 0], kidx[:, 1]]
+                                                                                 for x in mfr])),
             vecs=np.ascontiguousarray(np.stack([kv, kw_, kvr, vmi, vc2, vci])),
             mmat=np.ascontiguousarray(np.stack([kv @ minv @ kv.T, kw_ @ minv @ kv.T, vc2 @ minv @ kv.T,
                                                 kv @ minv @ vc2.T, kw_ @ minv @ vc2.T, vc2 @ minv @ vc2.T])),
             phase=np.ascontiguousarray(np.vstack([kph, np.tile(self.rate.T, len(kph) // self.m)]), dtype=float),
             u=np.zeros(n) if self.rigid_mode is None else self.rigid_mode,
-            scal=np.array([self.carrier_ratio, self.sref, self.zref_2pi]), iref=int(self.iref), tab=tab, tint=tint,
+            scal=np.array([self.carrier_ratio, self.sref, self.zref_2pi]
+                          + [float(r) for fc in self.frame_couplings for r in fc.rate]), iref=int(self.iref), tab=tab,
+            tint=tint,
             tflt=tflt, lin=lin, lint=lint, nz=nz)
 
     @cached_property
     def kernel_constants(self) -> tuple:
         """The kernel's trailing arguments (everything but the state, step, mode, loads and records)."""
         a = self.arrays
-        work = np.zeros(7 * self.n + 22 * self.m_kernel)
+        work = np.zeros(7 * self.n + 22 * self.m_kernel + 2 * len(self.frame_couplings))
         eff = np.zeros((self.n, self.n))
         return (a.mats, a.vecs, a.mmat, a.phase, a.u, a.scal, a.iref, a.tab, a.tint, a.tflt, a.lin, a.lint, work, eff,
                 a.kidx, a.kval, a.nz)
@@ -447,6 +487,7 @@ class LumpedSystem:
 
     def __setstate__(self, st: dict) -> None:
         self.__dict__.update(st)
+        st.setdefault("frame_couplings", ())
         if "reference_motion" not in st:  # pickled before the attribute existed
             self.reference_motion = self.rigid_mode if self.rigid_mode is not None else np.array(
                 [next((g.speed_ratio for g in self.gears.values() if g.rotation == i), 0.0) for i in range(self.n)])
@@ -470,6 +511,10 @@ class LumpedSystem:
             h.update(ta.ftab.tobytes())
             h.update(np.array([ta.x0, ta.dx]).tobytes())
         self.mesh_law.fingerprint(self, h)
+        for fc in self.frame_couplings:
+            h.update(repr((fc.name, tuple(int(r) for r in fc.rate))).encode())
+            h.update(np.ascontiguousarray(fc.kc, np.float64).tobytes())
+            h.update(np.ascontiguousarray(fc.ks, np.float64).tobytes())
         if getattr(self, "has_errors", False):
             for c in self.meshes:
                 if c.error is not None:
@@ -620,6 +665,23 @@ class LumpedSystem:
         fr = self.gears[gear].frame_ratio
         return self.carrier_ratio if fr is None else fr
 
+    def frame_angles_rad(self, c) -> np.ndarray:
+        """(..., P) each frame coupling's relative angle [rad] at the unwrapped reference mesh position ``c``
+        [cycles] (0 at the assembly position; :class:`FrameCoupling`)."""
+        c = np.asarray(c, float)
+        whole = np.floor(c)
+        return np.stack([2 * np.pi * (p * whole - q * np.floor(p * whole / q) + p * (c - whole)) / q
+                         for p, q in (tuple(map(float, fc.rate)) for fc in self.frame_couplings)], axis=-1) \
+            if self.frame_couplings else np.zeros(c.shape + (0,))
+
+    def stiffness_at(self, c: float) -> np.ndarray:
+        """(n, n) the stiffness matrix [N/m, N m/rad] at the unwrapped reference mesh position ``c`` [cycles]:
+        ``K`` plus each frame coupling's ``(cos D - 1) kc + sin D ks`` (``K`` where there is none)."""
+        k = self.K.copy()
+        for fc, d in zip(self.frame_couplings, self.frame_angles_rad(float(c))):
+            k += (math.cos(d) - 1.0) * fc.kc + math.sin(d) * fc.ks
+        return k
+
     # ------------------------------------------------------------------ energy
     def kinetic_energy_J(self, v: np.ndarray, omega_ref: float) -> float:
         """Kinetic energy [J] ``1/2 u'^T M u'`` of the absolute DOF velocities ``u' = v + omega_ref
@@ -627,14 +689,16 @@ class LumpedSystem:
         u = np.asarray(v, float) + float(omega_ref) * self.reference_motion
         return 0.5 * float(u @ self.M @ u)
 
-    def elastic_energy_J(self, q: np.ndarray, tau: np.ndarray, omega_ref: float) -> float:
+    def elastic_energy_J(self, q: np.ndarray, tau: np.ndarray, omega_ref: float, reference_cycles: float = 0.0) -> float:
         """Potential energy [J] at deviations ``q`` (n,), mesh positions ``tau`` (m,) and reference speed
         ``omega_ref`` [rad/s]: the supports' and shafts' ``1/2 q^T K q`` less the work of the static spring forces
         ``f_s . q``, the centrifugal potential ``-1/2 W_c^2 q^T K_W q`` of a rotating frame, and the meshes' strain
-        energy (:meth:`~hacgear_core.dynamics.laws.MeshLaw.elastic_energy`)."""
+        energy (:meth:`~hacgear_core.dynamics.laws.MeshLaw.elastic_energy`).  With frame couplings ``K`` is the
+        stiffness at the unwrapped reference mesh position ``reference_cycles`` (:meth:`stiffness_at`)."""
         q = np.asarray(q, float)
         wc = self.carrier_ratio * float(omega_ref)
-        e = 0.5 * float(q @ self.K @ q) - float(self.static_forces @ q)
+        k = self.stiffness_at(reference_cycles) if self.frame_couplings else self.K
+        e = 0.5 * float(q @ k @ q) - float(self.static_forces @ q)
         if wc:
             e -= 0.5 * wc * wc * float(q @ self.K_W @ q)
         return e + self.mesh_law.elastic_energy(self, q, np.asarray(tau, float))
@@ -779,7 +843,7 @@ class LumpedSystem:
                   centripetal=self.K_W, carrier_ratio=self.carrier_ratio, rigid_mode=self.rigid_mode,
                   mesh_cycles_per_rad=self.zref_2pi, nominal_torques_per_Nm=self.nominal_torques_per_Nm,
                   static_forces=self.static_forces, bearing_maps=self.bearing_maps,
-                  reference_motion=self.reference_motion)
+                  reference_motion=self.reference_motion, frame_couplings=self.frame_couplings)
         if "torque_Nm" in changes and "meshes" not in changes:
             t = float(changes["torque_Nm"])
             r = abs(t / self.torque_Nm)  # nominal forces are magnitudes; the torque's sign picks the flanks

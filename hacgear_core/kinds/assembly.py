@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from hacgear_core.dynamics.system import GearBody, LumpedSystem, MeshCoupling
+from hacgear_core.dynamics.system import FrameCoupling, GearBody, LumpedSystem, MeshCoupling
 from hacgear_core.errors import ModelError
 from hacgear_core.kinds.base import KeyVector, Train
 
@@ -92,6 +92,15 @@ def assemble(train: Train) -> LumpedSystem:
         if s.reports:
             e = np.asarray(s.preload, float) if s.preload else np.zeros(len(s.rows))
             bmaps[s.reports] = (s.k * s.frame @ B, -s.k * s.frame @ e, np.asarray(s.centrifugal, float))
+    frames = []
+    turn = np.array([[0.0, -1.0], [1.0, 0.0]])
+    for fs in train.frame_springs:
+        # energy k/2 |R_a a - R_b b|^2 (a = B_a q, b = B_b q in their frames): k/2 (|a|^2 + |b|^2) - k a . R(D) b with
+        # R(D) = cos D I + sin D J the second frame's turn relative to the first; K holds it at D = 0
+        ba, bb = dm.matrix(fs.rows_a), dm.matrix(fs.rows_b)
+        K += fs.k * (ba - bb).T @ (ba - bb)
+        frames.append(FrameCoupling(name=fs.name, kc=-fs.k * (ba.T @ bb + bb.T @ ba),
+                                    ks=-fs.k * (ba.T @ turn @ bb + bb.T @ turn.T @ ba), rate=tuple(fs.rate)))
     for name in train.support_reports:
         body = next(b for b in train.bodies if b.name == name)
         a = np.zeros((2, n))
@@ -144,4 +153,4 @@ def assemble(train: Train) -> LumpedSystem:
         gyroscopic=G if train.gyroscopic else None, centripetal=KW if train.centripetal else None,
         carrier_ratio=train.carrier_ratio, rigid_mode=u, mesh_cycles_per_rad=train.mesh_cycles_per_rad,
         nominal_torques_per_Nm=train.nominal_torques_per_Nm, static_forces=fstat if fstat.any() else None,
-        bearing_maps=bmaps or None, reference_motion=motion)
+        bearing_maps=bmaps or None, reference_motion=motion, frame_couplings=tuple(frames))

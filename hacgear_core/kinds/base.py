@@ -23,7 +23,7 @@ import numpy as np
 from hacgear_core.errors import ModelError
 from hacgear_core.geometry import train_geometry
 
-__all__ = ["Key", "KeyVector", "Support", "Dof", "Body", "Coupling", "Spring", "Train", "StructuralParameter",
+__all__ = ["Key", "KeyVector", "Support", "Dof", "Body", "Coupling", "Spring", "FrameSpring", "Train", "StructuralParameter",
            "ExtraOutput", "MeshPair", "Kind"]
 
 #: a DOF's name in a train description: (body, label), e.g. ("pinion", "theta")
@@ -136,6 +136,21 @@ class Spring:
     centrifugal: tuple[float, float] = (0.0, 0.0)
 
 
+@dataclass(frozen=True)
+class FrameSpring:
+    """An isotropic spring of stiffness ``k`` [N/m] between the in-plane displacements of two points whose
+    translations live in frames that turn against each other: ``rows_a`` and ``rows_b`` (two KeyVectors each) the
+    displacement's x and y in its own frame; the second frame turns ``rate`` = ``(p, q)`` revolutions
+    (counter-clockwise, p / q) relative to the first per reference mesh cycle, and the frames coincide at the
+    assembly position (:class:`~hacgear_core.dynamics.system.FrameCoupling`)."""
+
+    name: str
+    k: float
+    rows_a: tuple[KeyVector, KeyVector]
+    rows_b: tuple[KeyVector, KeyVector]
+    rate: tuple[int, int]
+
+
 @dataclass(frozen=True, eq=False)
 class Train:
     """Everything the assembly needs: bodies (DOFs and supports), couplings (meshes), springs between DOFs, and
@@ -165,6 +180,7 @@ class Train:
     nominal_torques_per_Nm: Mapping[str, float] | None = None
     support_reports: tuple[str, ...] = ()
     bearing_reports: tuple[str, ...] = ()
+    frame_springs: tuple[FrameSpring, ...] = ()
 
 
 @dataclass(frozen=True)

@@ -45,13 +45,14 @@ at the static torque the chain brings to it, and the trains are joined:
   revolutions: steady-state analyses then run over a stated number of revolutions of the slowest shaft.
 * **shafts** act between the rotations of the members they join, each measured in its direction of motion (the
   stages' frames are independent: a stage may be built mirrored to the next).  A shaft's optional
-  ``bending_stiffness_N_per_m`` acts between the in-plane translations of its members' centres, in the model's
-  fixed frame (x, y of the model file: parallel stages are placed by their meshes' ``line_of_centres_deg``, a
-  planetary stage's planets at their angles from x); a spur gear with one mesh then gets x and y instead of its
-  line-of-action translation.  It joins members whose translations live in the fixed frame: gears of parallel
-  spur stages and members of planetary stages with a fixed carrier.  A member of a planetary stage whose carrier
-  turns is refused (its translations turn with its carrier, so a bending spring to it would not be constant in
-  either stage's frame), and so is a helical gear (its translations live in its pair's own frame): their bearings
+  ``bending_stiffness_N_per_m`` acts between the in-plane displacements of its members' centres in the fixed frame
+  (x, y of the model file: parallel stages are placed by their meshes' ``line_of_centres_deg``, a planetary stage's
+  planets at their angles from x, its frame turning with its carrier from the assembly position); a spur gear with
+  one mesh then gets x and y instead of its line-of-action translation.  Between members whose translations live in
+  one frame it is a constant spring; between a member of a planetary stage whose carrier turns and a member in
+  another frame it is a frame coupling (:class:`~hacgear_core.kinds.base.FrameSpring`), its stiffness periodic in
+  the frames' relative angle at the exact rate of the tooth counts.  A helical gear is refused (its translations
+  live in its pair's own frame), and so are stages built turning opposite ways (mirror images): their bearings
   carry them.
 
 Constant-speed experiment (``shafts=True``): the torque acts on the input member, the output member follows the
@@ -73,7 +74,7 @@ from hacgear_core.geometry import nominal_mesh_forces as fixed_axis_forces
 from hacgear_core.geometry import train_geometry
 from hacgear_core.geometry.planetary import planetary_geometry, planetary_members, planetary_torques
 from hacgear_core.geometry.train import TrainGeometry
-from hacgear_core.kinds.base import ExtraOutput, Kind, Spring, Train, shaft_torque_output
+from hacgear_core.kinds.base import ExtraOutput, FrameSpring, Kind, Spring, Train, shaft_torque_output
 from hacgear_core.kinds.fixed_axis import train_from_model
 from hacgear_core.kinds.gear_train import _in_plane, _mesh_groups
 from hacgear_core.kinds.helical_pair import helical_from_model
@@ -444,13 +445,6 @@ class GearboxKind(Kind):
                 continue
             for name in (sh.member_a, sh.member_b):
                 s = stage_of[name]
-                if s.planetary is not None and s.planetary.planetary.fixed_member != "carrier":
-                    raise ModelError(
-                        f"gearbox.shafts '{sh.name}'.bending_stiffness_N_per_m [N/m] = "
-                        f"{sh.bending_stiffness_N_per_m:g}: member {name!r} belongs to planetary stage "
-                        f"'{s.planetary.name}', whose translations turn with its carrier; a bending spring to it "
-                        "would not be constant in either stage's frame (allowed: 0, its bearings carry it; bending "
-                        "joins members of parallel spur stages and of planetary stages with a fixed carrier)")
                 if s.planetary is None and model.gear(name).is_helical:
                     raise ModelError(
                         f"gearbox.shafts '{sh.name}'.bending_stiffness_N_per_m [N/m] = "
@@ -508,6 +502,7 @@ class GearboxKind(Kind):
         stages = gearbox_stages(model)
         rates = mesh_rates(model, stages)
         parts: list[tuple[Stage, Train, float, float]] = []   # stage, train, lambda, c_s
+        frame_speed: dict[str, Fraction] = {}
         u: dict[tuple[str, str], float] = {}
         # constant speed: the output member follows the kinematics (a generator on the grid); drivetrain coupling:
         # free (a torque port)
@@ -534,6 +529,15 @@ class GearboxKind(Kind):
             u.update({k: c * lam for k, c in local.items()})
             c_s = part.carrier_ratio * abs(lam)
             parts.append((s, part, lam, c_s))
+            # the stage frame's speed in revolutions per input revolution, exact (counter-clockwise, as c_s)
+            w_c = Fraction(0)
+            if c_s != 0.0:
+                w_c = abs(_planetary_speeds(model, s.planetary, s.gears, s.meshes, s.input, s.speed_in)[0][
+                    s.planetary.carrier]) * int(math.copysign(1, c_s))
+                if abs(float(w_c) - c_s) > 1e-9 * abs(c_s):
+                    raise ModelError(f"{model.name}: stage {s.name}'s carrier turns {c_s:.12g} per input "
+                                     f"revolution, its tooth counts say {float(w_c):.12g} (internal error)")
+            frame_speed[s.name] = w_c
         bodies, couplings, springs, gyro, centri, reports_s, reports_b = [], [], [], [], [], [], []
         ref_cycles = float(stages[0].mesh_frequency) / (2 * math.pi)
         for s, part, lam, c_s in parts:
@@ -558,6 +562,7 @@ class GearboxKind(Kind):
         by_name = {b.name: b for b in bodies}
         by_mesh = {c.name: c for c in couplings}
         stage_of = {m: s for s in stages for m in s.members}
+        frame_springs = []
         for sh in _section_of(model).shafts:
             # each member's rotation measured in its sense of rotation (its stage's frame)
             a, b = by_name[sh.member_a], by_name[sh.member_b]
@@ -570,9 +575,30 @@ class GearboxKind(Kind):
                         # a gear on one mesh translates along its line of action only: give it x and y
                         placed = train_geometry(_fixed_axis_model(model, s))
                         by_name[name], by_mesh = _in_plane(by_name[name], by_mesh, placed)
-                springs.append(Spring(sh.bending_stiffness_N_per_m,
-                                      rows=tuple(_centre_row(by_name[sh.member_a], i)
-                                                 + _centre_row(by_name[sh.member_b], i, -1.0) for i in (0, 1))))
+                fa, fb = (frame_speed[stage_of[x].name] for x in (sh.member_a, sh.member_b))
+                if a.sense != b.sense:
+                    turn = {1.0: "counter-clockwise", -1.0: "clockwise"}
+                    raise ModelError(
+                        f"gearbox.shafts '{sh.name}'.bending_stiffness_N_per_m [N/m] = "
+                        f"{sh.bending_stiffness_N_per_m:g}: '{a.name}' turns {turn[a.sense]} in stage "
+                        f"{stage_of[sh.member_a].name} and '{b.name}' {turn[b.sense]} in stage "
+                        f"{stage_of[sh.member_b].name} (each stage's sense follows from its own flanks; the shaft's "
+                        "torsion joins them by magnitude), so one of the two stages is built as a mirror image and "
+                        "their x and y are not one frame's; a bending spring needs the two members turning alike "
+                        "(allowed here: 0, the members' bearings carry them)")
+                if fa == fb:
+                    springs.append(Spring(sh.bending_stiffness_N_per_m,
+                                          rows=tuple(_centre_row(by_name[sh.member_a], i)
+                                                     + _centre_row(by_name[sh.member_b], i, -1.0) for i in (0, 1))))
+                else:
+                    # the members' frames turn against each other: b's frame turns (fb - fa) / f_ref revolutions
+                    # relative to a's per reference mesh cycle (f_ref: reference mesh cycles per input revolution)
+                    r = (fb - fa) / stages[0].mesh_frequency
+                    frame_springs.append(FrameSpring(
+                        sh.name, sh.bending_stiffness_N_per_m,
+                        rows_a=tuple(_centre_row(by_name[sh.member_a], i) for i in (0, 1)),
+                        rows_b=tuple(_centre_row(by_name[sh.member_b], i) for i in (0, 1)),
+                        rate=(r.numerator, r.denominator)))
         bodies = [by_name[b.name] for b in bodies]
         couplings = [by_mesh[c.name] for c in couplings]
         first, lastp = parts[0][1], parts[-1]
@@ -593,7 +619,8 @@ class GearboxKind(Kind):
             modal_damping_ratio=zeta, force_law=force_law, springs=tuple(springs), gyroscopic=tuple(gyro),
             centripetal=tuple(centri), carrier_ratio=1.0 if any_rot else 0.0, rigid_mode=tuple(u.items()),
             held_tolerance=max(p.held_tolerance for _, p, _, _ in parts), mesh_cycles_per_rad=ref_cycles,
-            nominal_torques_per_Nm=nominal, support_reports=tuple(reports_s), bearing_reports=tuple(reports_b))
+            nominal_torques_per_Nm=nominal, support_reports=tuple(reports_s), bearing_reports=tuple(reports_b),
+            frame_springs=tuple(frame_springs))
 
     def extra_outputs(self, model: Any, system: Any) -> tuple[ExtraOutput, ...]:
         """``<shaft>.torque`` of every shaft (:func:`~hacgear_core.kinds.base.shaft_torque_output`)."""

@@ -95,7 +95,7 @@ def bearing_forces(system: LumpedSystem, raw: dict, reference_speed_rad_s: float
             f = q @ np.asarray(a).T + np.asarray(b) + wc ** 2 * np.asarray(c)
         elif g.translations:
             for i, d in zip(g.translations, g.directions):
-                f += np.outer(system.K[i, i] * q[:, i], d)
+                f += np.outer(g.support[0] * q[:, i], d)
         else:
             for k, c in enumerate(system.meshes):
                 if g.name in (c.gear_a, c.gear_b):

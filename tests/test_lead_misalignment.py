@@ -369,3 +369,111 @@ def test_constant_speed_run_carries_the_static_mean_twist_moment(helical, table)
     assert out["twist_moment_Nm"][-n:, 0].mean() == pytest.approx(m_static, rel=0.01)
     assert m_static > 2.25 + 0.5                        # aligned: 2.2507 N m (docs/helical.md, 1200 Hz run)
     assert out["mesh_twist_rad"][-n:, 0].mean() == pytest.approx(np.mean([e.twist_rad[0] for e in eqs]), abs=0.1e-6)
+
+
+# ---------------------------------------------------------------- spur pairs (helix angle 0, a twist axis on request)
+
+
+@pytest.fixture(scope="module")
+def spur_slices_solver():
+    """spur_28t_asym without lead crowning on the face-resolving solver (helix angle 0), independent face slices,
+    11 slices."""
+    sp = load_model("spur_28t_asym")
+    m0 = replace(sp, gears=tuple(replace(g, lead_crowning_m=0.0) for g in sp.gears))
+    return make_helical_solver(m0, "m12", options=ContactOptions(face_slices=11, face_coupling="slices"))
+
+
+def test_spur_face_load_factor_is_the_iso_closed_form_and_the_lead_slope_is_exact(spur_slices_solver):
+    """Spur teeth (beta_b = 0) at the operating torque 300 N m: K_Hbeta - 1 of the statics at the mesh twist is ISO
+    6336-1's 1 + F_betay c_gamma b / (2 F_m) within 1 % (measured 0.999 / 0.999 / 1.005 at 100 / 250 / -500 urad),
+    and the twist offset gamma_0 = -f / b is the lead slope exactly: the twist's closure -gamma zeta has no part along
+    the path of contact (S sin beta_b = 0), so the exact flank deviation and its twist offset give the same face
+    loads (3.4e-6 of the change measured), twist moment change (ratio 1 - 3.4e-6) and approach."""
+    s = spur_slices_solver
+    assert s.frame.base_helix_angle_rad == 0.0
+    W = 300.0 / s.lever_arm_m[0]
+    _, _, xp = _slice_means(s, 1.02 * W)
+    _, _, xm = _slice_means(s, 0.98 * W)
+    k = float(np.mean(0.04 * W / (xp - xm)))
+    b = float(s.slice_z_m.size * np.mean(np.diff(s.slice_z_m)))
+    zeta = s.slice_z_m - s.slice_z_m.mean()
+    for g0 in (1e-4, 2.5e-4, -5e-4):
+        load, _, _ = _slice_means(s, W, twist_rad=g0)
+        slope, mean = np.polyfit(zeta, load / (b / load.size), 1)
+        k_ours = 1.0 + abs(slope) * b / 2 / mean
+        k_iso = 1.0 + abs(g0) * b * k / (2.0 * W)
+        assert k_ours - 1.0 == pytest.approx(k_iso - 1.0, rel=0.01), (g0, k_ours, k_iso)
+        assert (slope < 0) == (g0 > 0)
+    l0, m0, x0 = _slice_means(s, W)
+    for f in (1.5e-6, -3e-6):
+        g0 = lead_twist_offset_rad((f, 0.0), s.gear_face_width_m)
+        le, me, xe = _slice_means(s, W, lead=(f, 0.0))
+        lt, mt, xt = _slice_means(s, W, twist_rad=g0)
+        assert np.max(np.abs((lt - l0) - (le - l0))) < 1e-4 * np.max(np.abs(le - l0))
+        assert (mt - m0) / (me - m0) == pytest.approx(1.0, abs=1e-4)
+        assert np.max(np.abs(xe - xt)) < 1e-12
+
+
+def _spur_twist_model(tmp_path):
+    """A copy of spur_28t_asym asking for a twist axis (``[statics] twist_points = 3`` over +-0.5 mrad, 5 face
+    slices, a small grid), its tables computed on independent slices."""
+    from hacgear_core.statics.grid import compute_statics
+
+    src = (MODELS / "spur_28t_asym" / "model.toml").read_text()
+    start = src.index("[statics]")
+    end = src.find("\n[", start + 1)
+    grid = ("[statics]\npositions = 8\nloads = 4\ndeflections = 12\nmax_torque_factor = 3.0\nface_slices = 5\n"
+            "twist_points = 3\nmax_twist_mrad = 0.5\n")
+    text = src[:start] + grid + ("" if end < 0 else src[end:])
+    path = tmp_path / "model.toml"
+    path.write_text(text)
+    rep = compute_statics(path, tmp_path / "tables.h5", workers=1, progress=False, face_coupling="slices")
+    assert rep.success, rep.message
+    return text, load_system_tables(path)
+
+
+def test_spur_pair_with_a_twist_axis_takes_lead_slope_and_misalignment(tmp_path):
+    """``hacgear statics`` of a spur pair with ``[statics] twist_points > 1`` tabulates the mesh twist (the
+    face-resolving solver at helix angle 0, drive and coast sides), the pair is then built with six DOFs per gear on
+    the generalized FDF, and a lead slope is its twist offset: a 1.5 um pinion lead slope over the 15 mm face and a
+    misalignment of -100 urad shift the drive flanks' twist alike (gamma_0 = psi - f / b = -100 urad, exact for spur
+    teeth) and rest at the same static equilibrium, their sum not at all; the misalignment reaches the coast flanks
+    too (their own twist axis), the lead slope of the drive flanks does not.  At the static equilibrium the twist
+    moment [N m] changes sign with the offset, the mesh force stays the nominal one.  A rigid face with a twist
+    axis is refused."""
+    from hacgear_core.statics.grid import compute_statics
+
+    text, tables = _spur_twist_model(tmp_path)
+    tab = tables.mesh("m12")
+    assert tab.twist is not None and tab.coast is not None and tab.coast.twist is not None
+    np.testing.assert_allclose(tab.twist.twist_rad, [-5e-4, 0.0, 5e-4])
+    assert tab.twist.base_helix_angle_rad == 0.0
+    base = parse_model(text, file="spur.toml")
+
+    def system(lead_um=0.0, psi_urad=0.0):
+        m = replace(base, gears=(replace(base.gears[0], errors=GearErrors(lead_slope_m=lead_um * 1e-6)),)
+                    + base.gears[1:], meshes=(replace(base.meshes[0], misalignment_in_plane_rad=psi_urad * 1e-6),))
+        return build_system(m, tables)
+
+    aligned, lead, mis, both = system(), system(lead_um=1.5), system(psi_urad=-100.0), system(1.5, 100.0)
+    assert aligned.n == 12 and np.any(aligned.T[0] != 0)
+
+    def offsets(sy):
+        t = sy.meshes[0].table
+        return t.twist.twist_offset_rad, t.coast.twist.twist_offset_rad
+    assert offsets(aligned) == (0.0, 0.0)
+    assert offsets(lead)[0] == pytest.approx(-1e-4, rel=1e-12) and offsets(lead)[1] == 0.0
+    assert offsets(mis)[0] == pytest.approx(-1e-4, rel=1e-12) and offsets(mis)[1] != 0.0
+    assert offsets(both)[0] == pytest.approx(0.0, abs=1e-18) and offsets(both)[1] == -offsets(mis)[1]
+    eqs = {}
+    for key, sy in (("aligned", aligned), ("lead", lead), ("mis", mis), ("lead-", system(lead_um=-1.5))):
+        eq = static_equilibrium(sy)
+        assert eq.success
+        assert eq.mesh_forces_N[0] == pytest.approx(sy.nominal_forces_N()[0], rel=1e-6)
+        eqs[key] = (eq.q, float(sy.mesh_law.generalized(0, 0.0, sy.V[0] @ eq.q, sy.T[0] @ eq.q)[1]))
+    np.testing.assert_allclose(eqs["lead"][0], eqs["mis"][0], rtol=1e-9, atol=1e-15)
+    m0, mp, mm = eqs["aligned"][1], eqs["lead"][1], eqs["lead-"][1]
+    assert (mp - m0) * (mm - m0) < 0
+    with pytest.raises(ModelError, match=r"face_coupling = 'rigid' with \[statics\] twist_points = 3 on a spur pair"):
+        compute_statics(tmp_path / "model.toml", tmp_path / "rigid.h5", workers=1, progress=False,
+                        face_coupling="rigid")

@@ -1,4 +1,7 @@
-"""Lead slope deviations, shaft misalignment and axis deviations of helical meshes: a constant mesh twist offset.
+"""Lead slope deviations, shaft misalignment and axis deviations of meshes with a twist axis: a constant mesh twist offset.
+
+Helical meshes, and spur pairs whose tables have a twist axis (``[statics] twist_points > 1``; helix angle 0, where
+the offset is exact: docs/helical.md, "Spur pairs").
 
 The generalized tables of a helical mesh hold the mesh force W and the twist moment M over (position, deflection,
 mesh twist ``gamma = (theta_a - theta_b) . e1``), ``e1`` the normal to the plane of action (docs/helical.md,
@@ -207,7 +210,8 @@ def with_twist_offsets(table: Any, model: Any, mesh: Any, r_twist_coast: np.ndar
 
 def check_lead_inputs(model: Any, system: Any) -> None:
     """Refuse lead slope deviations, in-plane misalignment and axis deviations on meshes that do not run on a table
-    with a twist axis (spur meshes, lumped models, planetary sets): ModelError naming the inputs and what they need."""
+    with a twist axis (spur meshes without one, lumped models, planetary sets): ModelError naming the inputs and what
+    they need."""
     gears = {g.name: g for g in getattr(model, "gears", ())}
     twist = {c.name: c.t is not None and getattr(getattr(c, "table", None), "twist", None) is not None
              for c in system.meshes}
@@ -224,5 +228,6 @@ def check_lead_inputs(model: Any, system: Any) -> None:
         raise ModelError(
             f"{model.path or model.name}: {', '.join(bad)}: lead slope deviations and shaft misalignment act "
             "through the mesh twist, which needs the mesh's table with a twist axis; hacgear statics computes it "
-            "for helical meshes ([statics] twist_points > 1, max_twist_mrad), not for spur meshes, lumped models "
-            "or planetary sets: leave these keys out there")
+            "for helical meshes and spur pairs ([statics] twist_points > 1, max_twist_mrad), not for idler chains, "
+            "the spur stages of gear trains and gearboxes, lumped models or planetary sets: leave these keys out "
+            "there")

@@ -24,7 +24,7 @@ from hacgear_core.errors import ModelError
 from hacgear_core.geometry import train_geometry
 
 __all__ = ["Key", "KeyVector", "Support", "Dof", "Body", "Coupling", "Spring", "FrameSpring", "Train", "StructuralParameter",
-           "ExtraOutput", "MeshPair", "Kind"]
+           "ExtraOutput", "MeshPair", "Kind", "mesh_table"]
 
 #: a DOF's name in a train description: (body, label), e.g. ("pinion", "theta")
 Key = tuple[str, str]
@@ -183,6 +183,20 @@ class Train:
     frame_springs: tuple[FrameSpring, ...] = ()
 
 
+def mesh_table(tables: Any, name: str, single: bool = True):
+    """Mesh ``name``'s table from ``tables``: a :class:`~hacgear_core.tables.SystemTables`, a {mesh: MeshTable}
+    mapping or (``single``) one table used as it is."""
+    if hasattr(tables, "mesh"):
+        return tables.mesh(name)
+    if isinstance(tables, Mapping):
+        if name not in tables:
+            raise ModelError(f"no table for mesh '{name}'; tables for {sorted(tables)}")
+        return tables[name]
+    if not single:
+        raise ModelError(f"no tables for mesh '{name}' (give SystemTables or {{mesh: MeshTable}})")
+    return tables
+
+
 @dataclass(frozen=True)
 class StructuralParameter:
     """An integer option of a kind that changes the structure of the system (its DOFs and meshes), e.g. the planet
@@ -255,6 +269,10 @@ class Kind:
         Whether ``hacgear`` can make synthetic tables for it (a spur pair's analytic FDF, before the statics).
     rotating_carrier : bool
         Whether its system turns in a rotating carrier frame (modal analysis over the carrier speed).
+    face_twist : bool
+        Whether its spur meshes take tables with a twist axis (``[statics] twist_points > 1``: the face-resolving
+        statics tabulate the mesh twist, and the builder models the pair with six DOFs per gear, as a helical pair
+        at helix angle 0), so that lead slope deviations and shaft misalignment act on them.
     """
 
     name: str = ""
@@ -264,6 +282,7 @@ class Kind:
     mesh_count: int | None = None
     synthetic_tables: bool = False
     rotating_carrier: bool = False
+    face_twist: bool = False
 
     # ------------------------------------------------------------------ the model file
     def parse_section(self, reader: Any) -> Any:

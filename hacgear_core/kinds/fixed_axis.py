@@ -19,9 +19,10 @@ from hacgear_core.dynamics.system import LumpedSystem
 from hacgear_core.errors import ModelError
 from hacgear_core.geometry import gear_geometry, mesh_geometry, nominal_mesh_forces, train_geometry
 from hacgear_core.kinds.assembly import assemble
-from hacgear_core.kinds.base import Body, Coupling, Dof, Kind, KeyVector, Support, Train
+from hacgear_core.kinds.base import Body, Coupling, Dof, Kind, KeyVector, Support, Train, mesh_table
+from hacgear_core.kinds.helical_pair import helical_from_model
 
-__all__ = ["FixedAxis", "TrainGear", "TrainMesh", "fixed_axis_train", "mesh_table", "SpurPairParameters",
+__all__ = ["FixedAxis", "TrainGear", "TrainMesh", "fixed_axis_train", "SpurPairParameters",
            "spur_pair_system"]
 
 
@@ -155,20 +156,6 @@ def fixed_axis_train(name: str, kind: str, gears: Sequence[TrainGear], meshes: S
                  force_law=force_law, rigid_mode=tuple(((g, "theta"), val) for g, val in u_rot.items()))
 
 
-def mesh_table(tables: Any, name: str, single: bool = True):
-    """Mesh ``name``'s table from ``tables``: a :class:`~hacgear_core.tables.SystemTables`, a {mesh: MeshTable}
-    mapping or (``single``) one table used as it is."""
-    if hasattr(tables, "mesh"):
-        return tables.mesh(name)
-    if isinstance(tables, Mapping):
-        if name not in tables:
-            raise ModelError(f"no table for mesh '{name}'; tables for {sorted(tables)}")
-        return tables[name]
-    if not single:
-        raise ModelError(f"no tables for mesh '{name}' (give SystemTables or {{mesh: MeshTable}})")
-    return tables
-
-
 def train_from_model(model: Any, tables: Any, *, force_law: str = "hac", torque_Nm: float | None = None,
                      bearing_stiffness_N_per_m: float | None = None, modal_damping_ratio: float | None = None,
                      shafts: bool = True) -> Train:
@@ -285,9 +272,14 @@ class FixedAxis(Kind):
         self.name = name
         self.mesh_count = mesh_count
         self.synthetic_tables = mesh_count == 1
+        self.face_twist = mesh_count == 1
 
     def nominal_mesh_forces(self, model: Any, base_radii: Mapping[str, tuple[float, float]]) -> dict[str, float]:
         return nominal_mesh_forces(model, base_radii)
 
     def train(self, model: Any, tables: Any, **options) -> Train:
+        """The spur pair or idler chain's train; a spur pair on a table with a twist axis (``face_twist``) is built
+        as a helical pair at helix angle 0: six DOFs per gear, the generalized FDF over the mesh twist."""
+        if self.face_twist and getattr(mesh_table(tables, model.meshes[0].name), "twist", None) is not None:
+            return helical_from_model(model, tables, **options)
         return train_from_model(model, tables, **options)

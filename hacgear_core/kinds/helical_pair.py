@@ -32,8 +32,7 @@ import numpy as np
 from hacgear_core.dynamics.lead import with_twist_offsets
 from hacgear_core.errors import ModelError
 from hacgear_core.geometry import gear_geometry, mesh_geometry, nominal_mesh_forces
-from hacgear_core.kinds.base import Body, Coupling, Dof, Kind, KeyVector, Support, Train
-from hacgear_core.kinds.fixed_axis import mesh_table
+from hacgear_core.kinds.base import Body, Coupling, Dof, Kind, KeyVector, Support, Train, mesh_table
 
 __all__ = ["HelicalPair", "helical_from_model", "DOF_LABELS", "RIGID_SUPPORT_STIFFNESS", "tilting_inertia_kgm2",
            "coast_vectors"]

@@ -63,7 +63,7 @@ import numpy as np
 from hacgear_core.errors import GeometryError, ModelError, SolverError
 from hacgear_core.geometry import gear_geometry, mesh_geometry
 from hacgear_core.model import Model
-from hacgear_core.kinds import load_model
+from hacgear_core.kinds import kind_of, load_model
 from hacgear_core.statics import fe as fe_mod
 from hacgear_core.statics.contract import StaticSolution
 from hacgear_core.statics.lcp import LCPResult, solve_contact_lcp
@@ -77,6 +77,7 @@ __all__ = [
     "split_pressure",
     "make_mesh_solver",
     "default_contact_options",
+    "spur_twist_axis",
     "prebuild_compliances",
     "mesh_solver_inputs",
 ]
@@ -949,6 +950,13 @@ def _compliance_request(model: Model, gear: Any, gg: Any, loaded: str, glist: Se
                 **fe_mod.compliance_lengths(gear, mode))
 
 
+def spur_twist_axis(model: Model) -> bool:
+    """True where ``model``'s spur meshes get tables with a twist axis: its kind takes them
+    (:attr:`~hacgear_core.kinds.base.Kind.face_twist`, a spur pair) and ``[statics] twist_points > 1``; the
+    face-resolving solver then computes them (elastic face coupling by default, or independent slices)."""
+    return bool(kind_of(model).face_twist and model.statics.twist_points > 1)
+
+
 def default_contact_options(model: Model, mesh_name: str, **kw: Any) -> ContactOptions:
     """:class:`ContactOptions` of mesh ``mesh_name`` with the model's face slices and ``kw``; under module-scaled
     lengths (``[statics] fe_lengths``, :func:`~hacgear_core.statics.fe.length_scale` of the mesh's first gear)
@@ -984,8 +992,8 @@ def prebuild_compliances(model: Any, mesh_names: Sequence[str] | None = None, si
     requests3d: dict[str, list] = {}
     for name in (mesh_names if mesh_names is not None else list(meshes)):
         mesh = meshes[name]
-        elastic = face_coupling == "elastic" or (face_coupling is None and (gears[mesh.gear_a].is_helical
-                                                                            or gears[mesh.gear_b].is_helical))
+        elastic = face_coupling == "elastic" or (face_coupling is None and (
+            gears[mesh.gear_a].is_helical or gears[mesh.gear_b].is_helical or spur_twist_axis(model)))
         for side in sides:
             fl = (mesh.flank_a, mesh.flank_b) if side == "drive" else (_OTHER_FLANK[mesh.flank_a],
                                                                        _OTHER_FLANK[mesh.flank_b])

@@ -56,7 +56,7 @@ from hacgear_core.h5files import check_writable_kind
 from hacgear_core.kinds import kind_of, load_model
 from hacgear_core.model.provenance import model_values_json, model_values_sha256
 from hacgear_core.statics.coast import CoastSideSolver, coast_mapping, make_coast_solver
-from hacgear_core.statics.contact import ContactOptions, default_contact_options, prebuild_compliances
+from hacgear_core.statics.contact import ContactOptions, default_contact_options, prebuild_compliances, spur_twist_axis
 from hacgear_core.statics.contract import MeshInfo, MeshStaticSolver, SolverFactory, StaticSolution, describe_solver
 from hacgear_core.statics.helical import make_solver
 from hacgear_core.statics.reference import AnalyticPairSolver
@@ -650,9 +650,14 @@ def compute_statics(
         raise ModelError(f"max_torque_factor [-] = {factor:g}; allowed: >= 3 (tables span 0 … >= 3 x nominal torque)")
     out_path = Path(out) if out is not None else mdl.tables_path
     values = model_values_json(mdl)
-    helical = any(g.is_helical for g in mdl.gears) and solver == "fe"
+    # helical meshes, and a spur pair asked for twists, tabulate the mesh twist (spur_twist_axis)
+    helical = (any(g.is_helical for g in mdl.gears) or spur_twist_axis(mdl)) and solver == "fe"
     twists = twist_grid(st.max_twist_rad, st.twist_points) if helical and st.twist_points > 1 else (
         np.zeros(1) if helical else None)
+    if spur_twist_axis(mdl) and face_coupling == "rigid":
+        raise ModelError(f"face_coupling = 'rigid' with [statics] twist_points = {st.twist_points} on a spur pair: a "
+                         "mesh twist loads the face linearly, which a face rigid across its width cannot spread "
+                         "(allowed: slices | elastic, the default)")
     sides = tuple(sides)
     if "drive" not in sides or not set(sides) <= set(SIDES):
         raise ModelError(f"sides = {sides!r}; allowed: ('drive',) or ('drive', 'coast')")

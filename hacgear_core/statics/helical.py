@@ -57,7 +57,7 @@ from hacgear_core.model import Model
 from hacgear_core.kinds import load_model
 from hacgear_core.statics import fe3d
 from hacgear_core.statics.contact import (ContactOptions, ContactState, MeshContactSolver, default_contact_options,
-                                          make_mesh_solver, mesh_solver_inputs, split_pressure)
+                                          make_mesh_solver, mesh_solver_inputs, split_pressure, spur_twist_axis)
 from hacgear_core.statics.contract import StaticSolution
 from hacgear_core.statics.nearfield import halfspace_approach_hertz
 
@@ -517,7 +517,7 @@ def make_helical_solver(model: Any, mesh_name: str, *, options: ContactOptions |
                         gauges: Sequence[tuple[str, Any]] | None = None,
                         fe3d_options: Any = None, side: str = "drive") -> HelicalMeshContactSolver:
     """The face-resolving static contact solver of mesh ``mesh_name`` (helical, or spur with ``elastic`` face
-    coupling).  ``options`` default: the model's face slices and ``face_coupling="elastic"``
+    coupling or a twist axis).  ``options`` default: the model's face slices and ``face_coupling="elastic"``
     (:func:`~hacgear_core.statics.contact.default_contact_options`); ``fe3d_options`` default:
     :func:`~hacgear_core.statics.fe3d.gear_mesh3d_options` per gear with the solver's face slices (module-scaled
     under ``[statics] fe_lengths``); the 3D face influence (:func:`hacgear_core.statics.fe3d.face_influence`, cached on disk) is built only for ``elastic``.
@@ -563,12 +563,13 @@ def make_helical_solver(model: Any, mesh_name: str, *, options: ContactOptions |
 
 
 def needs_face_resolving_solver(model: Model, mesh_name: str, options: ContactOptions | None = None) -> bool:
-    """True where mesh ``mesh_name`` needs the face-resolving solver: a helical gear in it, or
-    ``face_coupling="elastic"`` asked for in ``options``."""
+    """True where mesh ``mesh_name`` needs the face-resolving solver: a helical gear in it,
+    ``face_coupling="elastic"`` asked for in ``options``, or a spur mesh with a twist axis
+    (:func:`spur_twist_axis`)."""
     m = {m.name: m for m in model.meshes}[mesh_name]
     gears = {g.name: g for g in model.gears}
     helical = gears[m.gear_a].is_helical or gears[m.gear_b].is_helical
-    return bool(helical or (options is not None and options.face_coupling == "elastic"))
+    return bool(helical or (options is not None and options.face_coupling == "elastic") or spur_twist_axis(model))
 
 
 def make_solver(model: Any, mesh_name: str, *, options: ContactOptions | None = None, **kw) -> MeshContactSolver:
@@ -579,6 +580,10 @@ def make_solver(model: Any, mesh_name: str, *, options: ContactOptions | None = 
     meshes = {m.name: m for m in model.meshes}
     if mesh_name not in meshes:
         raise ModelError(f"unknown mesh {mesh_name!r}; the model has: {', '.join(meshes) or '(none)'}")
+    if spur_twist_axis(model) and options is not None and options.face_coupling == "rigid":
+        raise ModelError(f"{model.path or model.name}: [statics] twist_points = {model.statics.twist_points} on the "
+                         f"spur mesh '{mesh_name}' with face_coupling 'rigid': a mesh twist loads the face linearly, "
+                         "which a face rigid across its width cannot spread (allowed: slices | elastic, the default)")
     if needs_face_resolving_solver(model, mesh_name, options):
         return make_helical_solver(model, mesh_name, options=options, **kw)
     kw.pop("fe3d_options", None)

@@ -165,3 +165,26 @@ def test_inputs_read_validated_refused_on_spur_and_zero_is_identical(helical, ta
     spur = load_model("spur_28t_asym")
     with pytest.raises(ModelError, match=r"axis_deviation_in_axes_plane_urad.*twist axis"):
         build_system(_iso(spur, f_delta=1e-4), load_system_tables(spur.path))
+
+
+def test_out_of_plane_misalignment_is_the_iso_rotation_about_the_line_of_action(helical, table):
+    """misalignment_out_of_plane = w is the rotation w e2 about the transverse line of action: the ISO deviations
+    whose rotation is w e2 (f_Sigma_beta = w e2_x, f_Sigma_delta = w e2_y, nothing about e1) give the same offsets
+    (drive 0: second order there; coast -w e2 . e1_c, first order) within rounding; both together with opposite
+    signs cancel; on its own it moves the coast offset by -w e2 . e1_c."""
+    e1 = table.twist.r_twist[3:6]
+    e2 = np.array([-e1[1], e1[0], 0.0])
+    e1c = table.coast.twist.r_twist[3:6]
+    w = 3e-4
+    s_oop = build_system(replace(helical, meshes=(replace(helical.meshes[0], misalignment_out_of_plane_rad=w),)),
+                         {"m12": table})
+    s_iso = build_system(_iso(helical, w * e2[1], w * e2[0]), {"m12": table})
+    drive = [s.meshes[0].table.twist.twist_offset_rad for s in (s_oop, s_iso)]
+    coast = [s.meshes[0].coast_table.twist.twist_offset_rad for s in (s_oop, s_iso)]
+    assert drive[0] == 0.0 and abs(drive[1]) < 1e-18
+    assert coast[0] == pytest.approx(-w * float(e2 @ e1c), rel=1e-12) and abs(coast[0]) > 0.1 * w
+    assert coast[1] == pytest.approx(coast[0], rel=1e-12)
+    both = replace(_iso(helical, -w * e2[1], -w * e2[0]),
+                   meshes=(replace(_iso(helical, -w * e2[1], -w * e2[0]).meshes[0], misalignment_out_of_plane_rad=w),))
+    s_both = build_system(both, {"m12": table})
+    assert abs(s_both.meshes[0].coast_table.twist.twist_offset_rad) < 1e-18

@@ -75,8 +75,10 @@ def test_inputs_are_read_in_micrometres_and_microradians_and_validated():
     with pytest.raises(ModelError, match=r"misalignment_in_plane_urad.*\[urad\]"):
         parse_model(text.replace("misalignment_in_plane_urad = 120.0", "misalignment_in_plane_urad = 2e4"),
                     file="t.toml")
-    with pytest.raises(ModelError, match=r"misalignment_out_of_plane_urad.*second order"):
-        parse_model(text.replace("misalignment_in_plane_urad = 120.0", "misalignment_out_of_plane_urad = 50"),
+    assert parse_model(text.replace("misalignment_in_plane_urad = 120.0", "misalignment_out_of_plane_urad = 50"),
+                       file="t.toml").meshes[0].misalignment_out_of_plane_rad == pytest.approx(5e-5)
+    with pytest.raises(ModelError, match=r"misalignment_out_of_plane_urad.*\[urad\]"):
+        parse_model(text.replace("misalignment_in_plane_urad = 120.0", "misalignment_out_of_plane_urad = -2e4"),
                     file="t.toml")
     with pytest.raises(ModelError, match=r"errors.lead_slope_m \[m\].*\[-0.001, 0.001\]"):
         GearErrors(lead_slope_m=2e-3)

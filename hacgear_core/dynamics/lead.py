@@ -35,6 +35,10 @@ the reference plane) by ``gamma (S sin beta_b - zeta cos beta_b)`` (normal to th
   second order (:func:`out_of_plane_gap_m`) and it is not modelled on the drive side.  The coast flanks see the
   whole rotation on their own twist axis (``omega . e2`` is first order there).
 
+* **Out-of-plane misalignment** ``omega_l`` (``[[meshes]] misalignment_out_of_plane_urad``): the rotation of gear_b's
+  axis relative to gear_a's about the transverse line of action ``e2``; it adds to the axis deviations' ``omega_l``
+  (second order on the drive flanks, :func:`out_of_plane_gap_m`; first order on the coast flanks' twist axis).
+
 All together: the flanks meet at ``gamma + gamma_0``, ``gamma_0 = psi + psi_ISO - f_a / b_a - f_b / b_b``.  The system's
 copy of the mesh table carries ``gamma_0`` as its :attr:`~hacgear_core.tables.table.TwistTable.twist_offset_rad`:
 every lookup (the compiled kernel's trilinear rule through the twist origin it is handed, the Python force law,
@@ -115,14 +119,16 @@ def twist_offsets_rad(model: Any, mesh: Any, r_twist: np.ndarray, r_twist_coast:
                       ) -> tuple[float, float]:
     """``(gamma_0, gamma_0c)`` [rad] of ``mesh`` of ``model``: the drive flanks' twist offset (lead slopes of both
     gears, the in-plane misalignment ``psi`` and the in-plane share ``psi_ISO`` of the axis deviations) and the
-    coast flanks' (the relative rotation ``(psi + psi_ISO) e1 - omega_l e2`` on the coast twist axis ``e1_c``; the
-    coast flanks keep their ideal lead).  ``r_twist`` (12,) and ``r_twist_coast`` (12,) the two sides' twist
+    coast flanks' (the relative rotation ``(psi + psi_ISO) e1 - omega_l e2`` on the coast twist axis ``e1_c``,
+    ``omega_l`` the axis deviations' share about the transverse line of action plus the out-of-plane
+    misalignment; the coast flanks keep their ideal lead).  ``r_twist`` (12,) and ``r_twist_coast`` (12,) the two sides' twist
     vectors ``[0, e1, 0, -e1]`` in the table's frame (None: no coast side)."""
     gears = {g.name: g for g in model.gears}
     ga, gb = gears[mesh.gear_a], gears[mesh.gear_b]
     lead = tuple(getattr(getattr(g, "errors", None), "lead_slope_m", 0.0) for g in (ga, gb))
     e1, e2 = _plane_axes(r_twist)
     psi_iso, omega_l = _axis_misalignment(mesh, e1, e2)
+    omega_l += float(getattr(mesh, "misalignment_out_of_plane_rad", 0.0))
     psi = float(getattr(mesh, "misalignment_in_plane_rad", 0.0)) + psi_iso
     g0 = lead_twist_offset_rad(lead, (ga.face_width_m, gb.face_width_m), psi)
     if r_twist_coast is None or (psi == 0.0 and omega_l == 0.0):
@@ -163,6 +169,7 @@ def out_of_plane_gap_m(omega_l_rad: float, zeta_max_m: float, center_distance_m:
 
 #: the mesh inputs that act through the twist offset: (model-file key [urad], Mesh field [rad])
 _MESH_INPUTS = (("misalignment_in_plane_urad", "misalignment_in_plane_rad"),
+                ("misalignment_out_of_plane_urad", "misalignment_out_of_plane_rad"),
                 ("axis_deviation_in_axes_plane_urad", "axis_deviation_in_axes_plane_rad"),
                 ("axis_deviation_normal_to_axes_plane_urad", "axis_deviation_normal_to_axes_plane_rad"))
 

@@ -44,7 +44,7 @@ EXCLUDED: dict[type, frozenset[str]] = {
     # a shaft misalignment or axis deviation enters the dynamics as an offset of the tables' twist axis
     # (dynamics/lead.py)
     Mesh: frozenset({"misalignment_in_plane_rad", "axis_deviation_in_axes_plane_rad",
-                     "axis_deviation_normal_to_axes_plane_rad"}),
+                     "axis_deviation_normal_to_axes_plane_rad", "misalignment_out_of_plane_rad"}),
     Material: frozenset({"name", "density_kg_per_m3"}),
     # the power flow's output member names the driver of each mesh, which the meshes' own gear order already holds
     Planetary: frozenset({"planet_count", "carrier_mass_kg", "carrier_inertia_kgm2", "carrier_support",

@@ -659,8 +659,12 @@ class Mesh:
     angles (the deviation over the bearing span divided by the span), the rotation of gear_b's axis relative to
     gear_a's about the normal to the plane of the axes (positive: the +z end of gear_b's axis away from gear_a)
     and about the line of centres (positive: right-handed about the direction from gear_a to gear_b), each in
-    [-0.01, 0.01] rad; their share about the normal to the plane of action adds to the misalignment (helical
-    meshes only, :func:`hacgear_core.dynamics.lead.axis_deviation_rotation`)."""
+    [-0.01, 0.01] rad; their share about the normal to the plane of action adds to the misalignment (meshes with
+    a twist axis only, :func:`hacgear_core.dynamics.lead.axis_deviation_rotation`).
+    ``misalignment_out_of_plane_rad``: the installed rotation of gear_b's axis relative to gear_a's about the
+    transverse line of action ``e2 = z x e1`` (right-handed), in [-0.01, 0.01] rad: second order on the drive
+    flanks (not modelled there, its bound :func:`hacgear_core.dynamics.lead.out_of_plane_gap_m`), first order on
+    the coast flanks' own twist axis."""
 
     name: str
     gear_a: str
@@ -674,10 +678,11 @@ class Mesh:
     misalignment_in_plane_rad: float = 0.0
     axis_deviation_in_axes_plane_rad: float = 0.0
     axis_deviation_normal_to_axes_plane_rad: float = 0.0
+    misalignment_out_of_plane_rad: float = 0.0
 
     def __post_init__(self) -> None:
         for attr in ("misalignment_in_plane_rad", "axis_deviation_in_axes_plane_rad",
-                     "axis_deviation_normal_to_axes_plane_rad"):
+                     "axis_deviation_normal_to_axes_plane_rad", "misalignment_out_of_plane_rad"):
             _check_range(attr, getattr(self, attr), "rad", -0.01, 0.01)
         for attr in ("flank_a", "flank_b"):
             if getattr(self, attr) not in FLANKS:

@@ -637,6 +637,7 @@ DEFAULT_MEANINGS = {
     "runout_um": "no runout", "runout_phase_deg": "runout towards tooth 0",
     "lead_slope_um": "no lead slope deviation",
     "misalignment_in_plane_urad": "aligned shafts",
+    "misalignment_out_of_plane_urad": "no tilt about the line of action",
     "axis_deviation_in_axes_plane_urad": "parallel axes (no f_Sigma_delta)",
     "axis_deviation_normal_to_axes_plane_urad": "parallel axes (no f_Sigma_beta)",
     "tip_relief_um": "no tip relief", "tip_relief_start_roll_deg": "no tip relief",
@@ -742,16 +743,9 @@ def parse_model(text: str, *, file: str = "<model>", path: Path | None = None, s
         cd = msec.number("center_distance_mm", "mm", 0.0, 20000.0, required=False, default=None, lo_open=True)
         loc = msec.number("line_of_centres_deg", "deg", -360.0, 360.0, required=False, default=0.0)
         mis = msec.number("misalignment_in_plane_urad", "urad", -1e4, 1e4, required=False, default=0.0)
-        # read only when given (its only allowed value is 0: no default to report)
-        out_of_plane = (msec.number("misalignment_out_of_plane_urad", "urad", -1e4, 1e4)
-                        if "misalignment_out_of_plane_urad" in msec.data else 0.0)
-        if out_of_plane != 0.0:
-            # a tilt about the line of action moves the flanks along the normal to the plane of action: their gap
-            # changes by ~ angle^2 x (face width)^2 / (2 radius of curvature), second order (docs/helical.md)
-            raise msec.error(msec.key("misalignment_out_of_plane_urad"), "urad", "0 (not modelled)", out_of_plane,
-                             problem="a tilt about the line of action changes the flank gap only to second order "
-                             "in the angle (docs/helical.md, 'Lead slope and misalignment'); it is not modelled: "
-                             "leave it out, or give its in-plane share as misalignment_in_plane_urad")
+        # a tilt about the line of action: second order on the drive flanks, first order on the coast flanks
+        # (dynamics/lead.py)
+        out_of_plane = msec.number("misalignment_out_of_plane_urad", "urad", -1e4, 1e4, required=False, default=0.0)
         # ISO 10064-4 axis parallelism deviations as angles (deviation over the bearing span / span): their part
         # about the line of action is second order and accepted (dynamics/lead.py)
         f_d = msec.number("axis_deviation_in_axes_plane_urad", "urad", -1e4, 1e4, required=False, default=0.0)
@@ -763,6 +757,8 @@ def parse_model(text: str, *, file: str = "<model>", path: Path | None = None, s
                                                                     misalignment_in_plane_rad=mis * 1e-6,
                                                                     axis_deviation_in_axes_plane_rad=f_d * 1e-6,
                                                                     axis_deviation_normal_to_axes_plane_rad=f_b
+                                                                    * 1e-6,
+                                                                    misalignment_out_of_plane_rad=out_of_plane
                                                                     * 1e-6)))
 
     dsec = top.table("damping")

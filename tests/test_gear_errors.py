@@ -144,6 +144,37 @@ def test_runout_static_te_is_the_ideal_te_plus_the_runout():
         assert s.line(lab).amplitude == pytest.approx(s0.line(lab).amplitude, rel=1e-9)
 
 
+def test_runout_moves_the_coast_flanks_and_closes_the_backlash_as_a_shorter_centre_distance():
+    """A 10 um pinion runout acts on the coast flanks too (the coast line of action is the drive one mirrored about
+    the line of centres).  Under the reversed torque the coast flanks carry, and the static coast approach is the
+    ideal one less e sin(alpha_c) with the offset pointing at the wheel (tooth 0's passage) and plus e cos(alpha_c) a
+    quarter turn later (the offset along the pinion's rotation opens the coast flanks by what it closes the drive
+    ones), 1e-6.  Under the drive torque, pointing at the wheel it is a centre distance shorter by e: the backlash
+    left along the coast line of action shrinks by e sin(alpha_w + alpha_c) / cos(alpha_w) (the drive flanks close
+    by e sin alpha_w, the coast flanks by e sin alpha_c; for symmetric teeth the textbook j_n = 2 Delta_a sin
+    alpha_w; here 25 / 20 deg: 7.80 um).  The kernel at rest on the reversed torque stays at the static equilibrium
+    (its coast lookup is the numpy twin's)."""
+    model, _ = _spur()
+    mg = mesh_geometry(model, model.meshes[0].name)
+    aw, ac = mg.operating_pressure_angle_rad, mg.operating_pressure_angle_coast_rad
+    sy, sy0 = _with_errors(pinion=GearErrors(runout_m=E_RUNOUT, runout_phase_rad=0.0)), _with_errors()
+    assert sy.meshes[0].coast_error is not None and sy0.meshes[0].coast_error is None
+    c0 = float(sy.meshes[0].tooth_passage["pinion"])
+    rev, rev0 = (s.with_changes(torque_Nm=-s.torque_Nm) for s in (sy, sy0))
+    for dc, shift in ((0.0, -E_RUNOUT * math.sin(ac)), (Z / 4, E_RUNOUT * math.cos(ac))):
+        e, e0 = (static_equilibrium(s, c0 + dc, s.fext_speed()) for s in (rev, rev0))
+        assert e.coast_forces_N[0] == pytest.approx(e0.coast_forces_N[0], rel=1e-9)
+        assert e.coast_approach_m[0] - e0.coast_approach_m[0] == pytest.approx(shift, rel=1e-6)
+    d, d0 = (static_equilibrium(s, c0) for s in (sy, sy0))
+    left, left0 = (x.coast_approach_m[0] - s.coast_errors_m(np.array([c0]))[0] for x, s in ((d, sy), (d0, sy0)))
+    assert left - left0 == pytest.approx(E_RUNOUT * math.sin(aw + ac) / math.cos(aw), rel=1e-6)
+    # the compiled loop at rest on the reversed torque: its coast lookup holds the static equilibrium
+    e = static_equilibrium(rev, c0, rev.fext_speed())
+    s = np.concatenate([e.q, np.zeros(rev.n)])
+    rev.integrate(s, np.array([c0 % 1.0, math.floor(c0), 0.0]), 400, 2e-6, rev.fext_speed())
+    assert np.max(np.abs(s[:rev.n] - e.q)) < 1e-9 * np.max(np.abs(e.q))
+
+
 def test_runout_mesh_force_sidebands_follow_the_stiffness_variation():
     """Imposed kinematics (gear inertias x 1e8: the gears turn at constant speed) with a 10 um pinion runout:
     the mesh force is F(tau, x - e(t)) ~ F(tau, x_bar) - k(tau) e(t), so the runout puts k_0 e at shaft order 1 and

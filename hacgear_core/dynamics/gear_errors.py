@@ -51,7 +51,7 @@ runout): against the pair solve at 0.5 and 1.5 x the nominal force, 8.6 / 5.5 % 
 helical_28_33 (tests/test_gear_errors_helical.py).  Meshes at their own rates (gear trains, gearboxes) take their
 profiles over their own positions (:func:`with_gear_errors`).  Not held: the coupling of the pairs through the gear
 bodies when their approaches differ (the table's tooth loads come from the coupled solve at one common approach),
-and the errors' effect on the coast flanks (they keep the ideal geometry).  The profile is sampled at the table's
+and the pitch errors' effect on the coast flanks (their runout is held: :func:`coast_runout_profile`).  The profile is sampled at the table's
 positions per cycle (``npc``) over ``L = lcm`` of the tooth counts of the gears that carry errors, linear between samples (as the table itself); it takes
 ``L npc nd`` floats (28 x 256 x 64 = 3.7 MB for the 28:28 pair).  For small errors the pair sum is the
 stiffness-share rule ``e = R + sum_o (k_o / K) e_o`` (openings; :func:`load_shares`), the closed form the tests
@@ -67,10 +67,11 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from hacgear_core.dynamics.kernels import LAW_TWIST
 
 __all__ = ["iso1328_single_pitch_tolerance_m", "single_pitch_deviations_m", "cumulative_pitch_deviations_m",
-           "load_shares", "pair_solve_shift", "approach_profile", "mesh_error_profile", "with_gear_errors",
-           "GearErrorData"]
+           "load_shares", "pair_solve_shift", "approach_profile", "mesh_error_profile", "coast_runout_profile",
+           "with_gear_errors", "GearErrorData"]
 
 
 def iso1328_single_pitch_tolerance_m(grade: int, reference_diameter_m: float, normal_module_m: float) -> float:
@@ -276,6 +277,39 @@ def mesh_error_profile(*, teeth: tuple[int, int], passage: tuple[float, float], 
     return np.ascontiguousarray(e), int(L), npc
 
 
+def coast_runout_profile(*, teeth: tuple[int, int], passage: tuple[float, float],
+                         runout: tuple[tuple[float, float], tuple[float, float]], pressure_angle_rad: float,
+                         samples_per_cycle: int, internal: tuple[bool, bool] = (False, False)) -> tuple | None:
+    """Error profile ``(samples (L npc,) [m], L, npc)`` of one mesh's coast flanks from the gears' runouts, None
+    without runout: the coast flanks' opening ``-(R_a,c + R_b,c)`` over ``L`` = lcm of the tooth counts of the
+    gears with runout.  The coast line of action is the drive one mirrored about the line of centres, so the offset's
+    component towards the mating gear closes both flanks alike and its tangential component opens the coast flanks
+    by what it closes the drive ones: ``R_a,c = e_a sin(alpha_c - beta_a)``, ``R_b,c = e_b sin(alpha_c + beta_b)``
+    (external), ``R_a,c = -e_a sin(beta_a + alpha_c)``, ``R_b,c = e_b sin(beta_b - alpha_c)`` (internal), with
+    ``beta_g`` as in :func:`mesh_error_profile` and ``alpha_c`` the coast flanks' operating pressure angle
+    (``pressure_angle_rad``).  An offset ``e`` of gear_a towards gear_b (a centre distance shorter by ``e``) so closes
+    the backlash by ``e (sin alpha_w + sin alpha_c)`` (``2 e sin alpha_w`` for symmetric teeth, the textbook
+    ``j_n = 2 Delta_a sin alpha_w``)."""
+    za, zb = (int(z) for z in teeth)
+    carriers = [z for z, r in zip((za, zb), runout) if r[0] != 0.0]
+    if not carriers:
+        return None
+    L = math.lcm(*carriers)
+    npc = int(samples_per_cycle)
+    c = np.arange(L * npc) / npc
+    alpha = float(pressure_angle_rad)
+    run = np.zeros(L * npc)
+    for g, (z, tp, (ecc, phi)) in enumerate(zip((za, zb), passage, runout)):
+        if ecc == 0.0:
+            continue
+        beta = 2.0 * math.pi * (c - float(tp)) / z + float(phi)
+        if internal[g]:
+            run += ecc * (-np.sin(beta + alpha) if g == 0 else np.sin(beta - alpha))
+        else:
+            run += ecc * (np.sin(alpha - beta) if g == 0 else np.sin(alpha + beta))
+    return np.ascontiguousarray(-run), int(L), npc
+
+
 #: per gear: (its GearErrors, reference radius [m], normal module [m]) as :func:`with_gear_errors` takes them
 GearErrorData = tuple
 
@@ -283,7 +317,8 @@ GearErrorData = tuple
 def with_gear_errors(system: Any, gears: Mapping[str, GearErrorData],
                      pressure_angles_rad: Mapping[str, float], *, approach: bool = True,
                      normal_factor: Mapping[str, float] | None = None, internal_gears: tuple[str, ...] = (),
-                     runout_passage: Mapping[str, Mapping[str, float]] | None = None) -> Any:
+                     runout_passage: Mapping[str, Mapping[str, float]] | None = None,
+                     coast_pressure_angles_rad: Mapping[str, float] | None = None) -> Any:
     """``system`` (a :class:`~hacgear_core.dynamics.system.LumpedSystem` of a fixed-axis train) with the error
     profile of every mesh one of whose gears has errors (:func:`mesh_error_profile`); the system itself when no
     gear has any.
@@ -299,6 +334,10 @@ def with_gear_errors(system: Any, gears: Mapping[str, GearErrorData],
     passage [cycles]}}: the exact (fractional) passage the runout's direction is counted from, within half a cycle
     of the coupling's integer ``tooth_passage`` (a planet's two meshes on opposite sides of it,
     :func:`~hacgear_core.kinds.planetary.planetary_error_inputs`); the pitch errors keep the integer passage.
+    ``coast_pressure_angles_rad`` {mesh: operating pressure angle of its coast flanks [rad]}: the meshes with a coast
+    table on the table or conventional laws (not the helical meshes' twist law) get the coast flanks' runout
+    profile (:func:`coast_runout_profile`, ``MeshCoupling.coast_error``); their pitch errors are left off the coast
+    flanks.
 
     Meshes at their own rates (a gear train's or gearbox's stages, ``MeshCoupling.rate``): each profile is over its
     own mesh's unwrapped position (the kernel's ``c_k``, ``p/q`` times the reference position), so the tooth count
@@ -339,5 +378,14 @@ def with_gear_errors(system: Any, gears: Mapping[str, GearErrorData],
         fac = float((normal_factor or {}).get(c.name, 1.0))
         if prof is not None and fac != 1.0:
             prof = (np.ascontiguousarray(prof[0] * fac),) + tuple(prof[1:])
-        meshes.append(c if prof is None else replace(c, error=prof))
+        cprof = None
+        if (coast_pressure_angles_rad is not None and c.name in coast_pressure_angles_rad
+                and c.coast_table is not None and system.mesh_law.kernel_law != LAW_TWIST):
+            cprof = coast_runout_profile(
+                teeth=tuple(c.teeth), passage=passage, internal=(ga in internal_gears, gb in internal_gears),
+                runout=tuple(((ge.runout_m, ge.runout_phase_rad) if ge is not None else (0.0, 0.0))
+                             for ge in (ea, eb)),
+                pressure_angle_rad=float(coast_pressure_angles_rad[c.name]),
+                samples_per_cycle=int(getattr(c.table, "n_positions", 0) or 64))
+        meshes.append(c if prof is None and cprof is None else replace(c, error=prof, coast_error=cprof))
     return system.with_changes(meshes=tuple(meshes))

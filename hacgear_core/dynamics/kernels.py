@@ -48,8 +48,9 @@ The coast side is always its table.
 Manufacturing errors (variant bit ``VARIANT_ERRORS``, the generic table and linear-law loops): the drive-flank
 force of mesh k is its law at ``x_k - e_k(c_k, x_k)``, ``c_k`` the unwrapped mesh position (whole cycles + ``tau_k``)
 and ``e_k`` its error profile (:func:`mesh_error`; :mod:`hacgear_core.dynamics.gear_errors`), carried after the
-conventional-law arrays in ``lin`` / ``lint`` (:func:`flatten_errors`).  Loops without the bit are the error-free
-loops, unchanged.
+conventional-law arrays in ``lin`` / ``lint`` (:func:`flatten_errors`); the coast-flank force of a two-sided mesh
+is its coast table at ``xc_k - ec_k(c_k)``, ``ec_k`` its coast flanks' profile (the gears' runout), and these loops
+take the coast terms in every step.  Loops without the bit are the error-free loops, unchanged.
 
 Tables travel flattened: row ``r`` (drive tables of meshes 0..m-1, then their coast tables m..2m-1) is
 ``tab[o : o + Np * Nd]`` reshaped (Np, Nd) with ``(o, Np, Nd) = tint[r]`` and ``(x0, 1/dx, x_on, x_max) =
@@ -646,7 +647,10 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
             # one-sided one (measured on the spur 4-DOF pair: about 1.04x per mesh cycle, against 1.3x with the coast
             # terms in every step; docs/dynamics.md, "What the check costs").
             coast_on = twist
-            if two_sided:
+            if errors and two_sided:
+                # the coast flanks' errors move their onset: the error loops take the coast terms in every step
+                coast_on = True
+            elif two_sided:
                 for k in range(m):
                     lim = tflt[m + k, 2] - 1e-12
                     if wk[o_cq + k] >= lim or wk[o_cq + k] + hh * wk[o_cd + k] >= lim:
@@ -686,8 +690,15 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
                         wk[o_f2 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t2,
                                                   wk[o_xq + k] + hh * wk[o_xd + k])
                     if coast_on:
-                        wk[o_c1 + k] = table_row_force(tab, tint, tflt, m + k, t1, wk[o_cq + k])
-                        wk[o_c2 + k] = table_row_force(tab, tint, tflt, m + k, t2, wk[o_cq + k] + hh * wk[o_cd + k])
+                        c1x = wk[o_cq + k]
+                        c2x = wk[o_cq + k] + hh * wk[o_cd + k]
+                        if errors:
+                            # the coast flanks' error profile is kernel mesh 2 m + k's (flatten_errors)
+                            wh = kin[1] if unit_rates else mesh_base(phase[1, k], phase[2, k], kin[1], tau_ref)[1]
+                            c1x -= mesh_error(lin, lint, m, 2 * m + k, wh + t1, 0.0, 0.0, 0.0)
+                            c2x -= mesh_error(lin, lint, m, 2 * m + k, wh + t2, 0.0, 0.0, 0.0)
+                        wk[o_c1 + k] = table_row_force(tab, tint, tflt, m + k, t1, c1x)
+                        wk[o_c2 + k] = table_row_force(tab, tint, tflt, m + k, t2, c2x)
                 for i in range(n):
                     wk[o_g0 + i] = wk[o_fm + i]
                     wk[o_p + i] = 0.0
@@ -781,10 +792,14 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
                         wk[o_f4 + k] = mesh_force(law, k, tab, tint, tflt, lin, lint, t4,
                                                   wk[o_xq + k] + h * (wk[o_xd + k] + hh * c))
                     if coast_on:
-                        wk[o_c3 + k] = table_row_force(tab, tint, tflt, m + k, t3,
-                                                       wk[o_cq + k] + hh * (wk[o_cd + k] + hh * e1))
-                        wk[o_c4 + k] = table_row_force(tab, tint, tflt, m + k, t4,
-                                                       wk[o_cq + k] + h * (wk[o_cd + k] + hh * e2))
+                        c3x = wk[o_cq + k] + hh * (wk[o_cd + k] + hh * e1)
+                        c4x = wk[o_cq + k] + h * (wk[o_cd + k] + hh * e2)
+                        if errors:
+                            wh = kin[1] if unit_rates else mesh_base(phase[1, k], phase[2, k], kin[1], tau_ref)[1]
+                            c3x -= mesh_error(lin, lint, m, 2 * m + k, wh + t3, 0.0, 0.0, 0.0)
+                            c4x -= mesh_error(lin, lint, m, 2 * m + k, wh + t4, 0.0, 0.0, 0.0)
+                        wk[o_c3 + k] = table_row_force(tab, tint, tflt, m + k, t3, c3x)
+                        wk[o_c4 + k] = table_row_force(tab, tint, tflt, m + k, t4, c4x)
                 for i in range(n):
                     wk[o_a3 + i] = wk[o_g0 + i] + hh * wk[o_p + i]
                 _sub_k(n, sparse, nnz, kidx, aqv, hh2, wk, o_a1, wk, o_a3)
@@ -863,7 +878,8 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
                     else:
                         xl = x - mesh_error(lin, lint, m, k, whole + t, x, tflt[k, 0], tflt[k, 1]) if errors else x
                         rec_out[nrec, REC * k + REC_FORCE] = mesh_force(law, k, tab, tint, tflt, lin, lint, t, xl)
-                        rec_out[nrec, REC * k + REC_COAST_FORCE] = (table_row_force(tab, tint, tflt, m + k, t, xc)
+                        xcl = xc - mesh_error(lin, lint, m, 2 * m + k, whole + t, 0.0, 0.0, 0.0) if errors else xc
+                        rec_out[nrec, REC * k + REC_COAST_FORCE] = (table_row_force(tab, tint, tflt, m + k, t, xcl)
                                                                     if two_sided else 0.0)
                 rec_out[nrec, REC * m] = (step + 1) * h
                 nrec += 1
@@ -1145,20 +1161,25 @@ def flatten_twist_tables(tables) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             np.array(fl_d + fl_t, float).reshape(-1, 4))
 
 
-def flatten_errors(lin: np.ndarray, lint: np.ndarray, profiles) -> tuple[np.ndarray, np.ndarray]:
+def flatten_errors(lin: np.ndarray, lint: np.ndarray, profiles, coast_profiles=None) -> tuple[np.ndarray, np.ndarray]:
     """``(lin, lint)`` of :func:`flatten_linear` extended by the error profiles of the kernel's ``m`` meshes
     (``profiles``: per mesh None, ``(samples (L npc,) [m], L cycles, npc samples per cycle)`` or ``(samples (L npc
     nd,), L, npc, nd)`` over the drive table's ``nd`` deflections): the samples appended to ``lin``, rows ``m + k`` =
     (offset, npc) and ``2 m + k`` = (L, nd) appended to ``lint`` (npc = 0: no error on that mesh; nd = 0: the same
-    error at every approach), as :func:`mesh_error` reads them."""
+    error at every approach), as :func:`mesh_error` reads them; then the coast flanks' profiles (``coast_profiles``,
+    per mesh None or over the position only; default none) in rows ``3 m + k`` and ``4 m + k``, which
+    :func:`mesh_error` reads as mesh ``2 m + k``."""
     m = len(profiles)
     lint = np.asarray(lint, np.int64).reshape(-1, 2)
     if lint.shape[0] != m:
         raise ValueError(f"lint must have one row per mesh ({m}), got {lint.shape[0]}")
+    coast = [None] * m if coast_profiles is None else list(coast_profiles)
+    if len(coast) != m or any(p is not None and len(p) > 3 for p in coast):
+        raise ValueError(f"coast_profiles must have one entry per mesh ({m}), each over the position only")
     parts = [np.asarray(lin, float)]
     o = parts[0].size
     rows_a, rows_b = [], []
-    for p in profiles:
+    for p in list(profiles) + coast:
         if p is None:
             rows_a.append((0, 0))
             rows_b.append((1, 0))
@@ -1174,4 +1195,5 @@ def flatten_errors(lin: np.ndarray, lint: np.ndarray, profiles) -> tuple[np.ndar
         rows_b.append((int(cycles), nd))
         o += samples.size
     return (np.ascontiguousarray(np.concatenate(parts)),
-            np.ascontiguousarray(np.vstack([lint, np.array(rows_a, np.int64), np.array(rows_b, np.int64)])))
+            np.ascontiguousarray(np.vstack([lint, np.array(rows_a[:m], np.int64), np.array(rows_b[:m], np.int64),
+                                            np.array(rows_a[m:], np.int64), np.array(rows_b[m:], np.int64)])))

@@ -194,9 +194,10 @@ class MeshLaw:
         m = self.m
         xc = system.Vc @ q
         xl = _lookup_deflections(system, x, offset + np.asarray(tau, float))
+        xcl = _coast_lookup(system, xc, offset + np.asarray(tau, float))
         f["mesh_force_N"][:] = [float(self.mesh_force(k, tau[k], xl[k])) for k in range(m)]
         f["coast_approach_m"][:] = xc
-        f["coast_force_N"][:] = [float(self.coast_force(k, tau[k], xc[k])) for k in range(m)]
+        f["coast_force_N"][:] = [float(self.coast_force(k, tau[k], xcl[k])) for k in range(m)]
 
     def _kinematic_fields(self, system, q, tau, offset, rec) -> tuple[dict[str, np.ndarray], np.ndarray]:
         """The raw record columns of ``rec`` by name with the system's meshes' positions, deflections and DTE at
@@ -220,13 +221,16 @@ class MeshLaw:
         f = np.array([float(self.mesh_force(k, tau[k], xl[k])) for k in range(m)])
         terms = [system.V.T @ f]
         xc = system.Vc @ q
+        xcl = _coast_lookup(system, xc, tau)
         fc = np.zeros(m)
         if self.two_sided:
-            fc = np.array([float(self.coast_force(k, tau[k], xc[k])) for k in range(m)])
+            fc = np.array([float(self.coast_force(k, tau[k], xcl[k])) for k in range(m)])
             terms.append(system.Vc.T @ fc)
         fields = {"mesh_deflection_m": x, "mesh_force_N": f, "coast_approach_m": xc, "coast_force_N": fc}
         if xl is not x:
             fields["lookup_deflection_m"] = xl
+        if xcl is not xc:
+            fields["coast_lookup_approach_m"] = xcl
         return terms, fields
 
     def elastic_energy(self, system, q: np.ndarray, tau: np.ndarray) -> float:
@@ -249,7 +253,8 @@ class MeshLaw:
         """The tangent stiffness ``keff`` plus the meshes' slopes at ``fields`` (of :meth:`static_forces`), each
         loaded flank's slope at least ``kbar_floor`` (m,)."""
         m = self.m
-        x, xc = fields.get("lookup_deflection_m", fields["mesh_deflection_m"]), fields["coast_approach_m"]
+        x = fields.get("lookup_deflection_m", fields["mesh_deflection_m"])
+        xc = fields.get("coast_lookup_approach_m", fields["coast_approach_m"])
         ks = np.array([float(self.mesh_slope(k, tau[k], x[k])) for k in range(m)])
         a = keff + (system.V.T * np.maximum(ks, 0.0 if coast_loaded else kbar_floor)) @ system.V
         if self.two_sided:
@@ -509,6 +514,15 @@ def _lookup_deflections(system, x: np.ndarray, positions: np.ndarray) -> np.ndar
     if not getattr(system, "has_errors", False):
         return x
     return x - system.mesh_errors_m(positions, x)
+
+
+def _coast_lookup(system, xc: np.ndarray, positions: np.ndarray) -> np.ndarray:
+    """The coast flanks' lookup approaches (m,): ``xc`` itself without coast-flank errors, else ``xc`` less each
+    mesh's coast error at its unwrapped position (:meth:`~hacgear_core.dynamics.system.LumpedSystem.coast_errors_m`,
+    the kernel's rule)."""
+    if not any(getattr(c, "coast_error", None) is not None for c in system.meshes):
+        return xc
+    return xc - system.coast_errors_m(positions)
 
 
 def mesh_law(system_name: str, meshes: Sequence[Any], force_law: str) -> MeshLaw:

@@ -47,6 +47,19 @@ from hacgear_core.tables.fdf import static_stiffness
 __all__ = ["GearBody", "MeshCoupling", "FrameCoupling", "LumpedSystem", "KernelArrays"]
 
 
+def _profile_at(profile: tuple, pos: np.ndarray) -> np.ndarray:
+    """An error profile over the position only, ``(samples (L npc,) [m], L, npc)``, at unwrapped positions ``pos``
+    [cycles]: linear between samples, periodic over ``L`` cycles (the kernel's :func:`kernels.mesh_error`)."""
+    samples, cycles, npc = profile[:3]
+    u = np.mod(pos, float(cycles)) * float(npc)
+    i = np.floor(u)
+    a = u - i
+    nt = int(cycles) * int(npc)
+    i = np.mod(i.astype(np.int64), nt)
+    i1 = (i + 1) % nt
+    return samples[i] + a * (samples[i1] - samples[i])
+
+
 def _check_disjoint(**arrays: np.ndarray) -> None:
     """ValueError naming the first two of ``arrays`` (name -> array) that share memory."""
     items = list(arrays.items())
@@ -123,7 +136,9 @@ class MeshCoupling:
     the line of action (positive: the flanks meet earlier) at the unwrapped mesh position ``c`` [cycles], linear
     between samples ``c = i / npc`` and periodic over ``L`` mesh cycles, or ``(samples (L npc nd,), L, npc, nd)``
     the same over the ``nd`` approaches of the drive table's deflection grid too; the drive flanks' force is their
-    law at the deflection ``x - e(c[, x])`` (the coast flanks keep the ideal geometry)."""
+    law at the deflection ``x - e(c[, x])``.  ``coast_error``: None, or the coast flanks' profile ``(samples (L npc,)
+    [m], L, npc)`` over the position (the gears' runout; :func:`~hacgear_core.dynamics.gear_errors.
+    coast_runout_profile`): the coast force is the coast table's at ``xc - e_c(c)``."""
 
     name: str
     gear_a: str
@@ -147,6 +162,7 @@ class MeshCoupling:
     t_c: np.ndarray | None = None
     rate: tuple[int, int] = (1, 1)
     error: tuple | None = None
+    coast_error: tuple | None = None
 
     @property
     def coast_table(self):
@@ -340,14 +356,14 @@ class LumpedSystem:
         #: reference mesh cycles after which every mesh is back at its start position (lcm of the q / gcd(p, q))
         self.period_cycles = math.lcm(*(q // math.gcd(p, q) for p, q in (c.rate for c in self.meshes)))
         #: any mesh has a manufacturing-error profile (``MeshCoupling.error``): the kernel's error loops
-        self.has_errors = any(c.error is not None for c in self.meshes)
+        self.has_errors = any(c.error is not None or c.coast_error is not None for c in self.meshes)
         if self.has_errors:
             # a mesh at rate p/q with an error profile of L of its cycles: N reference cycles advance it N p / q of
             # its cycles, a whole number of profiles first at N = L q / gcd(L q, p) (the hunting-tooth period of its
             # gears in reference cycles)
             self.period_cycles = math.lcm(self.period_cycles, *(
-                (int(c.error[1]) * c.rate[1]) // math.gcd(int(c.error[1]) * c.rate[1], c.rate[0])
-                for c in self.meshes if c.error is not None))
+                (int(e[1]) * c.rate[1]) // math.gcd(int(e[1]) * c.rate[1], c.rate[0])
+                for c in self.meshes for e in (c.error, c.coast_error) if e is not None))
         # a frame coupling repeats when its frames are back at their relative angle: q / gcd(p, q) reference cycles
         self.period_cycles = math.lcm(self.period_cycles, *(
             fc.rate[1] // math.gcd(int(fc.rate[0]), int(fc.rate[1])) for fc in self.frame_couplings))
@@ -443,7 +459,8 @@ class LumpedSystem:
         if getattr(self, "has_errors", False):
             # one row per kernel mesh (a helical mesh's coast side is a kernel mesh of its own, without errors)
             lint = np.vstack([lint, np.zeros((mq - lint.shape[0], 2), np.int64)]) if lint.shape[0] < mq else lint
-            lin, lint = kernels.flatten_errors(lin, lint, [c.error for c in self.meshes] + [None] * (mq - self.m))
+            lin, lint = kernels.flatten_errors(lin, lint, [c.error for c in self.meshes] + [None] * (mq - self.m),
+                                               [c.coast_error for c in self.meshes] + [None] * (mq - self.m))
         vmi = kv @ minv.T
         vci = vc2 @ minv.T
         pattern = (kv != 0) | (kw_ != 0) | (vmi != 0) | (vc2 != 0) | (vci != 0)
@@ -520,6 +537,9 @@ class LumpedSystem:
                 if c.error is not None:
                     h.update(np.ascontiguousarray(c.error[0], np.float64).tobytes())
                     h.update(repr((c.name,) + tuple(int(v) for v in c.error[1:])).encode())
+                if c.coast_error is not None:
+                    h.update(np.ascontiguousarray(c.coast_error[0], np.float64).tobytes())
+                    h.update(repr((c.name, "coast") + tuple(int(v) for v in c.coast_error[1:])).encode())
         h.update(repr((self.force_law_name, self.torque_Nm, self.modal_damping_ratio, self.carrier_ratio,
                        self.dof_names, self.mesh_names, self.reference_gear)).encode())
         return h.hexdigest()
@@ -739,6 +759,16 @@ class LumpedSystem:
         """The meshes' kinematic positions [cycles] (..., m) in [0, 1) (:meth:`mesh_kinematics`)."""
         return self.mesh_kinematics(tau_ref, cycles)[0]
 
+    def coast_errors_m(self, positions) -> np.ndarray:
+        """The coast flanks' errors [m] (..., m) at unwrapped mesh positions ``positions`` (..., m) [cycles]
+        (``MeshCoupling.coast_error``, by the kernel's rule; 0 without one)."""
+        pos = np.asarray(positions, dtype=float)
+        out = np.zeros(pos.shape)
+        for k, c in enumerate(self.meshes):
+            if c.coast_error is not None:
+                out[..., k] = _profile_at(c.coast_error, pos[..., k])
+        return out
+
     def mesh_errors_m(self, positions, x=None) -> np.ndarray:
         """Manufacturing errors [m] (..., m) of the meshes at unwrapped mesh positions ``positions`` (..., m)
         [cycles] and approaches ``x`` (..., m) [m] (each mesh's error profile, ``MeshCoupling.error``, by the
@@ -751,15 +781,15 @@ class LumpedSystem:
                 continue
             samples, cycles, npc = c.error[:3]
             nd = int(c.error[3]) if len(c.error) > 3 else 0
+            if nd == 0:
+                out[..., k] = _profile_at(c.error, pos[..., k])
+                continue
             u = np.mod(pos[..., k], float(cycles)) * float(npc)
             i = np.floor(u)
             a = u - i
             nt = int(cycles) * int(npc)
             i = np.mod(i.astype(np.int64), nt)
             i1 = (i + 1) % nt
-            if nd == 0:
-                out[..., k] = samples[i] + a * (samples[i1] - samples[i])
-                continue
             if xx is None:
                 raise ValueError(f"mesh '{c.name}': its error profile depends on the approach; give x")
             ta = self.table_arrays[k]

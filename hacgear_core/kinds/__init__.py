@@ -117,7 +117,8 @@ def _with_model_errors(model: Any, system: LumpedSystem) -> LumpedSystem:
         from hacgear_core.kinds.planetary import planetary_error_inputs
         inp = planetary_error_inputs(model, len(system.meshes) // 2)
         return with_gear_errors(system, inp["gears"], inp["pressure_angles_rad"],
-                                internal_gears=inp["internal_gears"], runout_passage=inp["runout_passage"])
+                                internal_gears=inp["internal_gears"], runout_passage=inp["runout_passage"],
+                                coast_pressure_angles_rad=inp["coast_pressure_angles_rad"])
     bad = [g.name for g in model.gears if g.errors is not None and g.errors.any]
     fixed_axis = set(error_gears(model))      # here: the gears of the fixed-axis trains and stages
     if not fixed_axis and model.kind != "gearbox":
@@ -128,7 +129,9 @@ def _with_model_errors(model: Any, system: LumpedSystem) -> LumpedSystem:
              for g in model.gears if g.name in fixed_axis}
     # the fixed-axis meshes of the gears with errors (the others keep no profile)
     erring = [m for m in model.meshes if {m.gear_a, m.gear_b} & set(bad) and m.gear_a in fixed_axis]
-    alpha = {m.name: mesh_geometry(model, m.name).operating_pressure_angle_rad for m in erring}
+    mgeo = {m.name: mesh_geometry(model, m.name) for m in erring}
+    alpha = {name: g.operating_pressure_angle_rad for name, g in mgeo.items()}
+    alpha_c = {name: g.operating_pressure_angle_coast_rad for name, g in mgeo.items()}
     # a helical mesh's deflection is along the flank normal: cos(beta_b) of a transverse displacement
     # (tan beta_b = tan beta cos alpha_t)
     gd = {g.name: g for g in model.gears}
@@ -141,8 +144,10 @@ def _with_model_errors(model: Any, system: LumpedSystem) -> LumpedSystem:
         inp = planetary_stage_error_inputs(model)
         gears.update(inp["gears"])
         alpha.update(inp["pressure_angles_rad"])
+        alpha_c.update(inp["coast_pressure_angles_rad"])
         internal, passage = inp["internal_gears"], inp["runout_passage"]
     return with_gear_errors(system, gears, alpha, normal_factor=factor, internal_gears=internal,
+                            coast_pressure_angles_rad=alpha_c,
                             runout_passage=passage)
 
 

@@ -324,8 +324,9 @@ def planetary_stage_error_inputs(model: Any) -> dict:
     """What :func:`~hacgear_core.dynamics.gear_errors.with_gear_errors` needs for the manufacturing errors of the
     gears of a gearbox's planetary stages: each stage's :func:`~hacgear_core.kinds.planetary.planetary_error_inputs`
     on the stage model its train is built from (the same gear and mesh instances, tooth passages and carrier frame),
-    merged: ``{"gears", "pressure_angles_rad", "internal_gears", "runout_passage"}``."""
-    out: dict = {"gears": {}, "pressure_angles_rad": {}, "internal_gears": (), "runout_passage": {}}
+    merged: ``{"gears", "pressure_angles_rad", "coast_pressure_angles_rad", "internal_gears", "runout_passage"}``."""
+    out: dict = {"gears": {}, "pressure_angles_rad": {}, "coast_pressure_angles_rad": {}, "internal_gears": (),
+                 "runout_passage": {}}
     for s in gearbox_stages(model):
         if s.planetary is None:
             continue
@@ -333,6 +334,7 @@ def planetary_stage_error_inputs(model: Any) -> dict:
         inp = planetary_error_inputs(sub, s.planetary.planetary.planet_count)
         out["gears"].update(inp["gears"])
         out["pressure_angles_rad"].update(inp["pressure_angles_rad"])
+        out["coast_pressure_angles_rad"].update(inp["coast_pressure_angles_rad"])
         out["internal_gears"] += tuple(inp["internal_gears"])
         out["runout_passage"].update(inp["runout_passage"])
     return out

@@ -358,7 +358,8 @@ def planetary_error_inputs(model: Any, planet_count: int) -> dict:
     gear's first mesh, ``theta`` the direction of the pitch point from the gear's centre, ``s_g`` its sense), not
     the integer one the pitch errors use: a planet's ring-mesh passage is a fraction of a cycle off the integer.
 
-    Returns ``{"gears": {instance: (GearErrors, reference radius [m], normal module [m])}, "pressure_angles_rad":
+    Returns ``{"gears": {instance: (GearErrors, reference radius [m], normal module [m])}, "coast_pressure_angles_rad"
+    (as "pressure_angles_rad", of the coast flanks), "pressure_angles_rad":
     {mesh: rad}, "internal_gears": (ring,), "runout_passage": {mesh: {gear: cycles}}}``.
 
     Raises
@@ -390,7 +391,9 @@ def planetary_error_inputs(model: Any, planet_count: int) -> dict:
                              f"value per tooth of '{mem.planet}' ({zp}), got "
                              f"{len(pe.errors.single_pitch_deviations_m)}")
         gears[geo.planets[pe.planet - 1]] = (pe.errors,) + gears[geo.planets[pe.planet - 1]][1:]
-    alpha = {kind: mesh_geometry(model, kind).operating_pressure_angle_rad for kind in (mem.sun_mesh, mem.ring_mesh)}
+    mgeo = {kind: mesh_geometry(model, kind) for kind in (mem.sun_mesh, mem.ring_mesh)}
+    alpha = {kind: g.operating_pressure_angle_rad for kind, g in mgeo.items()}
+    alpha_c = {kind: g.operating_pressure_angle_coast_rad for kind, g in mgeo.items()}
     centre = {mem.sun: np.zeros(2), mem.ring: np.zeros(2)}
     for i, p in enumerate(geo.planets):
         centre[p] = rc * np.array([math.cos(geo.positions_rad[i]), math.sin(geo.positions_rad[i])])
@@ -415,6 +418,7 @@ def planetary_error_inputs(model: Any, planet_count: int) -> dict:
             # fraction of a cycle off (a planet's far side)
             passage[mn][g] = tp + off if 1e-9 < abs(off) < 0.5 - 1e-9 else tp
     return {"gears": gears, "pressure_angles_rad": {mn: alpha[pm.kind] for mn, pm in geo.meshes.items()},
+            "coast_pressure_angles_rad": {mn: alpha_c[pm.kind] for mn, pm in geo.meshes.items()},
             "internal_gears": (mem.ring,), "runout_passage": passage}
 
 

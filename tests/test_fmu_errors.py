@@ -175,6 +175,25 @@ def test_gearbox_sun_runout_parameter_runs_the_library_system(nrel):
     assert nrel.sim.system is nrel.base_system and not nrel.sim.system.has_errors
 
 
+@pytest.mark.parametrize("gear, meshes", [("planet1", ("s1_sun_planet_", "s1_ring_planet_")),
+                                         ("ring2", ("s2_ring_planet_",))])
+def test_gearbox_planet_and_ring_runout_parameters_are_the_model_files(nrel, gear, meshes):
+    """nrel_5mw_gearbox: planet1.runout (every planet of stage 1: its sun and ring meshes) and ring2.runout (stage 2's
+    ring meshes), 5 um at 0.7 rad, give the library's system of the model file with that runout (fingerprint and
+    kernel arrays equal), profiles on those meshes only."""
+    nrel.configure(_start(nrel, **{f"{gear}.runout": 5e-6, f"{gear}.runout_phase": 0.7}))
+    ref = build_system(_with_errors(nrel.model, {gear: GearErrors(runout_m=5e-6, runout_phase_rad=0.7)}),
+                       nrel.tables)
+    sy = nrel.sim.system
+    assert sy.has_errors and sy.fingerprint() == ref.fingerprint()
+    assert [c.name for c in sy.meshes if c.error is not None] == [c.name for c in sy.meshes
+                                                                  if c.name.startswith(meshes)]
+    for f in fields(sy.arrays):
+        assert np.array_equal(np.asarray(getattr(sy.arrays, f.name)), np.asarray(getattr(ref.arrays, f.name))), f.name
+    nrel.configure(_start(nrel))
+    assert nrel.sim.system is nrel.base_system
+
+
 def test_gearbox_zero_runouts_leave_the_error_free_system(nrel):
     """nrel_5mw_gearbox: the parameters' zero start values keep the FMU's own system, and the model with a zero
     runout written into every gear's [gears.errors] (what a runout parameter set to 0 gives) builds a system

@@ -40,7 +40,10 @@ ROOT = Path(__file__).resolve().parent.parent
 #: pinion3 of nrel_5mw_gearbox; none of the planetary sets and stages): by name, nothing else changed; and when
 #: the planetary sets got them for their sun, planet and ring (sun.runout, planet.runout, ring.runout and their
 #: _phase of planetary_65_55_175, planetary_65_55_175_unmodified, nrel_5mw_stage1 and nrel_5mw_stage2; the
-#: gearbox's planetary stages still none): by name, nothing else changed (value references of later variables moved)
+#: gearbox's planetary stages still none): by name, nothing else changed (value references of later variables moved);
+#: and when the gearbox's planetary stages got them (sun1, planet1, ring1, sun2, planet2, ring2 .runout and
+#: .runout_phase of nrel_5mw_gearbox): by name, nothing else changed, the model structure's outputs and initial
+#: unknowns the same variables (value references and indices of later variables moved)
 REFERENCE = Path(__file__).resolve().parent / "data" / "model_descriptions.json.gz"
 
 

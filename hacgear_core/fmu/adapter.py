@@ -287,13 +287,19 @@ class Adapter:
                           f"translational bearing stiffness of {what}; inf = rigid (no translation DOF), as in model "
                           "files and on the command line; 0 = no bearing (a floating member)",
                           k, display_unit="N/um", **ranged("translational_stiffness_N_per_m")))
-        # a gear in a carrier's frame (a planetary set's) turns its runout relative to the carrier; a planet gear's
-        # runout is every planet's (the instances aliasing it)
+        # a gear in a carrier's frame (a planetary set's, or a gearbox's planetary stage's: the body names its
+        # stage) turns its runout relative to that carrier; a planet gear's runout is every planet's (the instances
+        # aliasing it)
         instances = {a: gi for c in sy.meshes for gi, a in c.gear_alias.items()}
         for g, (e, phase) in zip(self.runout_gears, self._model_runouts(self.model)):
-            what = f"every planet (gear {g})" if g in planets else f"gear {g}"
             body = g if g in sy.gears else instances.get(g)
-            sense = " relative to the carrier" if body is not None and sy.frame_ratio(body) != 0.0 else ""
+            stage = sy.gears[body].stage if body is not None else ""
+            what = f"gear {g}"
+            if g in planets:
+                what = f"every planet of stage {stage} (gear {g})" if stage else f"every planet (gear {g})"
+            sense = ""
+            if body is not None and sy.frame_ratio(body) != 0.0:
+                sense = f" relative to the carrier of stage {stage}" if stage else " relative to the carrier"
             spec += [
                 V(f"{ident(g)}.runout", "Real", "parameter", "fixed", "m",
                   f"runout of {what}: eccentricity of its teeth about its axis (the model file's "

@@ -86,7 +86,7 @@ def build_system(model: Any, tables: Any, **options) -> LumpedSystem:
     ``torque_Nm``, ``bearing_stiffness_N_per_m``, ``modal_damping_ratio``, ``shafts`` and the kind's structural
     parameters (planetary sets: ``planet_count``, ``pin_errors_m``).  Gears with manufacturing errors
     (``[gears.errors]``) give their meshes error profiles (:mod:`hacgear_core.dynamics.gear_errors`; spur and
-    helical pairs, idler chains, planetary sets, gear trains and the fixed-axis stages of gearboxes)."""
+    helical pairs, idler chains, planetary sets, gear trains and the stages of gearboxes, planetary ones included)."""
     system = assemble(kind_of(model).train(model, tables, **options))
     check_lead_inputs(model, system)
     if _has_errors(model):
@@ -120,7 +120,7 @@ def _with_model_errors(model: Any, system: LumpedSystem) -> LumpedSystem:
                                 internal_gears=inp["internal_gears"], runout_passage=inp["runout_passage"],
                                 coast_pressure_angles_rad=inp["coast_pressure_angles_rad"])
     bad = [g.name for g in model.gears if g.errors is not None and g.errors.any]
-    fixed_axis = set(error_gears(model))      # here: the gears of the fixed-axis trains and stages
+    fixed_axis = set(_fixed_axis_error_gears(model))
     if not fixed_axis and model.kind != "gearbox":
         raise ModelError(f"{model.path or model.name}: [gears.errors] of {bad}: manufacturing errors are supported "
                          f"on kinds spur_pair, helical_pair, idler_chain, planetary, gear_train and gearbox, not yet "
@@ -152,24 +152,38 @@ def _with_model_errors(model: Any, system: LumpedSystem) -> LumpedSystem:
 
 
 def error_gears(model: Any) -> tuple[str, ...]:
-    """The gears of ``model`` (names of its ``[[gears]]``) that may carry manufacturing errors (``[gears.errors]``,
-    :func:`build_system`); an FMU takes the runout of each as parameters (``<gear>.runout``, ``.runout_phase``).
+    """The gears of ``model`` (names of its ``[[gears]]``, in their order) that may carry manufacturing errors
+    (``[gears.errors]``, :func:`build_system`); an FMU takes the runout of each as parameters (``<gear>.runout``,
+    ``.runout_phase``).
 
     Every gear of a spur or helical pair, idler chain or gear train; the sun, planet and ring of a planetary set
     (the planet's errors apply to every planet alike, :func:`~hacgear_core.kinds.planetary.planetary_error_inputs`);
-    the gears of a gearbox's fixed-axis stages (its planetary stages take errors from the model file,
-    :func:`~hacgear_core.kinds.gearbox.planetary_stage_error_inputs`, without runout parameters).  Empty for the
-    other kinds and for lumped models (no tooth geometry).
+    the gears of every stage of a gearbox: its fixed-axis stages' and its planetary stages' (the sun, planet and
+    ring of each, in its carrier's frame as a planetary set's,
+    :func:`~hacgear_core.kinds.gearbox.planetary_stage_error_inputs`).  Empty for the other kinds and for lumped
+    models (no tooth geometry).
     """
     if getattr(model, "lumped", False):
         return ()
     if model.kind == "gearbox":
         from hacgear_core.kinds.gearbox import gearbox_stages
 
-        return tuple(g for s in gearbox_stages(model) if s.planetary is None for g in s.gears)
+        staged = {g for s in gearbox_stages(model) for g in s.gears}
+        return tuple(g.name for g in model.gears if g.name in staged)
     if model.kind in ("spur_pair", "idler_chain", "helical_pair", "gear_train", "planetary"):
         return tuple(g.name for g in model.gears)
     return ()
+
+
+def _fixed_axis_error_gears(model: Any) -> tuple[str, ...]:
+    """The gears of :func:`error_gears` on fixed axes (their errors as a fixed-axis train's): all of them but a
+    gearbox's planetary stages' gears (and none of a planetary set)."""
+    if model.kind == "gearbox":
+        from hacgear_core.kinds.gearbox import gearbox_stages
+
+        planetary = {g for s in gearbox_stages(model) if s.planetary is not None for g in s.gears}
+        return tuple(g for g in error_gears(model) if g not in planetary)
+    return error_gears(model)
 
 
 def structural_parameters(model: Any) -> tuple[StructuralParameter, ...]:

@@ -175,6 +175,37 @@ def test_runout_moves_the_coast_flanks_and_closes_the_backlash_as_a_shorter_cent
     assert np.max(np.abs(s[:rev.n] - e.q)) < 1e-9 * np.max(np.abs(e.q))
 
 
+def test_a_displaced_tooth_moves_its_coast_flank_the_other_way():
+    """One pinion tooth (tooth 5) displaced 5 um late, both flanks alike: under the drive torque the static TE rises
+    by F r_b / r where that tooth carries alone (F = 5 um x 27/28 once the mean is removed); under the reversed
+    torque its coast flank, on the back of the tooth, meets its partner that much earlier: the static coast
+    approach falls by F r_bc / r where it carries alone (coast base radius r_bc: the 20 deg side), half a cycle
+    after the drive zone (the coast side's pairing, statics/coast.py); elsewhere the other teeth's -5/28 um shows
+    with the opposite sign on each side.  1e-4."""
+    model, _ = _spur()
+    d = 5e-6
+    f = [0.0] * Z
+    f[5], f[6] = d, -d
+    sy, sy0 = _with_errors(pinion=GearErrors(single_pitch_deviations_m=tuple(f))), _with_errors()
+    c = sy.meshes[0]
+    assert c.coast_error is not None
+    r = 0.5 * model.gears[0].module_m * model.gears[0].teeth
+    rb, rbc = float(c.base_radius_m[0]), float(c.coast_table.base_radius_m[0])
+    tp = float(c.tooth_passage["pinion"])
+    rev, rev0 = (s.with_changes(torque_Nm=-s.torque_Nm) for s in (sy, sy0))
+    cs = tp + np.arange(0.0, 10.0, 0.25)
+    coast = np.array([static_equilibrium(rev, x, rev.fext_speed()).coast_approach_m[0]
+                      - static_equilibrium(rev0, x, rev0.fext_speed()).coast_approach_m[0] for x in cs])
+    drive = np.array([static_equilibrium(sy, x).mesh_deflections_m[0] - static_equilibrium(sy0, x).mesh_deflections_m[0]
+                      for x in cs])
+    assert drive.max() == pytest.approx(d * 27 / 28 * rb / r, rel=1e-3)
+    assert coast.min() == pytest.approx(-d * 27 / 28 * rbc / r, rel=1e-4)
+    assert np.median(coast) == pytest.approx(d / 28 * rbc / r, rel=1e-4)
+    assert np.median(drive) == pytest.approx(-d / 28 * rb / r, rel=1e-3)
+    lone_c, lone_d = cs[coast < -0.9 * d * rbc / r] - tp, cs[drive > 0.9 * d * rb / r] - tp
+    assert lone_d.min() >= 4.5 and lone_d.max() <= 5.5 and lone_c.min() >= 5.0 and lone_c.max() <= 6.0
+
+
 def test_runout_mesh_force_sidebands_follow_the_stiffness_variation():
     """Imposed kinematics (gear inertias x 1e8: the gears turn at constant speed) with a 10 um pinion runout:
     the mesh force is F(tau, x - e(t)) ~ F(tau, x_bar) - k(tau) e(t), so the runout puts k_0 e at shaft order 1 and

@@ -51,7 +51,8 @@ runout): against the pair solve at 0.5 and 1.5 x the nominal force, 8.6 / 5.5 % 
 helical_28_33 (tests/test_gear_errors_helical.py).  Meshes at their own rates (gear trains, gearboxes) take their
 profiles over their own positions (:func:`with_gear_errors`).  Not held: the coupling of the pairs through the gear
 bodies when their approaches differ (the table's tooth loads come from the coupled solve at one common approach),
-and the pitch errors' effect on the coast flanks (their runout is held: :func:`coast_runout_profile`).  The profile is sampled at the table's
+and the pairs' own approaches on the coast flanks (their runout and pitch errors are held, the pitch part as the
+static shift at the nominal coast force: :func:`coast_error_profile`).  The profile is sampled at the table's
 positions per cycle (``npc``) over ``L = lcm`` of the tooth counts of the gears that carry errors, linear between samples (as the table itself); it takes
 ``L npc nd`` floats (28 x 256 x 64 = 3.7 MB for the 28:28 pair).  For small errors the pair sum is the
 stiffness-share rule ``e = R + sum_o (k_o / K) e_o`` (openings; :func:`load_shares`), the closed form the tests
@@ -70,7 +71,7 @@ import numpy as np
 from hacgear_core.dynamics.kernels import LAW_TWIST
 
 __all__ = ["iso1328_single_pitch_tolerance_m", "single_pitch_deviations_m", "cumulative_pitch_deviations_m",
-           "load_shares", "pair_solve_shift", "approach_profile", "mesh_error_profile", "coast_runout_profile",
+           "load_shares", "pair_solve_shift", "approach_profile", "mesh_error_profile", "coast_error_profile",
            "with_gear_errors", "GearErrorData"]
 
 
@@ -277,26 +278,41 @@ def mesh_error_profile(*, teeth: tuple[int, int], passage: tuple[float, float], 
     return np.ascontiguousarray(e), int(L), npc
 
 
-def coast_runout_profile(*, teeth: tuple[int, int], passage: tuple[float, float],
-                         runout: tuple[tuple[float, float], tuple[float, float]], pressure_angle_rad: float,
-                         samples_per_cycle: int, internal: tuple[bool, bool] = (False, False)) -> tuple | None:
-    """Error profile ``(samples (L npc,) [m], L, npc)`` of one mesh's coast flanks from the gears' runouts, None
-    without runout: the coast flanks' opening ``-(R_a,c + R_b,c)`` over ``L`` = lcm of the tooth counts of the
-    gears with runout.  The coast line of action is the drive one mirrored about the line of centres, so the offset's
+def coast_error_profile(*, teeth: tuple[int, int], passage: tuple[float, float],
+                        runout: tuple[tuple[float, float], tuple[float, float]], pressure_angle_rad: float,
+                        samples_per_cycle: int, internal: tuple[bool, bool] = (False, False),
+                        pitch_m: tuple[np.ndarray | None, np.ndarray | None] = (None, None),
+                        pitch_to_loa: tuple[float, float] = (1.0, 1.0), table: Any = None,
+                        force_N: float = 0.0) -> tuple | None:
+    """Error profile ``(samples (L npc,) [m], L, npc)`` of one mesh's coast flanks over the position, None without
+    runout or pitch errors, over ``L`` = lcm of the tooth counts of the gears that carry them.
+
+    Runout: the coast line of action is the drive one mirrored about the line of centres, so the offset's
     component towards the mating gear closes both flanks alike and its tangential component opens the coast flanks
     by what it closes the drive ones: ``R_a,c = e_a sin(alpha_c - beta_a)``, ``R_b,c = e_b sin(alpha_c + beta_b)``
     (external), ``R_a,c = -e_a sin(beta_a + alpha_c)``, ``R_b,c = e_b sin(beta_b - alpha_c)`` (internal), with
     ``beta_g`` as in :func:`mesh_error_profile` and ``alpha_c`` the coast flanks' operating pressure angle
     (``pressure_angle_rad``).  An offset ``e`` of gear_a towards gear_b (a centre distance shorter by ``e``) so closes
-    the backlash by ``e (sin alpha_w + sin alpha_c)`` (``2 e sin alpha_w`` for symmetric teeth, the textbook
-    ``j_n = 2 Delta_a sin alpha_w``)."""
+    the backlash by ``e (sin alpha_w + sin alpha_c)`` along the transverse (``2 e sin alpha_w`` for symmetric teeth,
+    the textbook ``j_n = 2 Delta_a sin alpha_w``).
+
+    Pitch (``pitch_m``: each gear's cumulative pitch deviations (z,) [m], the whole tooth displaced, both flanks
+    alike): a late tooth of the driving gear (gear_a) has its coast flank nearer its partner's (closing ``+F_j
+    r_bc / r``), a late tooth of the driven gear the opposite (``-F_j r_bc / r``; ``pitch_to_loa`` each gear's
+    ``r_bc / r``).  The coast pair of offset ``o`` (the coast ``table``'s ``tooth_offsets``) holds gear_a's tooth of
+    drive pair ``o - 1`` and gear_b's of drive pair ``o`` (:data:`~hacgear_core.statics.coast.COAST_PAIR_SHIFT`);
+    the pairs are taken at their own approaches by the static shift at the coast force ``force_N``
+    (:func:`pair_solve_shift` on the coast table's tooth loads), a linearisation in the load."""
     za, zb = (int(z) for z in teeth)
-    carriers = [z for z, r in zip((za, zb), runout) if r[0] != 0.0]
+    has_pitch = [p is not None and np.any(np.asarray(p) != 0) for p in pitch_m]
+    carriers = [z for z, p, r in zip((za, zb), has_pitch, runout) if p or r[0] != 0.0]
     if not carriers:
         return None
     L = math.lcm(*carriers)
     npc = int(samples_per_cycle)
     c = np.arange(L * npc) / npc
+    n = np.arange(L * npc) // npc
+    tau = (np.arange(L * npc) % npc) / npc
     alpha = float(pressure_angle_rad)
     run = np.zeros(L * npc)
     for g, (z, tp, (ecc, phi)) in enumerate(zip((za, zb), passage, runout)):
@@ -307,7 +323,21 @@ def coast_runout_profile(*, teeth: tuple[int, int], passage: tuple[float, float]
             run += ecc * (-np.sin(beta + alpha) if g == 0 else np.sin(beta - alpha))
         else:
             run += ecc * (np.sin(alpha - beta) if g == 0 else np.sin(alpha + beta))
-    return np.ascontiguousarray(-run), int(L), npc
+    e = -run
+    if any(has_pitch):
+        if table is None:
+            raise ValueError("coast pitch errors need the coast table (its tooth offsets and loads)")
+        offs = np.asarray(getattr(table, "tooth_offsets", [0]), int)
+        eo = np.zeros((L * npc, offs.size))                              # each coast pair's own opening
+        for g, (z, tp, p, sign, shift) in enumerate(zip((za, zb), passage, pitch_m, (1.0, -1.0), (1, 0))):
+            if not has_pitch[g]:
+                continue
+            E = sign * pitch_to_loa[g] * np.asarray(p, float)        # each tooth's coast closing
+            tp_i = int(round(float(tp)))
+            for w, o in enumerate(offs):
+                eo[:, w] -= E[np.mod(n - tp_i + int(o) - shift, z)]
+        e = e + pair_solve_shift(table, force_N, tau, eo)
+    return np.ascontiguousarray(e), int(L), npc
 
 
 #: per gear: (its GearErrors, reference radius [m], normal module [m]) as :func:`with_gear_errors` takes them
@@ -335,9 +365,9 @@ def with_gear_errors(system: Any, gears: Mapping[str, GearErrorData],
     of the coupling's integer ``tooth_passage`` (a planet's two meshes on opposite sides of it,
     :func:`~hacgear_core.kinds.planetary.planetary_error_inputs`); the pitch errors keep the integer passage.
     ``coast_pressure_angles_rad`` {mesh: operating pressure angle of its coast flanks [rad]}: the meshes with a coast
-    table on the table or conventional laws (not the helical meshes' twist law) get the coast flanks' runout
-    profile (:func:`coast_runout_profile`, ``MeshCoupling.coast_error``); their pitch errors are left off the coast
-    flanks.
+    table on the table or conventional laws (not the helical meshes' twist law) get the coast flanks' profile of
+    runout and pitch errors (:func:`coast_error_profile`, ``MeshCoupling.coast_error``; the pitch part at the
+    nominal coast force).
 
     Meshes at their own rates (a gear train's or gearbox's stages, ``MeshCoupling.rate``): each profile is over its
     own mesh's unwrapped position (the kernel's ``c_k``, ``p/q`` times the reference position), so the tooth count
@@ -381,11 +411,16 @@ def with_gear_errors(system: Any, gears: Mapping[str, GearErrorData],
         cprof = None
         if (coast_pressure_angles_rad is not None and c.name in coast_pressure_angles_rad
                 and c.coast_table is not None and system.mesh_law.kernel_law != LAW_TWIST):
-            cprof = coast_runout_profile(
+            ct = c.coast_table
+            cprof = coast_error_profile(
                 teeth=tuple(c.teeth), passage=passage, internal=(ga in internal_gears, gb in internal_gears),
                 runout=tuple(((ge.runout_m, ge.runout_phase_rad) if ge is not None else (0.0, 0.0))
                              for ge in (ea, eb)),
                 pressure_angle_rad=float(coast_pressure_angles_rad[c.name]),
-                samples_per_cycle=int(getattr(c.table, "n_positions", 0) or 64))
+                samples_per_cycle=int(getattr(c.table, "n_positions", 0) or 64),
+                pitch_m=(cum.get(ga), cum.get(gb)),
+                pitch_to_loa=tuple(float(ct.base_radius_m[i]) / float(gears[g][1]) if g in gears else 1.0
+                                   for i, g in enumerate((ga, gb))),
+                table=ct, force_N=float(c.nominal_coast_force_N))
         meshes.append(c if prof is None and cprof is None else replace(c, error=prof, coast_error=cprof))
     return system.with_changes(meshes=tuple(meshes))

@@ -137,8 +137,8 @@ class MeshCoupling:
     between samples ``c = i / npc`` and periodic over ``L`` mesh cycles, or ``(samples (L npc nd,), L, npc, nd)``
     the same over the ``nd`` approaches of the drive table's deflection grid too; the drive flanks' force is their
     law at the deflection ``x - e(c[, x])``.  ``coast_error``: None, or the coast flanks' profile ``(samples (L npc,)
-    [m], L, npc)`` over the position (the gears' runout; :func:`~hacgear_core.dynamics.gear_errors.
-    coast_runout_profile`): the coast force is the coast table's at ``xc - e_c(c)``."""
+    [m], L, npc)`` over the position (the gears' runout and pitch errors; :func:`~hacgear_core.dynamics.gear_errors.
+    coast_error_profile`): the coast force is the coast table's at ``xc - e_c(c)``."""
 
     name: str
     gear_a: str

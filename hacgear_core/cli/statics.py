@@ -65,7 +65,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--face-coupling", choices=("rigid", "slices", "elastic"), default=None,
                    help="far-field coupling across the face, as `hacgear stiffness --face-coupling`: rigid (2D, "
                         "uniform; spur default), slices (thin-slice model), elastic (2D + 3D face-wise influence; "
-                        "helical default); the choice is part of the tables' solver description")
+                        "helical default, and a spur pair's with [statics] twist_points > 1, which then gets a "
+                        "twist axis; rigid is refused there); the choice is part of the tables' solver description")
     p.add_argument("--check", action="store_true",
                    help="do not compute: read the existing table, verify every dataset's checksum, that it belongs "
                         "to the model (the model values it depends on), its physical sanity (finite, forces >= 0, "

@@ -43,7 +43,12 @@ ROOT = Path(__file__).resolve().parent.parent
 #: gearbox's planetary stages still none): by name, nothing else changed (value references of later variables moved);
 #: and when the gearbox's planetary stages got them (sun1, planet1, ring1, sun2, planet2, ring2 .runout and
 #: .runout_phase of nrel_5mw_gearbox): by name, nothing else changed, the model structure's outputs and initial
-#: unknowns the same variables (value references and indices of later variables moved)
+#: unknowns the same variables (value references and indices of later variables moved); and when the lead and
+#: misalignment parameters <gear>.lead_slope and <mesh>.misalignment_in_plane, .misalignment_out_of_plane,
+#: .axis_deviation_in_axes_plane, .axis_deviation_normal_to_axes_plane were added for the meshes with a twist axis
+#: (helical_28_33, nrel_5mw_stage3, the helical stage of nrel_5mw_gearbox and reducer_helical_19_71_23_83) and the
+#: unit rad got the display unit urad (in every system): by name, nothing else changed, the model structure's
+#: outputs and initial unknowns the same variables (value references and indices of later variables moved)
 REFERENCE = Path(__file__).resolve().parent / "data" / "model_descriptions.json.gz"
 
 

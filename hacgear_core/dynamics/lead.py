@@ -57,7 +57,7 @@ import numpy as np
 from hacgear_core.errors import ModelError
 
 __all__ = ["lead_twist_offset_rad", "axis_deviation_rotation", "twist_offsets_rad", "out_of_plane_gap_m",
-           "with_twist_offsets", "check_lead_inputs"]
+           "with_twist_offsets", "check_lead_inputs", "MESH_INPUTS"]
 
 
 def lead_twist_offset_rad(lead_slope_m: tuple[float, float], face_width_m: tuple[float, float],
@@ -168,7 +168,7 @@ def out_of_plane_gap_m(omega_l_rad: float, zeta_max_m: float, center_distance_m:
 
 
 #: the mesh inputs that act through the twist offset: (model-file key [urad], Mesh field [rad])
-_MESH_INPUTS = (("misalignment_in_plane_urad", "misalignment_in_plane_rad"),
+MESH_INPUTS = (("misalignment_in_plane_urad", "misalignment_in_plane_rad"),
                 ("misalignment_out_of_plane_urad", "misalignment_out_of_plane_rad"),
                 ("axis_deviation_in_axes_plane_urad", "axis_deviation_in_axes_plane_rad"),
                 ("axis_deviation_normal_to_axes_plane_urad", "axis_deviation_normal_to_axes_plane_rad"))
@@ -205,7 +205,7 @@ def with_twist_offsets(table: Any, model: Any, mesh: Any, r_twist_coast: np.ndar
     parts = [f"[gears.errors] lead_slope_um = {g.errors.lead_slope_m * 1e6:g} um of '{g.name}' (face width "
              f"{g.face_width_m * 1e3:g} mm)" for g in (gears[mesh.gear_a], gears[mesh.gear_b])
              if getattr(getattr(g, "errors", None), "lead_slope_m", 0.0) != 0.0]
-    for key, attr in _MESH_INPUTS:
+    for key, attr in MESH_INPUTS:
         if getattr(mesh, attr, 0.0) != 0.0:
             parts.append(f"[[meshes]] {key} = {getattr(mesh, attr) * 1e6:g} urad")
     what = " and ".join(parts)
@@ -226,7 +226,7 @@ def check_lead_inputs(model: Any, system: Any) -> None:
     for m in getattr(model, "meshes", ()):
         lead = [n for n in (m.gear_a, m.gear_b) if n in gears
                 and getattr(getattr(gears[n], "errors", None), "lead_slope_m", 0.0) != 0.0]
-        mis = [key for key, attr in _MESH_INPUTS if getattr(m, attr, 0.0) != 0.0]
+        mis = [key for key, attr in MESH_INPUTS if getattr(m, attr, 0.0) != 0.0]
         if (lead or mis) and not twist.get(m.name, False):
             what = [f"[gears.errors] lead_slope_um of {lead}"] if lead else []
             what += [f"[[meshes]] {key}" for key in mis]

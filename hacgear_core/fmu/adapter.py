@@ -37,6 +37,7 @@ from typing import Callable
 import numpy as np
 
 from hacgear_core.kinds import build_system, error_gears, kind_of, structural_parameters
+from hacgear_core.dynamics.lead import MESH_INPUTS
 from hacgear_core.dynamics.simulator import Simulator, strain_of_tooth, system_gauges
 from hacgear_core.encodings import ContactState, Experiment
 from hacgear_core.errors import HacgearError, ModelError
@@ -60,6 +61,11 @@ _FMU_NAME_OF = {"torque_Nm [N*m]": "parameter 'torque' [N.m]", "torque_Nm": "tor
                 "modal_damping_ratio [-]": "parameter 'modal_damping_ratio' [1]",
                 "translational_stiffness_N_per_m [N/m]": "bearing_stiffness [N/m]"}
 _FMU_NAMES = re.compile("|".join(re.escape(k) for k in sorted(_FMU_NAME_OF, key=len, reverse=True)))
+
+
+def _fmu_name(attr: str) -> str:
+    """The FMU parameter (after ``<mesh>.``) of a :class:`~hacgear_core.model.schema.Mesh` field ``<name>_rad``."""
+    return attr.removesuffix("_rad")
 
 
 def _nice_floor(x: float) -> float:
@@ -121,8 +127,19 @@ class Adapter:
         self.bearing_gears = kind_of(model).members(model)
         #: the gears whose runout is a parameter (``<gear>.runout``, ``<gear>.runout_phase``)
         self.runout_gears = error_gears(model)
+        #: the meshes whose system mesh runs on a table with a twist axis (helical meshes, spur pairs whose tables
+        #: have one; the test of :func:`~hacgear_core.dynamics.lead.check_lead_inputs`), in the model file's order:
+        #: their misalignment and axis deviations are parameters (``<mesh>.misalignment_in_plane``, ...)
+        twist = {c.name for c in base.meshes if c.t is not None and getattr(getattr(c, "table", None), "twist", None)
+                 is not None}
+        self.lead_meshes = tuple(m.name for m in model.meshes if m.name in twist)
+        #: the gears of :attr:`lead_meshes`, in the model file's order: their lead slope is a parameter
+        #: (``<gear>.lead_slope``)
+        in_lead = {g for m in model.meshes if m.name in twist for g in (m.gear_a, m.gear_b)}
+        self.lead_gears = tuple(g.name for g in model.gears if g.name in in_lead)
         self._built_key = self._key(base.torque_Nm, base.modal_damping_ratio, self._model_bearings(model), None, True,
-                                    tuple((p.name, p.start) for p in self.structural), self._model_runouts(model))
+                                    tuple((p.name, p.start) for p in self.structural), self._model_runouts(model),
+                                    self._model_leads(model))
         self.ref = base.reference_gear
         drive_sim = Simulator(drive_system)
         self.ports = drive_sim.ports
@@ -178,9 +195,49 @@ class Adapter:
                                                                   runout_phase_rad=new[g.name][1]))
             for g in model.gears))
 
+    def _model_leads(self, model) -> tuple:
+        """(lead slopes [m] of :attr:`lead_gears`, (in-plane misalignment, out-of-plane misalignment, axis deviation
+        in the plane of the axes, normal to it) [rad] of every mesh of :attr:`lead_meshes`) in ``model``."""
+        gears = {g.name: g for g in model.gears}
+        meshes = {m.name: m for m in model.meshes}
+        return (tuple(gears[g].errors.lead_slope_m if gears[g].errors is not None else 0.0 for g in self.lead_gears),
+                tuple(tuple(getattr(meshes[m], attr) for _, attr in MESH_INPUTS) for m in self.lead_meshes))
+
+    def _with_leads(self, model, leads: tuple):
+        """``model`` with the lead slopes and mesh inputs ``leads`` (as :meth:`_model_leads` gives them; each gear's
+        other errors kept)."""
+        slopes, mesh_inputs = leads
+        new = dict(zip(self.lead_gears, slopes))
+        inputs = dict(zip(self.lead_meshes, mesh_inputs))
+        return replace(model, gears=tuple(
+            g if g.name not in new else replace(g, errors=replace(g.errors or GearErrors(), lead_slope_m=new[g.name]))
+            for g in model.gears), meshes=tuple(
+            m if m.name not in inputs else replace(m, **{attr: x for (_, attr), x in zip(MESH_INPUTS,
+                                                                                           inputs[m.name])})
+            for m in model.meshes))
+
+    def _lead_values(self, values: dict) -> tuple:
+        """The lead parameters of ``values`` (FMU names) as :meth:`_model_leads` orders them."""
+        return (tuple(float(values[f"{ident(g)}.lead_slope"]) for g in self.lead_gears),
+                tuple(tuple(float(values[f"{ident(m)}.{_fmu_name(attr)}"]) for _, attr in MESH_INPUTS)
+                      for m in self.lead_meshes))
+
+    def _lead_parameters_set(self, leads: tuple) -> list[str]:
+        """``"<name> = <value> <unit>"`` of every lead parameter in ``leads`` that differs from the model file."""
+        out = []
+        (slopes, inputs), (slopes0, inputs0) = leads, self._model_leads(self.model)
+        for g, x, x0 in zip(self.lead_gears, slopes, slopes0):
+            if x != x0:
+                out.append(f"{ident(g)}.lead_slope = {x:g} m")
+        for m, xs, xs0 in zip(self.lead_meshes, inputs, inputs0):
+            for (_, attr), x, x0 in zip(MESH_INPUTS, xs, xs0):
+                if x != x0:
+                    out.append(f"{ident(m)}.{_fmu_name(attr)} = {x:g} rad")
+        return out
+
     @staticmethod
-    def _key(torque, zeta, bearings, h, shafts, structure=(), runouts=()):
-        return (torque, zeta, bearings, h, shafts, structure, runouts)
+    def _key(torque, zeta, bearings, h, shafts, structure=(), runouts=(), leads=((), ())):
+        return (torque, zeta, bearings, h, shafts, structure, runouts, leads)
 
     def _index(self) -> None:
         """Slots of the spec's meshes and gears in the current simulator (-1: absent in this structure)."""
@@ -309,6 +366,50 @@ class Adapter:
                   f"direction of the runout of {what} from its tooth 0's centre line, in its sense of rotation"
                   f"{sense} (runout_phase_deg)", phase, -2 * math.pi, 2 * math.pi, display_unit="deg"),
             ]
+        # lead slopes and shaft misalignment: constant offsets of the twist of the meshes whose tables have a twist
+        # axis (hacgear_core.dynamics.lead)
+        meshes = {m.name: m for m in self.model.meshes}
+        of_gear = {g: [m for m in self.lead_meshes if g in (meshes[m].gear_a, meshes[m].gear_b)]
+                   for g in self.lead_gears}
+        slopes, mesh_inputs = self._model_leads(self.model)
+        for g, f in zip(self.lead_gears, slopes):
+            ms = " and ".join(of_gear[g])
+            spec.append(V(f"{ident(g)}.lead_slope", "Real", "parameter", "fixed", "m",
+                          f"lead slope deviation f_Hbeta of gear {g}: of the flank it loads in mesh {ms}, over its "
+                          "own face width, along the transverse line of action; positive: material added at its +z "
+                          "face end (the model file's [gears.errors] lead_slope_um; its other errors stay as the "
+                          f"model file gives them); acts as an offset of the mesh twist of {ms}", f, -1e-3, 1e-3,
+                          display_unit="um"))
+        for mn, xs in zip(self.lead_meshes, mesh_inputs):
+            m = meshes[mn]
+            what = {
+                "misalignment_in_plane_rad":
+                    f"in-plane shaft misalignment of mesh {mn}: the installed relative tilt of the axes of {m.gear_a} "
+                    f"and {m.gear_b} in the plane of action, the rotation (theta_{m.gear_a} - theta_{m.gear_b}) . e1 "
+                    "about the normal e1 to the plane of action (the sign of the mesh twist: positive closes the flanks at the -z end of "
+                    "the face); acts as an offset of the mesh twist",
+                "misalignment_out_of_plane_rad":
+                    f"out-of-plane shaft misalignment of mesh {mn}: the installed rotation of {m.gear_b}'s axis "
+                    f"relative to {m.gear_a}'s about the transverse line of action e2 = z x e1 (positive: "
+                    "right-handed about e2); acts as an offset "
+                    "of the coast flanks' mesh twist (second order on the drive flanks, not modelled there)",
+                "axis_deviation_in_axes_plane_rad":
+                    f"axis parallelism deviation f_Sigma_delta of mesh {mn} (ISO 10064-4: the deviation over the "
+                    f"bearing span divided by the span): the rotation of {m.gear_b}'s axis relative to {m.gear_a}'s "
+                    f"about the normal to the plane of the axes (positive: the +z end of {m.gear_b}'s axis away "
+                    f"from {m.gear_a}); its share about the normal to the plane of action acts as an offset of the "
+                    "mesh twist",
+                "axis_deviation_normal_to_axes_plane_rad":
+                    f"axis parallelism deviation f_Sigma_beta of mesh {mn} (ISO 10064-4: the deviation over the "
+                    f"bearing span divided by the span): the rotation of {m.gear_b}'s axis relative to {m.gear_a}'s "
+                    f"about the line of centres (positive: right-handed about the direction from {m.gear_a} to "
+                    f"{m.gear_b}); its share about the normal to the plane of action acts as an offset of the mesh "
+                    "twist",
+            }
+            for (key, attr), x in zip(MESH_INPUTS, xs):
+                spec.append(V(f"{ident(mn)}.{_fmu_name(attr)}", "Real", "parameter", "fixed", "rad",
+                              f"{what[attr]} (the model file's [[meshes]] {key})", x, -0.01, 0.01,
+                              display_unit="urad"))
         spec += [
             V("internal_step", "Real", "parameter", "fixed", "s",
               "largest internal RK4 step; 0 = automatic (mesh period / 128 at the current speed and 1/32 of the "
@@ -622,7 +723,7 @@ class Adapter:
         runouts = tuple((float(values[f"{ident(g)}.runout"]), float(values[f"{ident(g)}.runout_phase"]))
                         for g in self.runout_gears)
         key = self._key(float(values["torque"]), float(values["modal_damping_ratio"]), bearings, h, shafts, structure,
-                        runouts)
+                        runouts, self._lead_values(values))
         if key != self._built_key:
             system = self._system(key)
             self.sim = Simulator(system, internal_step_s=h)
@@ -653,7 +754,7 @@ class Adapter:
     def _system(self, key: tuple):
         """The lumped system of the configuration ``key`` (:meth:`_key`), assembled or from the last few kept (masters
         that reset and re-initialize do not assemble them again)."""
-        torque, zeta, bearings, _, shafts, structure, runouts = key
+        torque, zeta, bearings, _, shafts, structure, runouts, leads = key
         skey = key[:3] + key[4:]  # the lumped system does not depend on the internal step
         system = self._systems.pop(skey, None)
         if system is None:
@@ -662,11 +763,17 @@ class Adapter:
                 model = self._with_bearings(bearings)
             if runouts != self._model_runouts(model):
                 model = self._with_runouts(model, runouts)
+            if leads != self._model_leads(model):
+                model = self._with_leads(model, leads)
             try:
                 system = build_system(model, self.tables, torque_Nm=torque, modal_damping_ratio=zeta, shafts=shafts,
                                       **dict(structure))
             except ModelError as exc:  # the builder's field names -> this FMU's parameter names
-                raise ModelError(_FMU_NAMES.sub(lambda mt: _FMU_NAME_OF[mt.group(0)], str(exc))) from None
+                msg = _FMU_NAMES.sub(lambda mt: _FMU_NAME_OF[mt.group(0)], str(exc))
+                changed = self._lead_parameters_set(leads)
+                if changed and "mesh twist" in msg:  # an offset of the mesh twist the tables cannot take
+                    msg = f"parameters {', '.join(changed)} (offsets of the mesh twist): {msg}"
+                raise ModelError(msg) from None
         self._systems[skey] = system
         while len(self._systems) > 8:
             self._systems.pop(next(iter(self._systems)))

@@ -46,9 +46,9 @@ ROOT = Path(__file__).resolve().parent.parent
 #: unknowns the same variables (value references and indices of later variables moved); and when the lead and
 #: misalignment parameters <gear>.lead_slope and <mesh>.misalignment_in_plane, .misalignment_out_of_plane,
 #: .axis_deviation_in_axes_plane, .axis_deviation_normal_to_axes_plane were added for the meshes with a twist axis
-#: (helical_28_33, nrel_5mw_stage3, the helical stage of nrel_5mw_gearbox and reducer_helical_19_71_23_83) and the
-#: unit rad got the display unit urad (in every system): by name, nothing else changed, the model structure's
-#: outputs and initial unknowns the same variables (value references and indices of later variables moved)
+#: (helical_28_33, nrel_5mw_stage3, the helical stage of nrel_5mw_gearbox and reducer_helical_19_71_23_83): by
+#: name, nothing else changed (unit definitions included), the model structure's outputs and initial unknowns the
+#: same variables (value references and indices of later variables moved)
 REFERENCE = Path(__file__).resolve().parent / "data" / "model_descriptions.json.gz"
 
 

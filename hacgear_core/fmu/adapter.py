@@ -408,8 +408,7 @@ class Adapter:
             }
             for (key, attr), x in zip(MESH_INPUTS, xs):
                 spec.append(V(f"{ident(mn)}.{_fmu_name(attr)}", "Real", "parameter", "fixed", "rad",
-                              f"{what[attr]} (the model file's [[meshes]] {key})", x, -0.01, 0.01,
-                              display_unit="urad"))
+                              f"{what[attr]} (the model file's [[meshes]] {key}, there in urad)", x, -0.01, 0.01))
         spec += [
             V("internal_step", "Real", "parameter", "fixed", "s",
               "largest internal RK4 step; 0 = automatic (mesh period / 128 at the current speed and 1/32 of the "

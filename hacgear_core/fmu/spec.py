@@ -39,7 +39,7 @@ UNITS: dict[str, dict[str, int]] = {
 #: ASCII unit expressions as Modelica writes them (``u`` = micro): microstrain is ``um/m``.
 DISPLAY_UNITS: dict[str, dict[str, float]] = {
     "m": {"um": 1e6, "mm": 1e3},
-    "rad": {"deg": 180.0 / math.pi, "urad": 1e6},
+    "rad": {"deg": 180.0 / math.pi},
     "rad/s": {"rpm": 30.0 / math.pi},
     "N": {"kN": 1e-3},
     "N.m": {"kN.m": 1e-3},

@@ -386,8 +386,8 @@ class Adapter:
                 "misalignment_in_plane_rad":
                     f"in-plane shaft misalignment of mesh {mn}: the installed relative tilt of the axes of {m.gear_a} "
                     f"and {m.gear_b} in the plane of action, the rotation (theta_{m.gear_a} - theta_{m.gear_b}) . e1 "
-                    "about the normal e1 to the plane of action (the sign of the mesh twist: positive closes the flanks at the -z end of "
-                    "the face); acts as an offset of the mesh twist",
+                    "about the normal e1 to the plane of action (the sign of the mesh twist: positive closes the "
+                    "flanks at the -z end of the face); acts as an offset of the mesh twist",
                 "misalignment_out_of_plane_rad":
                     f"out-of-plane shaft misalignment of mesh {mn}: the installed rotation of {m.gear_b}'s axis "
                     f"relative to {m.gear_a}'s about the transverse line of action e2 = z x e1 (positive: "

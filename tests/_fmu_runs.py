@@ -1,5 +1,5 @@
 """An FMU of a shipped system and the library's Simulator run side by side at constant speed (the comparisons of
-the reducer tests)."""
+the reducer tests), and an FMU's in-process adapter beside the library's Simulator."""
 from __future__ import annotations
 
 import numpy as np
@@ -31,3 +31,22 @@ def fmu_and_library_runs(system: str, out_dir, names, read, speed_rad_s: float, 
         for k, v in zip(names, read(sim)):
             lib[k].append(v)
     return fmu, res, {k: np.asarray(v) for k, v in lib.items()}
+
+
+def adapter_and_library_forces(adapter, system, steps: int = 40, dt: float = 2e-5):
+    """``(ours, library)`` (steps, m) [N]: the mesh forces of an FMU's adapter (in process, already configured) and
+    of the library's Simulator of ``system`` over ``steps`` communication steps of ``dt`` [s], both at the adapter's
+    start speed of its reference gear (constant-speed experiment)."""
+    from hacgear_core.dynamics.simulator import Simulator
+
+    sim = Simulator(system)
+    w = float(adapter.by_name[f"{adapter.ref_ident}.speed_in"].start)
+    sim.reset(speed_rad_s=w)
+    sim.set_speed_input(speed_rad_s=w)
+    ours, lib = [], []
+    for _ in range(steps):
+        assert adapter.advance(dt) == ""
+        assert sim.advance(dt).success
+        ours.append(np.array(adapter.sim.mesh_force_N, float))
+        lib.append(np.array(sim.mesh_force_N, float))
+    return np.array(ours), np.array(lib)

@@ -17,6 +17,8 @@ from hacgear_core.dynamics.simulator import Simulator
 from hacgear_core.kinds import build_system, error_gears
 from hacgear_core.model import GearErrors
 
+from _fmu_runs import adapter_and_library_forces
+
 ROOT = Path(__file__).resolve().parent.parent
 
 
@@ -24,6 +26,18 @@ def _start(ad, **changes):
     values = {v.name: v.start for v in ad.variables if v.causality in ("parameter", "input")}
     values.update(changes)
     return values
+
+
+def _same_profiles_and_arrays(sy, ref, error_free) -> None:
+    """``sy`` and ``ref`` carry equal error profiles on the same meshes (none where ``error_free(mesh name)``, a
+    varying one elsewhere) and equal kernel arrays."""
+    for c, cr in zip(sy.meshes, ref.meshes):
+        assert (c.error is None) == (cr.error is None) == error_free(c.name), c.name
+        if c.error is not None:
+            assert np.array_equal(c.error[0], cr.error[0]) and tuple(c.error[1:]) == tuple(cr.error[1:])
+            assert np.ptp(c.error[0]) > 0.0
+    for f in fields(sy.arrays):
+        assert np.array_equal(np.asarray(getattr(sy.arrays, f.name)), np.asarray(getattr(ref.arrays, f.name))), f.name
 
 
 def test_runout_parameters_drive_the_simulator():
@@ -89,25 +103,8 @@ def test_planetary_sun_runout_parameter_runs_the_library_system():
     sy = ad.sim.system
     assert sy.has_errors and sy.fingerprint() == ref.fingerprint()
     assert sy.mesh_names == ref.mesh_names
-    for c, cr in zip(sy.meshes, ref.meshes):
-        assert (c.error is None) == (cr.error is None) == c.name.startswith("ring_"), c.name
-        if c.error is not None:
-            assert np.array_equal(c.error[0], cr.error[0]) and tuple(c.error[1:]) == tuple(cr.error[1:])
-            assert np.ptp(c.error[0]) > 0.0
-    a, b = sy.arrays, ref.arrays
-    for f in fields(a):
-        assert np.array_equal(np.asarray(getattr(a, f.name)), np.asarray(getattr(b, f.name))), f.name
-    sim = Simulator(ref)
-    w = float(ad.by_name[f"{ad.ref_ident}.speed_in"].start)
-    sim.reset(speed_rad_s=w)
-    sim.set_speed_input(speed_rad_s=w)
-    ours, lib = [], []
-    for _ in range(40):
-        assert ad.advance(2e-5) == ""
-        assert sim.advance(2e-5).success
-        ours.append(np.array(ad.sim.mesh_force_N, float))
-        lib.append(np.array(sim.mesh_force_N, float))
-    ours, lib = np.array(ours), np.array(lib)
+    _same_profiles_and_arrays(sy, ref, lambda name: name.startswith("ring_"))
+    ours, lib = adapter_and_library_forces(ad, ref)
     assert np.ptp(lib) > 0.0 and np.max(np.abs(ours - lib)) <= 1e-12 * np.ptp(lib)
     ad.configure(_start(ad, planet_count=4, **{"sun.runout": 10e-6, "sun.runout_phase": 0.4}))
     ref4 = build_system(_with_errors(ad.model, {"sun": GearErrors(runout_m=10e-6, runout_phase_rad=0.4)}),
@@ -152,24 +149,8 @@ def test_gearbox_sun_runout_parameter_runs_the_library_system(nrel):
                        nrel.tables)
     sy = nrel.sim.system
     assert sy.has_errors and sy.fingerprint() == ref.fingerprint() and sy.mesh_names == ref.mesh_names
-    for c, cr in zip(sy.meshes, ref.meshes):
-        assert (c.error is None) == (cr.error is None) == (not c.name.startswith("s2_sun_planet_")), c.name
-        if c.error is not None:
-            assert np.array_equal(c.error[0], cr.error[0]) and tuple(c.error[1:]) == tuple(cr.error[1:])
-            assert np.ptp(c.error[0]) > 0.0
-    a, b = sy.arrays, ref.arrays
-    for f in fields(a):
-        assert np.array_equal(np.asarray(getattr(a, f.name)), np.asarray(getattr(b, f.name))), f.name
-    sim = Simulator(ref)
-    w = float(nrel.by_name[f"{nrel.ref_ident}.speed_in"].start)
-    sim.reset(speed_rad_s=w)
-    sim.set_speed_input(speed_rad_s=w)
-    ours, lib = [], []
-    for _ in range(40):
-        assert nrel.advance(2e-5) == ""
-        assert sim.advance(2e-5).success
-        ours.append(np.array(nrel.sim.mesh_force_N, float))
-        lib.append(np.array(sim.mesh_force_N, float))
+    _same_profiles_and_arrays(sy, ref, lambda name: not name.startswith("s2_sun_planet_"))
+    ours, lib = adapter_and_library_forces(nrel, ref)
     assert np.ptp(lib) > 0.0 and np.array_equal(ours, lib)
     nrel.configure(_start(nrel))
     assert nrel.sim.system is nrel.base_system and not nrel.sim.system.has_errors

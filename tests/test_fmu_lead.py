@@ -14,11 +14,12 @@ import numpy as np
 import pytest
 
 import hacgear_core.fmu as hf
-from hacgear_core.dynamics.simulator import Simulator
 from hacgear_core.errors import ModelError
 from hacgear_core.fmu.slave import ERROR, OK
 from hacgear_core.kinds import build_system
 from hacgear_core.model import GearErrors
+
+from _fmu_runs import adapter_and_library_forces
 
 ROOT = Path(__file__).resolve().parent.parent
 MESH_PARAMETERS = ("misalignment_in_plane", "misalignment_out_of_plane", "axis_deviation_in_axes_plane",
@@ -85,16 +86,7 @@ def test_helical_lead_parameters_run_the_library_system(helical):
     assert ad.base_system.meshes[0].table.twist.twist_offset_rad == 0.0
     for f in fields(sy.arrays):
         assert np.array_equal(np.asarray(getattr(sy.arrays, f.name)), np.asarray(getattr(ref.arrays, f.name))), f.name
-    sim = Simulator(ref)
-    w = float(ad.by_name[f"{ad.ref_ident}.speed_in"].start)
-    sim.reset(speed_rad_s=w)
-    sim.set_speed_input(speed_rad_s=w)
-    ours, lib = [], []
-    for _ in range(40):
-        assert ad.advance(2e-5) == ""
-        assert sim.advance(2e-5).success
-        ours.append(np.array(ad.sim.mesh_force_N, float))
-        lib.append(np.array(sim.mesh_force_N, float))
+    ours, lib = adapter_and_library_forces(ad, ref)
     assert np.ptp(lib) > 0.0 and np.array_equal(ours, lib)
     ad.configure(_start(ad))
     assert ad.sim.system is ad.base_system

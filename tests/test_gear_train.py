@@ -466,3 +466,26 @@ def test_info_and_stiffness_load_each_stage_with_the_torque_the_shafts_pass_on(c
     assert report["m34"]["mesh_force_N"] == pytest.approx(150.0 / rb, rel=1e-12)
     assert report["m34"]["mean_mesh_stiffness_N_per_m"] == pytest.approx(
         report["m12"]["mean_mesh_stiffness_N_per_m"], rel=MIRROR_TOLERANCE)
+
+
+def test_shaft_bending_to_a_helical_gear_is_the_gearboxs():
+    """reducer_helical_19_71_23_83 (helical stage m12 placed at 40 deg, spur stage m34) with its intermediate shaft
+    bent (k_b = 4e8 N/m, wheel1 helical in its pair's own frame, pinion2 spur): the gear_train builds the same M and
+    K as the gearbox of the same stages (whose static centres balance their forces in the fixed frame:
+    tests/test_gearbox.py), 1e-12; the shaft's spring joins wheel1's pair-frame x and y turned by 40 deg."""
+    from hacgear_core.kinds import parse_model
+
+    text = resolve_model_path("reducer_helical_19_71_23_83").read_text().replace(
+        "torsional_stiffness_Nm_per_rad = 1.34e5", "torsional_stiffness_Nm_per_rad = 1.34e5\n"
+        "bending_stiffness_N_per_m = 4.0e8").replace('gear_b = "wheel1"\n', 'gear_b = "wheel1"\nline_of_centres_deg = 40.0\n', 1)
+    box = (text.replace('kind = "gear_train"', 'kind = "gearbox"').replace("[[gear_train.shafts]]", "[[gearbox.shafts]]")
+           .replace('gear_a = "wheel1"\ngear_b = "pinion2"', 'member_a = "wheel1"\nmember_b = "pinion2"'))
+    tables = load_system_tables("reducer_helical_19_71_23_83")
+    st = build_system(parse_model(text, file="train.toml"), tables, shafts=False)
+    sb = build_system(parse_model(box, file="box.toml"), tables, shafts=False)
+    assert sorted(st.dof_names) == sorted(sb.dof_names)
+    p = [list(sb.dof_names).index(n) for n in st.dof_names]
+    for a, b in ((st.M, sb.M), (st.K, sb.K)):
+        np.testing.assert_allclose(np.asarray(b)[np.ix_(p, p)], a, rtol=0, atol=1e-12 * np.max(np.abs(a)))
+    i, j = st.dof_names.index("wheel1.x"), st.dof_names.index("pinion2.x")
+    assert st.K[i, j] == pytest.approx(-4.0e8 * math.cos(math.radians(40.0)), rel=1e-9)

@@ -26,8 +26,9 @@ A stage may be helical: a group of two gears with a helix angle and one mesh is 
 :func:`~hacgear_core.kinds.helical_pair.helical_from_model` (six DOFs per gear in the pair's own frame, its
 generalized table); the shafts join its gears' rotations about the axis (``theta_z``, oriented as the model's
 counter-clockwise rotation by the placement's senses).  A train with spur and helical stages runs the twist law,
-the spur meshes on their tables lifted to a constant twist axis (:mod:`hacgear_core.dynamics.laws`).  A helical
-gear takes no shaft bending spring (its translations are in the pair's frame).  The helical mesh's phase is the
+the spur meshes on their tables lifted to a constant twist axis (:mod:`hacgear_core.dynamics.laws`).  A shaft's
+bending spring to a helical gear joins its x and y, which live in its pair's own frame, turned into the train's frame
+(:func:`pair_frame_turn`).  The helical mesh's phase is the
 transverse placement's.
 
 Tooth counts are free: each mesh runs at its own mesh frequency, ``p/q`` times the first [[meshes]] entry's (the
@@ -57,7 +58,8 @@ from hacgear_core.kinds.base import Body, Coupling, Dof, ExtraOutput, Kind, Spri
 from hacgear_core.kinds.fixed_axis import train_from_model
 from hacgear_core.kinds.helical_pair import helical_from_model
 
-__all__ = ["Shaft", "GearTrainSection", "GearTrain", "place_gear_train", "mesh_forces"]
+__all__ = ["Shaft", "GearTrainSection", "GearTrain", "place_gear_train", "mesh_forces", "centre_row",
+           "pair_frame_turn"]
 
 _SHAFT_KEYS = ("name", "gear_a", "gear_b", "torsional_stiffness_Nm_per_rad", "bending_stiffness_N_per_m",
                "mounting_angle_deg")
@@ -341,11 +343,6 @@ class GearTrain(Kind):
             if helical and len(grp) != 1:
                 raise ModelError(f"gears {helical} are helical: a helical stage of a gear_train is one pair (one mesh), "
                                  f"got meshes {[m.name for m in grp]} in one group")
-        bent = [g for s in _section_of(model).shafts if s.bending_stiffness_N_per_m > 0
-                for g in (s.gear_a, s.gear_b) if gears[g].is_helical]
-        if bent:
-            raise ModelError(f"gear_train.shafts: bending_stiffness_N_per_m [N/m] must be 0 on helical gears {bent} "
-                             "(their translations live in the pair's own frame): give their bearings instead")
 
     def placement(self, model: Any, gears: Mapping, meshes: Mapping) -> TrainGeometry:
         return place_gear_train(model, gears, meshes)
@@ -397,10 +394,17 @@ class GearTrain(Kind):
             springs.append(Spring(s.torsional_stiffness_Nm_per_rad,
                                   rows=((((s.gear_a, ra), orient[s.gear_a]), ((s.gear_b, rb), -orient[s.gear_b])),)))
             if s.bending_stiffness_N_per_m > 0:
+                turn = {}
                 for g in (s.gear_a, s.gear_b):
-                    bodies[g], couplings = _in_plane(bodies[g], couplings, placed)
+                    pair = next((c for c in couplings.values() if g in (c.gear_a, c.gear_b) and c.t is not None), None)
+                    if pair is not None:
+                        # a helical gear translates in x and y of its pair's own frame
+                        turn[g] = pair_frame_turn(placed, pair, model.name)
+                    else:
+                        bodies[g], couplings = _in_plane(bodies[g], couplings, placed)
                 springs.append(Spring(s.bending_stiffness_N_per_m, rows=tuple(
-                    (((s.gear_a, lab), 1.0), ((s.gear_b, lab), -1.0)) for lab in ("x", "y"))))
+                    centre_row(bodies[s.gear_a], i, 1.0, turn.get(s.gear_a, 0.0))
+                    + centre_row(bodies[s.gear_b], i, -1.0, turn.get(s.gear_b, 0.0)) for i in (0, 1))))
         ref = model.meshes[0].gear_a
         last = len(chain.axes) - 1
         # each body's kinematic speed in its own rotation coordinate, per radian of the reference gear's
@@ -432,6 +436,42 @@ def _mesh_groups(model: Any) -> list[list]:
             groups.remove(grp)
         groups.append(sorted([x for grp in hit for x in grp] + [m], key=model.meshes.index))
     return sorted(groups, key=lambda grp: model.meshes.index(grp[0]))
+
+
+def centre_row(body: Any, axis: int, sign: float = 1.0, turn_rad: float = 0.0) -> tuple:
+    """The KeyVector of ``body``'s centre displacement along the fixed frame's ``axis`` (0: x, 1: y), times
+    ``sign``: its translation DOFs weighted by their directions (a rigidly held centre has none), the directions
+    turned by ``turn_rad`` into the fixed frame (a helical pair's own frame, :func:`pair_frame_turn`)."""
+    c, s = math.cos(turn_rad), math.sin(turn_rad)
+    out = []
+    for d in body.dofs:
+        if d.direction is None:
+            continue
+        x, y = d.direction
+        w = (c * x - s * y, s * x + c * y)[axis] if turn_rad else d.direction[axis]
+        if w != 0.0:
+            out.append(((body.name, d.label), sign * w))
+    return tuple(out)
+
+
+def pair_frame_turn(placed: TrainGeometry, coupling: Any, name: str = "") -> float:
+    """The angle [rad] from a helical pair's own frame (its table's: gear_a at ``O_a``, gear_b at ``O_b``) to the
+    fixed frame of ``placed`` (the gears placed by their meshes' ``line_of_centres_deg``): the turn that takes the
+    line of centres ``O_b - O_a`` onto the placed one; checked to take the table's line of action ``e2`` onto the
+    placed line of action too (a rotation, not a mirror image; ModelError otherwise)."""
+    fr = coupling.table.twist.frame
+    ob = np.asarray(fr["O_b"], float)[:2] - np.asarray(fr["O_a"], float)[:2]
+    d = np.asarray(placed.centre_m[coupling.gear_b], float) - np.asarray(placed.centre_m[coupling.gear_a], float)
+    turn = math.atan2(d[1], d[0]) - math.atan2(ob[1], ob[0])
+    c, s = math.cos(turn), math.sin(turn)
+    e2 = np.asarray(fr["e2"], float)[:2]
+    e2 = e2 / np.linalg.norm(e2)
+    loa = np.asarray(placed.meshes[coupling.name].line_of_action, float)
+    if np.max(np.abs(np.array([c * e2[0] - s * e2[1], s * e2[0] + c * e2[1]]) - loa)) > 1e-9:
+        raise ModelError(f"{name}: mesh '{coupling.name}': its table's frame is not the placed pair turned by "
+                         f"{math.degrees(turn):.6g} deg (line of action {e2.tolist()} against {loa.tolist()}; a "
+                         "mirror image: its bending spring would be in the wrong frame)")
+    return turn
 
 
 def _in_plane(body: Body, couplings: dict, placed: TrainGeometry) -> tuple[Body, dict]:

@@ -51,9 +51,10 @@ at the static torque the chain brings to it, and the trains are joined:
   one mesh then gets x and y instead of its line-of-action translation.  Between members whose translations live in
   one frame it is a constant spring; between a member of a planetary stage whose carrier turns and a member in
   another frame it is a frame coupling (:class:`~hacgear_core.kinds.base.FrameSpring`), its stiffness periodic in
-  the frames' relative angle at the exact rate of the tooth counts.  A helical gear is refused (its translations
-  live in its pair's own frame), and so are stages built turning opposite ways (mirror images): their bearings
-  carry them.
+  the frames' relative angle at the exact rate of the tooth counts.  A helical gear's x and y live in its pair's own
+  frame: they are turned into the fixed frame by the angle that takes the pair's line of centres onto the placed
+  one (:func:`~hacgear_core.kinds.gear_train.pair_frame_turn`).  Stages built turning opposite ways on one shaft
+  (mirror images) are refused: their x and y are not one frame's.
 
 Constant-speed experiment (``shafts=True``): the torque acts on the input member, the output member follows the
 kinematics (its rotation held to the reference motion, as a generator on the grid and as the planetary stage
@@ -69,6 +70,8 @@ from dataclasses import dataclass, replace
 from fractions import Fraction
 from typing import Any, Mapping
 
+import numpy as np
+
 from hacgear_core.errors import GeometryError, ModelError
 from hacgear_core.geometry import nominal_mesh_forces as fixed_axis_forces
 from hacgear_core.geometry import train_geometry
@@ -76,7 +79,7 @@ from hacgear_core.geometry.planetary import planetary_geometry, planetary_member
 from hacgear_core.geometry.train import TrainGeometry
 from hacgear_core.kinds.base import ExtraOutput, FrameSpring, Kind, Spring, Train, shaft_torque_output
 from hacgear_core.kinds.fixed_axis import train_from_model
-from hacgear_core.kinds.gear_train import _in_plane, _mesh_groups
+from hacgear_core.kinds.gear_train import _in_plane, _mesh_groups, centre_row as _centre_row, pair_frame_turn
 from hacgear_core.kinds.helical_pair import helical_from_model
 from hacgear_core.kinds.planetary import planetary_error_inputs, planetary_from_model
 from hacgear_core.model.schema import Planetary, Support
@@ -351,11 +354,9 @@ def _fixed_axis_model(model: Any, stage: Stage, held: str | None = None) -> Any:
                    section=None, sections={}, operating=replace(model.operating, torque_gear=stage.input))
 
 
-def _centre_row(body: Any, axis: int, sign: float = 1.0) -> tuple:
-    """The KeyVector of ``body``'s centre displacement along the fixed frame's ``axis`` (0: x, 1: y), times
-    ``sign``: its translation DOFs weighted by their directions (a rigidly held centre has none)."""
-    return tuple(((body.name, d.label), sign * d.direction[axis]) for d in body.dofs
-                 if d.direction is not None and d.direction[axis] != 0.0)
+def _stage_pair_turn(model: Any, stage: Stage, coupling: Any) -> float:
+    """:func:`~hacgear_core.kinds.gear_train.pair_frame_turn` of a helical stage placed on its own."""
+    return pair_frame_turn(train_geometry(_fixed_axis_model(model, stage)), coupling, model.name)
 
 
 def _renamed(train: Train, names: Mapping[str, str]) -> Train:
@@ -441,17 +442,6 @@ class GearboxKind(Kind):
         super().check(model)
         fixed = set()
         stages = gearbox_stages(model)
-        stage_of = {m: s for s in stages for m in s.members}
-        for sh in _section_of(model).shafts:
-            if sh.bending_stiffness_N_per_m == 0:
-                continue
-            for name in (sh.member_a, sh.member_b):
-                s = stage_of[name]
-                if s.planetary is None and model.gear(name).is_helical:
-                    raise ModelError(
-                        f"gearbox.shafts '{sh.name}'.bending_stiffness_N_per_m [N/m] = "
-                        f"{sh.bending_stiffness_N_per_m:g}: member {name!r} is a helical gear, whose translations "
-                        "live in its pair's own frame (allowed: 0, its bearings carry it)")
         for s in stages:
             if s.planetary is None:
                 if any(model.gear(g).is_helical for g in s.gears) and len(s.meshes) != 1:
@@ -571,9 +561,13 @@ class GearboxKind(Kind):
             springs.append(Spring(sh.torsional_stiffness_Nm_per_rad,
                                   rows=((((a.name, a.rotation), a.sense), ((b.name, b.rotation), -b.sense)),)))
             if sh.bending_stiffness_N_per_m > 0:
+                turn = {}
                 for name in (sh.member_a, sh.member_b):
                     s = stage_of[name]
-                    if s.planetary is None:
+                    if s.planetary is None and model.gear(name).is_helical:
+                        # a helical gear translates in x and y of its pair's own frame
+                        turn[name] = _stage_pair_turn(model, s, by_mesh[s.meshes[0]])
+                    elif s.planetary is None:
                         # a gear on one mesh translates along its line of action only: give it x and y
                         placed = train_geometry(_fixed_axis_model(model, s))
                         by_name[name], by_mesh = _in_plane(by_name[name], by_mesh, placed)
@@ -589,17 +583,19 @@ class GearboxKind(Kind):
                         "their x and y are not one frame's; a bending spring needs the two members turning alike "
                         "(allowed here: 0, the members' bearings carry them)")
                 if fa == fb:
-                    springs.append(Spring(sh.bending_stiffness_N_per_m,
-                                          rows=tuple(_centre_row(by_name[sh.member_a], i)
-                                                     + _centre_row(by_name[sh.member_b], i, -1.0) for i in (0, 1))))
+                    springs.append(Spring(sh.bending_stiffness_N_per_m, rows=tuple(
+                        _centre_row(by_name[sh.member_a], i, 1.0, turn.get(sh.member_a, 0.0))
+                        + _centre_row(by_name[sh.member_b], i, -1.0, turn.get(sh.member_b, 0.0)) for i in (0, 1))))
                 else:
                     # the members' frames turn against each other: b's frame turns (fb - fa) / f_ref revolutions
                     # relative to a's per reference mesh cycle (f_ref: reference mesh cycles per input revolution)
                     r = (fb - fa) / stages[0].mesh_frequency
                     frame_springs.append(FrameSpring(
                         sh.name, sh.bending_stiffness_N_per_m,
-                        rows_a=tuple(_centre_row(by_name[sh.member_a], i) for i in (0, 1)),
-                        rows_b=tuple(_centre_row(by_name[sh.member_b], i) for i in (0, 1)),
+                        rows_a=tuple(_centre_row(by_name[sh.member_a], i, 1.0, turn.get(sh.member_a, 0.0))
+                                     for i in (0, 1)),
+                        rows_b=tuple(_centre_row(by_name[sh.member_b], i, 1.0, turn.get(sh.member_b, 0.0))
+                                     for i in (0, 1)),
                         rate=(r.numerator, r.denominator)))
         bodies = [by_name[b.name] for b in bodies]
         couplings = [by_mesh[c.name] for c in couplings]

@@ -1,6 +1,7 @@
 """Session hooks: print how many property-based fuzz cases ran and how they ended (tests/_fuzz.py); compile the
 integration-kernel specialisations that later test modules need in a background process (tests/_warm_kernels.py)
-while the first modules run."""
+while the first modules run.  Shared fixtures: ``helical`` (the helical_28_33 model) and ``table`` (its m12 table),
+which a module may define otherwise for itself."""
 from __future__ import annotations
 
 import os
@@ -14,6 +15,20 @@ from pathlib import Path
 import pytest
 
 from _fuzz import FUZZ_COUNTS
+from hacgear_core.kinds import load_model
+from hacgear_core.tables import load_system_tables
+
+
+@pytest.fixture(scope="module")
+def helical():
+    """The helical_28_33 model."""
+    return load_model("helical_28_33")
+
+
+@pytest.fixture(scope="module")
+def table(helical):
+    """helical_28_33's mesh table m12 (with its twist axis)."""
+    return load_system_tables(helical.path).meshes["m12"]
 
 # Kernel specialisations (hacgear_core.dynamics.kernels) a test compiles on a cold numba cache and that no earlier
 # test compiles (measured on a cold cache: first user of each), per "<file>::<test function>": "lib:" hacgear_core's

@@ -28,16 +28,6 @@ from hacgear_core.tables import load_system_tables
 MODELS = Path(__file__).resolve().parents[1] / "models"
 
 
-@pytest.fixture(scope="module")
-def helical():
-    return load_model("helical_28_33")
-
-
-@pytest.fixture(scope="module")
-def table(helical):
-    return load_system_tables(helical.path).meshes["m12"]
-
-
 def _iso(model, f_delta=0.0, f_beta=0.0, psi=0.0, name=None):
     return replace(model, meshes=tuple(
         replace(m, misalignment_in_plane_rad=psi, axis_deviation_in_axes_plane_rad=f_delta,

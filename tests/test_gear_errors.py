@@ -17,13 +17,15 @@ import pytest
 from hacgear_core.dynamics import static_equilibrium
 from hacgear_core.dynamics.batch import batch_supported
 from hacgear_core.dynamics.gear_errors import (cumulative_pitch_deviations_m, iso1328_single_pitch_tolerance_m,
-                                               load_shares, single_pitch_deviations_m)
+                                               single_pitch_deviations_m)
 from hacgear_core.errors import ModelError
 from hacgear_core.geometry import mesh_geometry
 from hacgear_core.kinds import build_system, load_model, parse_model
 from hacgear_core.model import GearErrors, resolve_model_path
 from hacgear_core.model.provenance import model_values_sha256
 from hacgear_core.spectra.records import system_spectra
+
+from _pitch import share_transform
 
 E_RUNOUT = 10e-6
 Z = 28
@@ -255,13 +257,7 @@ def test_single_pitch_error_spectrum_is_its_fourier_series(d, rtol):
     peak = pos[np.argmax(np.abs(e_s - np.median(e_s)))]
     assert L == Z and -2 <= peak - tp - j0 < 3
     E = (c.base_radius_m[0] / (0.5 * model.gears[0].module_m * Z)) * cumulative_pitch_deviations_m(f)
-    n = 512
-    tau = np.arange(n) / n
-    sh = load_shares(c.table, c.nominal_force_N, tau)
-
-    def G(nu):
-        return sum(np.sum(sh[:, w] * np.exp(-2j * np.pi * nu * (tau - o))) / n
-                   for w, o in enumerate(c.table.tooth_offsets))
+    G = share_transform(c.table, c.nominal_force_N)
 
     def closed(k):
         return np.sum(E * np.exp(-2j * np.pi * k * np.arange(Z) / Z)) * G(k / Z) * np.exp(-2j * np.pi * k * tp / Z) / Z

@@ -13,10 +13,12 @@ from functools import cache
 import numpy as np
 import pytest
 
-from hacgear_core.dynamics.gear_errors import cumulative_pitch_deviations_m, load_shares, pair_solve_shift
+from hacgear_core.dynamics.gear_errors import cumulative_pitch_deviations_m, pair_solve_shift
 from hacgear_core.kinds import build_system, load_model
 from hacgear_core.model import GearErrors, resolve_model_path
 from hacgear_core.spectra.records import system_spectra
+
+from _pitch import share_transform
 
 Z = 28
 
@@ -69,13 +71,7 @@ def test_helical_single_pitch_error_static_te_is_its_fourier_series(d, rtol):
     assert c.error[1] == Z and len(c.error) == 3 and "tooth errors" in sy.kernel_label   # a profile over c only
     tp = c.tooth_passage["pinion"]
     E = (c.base_radius_m[0] / (0.5 * g[0].module_m * Z)) * cumulative_pitch_deviations_m(f) * _cos_beta_b(g[0])
-    n = 512
-    tau = np.arange(n) / n
-    sh = load_shares(c.table, c.nominal_force_N, tau)
-
-    def G(nu):
-        return sum(np.sum(sh[:, w] * np.exp(-2j * np.pi * nu * (tau - o))) / n
-                   for w, o in enumerate(c.table.tooth_offsets))
+    G = share_transform(c.table, c.nominal_force_N)
 
     arms = [sy.V[0][sy.gears[name].rotation] for name in ("pinion", "wheel")]
     k_sh = 1.0 / sum(a * a / 5e4 for a in arms)

@@ -14,7 +14,6 @@ from functools import cache
 import numpy as np
 import pytest
 
-from hacgear_core.errors import ModelError
 from hacgear_core.geometry import mesh_geometry
 from hacgear_core.kinds import build_system, load_model
 from hacgear_core.model import GearErrors, resolve_model_path

@@ -25,20 +25,8 @@ from hacgear_core.dynamics.sweep import SweepSpec, run_sweep
 from hacgear_core.encodings import ContactState
 from hacgear_core.errors import ModelError
 from hacgear_core.geometry import gear_geometry, mesh_geometry
-from hacgear_core.kinds import load_model
 from hacgear_core.statics import ContactOptions
 from hacgear_core.statics.helical import make_helical_solver
-from hacgear_core.tables import load_system_tables
-
-
-@pytest.fixture(scope="module")
-def helical():
-    return load_model("helical_28_33")
-
-
-@pytest.fixture(scope="module")
-def table(helical):
-    return load_system_tables(helical.path).meshes["m12"]
 
 
 @pytest.fixture(scope="module")

@@ -30,16 +30,6 @@ from hacgear_core.tables import load_system_tables
 MODELS = Path(__file__).resolve().parents[1] / "models"
 
 
-@pytest.fixture(scope="module")
-def helical():
-    return load_model("helical_28_33")
-
-
-@pytest.fixture(scope="module")
-def table(helical):
-    return load_system_tables(helical.path).meshes["m12"]
-
-
 def _with(model, lead=(0.0, 0.0), psi=0.0):
     gears = tuple(replace(g, errors=GearErrors(lead_slope_m=f)) for g, f in zip(model.gears, lead))
     return replace(model, gears=gears, meshes=(replace(model.meshes[0], misalignment_in_plane_rad=psi),))

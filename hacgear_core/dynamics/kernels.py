@@ -110,6 +110,7 @@ __all__ = [
     "flatten_linear",
     "flatten_errors",
     "mesh_error",
+    "coast_error",
     "frame_angle",
     "VARIANT_ERRORS",
 ]
@@ -171,6 +172,14 @@ def frame_angle(p, q, cycles, tau_ref):
     integer below 2**53, so the remainder is exact)."""
     pc = p * cycles
     return 2.0 * math.pi * (pc - q * math.floor(pc / q) + p * tau_ref) / q
+
+
+@njit(cache=True, inline="always", fastmath=_FM)
+def coast_error(lin, lint, m, k, pos):
+    """Error [m] of mesh ``k``'s coast flanks at unwrapped mesh position ``pos`` [cycles]: the profile
+    :func:`flatten_errors` keeps in rows ``3 m + k`` and ``4 m + k``, read by :func:`mesh_error` as mesh ``2 m + k``
+    (over the position only; 0 without one)."""
+    return mesh_error(lin, lint, m, 2 * m + k, pos, 0.0, 0.0, 0.0)
 
 
 @njit(cache=True, inline="always", fastmath=_FM)
@@ -693,10 +702,9 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
                         c1x = wk[o_cq + k]
                         c2x = wk[o_cq + k] + hh * wk[o_cd + k]
                         if errors:
-                            # the coast flanks' error profile is kernel mesh 2 m + k's (flatten_errors)
                             wh = kin[1] if unit_rates else mesh_base(phase[1, k], phase[2, k], kin[1], tau_ref)[1]
-                            c1x -= mesh_error(lin, lint, m, 2 * m + k, wh + t1, 0.0, 0.0, 0.0)
-                            c2x -= mesh_error(lin, lint, m, 2 * m + k, wh + t2, 0.0, 0.0, 0.0)
+                            c1x -= coast_error(lin, lint, m, k, wh + t1)
+                            c2x -= coast_error(lin, lint, m, k, wh + t2)
                         wk[o_c1 + k] = table_row_force(tab, tint, tflt, m + k, t1, c1x)
                         wk[o_c2 + k] = table_row_force(tab, tint, tflt, m + k, t2, c2x)
                 for i in range(n):
@@ -796,8 +804,8 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
                         c4x = wk[o_cq + k] + h * (wk[o_cd + k] + hh * e2)
                         if errors:
                             wh = kin[1] if unit_rates else mesh_base(phase[1, k], phase[2, k], kin[1], tau_ref)[1]
-                            c3x -= mesh_error(lin, lint, m, 2 * m + k, wh + t3, 0.0, 0.0, 0.0)
-                            c4x -= mesh_error(lin, lint, m, 2 * m + k, wh + t4, 0.0, 0.0, 0.0)
+                            c3x -= coast_error(lin, lint, m, k, wh + t3)
+                            c4x -= coast_error(lin, lint, m, k, wh + t4)
                         wk[o_c3 + k] = table_row_force(tab, tint, tflt, m + k, t3, c3x)
                         wk[o_c4 + k] = table_row_force(tab, tint, tflt, m + k, t4, c4x)
                 for i in range(n):
@@ -878,7 +886,7 @@ def _make_loop(name: str, n_fixed: int, m_fixed: int, variant: int):
                     else:
                         xl = x - mesh_error(lin, lint, m, k, whole + t, x, tflt[k, 0], tflt[k, 1]) if errors else x
                         rec_out[nrec, REC * k + REC_FORCE] = mesh_force(law, k, tab, tint, tflt, lin, lint, t, xl)
-                        xcl = xc - mesh_error(lin, lint, m, 2 * m + k, whole + t, 0.0, 0.0, 0.0) if errors else xc
+                        xcl = xc - coast_error(lin, lint, m, k, whole + t) if errors else xc
                         rec_out[nrec, REC * k + REC_COAST_FORCE] = (table_row_force(tab, tint, tflt, m + k, t, xcl)
                                                                     if two_sided else 0.0)
                 rec_out[nrec, REC * m] = (step + 1) * h

@@ -685,14 +685,12 @@ class LumpedSystem:
         fr = self.gears[gear].frame_ratio
         return self.carrier_ratio if fr is None else fr
 
-    def frame_angles_rad(self, c) -> np.ndarray:
-        """(..., P) each frame coupling's relative angle [rad] at the unwrapped reference mesh position ``c``
-        [cycles] (0 at the assembly position; :class:`FrameCoupling`)."""
-        c = np.asarray(c, float)
-        whole = np.floor(c)
-        return np.stack([2 * np.pi * (p * whole - q * np.floor(p * whole / q) + p * (c - whole)) / q
-                         for p, q in (tuple(map(float, fc.rate)) for fc in self.frame_couplings)], axis=-1) \
-            if self.frame_couplings else np.zeros(c.shape + (0,))
+    def frame_angles_rad(self, c: float) -> np.ndarray:
+        """(P,) each frame coupling's relative angle [rad] at the unwrapped reference mesh position ``c`` [cycles]
+        (0 at the assembly position; :class:`FrameCoupling`), by the kernel's :func:`kernels.frame_angle`."""
+        whole = math.floor(float(c))
+        return np.array([kernels.frame_angle(float(fc.rate[0]), float(fc.rate[1]), float(whole), float(c) - whole)
+                         for fc in self.frame_couplings])
 
     def stiffness_at(self, c: float) -> np.ndarray:
         """(n, n) the stiffness matrix [N/m, N m/rad] at the unwrapped reference mesh position ``c`` [cycles]:

@@ -70,8 +70,6 @@ from dataclasses import dataclass, replace
 from fractions import Fraction
 from typing import Any, Mapping
 
-import numpy as np
-
 from hacgear_core.errors import GeometryError, ModelError
 from hacgear_core.geometry import nominal_mesh_forces as fixed_axis_forces
 from hacgear_core.geometry import train_geometry

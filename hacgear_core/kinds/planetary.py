@@ -49,8 +49,7 @@ import numpy as np
 from hacgear_core.errors import GeometryError, ModelError
 from hacgear_core.geometry import gear_geometry
 from hacgear_core.geometry.planetary import PlanetaryGeometry, planetary_geometry, planetary_torques
-from hacgear_core.kinds.base import (Body, Coupling, Dof, Kind, MeshPair, Spring, StructuralParameter, Support, Train,
-                                     mesh_table)
+from hacgear_core.kinds.base import Body, Coupling, Dof, Kind, Spring, StructuralParameter, Support, Train, mesh_table
 from hacgear_core.model.schema import RANGES
 from hacgear_core.tables import MeshTable
 
